@@ -1,0 +1,1 @@
+//! Fuzzy inference engine and the obstacle avoider.

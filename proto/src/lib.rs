@@ -1,0 +1,23 @@
+//! Kestrel's contract: the messages actors exchange, the time and frame conventions they share,
+//! and the [`Actor`] trait with the handles an actor is given.
+//!
+//! Conventions every message follows:
+//! * SI units, spelled in field names where they could be confused (`gyro_rad_s`, `alt_msl_m`).
+//! * Earth frame NED (north, east, down) around the home position; body frame FRD (forward,
+//!   right, down). Quaternions are `[w, x, y, z]` and rotate body FRD vectors into NED.
+//! * Every sample carries the [`Time`] it was *measured*, never the time it arrived.
+//!
+//! Actor crates depend on this crate and on nothing of each other; the runtime (the `kestrel`
+//! crate) implements the mailboxes, router, clocks and supervisor behind these traits.
+
+pub mod actor;
+pub mod clock;
+pub mod geo;
+pub mod message;
+pub mod messages;
+pub mod time;
+
+pub use actor::{Actor, ActorError, Context, Publisher, Setup, Sink};
+pub use clock::Clock;
+pub use message::Message;
+pub use time::Time;
