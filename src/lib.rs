@@ -1,4 +1,18 @@
 //! Kestrel's runtime: mailboxes, topics, the router that wires actors from the config, the
 //! supervisor, clocks (monotonic and lockstep), the flight-log recorder, and the CLI's pieces.
 
+pub mod activity;
+pub mod clock;
+pub mod config;
+pub mod graph;
+pub mod mailbox;
 pub mod recorder;
+pub mod registry;
+pub mod run;
+pub mod status;
+pub mod supervisor;
+pub mod topic;
+
+pub use config::LoadedConfig;
+pub use registry::Registry;
+pub use run::{RunError, RunOptions, RunReport, run};

@@ -1,0 +1,296 @@
+//! The graph config: which actors run, their parameters, and how their ports are wired.
+//!
+//! ```toml
+//! [run]
+//! clock = "lockstep"          # or "realtime" (hardware)
+//! speedup = 1.0               # lockstep pacing: simulated seconds per second; 0 = flat out
+//!
+//! [record]
+//! topics = ["*"]              # what `--record` writes: every topic, or a list of names
+//!
+//! [actors.sim]
+//! type = "sim"                # which actor implementation (see `kestrel actors`)
+//! critical = false            # a failure past the restart limit escalates to the commander
+//! restart = { max_restarts = 5, window_s = 60.0, backoff_initial_s = 0.1, backoff_max_s = 5.0 }
+//! params = { vehicle = "vehicles/quad_x.toml", world = "worlds/empty.toml" }
+//! inputs.actuators = { topic = "actuator_outputs", mailbox = "latest" }
+//! outputs.imu = "imu"         # optional renames; an output publishes on its port's name
+//! ```
+//!
+//! Every name a person can mistype keeps its place in the file, so a wrong name is reported as
+//! `FILE:LINE: …` naming it, at start-up.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+use serde::Deserialize;
+use toml::Spanned;
+
+use crate::mailbox::MailboxKind;
+
+/// A config problem, located in its file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub struct ConfigError {
+    pub file: PathBuf,
+    /// 1-based line, when the problem has a place.
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(line) => write!(f, "{}:{}: {}", self.file.display(), line, self.message),
+            None => write!(f, "{}: {}", self.file.display(), self.message),
+        }
+    }
+}
+
+/// The config file's text and path, to turn spans into line numbers.
+#[derive(Clone, Debug)]
+pub struct Source {
+    pub path: PathBuf,
+    text: Arc<str>,
+}
+
+impl Source {
+    /// The 1-based line holding byte `offset`.
+    pub fn line_of(&self, offset: usize) -> usize {
+        let end = offset.min(self.text.len());
+        self.text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+    }
+
+    /// An error at `span`.
+    pub fn error_at(&self, span: Range<usize>, message: impl Into<String>) -> ConfigError {
+        ConfigError { file: self.path.clone(), line: Some(self.line_of(span.start)), message: message.into() }
+    }
+
+    /// An error without a place.
+    pub fn error(&self, message: impl Into<String>) -> ConfigError {
+        ConfigError { file: self.path.clone(), line: None, message: message.into() }
+    }
+
+    /// The directory relative paths in the config resolve against.
+    pub fn dir(&self) -> &Path {
+        self.path.parent().unwrap_or(Path::new("."))
+    }
+}
+
+/// Which clock the graph runs on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ClockKind {
+    /// Simulation time, advanced when the graph is idle (deterministic).
+    #[default]
+    Lockstep,
+    /// The OS monotonic clock (hardware).
+    Realtime,
+}
+
+/// `[run]`: how the graph runs.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RunConfig {
+    pub clock: ClockKind,
+    /// Lockstep pacing in simulated seconds per wall second; 0 runs as fast as possible.
+    pub speedup: f64,
+    /// Stop after this much graph time (s); none runs until Ctrl-C.
+    pub duration_s: Option<f64>,
+    /// Wall-clock period of the status line (s); 0 turns it off.
+    pub status_period_s: f64,
+}
+
+impl Default for RunConfig {
+    fn default() -> Self {
+        RunConfig { clock: ClockKind::Lockstep, speedup: 1.0, duration_s: None, status_period_s: 1.0 }
+    }
+}
+
+/// `[record]`: what the flight log holds.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RecordConfig {
+    /// Record to this file (relative to the working directory); `--record` overrides it.
+    pub path: Option<PathBuf>,
+    /// Topic names to record; `"*"` records every topic.
+    pub topics: Vec<Spanned<String>>,
+}
+
+impl Default for RecordConfig {
+    fn default() -> Self {
+        RecordConfig { path: None, topics: vec![Spanned::new(0..0, "*".to_owned())] }
+    }
+}
+
+/// `restart = {…}`: the supervisor's one-for-one restart policy for an actor.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RestartPolicy {
+    /// Restarts allowed within `window_s`; one more and the actor stays stopped.
+    pub max_restarts: u32,
+    /// The window over which restarts are counted (s).
+    pub window_s: f64,
+    /// Delay before the first restart (s); doubles with each failure in the window.
+    pub backoff_initial_s: f64,
+    /// Cap on the restart delay (s).
+    pub backoff_max_s: f64,
+}
+
+impl Default for RestartPolicy {
+    fn default() -> Self {
+        RestartPolicy { max_restarts: 5, window_s: 60.0, backoff_initial_s: 0.1, backoff_max_s: 5.0 }
+    }
+}
+
+impl RestartPolicy {
+    /// The restart window.
+    pub fn window(&self) -> Duration {
+        Duration::from_secs_f64(self.window_s)
+    }
+
+    /// The delay before restart number `n` (1-based) within the window.
+    pub fn backoff(&self, n: u32) -> Duration {
+        let factor = 2f64.powi(n.saturating_sub(1).min(60) as i32);
+        Duration::from_secs_f64((self.backoff_initial_s * factor).min(self.backoff_max_s))
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        let ok = |v: f64| v.is_finite() && v >= 0.0;
+        if !(ok(self.window_s) && ok(self.backoff_initial_s) && ok(self.backoff_max_s)) {
+            return Err("restart window and backoffs must be finite and ≥ 0 seconds".into());
+        }
+        Ok(())
+    }
+}
+
+/// One input route: the topic a port subscribes to and its mailbox kind.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Route {
+    pub topic: Spanned<String>,
+    /// `"latest"` or `"queue(N)"`.
+    pub mailbox: Spanned<String>,
+}
+
+/// `[actors.NAME]`: one running actor.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActorDecl {
+    /// The actor implementation.
+    #[serde(rename = "type")]
+    pub kind: Spanned<String>,
+    /// Whether a failure of this actor is a flight-safety event (estimator, controller).
+    #[serde(default)]
+    pub critical: bool,
+    #[serde(default)]
+    pub restart: RestartPolicy,
+    /// The actor's own parameters.
+    #[serde(default)]
+    pub params: Option<Spanned<toml::Table>>,
+    /// Input port → route.
+    #[serde(default)]
+    pub inputs: BTreeMap<Spanned<String>, Route>,
+    /// Output port → topic, where it differs from the port's name.
+    #[serde(default)]
+    pub outputs: BTreeMap<Spanned<String>, Spanned<String>>,
+}
+
+/// A whole graph config.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GraphConfig {
+    #[serde(default)]
+    pub run: RunConfig,
+    #[serde(default)]
+    pub record: RecordConfig,
+    pub actors: BTreeMap<Spanned<String>, ActorDecl>,
+}
+
+/// A parsed config with its source, for located errors.
+#[derive(Clone, Debug)]
+pub struct LoadedConfig {
+    pub graph: GraphConfig,
+    pub source: Source,
+}
+
+impl LoadedConfig {
+    /// Reads and parses a config file.
+    pub fn load(path: &Path) -> Result<LoadedConfig, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
+            file: path.to_owned(),
+            line: None,
+            message: format!("cannot read the config: {e}"),
+        })?;
+        LoadedConfig::parse(path, &text)
+    }
+
+    /// Parses config text that came from `path`.
+    pub fn parse(path: &Path, text: &str) -> Result<LoadedConfig, ConfigError> {
+        let source = Source { path: path.to_owned(), text: Arc::from(text) };
+        let graph: GraphConfig = toml::from_str(text).map_err(|e| ConfigError {
+            file: path.to_owned(),
+            line: e.span().map(|s| source.line_of(s.start)),
+            message: e.message().trim().to_owned(),
+        })?;
+        let config = LoadedConfig { graph, source };
+        config.validate()?;
+        Ok(config)
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
+        let run = &self.graph.run;
+        if !(run.speedup.is_finite() && run.speedup >= 0.0) {
+            return Err(self.source.error("[run] speedup must be a finite number ≥ 0"));
+        }
+        if run.duration_s.is_some_and(|d| !(d.is_finite() && d > 0.0)) {
+            return Err(self.source.error("[run] duration_s must be a positive number of seconds"));
+        }
+        for (name, decl) in &self.graph.actors {
+            decl.restart
+                .validate()
+                .map_err(|m| self.source.error_at(name.span(), format!("actor '{}': {m}", name.get_ref())))?;
+            for (port, route) in &decl.inputs {
+                route.mailbox.get_ref().parse::<MailboxKind>().map_err(|m| {
+                    self.source.error_at(
+                        route.mailbox.span(),
+                        format!("actor '{}', input '{}': {m}", name.get_ref(), port.get_ref()),
+                    )
+                })?;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<LoadedConfig, ConfigError> {
+        LoadedConfig::parse(Path::new("test.toml"), text)
+    }
+
+    #[test]
+    fn syntax_errors_name_file_and_line() {
+        let err = parse("[actors.a]\ntype = \"sim\"\ninputs.x = { topic = \"t\", mailbox = \"fifo\" }\n")
+            .unwrap_err();
+        assert_eq!(err.line, Some(3), "{err}");
+        assert!(err.to_string().starts_with("test.toml:3: "), "{err}");
+        assert!(err.message.contains("fifo"), "{err}");
+
+        let err = parse("[actors.a]\ntype = \"sim\"\nbogus = 1\n").unwrap_err();
+        assert_eq!(err.line, Some(3), "{err}");
+        assert!(err.message.contains("bogus"), "{err}");
+    }
+
+    #[test]
+    fn restart_backoff_doubles_up_to_its_cap() {
+        let p = RestartPolicy { backoff_initial_s: 0.1, backoff_max_s: 0.5, ..RestartPolicy::default() };
+        let ms: Vec<u128> = (1..=5).map(|n| p.backoff(n).as_millis()).collect();
+        assert_eq!(ms, [100, 200, 400, 500, 500]);
+    }
+}

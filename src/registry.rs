@@ -1,0 +1,42 @@
+//! The actor types a config can name in `type = "…"`.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use kestrel_proto::Actor;
+
+use crate::supervisor::{ActorKind, KindOf};
+
+/// Actor types by config name.
+#[derive(Clone, Default)]
+pub struct Registry {
+    kinds: BTreeMap<&'static str, Arc<dyn ActorKind>>,
+}
+
+impl Registry {
+    /// An empty registry (tests add their own actors).
+    pub fn new() -> Registry {
+        Registry::default()
+    }
+
+    /// Every actor type Kestrel ships.
+    pub fn standard() -> Registry {
+        Registry::new() // SIMDEP
+    }
+
+    /// Adds actor type `A` under `name`.
+    pub fn with<A: Actor>(mut self, name: &'static str) -> Registry {
+        self.kinds.insert(name, Arc::new(KindOf::<A>::default()));
+        self
+    }
+
+    /// The actor type called `name`.
+    pub fn get(&self, name: &str) -> Option<&Arc<dyn ActorKind>> {
+        self.kinds.get(name)
+    }
+
+    /// All names, sorted.
+    pub fn names(&self) -> Vec<&'static str> {
+        self.kinds.keys().copied().collect()
+    }
+}

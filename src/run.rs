@@ -1,0 +1,238 @@
+//! Running a graph: build the clock and the topics from the config, start every actor under
+//! its supervisor, drive lockstep time (or wait on the wall clock), and shut down cleanly on
+//! the run's end, Ctrl-C or SIGTERM, flushing the flight log.
+
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use kestrel_proto::messages::{GroundTruth, SupervisorEvent};
+use kestrel_proto::{Clock, Time};
+use tokio_util::sync::CancellationToken;
+
+use crate::activity::Activity;
+use crate::clock::{LockstepClock, LockstepDriver, MonotonicClock};
+use crate::config::{ClockKind, ConfigError, LoadedConfig};
+use crate::graph::Graph;
+use crate::mailbox::{Doorbell, MailboxKind};
+use crate::recorder::{Recorder, RecorderError, RecordingSummary};
+use crate::registry::Registry;
+use crate::supervisor::{EscalationHook, SupervisorContext};
+
+/// How long shutdown waits for actors to stop before it closes the log anyway.
+const SHUTDOWN_GRACE: Duration = Duration::from_millis(500);
+
+/// Overrides from the command line, and hooks for embedding.
+#[derive(Clone, Default)]
+pub struct RunOptions {
+    /// Stop after this much graph time (overrides `[run] duration_s`).
+    pub duration: Option<Duration>,
+    /// Lockstep pacing (overrides `[run] speedup`; 0 = as fast as possible).
+    pub speedup: Option<f64>,
+    /// Record to this MCAP file (overrides `[record] path`).
+    pub record: Option<PathBuf>,
+    /// Print the 1 Hz status line.
+    pub status: bool,
+    /// Called for every supervisor event about a flight-critical actor.
+    pub escalate: Option<EscalationHook>,
+}
+
+/// Why a run could not start or finish.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error("{}", .0.iter().map(ToString::to_string).collect::<Vec<_>>().join("\n"))]
+    Config(Vec<ConfigError>),
+    #[error("flight log: {0}")]
+    Recorder(#[from] RecorderError),
+    #[error("cannot start the async runtime: {0}")]
+    Runtime(#[source] std::io::Error),
+}
+
+/// One input route's counters at the end of a run.
+#[derive(Debug, Clone)]
+pub struct MailboxReport {
+    /// `topic → actor.port`.
+    pub route: String,
+    pub kind: MailboxKind,
+    pub delivered: u64,
+    /// Messages a full queue refused.
+    pub overflowed: u64,
+    /// Unread messages a newer one replaced.
+    pub conflated: u64,
+}
+
+/// What a finished run did.
+#[derive(Debug)]
+pub struct RunReport {
+    /// Graph time when the run ended.
+    pub end_time: Time,
+    /// `(topic, message type, messages published)`.
+    pub topics: Vec<(String, &'static str, u64)>,
+    /// `(route, kind, delivered, overflowed, conflated)` for every actor input.
+    pub mailboxes: Vec<MailboxReport>,
+    /// Every supervisor event, in order.
+    pub supervisor_events: Vec<SupervisorEvent>,
+    /// The flight log, if one was written.
+    pub recording: Option<RecordingSummary>,
+}
+
+/// Runs the graph described by `config` until its duration passes or a signal arrives.
+pub fn run(config: &LoadedConfig, registry: &Registry, options: RunOptions) -> Result<RunReport, RunError> {
+    let runtime = match config.graph.run.clock {
+        // One thread makes a lockstep run deterministic: tasks are polled in a fixed order.
+        ClockKind::Lockstep => tokio::runtime::Builder::new_current_thread().enable_all().build(),
+        ClockKind::Realtime => tokio::runtime::Builder::new_multi_thread().enable_all().build(),
+    }
+    .map_err(RunError::Runtime)?;
+    let report = runtime.block_on(run_graph(config, registry, options));
+    runtime.shutdown_timeout(SHUTDOWN_GRACE);
+    report
+}
+
+async fn run_graph(
+    config: &LoadedConfig,
+    registry: &Registry,
+    options: RunOptions,
+) -> Result<RunReport, RunError> {
+    let run_cfg = &config.graph.run;
+    let source = &config.source;
+    let activity = Activity::new();
+    let lockstep = (run_cfg.clock == ClockKind::Lockstep).then(|| LockstepClock::new(Arc::clone(&activity)));
+    let clock: Arc<dyn Clock> = match &lockstep {
+        Some(c) => Arc::new(c.clone()),
+        None => Arc::new(MonotonicClock::new()),
+    };
+    let mut graph = Graph::new(Arc::clone(&clock), Arc::clone(&activity));
+    let events = graph
+        .runtime_publisher::<SupervisorEvent>("supervisor")
+        .map_err(|m| RunError::Config(vec![source.error(m)]))?;
+
+    let mut errors = Vec::new();
+    let mut prepared = Vec::new();
+    for (name, decl) in &config.graph.actors {
+        let Some(kind) = registry.get(decl.kind.get_ref()) else {
+            errors.push(source.error_at(
+                decl.kind.span(),
+                format!(
+                    "unknown actor type '{}' for actor '{}'; known types: {}",
+                    decl.kind.get_ref(),
+                    name.get_ref(),
+                    registry.names().join(", ")
+                ),
+            ));
+            continue;
+        };
+        match kind.prepare(name.get_ref(), decl, source, &mut graph) {
+            Ok(p) => prepared.push(p),
+            Err(mut e) => errors.append(&mut e),
+        }
+    }
+    if !errors.is_empty() {
+        return Err(RunError::Config(errors));
+    }
+
+    let record_path = options.record.clone().or_else(|| config.graph.record.path.clone());
+    let recorder = record_path.as_deref().map(Recorder::create).transpose()?;
+    let truth = graph.observe::<GroundTruth>("ground_truth", Doorbell::new());
+    let topics = graph
+        .finish(source, recorder.as_ref().map(|r| (r, config.graph.record.topics.as_slice())))
+        .map_err(|e| RunError::Config(vec![e]))?;
+    let mailboxes = graph.mailboxes();
+
+    let shutdown = CancellationToken::new();
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let supervisor_ctx = SupervisorContext {
+        clock: Arc::clone(&clock),
+        activity: Arc::clone(&activity),
+        shutdown: shutdown.clone(),
+        events,
+        escalate: options.escalate.clone().unwrap_or_else(|| {
+            Arc::new(|e: &SupervisorEvent| {
+                tracing::error!(actor = %e.actor, kind = ?e.kind, reason = %e.reason, "flight-critical actor failed")
+            })
+        }),
+        log: Arc::clone(&log),
+    };
+    let supervisors: Vec<_> = prepared.into_iter().map(|p| p.spawn(supervisor_ctx.clone())).collect();
+    tokio::spawn(cancel_on_signal(shutdown.clone()));
+    if options.status && run_cfg.status_period_s > 0.0 {
+        tokio::spawn(crate::status::run(
+            Duration::from_secs_f64(run_cfg.status_period_s),
+            Arc::clone(&clock),
+            topics.clone(),
+            truth,
+            shutdown.clone(),
+        ));
+    }
+
+    let duration = options.duration.or(run_cfg.duration_s.map(Duration::from_secs_f64));
+    let end = duration.map(|d| Time::ZERO + d);
+    match lockstep {
+        Some(lockstep) => {
+            let speedup = options.speedup.unwrap_or(run_cfg.speedup);
+            let pace = (speedup > 0.0).then_some(speedup);
+            LockstepDriver::new(lockstep, Arc::clone(&activity), pace, end).run(shutdown.clone()).await;
+        }
+        None => {
+            tokio::select! {
+                _ = shutdown.cancelled() => {}
+                _ = async { match end { Some(end) => clock.sleep_until(end).await, None => std::future::pending().await } } => {}
+            }
+            shutdown.cancel();
+        }
+    }
+    let stopped = async {
+        for s in supervisors {
+            let _ = s.await;
+        }
+    };
+    if tokio::time::timeout(SHUTDOWN_GRACE, stopped).await.is_err() {
+        tracing::warn!("some actors did not stop within {SHUTDOWN_GRACE:?}; closing the log anyway");
+    }
+    let end_time = clock.now();
+    let recording = recorder.map(Recorder::finish).transpose()?;
+    let supervisor_events = log.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    Ok(RunReport {
+        end_time,
+        topics: topics.iter().map(|t| (t.name.clone(), t.type_name, t.published())).collect(),
+        mailboxes: mailboxes
+            .iter()
+            .map(|m| {
+                let s = m.stats();
+                MailboxReport {
+                    route: m.label().to_owned(),
+                    kind: m.kind(),
+                    delivered: s.delivered.load(Ordering::Relaxed),
+                    overflowed: s.overflowed.load(Ordering::Relaxed),
+                    conflated: s.conflated.load(Ordering::Relaxed),
+                }
+            })
+            .collect(),
+        supervisor_events,
+        recording,
+    })
+}
+
+/// Cancels `shutdown` on Ctrl-C or SIGTERM.
+async fn cancel_on_signal(shutdown: CancellationToken) {
+    let ctrl_c = tokio::signal::ctrl_c();
+    #[cfg(unix)]
+    let term = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut s) => {
+                s.recv().await;
+            }
+            Err(_) => std::future::pending().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let term = std::future::pending::<()>();
+    tokio::select! {
+        _ = shutdown.cancelled() => return,
+        _ = ctrl_c => {}
+        _ = term => {}
+    }
+    tracing::info!("signal received, shutting down");
+    shutdown.cancel();
+}

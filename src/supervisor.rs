@@ -1,0 +1,276 @@
+//! One-for-one supervision: each actor runs in its own task; when it returns an error or
+//! panics, only it is restarted, after an exponential backoff, until it fails more often than
+//! its restart limit allows within the window (Erlang's and kameo's vocabulary). Every failure
+//! is published on the `supervisor` topic; a flight-critical actor's give-up also goes to the
+//! escalation hook, which the commander uses to trigger a failsafe.
+
+use std::collections::VecDeque;
+use std::marker::PhantomData;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+
+use kestrel_proto::messages::{SupervisorEvent, SupervisorEventKind};
+use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Time};
+use tokio::task::JoinHandle;
+use tokio_util::sync::CancellationToken;
+
+use crate::activity::{Activity, Busy};
+use crate::config::{ActorDecl, ConfigError, RestartPolicy, Source};
+use crate::graph::{Declared, Graph, InputPort, PortTable, TimerSpec, Wiring};
+use crate::mailbox::Doorbell;
+
+/// Called with every event about a flight-critical actor.
+pub type EscalationHook = Arc<dyn Fn(&SupervisorEvent) + Send + Sync>;
+
+/// What the supervisor needs from the runtime.
+#[derive(Clone)]
+pub struct SupervisorContext {
+    pub clock: Arc<dyn Clock>,
+    pub activity: Arc<Activity>,
+    pub shutdown: CancellationToken,
+    pub events: Publisher<SupervisorEvent>,
+    pub escalate: EscalationHook,
+    /// Every event, for the run report.
+    pub log: Arc<Mutex<Vec<SupervisorEvent>>>,
+}
+
+/// An actor type the config can name.
+pub trait ActorKind: Send + Sync {
+    /// Deserialises the parameters, builds the actor once and wires its ports into `graph`.
+    fn prepare(
+        &self,
+        name: &str,
+        decl: &ActorDecl,
+        source: &Source,
+        graph: &mut Graph,
+    ) -> Result<Box<dyn Supervised>, Vec<ConfigError>>;
+}
+
+/// A prepared actor, ready to run under supervision.
+pub trait Supervised: Send {
+    /// Starts the supervision task.
+    fn spawn(self: Box<Self>, ctx: SupervisorContext) -> JoinHandle<()>;
+}
+
+/// The [`ActorKind`] of actor type `A`.
+pub struct KindOf<A>(PhantomData<fn() -> A>);
+
+impl<A> Default for KindOf<A> {
+    fn default() -> Self {
+        KindOf(PhantomData)
+    }
+}
+
+impl<A: Actor> ActorKind for KindOf<A> {
+    fn prepare(
+        &self,
+        name: &str,
+        decl: &ActorDecl,
+        source: &Source,
+        graph: &mut Graph,
+    ) -> Result<Box<dyn Supervised>, Vec<ConfigError>> {
+        let (table_value, params_at) = match &decl.params {
+            Some(p) => (toml::Value::Table(p.get_ref().clone()), p.span()),
+            None => (toml::Value::Table(toml::Table::new()), decl.kind.span()),
+        };
+        let params: A::Params = table_value.try_into().map_err(|e: toml::de::Error| {
+            vec![source.error_at(params_at.clone(), format!("actor '{name}' params: {}", e.message().trim()))]
+        })?;
+        let doorbell = Doorbell::new();
+        let mut table = PortTable::default();
+        let mut wiring = Wiring::first(name, decl, source, graph, &mut table, Arc::clone(&doorbell));
+        let built = A::build(&params, &mut wiring);
+        let declared = wiring.finish();
+        let actor = built.map_err(|e| vec![source.error_at(params_at, format!("actor '{name}': {e}"))])?;
+        let declared = declared.map_err(|errors| {
+            errors
+                .into_iter()
+                .map(|e| if e.file.as_os_str().is_empty() { source.error(e.message) } else { e })
+                .collect::<Vec<_>>()
+        })?;
+        Ok(Box::new(Prepared::<A> {
+            name: Arc::from(name),
+            critical: decl.critical,
+            policy: decl.restart.clone(),
+            config_dir: source.dir().to_owned(),
+            params,
+            table,
+            doorbell,
+            first: Some((actor, declared)),
+        }))
+    }
+}
+
+struct Prepared<A: Actor> {
+    name: Arc<str>,
+    critical: bool,
+    policy: RestartPolicy,
+    config_dir: PathBuf,
+    params: A::Params,
+    table: PortTable,
+    doorbell: Arc<Doorbell>,
+    first: Option<(A, Declared<A::Input>)>,
+}
+
+impl<A: Actor> Supervised for Prepared<A> {
+    fn spawn(self: Box<Self>, ctx: SupervisorContext) -> JoinHandle<()> {
+        tokio::spawn(supervise(*self, ctx))
+    }
+}
+
+impl<A: Actor> Prepared<A> {
+    fn rebuild(&mut self, ctx: &SupervisorContext) -> Result<(A, Declared<A::Input>), String> {
+        let mut wiring = Wiring::rebuild(
+            &self.name,
+            &self.config_dir,
+            Arc::clone(&ctx.clock),
+            Arc::clone(&ctx.activity),
+            Arc::clone(&self.doorbell),
+            &mut self.table,
+        );
+        let actor = A::build(&self.params, &mut wiring);
+        let declared = wiring.finish();
+        let actor = actor.map_err(|e| e.to_string())?;
+        let declared =
+            declared.map_err(|errs| errs.iter().map(|e| e.message.clone()).collect::<Vec<_>>().join("; "))?;
+        Ok((actor, declared))
+    }
+
+    fn report(&self, ctx: &SupervisorContext, kind: SupervisorEventKind, reason: &str, restarts: u32) {
+        let event = SupervisorEvent {
+            time: ctx.clock.now(),
+            actor: self.name.to_string(),
+            kind,
+            critical: self.critical,
+            reason: reason.to_owned(),
+            restarts_in_window: restarts,
+        };
+        match kind {
+            SupervisorEventKind::Restarted => {
+                tracing::info!(actor = %self.name, restarts, "actor restarted")
+            }
+            _ => tracing::error!(actor = %self.name, ?kind, reason, "actor failed"),
+        }
+        if self.critical {
+            (ctx.escalate)(&event);
+        }
+        ctx.log.lock().unwrap_or_else(|e| e.into_inner()).push(event.clone());
+        ctx.events.publish(event);
+    }
+}
+
+async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) {
+    let mut failures: VecDeque<Time> = VecDeque::new();
+    let mut next = prepared.first.take().map(Ok);
+    loop {
+        let reason = match next.take() {
+            Some(Ok((actor, declared))) => {
+                let token = ctx.shutdown.child_token();
+                let actor_ctx =
+                    Context::new(Arc::clone(&prepared.name), Arc::clone(&ctx.clock), token.clone());
+                for timer in declared.timers {
+                    tokio::spawn(run_timer(Arc::clone(&ctx.clock), timer, token.clone()));
+                }
+                let starting = ctx.activity.begin();
+                let outcome = tokio::spawn(run_incarnation(
+                    actor,
+                    declared.inputs,
+                    Arc::clone(&prepared.doorbell),
+                    actor_ctx,
+                    starting,
+                ))
+                .await;
+                token.cancel();
+                match outcome {
+                    Ok(Ok(())) => return,
+                    Ok(Err(e)) => e.to_string(),
+                    Err(e) if e.is_panic() => {
+                        format!("panicked: {}", panic_message(e.into_panic()))
+                    }
+                    Err(_) => return,
+                }
+            }
+            Some(Err(build_error)) => format!("restart failed: {build_error}"),
+            None => return,
+        };
+        if ctx.shutdown.is_cancelled() {
+            return;
+        }
+        let now = ctx.clock.now();
+        failures.push_back(now);
+        while failures.front().is_some_and(|&t| now.saturating_since(t) > prepared.policy.window()) {
+            failures.pop_front();
+        }
+        let restarts = u32::try_from(failures.len()).unwrap_or(u32::MAX);
+        if restarts > prepared.policy.max_restarts {
+            prepared.report(&ctx, SupervisorEventKind::GaveUp, &reason, restarts);
+            return;
+        }
+        prepared.report(&ctx, SupervisorEventKind::Failed, &reason, restarts);
+        let wake = now + prepared.policy.backoff(restarts);
+        tokio::select! {
+            _ = ctx.shutdown.cancelled() => return,
+            _ = ctx.clock.sleep_until(wake) => {}
+        }
+        let _restarting = ctx.activity.begin();
+        let rebuilt = prepared.rebuild(&ctx);
+        if rebuilt.is_ok() {
+            prepared.report(&ctx, SupervisorEventKind::Restarted, &reason, restarts);
+        }
+        next = Some(rebuilt);
+    }
+}
+
+/// One incarnation of an actor: start, handle inputs in arrival order, stop.
+async fn run_incarnation<A: Actor>(
+    mut actor: A,
+    inputs: Vec<Box<dyn InputPort<A::Input>>>,
+    doorbell: Arc<Doorbell>,
+    ctx: Context,
+    starting: Busy,
+) -> Result<(), ActorError> {
+    let result = async {
+        actor.start(&ctx).await?;
+        drop(starting);
+        loop {
+            let oldest =
+                inputs.iter().filter_map(|p| p.oldest_arrival().map(|a| (a, p))).min_by_key(|(a, _)| *a);
+            if let Some((input, busy)) = oldest.and_then(|(_, port)| port.take()) {
+                actor.handle(&ctx, input).await?;
+                drop(busy);
+                continue;
+            }
+            tokio::select! {
+                biased;
+                _ = ctx.shutdown().cancelled() => return Ok(()),
+                _ = doorbell.rung() => {}
+            }
+        }
+    }
+    .await;
+    actor.stop(&ctx).await;
+    result
+}
+
+/// Delivers ticks at multiples of the timer's period on the graph clock.
+async fn run_timer(clock: Arc<dyn Clock>, timer: TimerSpec, shutdown: CancellationToken) {
+    let period_us = kestrel_proto::time::duration_micros(timer.period).max(1);
+    loop {
+        let next = Time::from_micros((clock.now().as_micros() / period_us + 1) * period_us);
+        tokio::select! {
+            _ = shutdown.cancelled() => return,
+            _ = clock.sleep_until(next) => {}
+        }
+        timer.mailbox.deliver(next);
+    }
+}
+
+fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
+    match payload.downcast::<String>() {
+        Ok(s) => *s,
+        Err(payload) => match payload.downcast::<&'static str>() {
+            Ok(s) => (*s).to_owned(),
+            Err(_) => "non-text panic payload".to_owned(),
+        },
+    }
+}

@@ -1,0 +1,222 @@
+//! The runtime's contract, exercised through whole graphs of small test actors on the lockstep
+//! clock: mailbox kinds, restarts under supervision, and start-up config checks.
+
+use std::path::Path;
+use std::time::Duration;
+
+use kestrel::run::{MailboxReport, RunReport};
+use kestrel::{LoadedConfig, Registry, RunError, RunOptions, run};
+use kestrel_proto::messages::{BatteryStatus, SupervisorEventKind};
+use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+struct Count {
+    time: Time,
+    n: u64,
+}
+kestrel_proto::impl_message!(Count);
+
+/// Publishes `burst` messages on `count` every `period_ms`.
+struct Ticker {
+    out: Publisher<Count>,
+    burst: u64,
+    sent: u64,
+}
+
+#[derive(Deserialize)]
+struct TickerParams {
+    period_ms: u64,
+    #[serde(default = "one")]
+    burst: u64,
+}
+
+fn one() -> u64 {
+    1
+}
+
+impl Actor for Ticker {
+    type Params = TickerParams;
+    type Input = Time;
+
+    fn build(p: &TickerParams, setup: &mut impl Setup<Time>) -> Result<Self, ActorError> {
+        setup.timer("tick", Duration::from_millis(p.period_ms), |t| t);
+        Ok(Ticker { out: setup.output("count"), burst: p.burst, sent: 0 })
+    }
+
+    async fn handle(&mut self, _ctx: &Context, t: Time) -> Result<(), ActorError> {
+        for _ in 0..self.burst {
+            self.sent += 1;
+            self.out.publish(Count { time: t, n: self.sent });
+        }
+        Ok(())
+    }
+}
+
+/// Counts what arrives on `count` and republishes the running total on `handled`.
+struct Counter {
+    out: Publisher<Count>,
+    handled: u64,
+}
+
+impl Actor for Counter {
+    type Params = toml::Table;
+    type Input = Count;
+
+    fn build(_: &toml::Table, setup: &mut impl Setup<Count>) -> Result<Self, ActorError> {
+        setup.input("count", |c| c);
+        Ok(Counter { out: setup.output("handled"), handled: 0 })
+    }
+
+    async fn handle(&mut self, _ctx: &Context, c: Count) -> Result<(), ActorError> {
+        self.handled += 1;
+        self.out.publish(Count { time: c.time, n: self.handled });
+        Ok(())
+    }
+}
+
+/// Panics on its first tick after every start.
+struct Panicker;
+
+impl Actor for Panicker {
+    type Params = toml::Table;
+    type Input = Time;
+
+    fn build(_: &toml::Table, setup: &mut impl Setup<Time>) -> Result<Self, ActorError> {
+        setup.timer("tick", Duration::from_millis(10), |t| t);
+        Ok(Panicker)
+    }
+
+    async fn handle(&mut self, _ctx: &Context, t: Time) -> Result<(), ActorError> {
+        panic!("test panic at {t}");
+    }
+}
+
+/// Takes battery messages (a type no test actor publishes).
+struct BatteryWatcher;
+
+impl Actor for BatteryWatcher {
+    type Params = toml::Table;
+    type Input = BatteryStatus;
+
+    fn build(_: &toml::Table, setup: &mut impl Setup<BatteryStatus>) -> Result<Self, ActorError> {
+        setup.input("battery", |b| b);
+        Ok(BatteryWatcher)
+    }
+
+    async fn handle(&mut self, _ctx: &Context, _b: BatteryStatus) -> Result<(), ActorError> {
+        Ok(())
+    }
+}
+
+fn registry() -> Registry {
+    Registry::new()
+        .with::<Ticker>("ticker")
+        .with::<Counter>("counter")
+        .with::<Panicker>("panicker")
+        .with::<BatteryWatcher>("battery_watcher")
+}
+
+fn run_text(text: &str, seconds: f64) -> Result<RunReport, RunError> {
+    let config = LoadedConfig::parse(Path::new("graph.toml"), text).map_err(|e| RunError::Config(vec![e]))?;
+    let options = RunOptions { duration: Some(Duration::from_secs_f64(seconds)), speedup: Some(0.0), ..Default::default() };
+    run(&config, &registry(), options)
+}
+
+fn published(report: &RunReport, topic: &str) -> u64 {
+    report.topics.iter().find(|(name, _, _)| name == topic).map_or(0, |t| t.2)
+}
+
+fn mailbox<'a>(report: &'a RunReport, route: &str) -> &'a MailboxReport {
+    report.mailboxes.iter().find(|m| m.route == route).unwrap_or_else(|| panic!("no route {route}: {report:?}"))
+}
+
+const BURST_GRAPH: &str = r#"
+[actors.source]
+type = "ticker"
+params = { period_ms = 10, burst = 10 }
+
+[actors.sink]
+type = "counter"
+inputs.count = { topic = "count", mailbox = "MAILBOX" }
+"#;
+
+#[test]
+fn latest_mailbox_conflates_to_the_newest_message() {
+    let report = run_text(&BURST_GRAPH.replace("MAILBOX", "latest"), 0.1).unwrap();
+    assert_eq!(published(&report, "count"), 100);
+    let route = mailbox(&report, "count → sink.count");
+    assert_eq!((route.delivered, route.conflated, route.overflowed), (100, 90, 0));
+    assert_eq!(published(&report, "handled"), 10, "one message per burst reaches the actor");
+}
+
+#[test]
+fn queue_overflow_is_counted_not_silent() {
+    let report = run_text(&BURST_GRAPH.replace("MAILBOX", "queue(4)"), 0.1).unwrap();
+    let route = mailbox(&report, "count → sink.count");
+    assert_eq!((route.delivered, route.overflowed, route.conflated), (40, 60, 0));
+    assert_eq!(published(&report, "handled"), 40);
+}
+
+#[test]
+fn panicking_actor_restarts_with_backoff_while_its_neighbour_keeps_publishing() {
+    let text = r#"
+[actors.flaky]
+type = "panicker"
+critical = true
+restart = { max_restarts = 3, window_s = 60.0, backoff_initial_s = 0.1, backoff_max_s = 1.0 }
+
+[actors.steady]
+type = "ticker"
+params = { period_ms = 10 }
+"#;
+    let report = run_text(text, 2.0).unwrap();
+    assert_eq!(published(&report, "count"), 200, "the neighbour never missed a tick");
+    let kinds: Vec<SupervisorEventKind> = report.supervisor_events.iter().map(|e| e.kind).collect();
+    use SupervisorEventKind::*;
+    assert_eq!(kinds, [Failed, Restarted, Failed, Restarted, Failed, Restarted, GaveUp], "{report:#?}");
+    let times: Vec<u64> = report.supervisor_events.iter().map(|e| e.time.as_micros()).collect();
+    let backoffs: Vec<u64> = times.chunks(2).filter(|c| c.len() == 2).map(|c| c[1] - c[0]).collect();
+    assert_eq!(backoffs, [100_000, 200_000, 400_000], "exponential backoff on the graph clock");
+    assert!(report.supervisor_events.iter().all(|e| e.actor == "flaky" && e.critical));
+    assert!(report.supervisor_events[0].reason.contains("test panic"), "{:?}", report.supervisor_events[0]);
+    assert_eq!(published(&report, "supervisor"), 7, "every event is also published on the supervisor topic");
+}
+
+fn config_error(text: &str) -> String {
+    match run_text(text, 0.1) {
+        Err(RunError::Config(errors)) => errors.iter().map(ToString::to_string).collect::<Vec<_>>().join("\n"),
+        other => panic!("expected a config error, got {other:?}"),
+    }
+}
+
+#[test]
+fn unknown_actor_type_is_named_with_file_and_line() {
+    let err = config_error("[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n\n[actors.b]\ntype = \"warp_drive\"\n");
+    assert!(err.starts_with("graph.toml:6: unknown actor type 'warp_drive' for actor 'b'"), "{err}");
+    assert!(err.contains("known types: battery_watcher, counter, panicker, ticker"), "{err}");
+}
+
+#[test]
+fn unknown_topic_is_named_with_file_and_line() {
+    let err = config_error("[actors.sink]\ntype = \"counter\"\ninputs.count = { topic = \"cuont\", mailbox = \"latest\" }\n");
+    assert!(err.starts_with("graph.toml:3: unknown topic 'cuont'"), "{err}");
+}
+
+#[test]
+fn type_mismatch_is_named_with_file_and_line() {
+    let err = config_error(
+        "[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n[actors.w]\ntype = \"battery_watcher\"\ninputs.battery = { topic = \"count\", mailbox = \"latest\" }\n",
+    );
+    assert!(err.starts_with("graph.toml:6: type mismatch on topic 'count'"), "{err}");
+    assert!(err.contains("kestrel.BatteryStatus") && err.contains("kestrel.Count"), "{err}");
+}
+
+#[test]
+fn unknown_port_and_bad_params_are_named() {
+    let err = config_error("[actors.sink]\ntype = \"counter\"\ninputs.cnt = { topic = \"count\", mailbox = \"latest\" }\n[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n");
+    assert!(err.contains("graph.toml:3: actor 'sink' has no input port 'cnt'; its inputs: count"), "{err}");
+    let err = config_error("[actors.a]\ntype = \"ticker\"\nparams = { period = 10 }\n");
+    assert!(err.starts_with("graph.toml:3: actor 'a' params:") && err.contains("period_ms"), "{err}");
+}
