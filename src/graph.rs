@@ -15,6 +15,9 @@ use crate::mailbox::{Doorbell, Mailbox, MailboxKind, MailboxView};
 use crate::recorder::{Recorder, RecorderError};
 use crate::topic::Topic;
 
+/// Starts recording a topic (the topic's type is captured inside).
+type AttachRecorder = Box<dyn Fn(&Recorder) -> Result<(), RecorderError> + Send>;
+
 /// A topic while the graph is wired, with the facts needed to check and report it.
 struct TopicSlot {
     type_name: &'static str,
@@ -23,7 +26,7 @@ struct TopicSlot {
     /// `actor.port` and the config line of each subscription.
     subscribers: Vec<(String, usize)>,
     freeze: Box<dyn Fn() + Send>,
-    record: Box<dyn Fn(&Recorder) -> Result<(), RecorderError> + Send>,
+    record: AttachRecorder,
     published: Arc<dyn Fn() -> u64 + Send + Sync>,
 }
 
@@ -102,7 +105,9 @@ impl Graph {
         let topic = self
             .topic::<T>(name)
             .map_err(|other| format!("topic '{name}' carries {other}, not {}", T::TYPE_NAME))?;
-        self.topics.get_mut(name).map(|s| s.publishers.push("runtime".into()));
+        if let Some(slot) = self.topics.get_mut(name) {
+            slot.publishers.push("runtime".into());
+        }
         Ok(Publisher::new(topic))
     }
 

@@ -120,7 +120,11 @@ fn registry() -> Registry {
 
 fn run_text(text: &str, seconds: f64) -> Result<RunReport, RunError> {
     let config = LoadedConfig::parse(Path::new("graph.toml"), text).map_err(|e| RunError::Config(vec![e]))?;
-    let options = RunOptions { duration: Some(Duration::from_secs_f64(seconds)), speedup: Some(0.0), ..Default::default() };
+    let options = RunOptions {
+        duration: Some(Duration::from_secs_f64(seconds)),
+        speedup: Some(0.0),
+        ..Default::default()
+    };
     run(&config, &registry(), options)
 }
 
@@ -129,7 +133,11 @@ fn published(report: &RunReport, topic: &str) -> u64 {
 }
 
 fn mailbox<'a>(report: &'a RunReport, route: &str) -> &'a MailboxReport {
-    report.mailboxes.iter().find(|m| m.route == route).unwrap_or_else(|| panic!("no route {route}: {report:?}"))
+    report
+        .mailboxes
+        .iter()
+        .find(|m| m.route == route)
+        .unwrap_or_else(|| panic!("no route {route}: {report:?}"))
 }
 
 const BURST_GRAPH: &str = r#"
@@ -186,21 +194,27 @@ params = { period_ms = 10 }
 
 fn config_error(text: &str) -> String {
     match run_text(text, 0.1) {
-        Err(RunError::Config(errors)) => errors.iter().map(ToString::to_string).collect::<Vec<_>>().join("\n"),
+        Err(RunError::Config(errors)) => {
+            errors.iter().map(ToString::to_string).collect::<Vec<_>>().join("\n")
+        }
         other => panic!("expected a config error, got {other:?}"),
     }
 }
 
 #[test]
 fn unknown_actor_type_is_named_with_file_and_line() {
-    let err = config_error("[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n\n[actors.b]\ntype = \"warp_drive\"\n");
+    let err = config_error(
+        "[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n\n[actors.b]\ntype = \"warp_drive\"\n",
+    );
     assert!(err.starts_with("graph.toml:6: unknown actor type 'warp_drive' for actor 'b'"), "{err}");
     assert!(err.contains("known types: battery_watcher, counter, panicker, ticker"), "{err}");
 }
 
 #[test]
 fn unknown_topic_is_named_with_file_and_line() {
-    let err = config_error("[actors.sink]\ntype = \"counter\"\ninputs.count = { topic = \"cuont\", mailbox = \"latest\" }\n");
+    let err = config_error(
+        "[actors.sink]\ntype = \"counter\"\ninputs.count = { topic = \"cuont\", mailbox = \"latest\" }\n",
+    );
     assert!(err.starts_with("graph.toml:3: unknown topic 'cuont'"), "{err}");
 }
 
@@ -215,7 +229,9 @@ fn type_mismatch_is_named_with_file_and_line() {
 
 #[test]
 fn unknown_port_and_bad_params_are_named() {
-    let err = config_error("[actors.sink]\ntype = \"counter\"\ninputs.cnt = { topic = \"count\", mailbox = \"latest\" }\n[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n");
+    let err = config_error(
+        "[actors.sink]\ntype = \"counter\"\ninputs.cnt = { topic = \"count\", mailbox = \"latest\" }\n[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n",
+    );
     assert!(err.contains("graph.toml:3: actor 'sink' has no input port 'cnt'; its inputs: count"), "{err}");
     let err = config_error("[actors.a]\ntype = \"ticker\"\nparams = { period = 10 }\n");
     assert!(err.starts_with("graph.toml:3: actor 'a' params:") && err.contains("period_ms"), "{err}");

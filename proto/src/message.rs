@@ -12,9 +12,7 @@ use crate::time::Time;
 ///
 /// Messages are plain data. The recorder stores them as JSON with a JSON Schema generated from
 /// the type, so any MCAP tool (Foxglove, the Python `mcap` package) can read a Kestrel log.
-pub trait Message:
-    Serialize + DeserializeOwned + JsonSchema + Clone + Debug + Send + Sync + 'static
-{
+pub trait Message: Serialize + DeserializeOwned + JsonSchema + Clone + Debug + Send + Sync + 'static {
     /// The schema name in logs and in config type checks, e.g. `kestrel.ImuSample`.
     const TYPE_NAME: &'static str;
 

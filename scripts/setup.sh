@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs what building and testing Kestrel needs on a Debian machine, skipping whatever is
+# already there: Debian packages with apt-get (as root, or through sudo), and, with --tests,
+# the Python reference tools in <repo>/.venv.
+#
+#   scripts/setup.sh           # what `kestrel run` needs
+#   scripts/setup.sh --tests   # plus what the test suite needs
+set -euo pipefail
+
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+
+# Debian packages: a C toolchain for crates with C parts (zstd), pkg-config, python3-venv for
+# the test references.
+packages=(build-essential pkg-config python3 python3-venv)
+
+missing=()
+for p in "${packages[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+    echo "setup: installing Debian packages: ${missing[*]}"
+    if [[ "$(id -u)" -eq 0 ]]; then sudo=(); else sudo=(sudo); fi
+    "${sudo[@]}" apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi
+
+if ! command -v cargo >/dev/null 2>&1; then
+    echo "setup: no Rust toolchain found; install one with rustup (https://rustup.rs), Rust ≥ 1.95" >&2
+    exit 1
+fi
+
+if [[ "${1:-}" == "--tests" ]]; then
+    "$repo/scripts/python-env.sh"
+fi
