@@ -21,7 +21,7 @@ impl Registry {
 
     /// Every actor type Kestrel ships.
     pub fn standard() -> Registry {
-        Registry::new() // SIMDEP
+        Registry::new().with::<kestrel_sim::SimActor>("sim")
     }
 
     /// Adds actor type `A` under `name`.

@@ -29,8 +29,8 @@ pub struct GroundTruth {
     pub crashed: bool,
     /// Collisions with world obstacles so far.
     pub collisions: u32,
-    /// Distance from the vehicle's centre to the nearest obstacle surface (m); infinite in an
-    /// empty world.
-    pub clearance_m: f64,
+    /// Distance from the vehicle's centre to the nearest obstacle surface (m); `None` in a
+    /// world without obstacles (JSON has no infinity).
+    pub clearance_m: Option<f64>,
 }
 crate::impl_message!(GroundTruth);

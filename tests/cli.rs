@@ -1,0 +1,118 @@
+//! The `kestrel` binary as a person runs it.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use kestrel::recorder::{LogReader, Recorded};
+use kestrel_proto::Message;
+use kestrel_proto::messages::{BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample};
+
+fn kestrel() -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_kestrel"));
+    cmd.current_dir(env!("CARGO_MANIFEST_DIR")).env_remove("RUST_LOG");
+    cmd
+}
+
+fn temp_path(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("kestrel-cli-{}-{name}", std::process::id()))
+}
+
+fn read<T: Message>(log: &LogReader, topic: &str) -> Vec<Recorded<T>> {
+    log.read::<T>(topic).unwrap_or_else(|e| panic!("{topic}: {e}"))
+}
+
+/// Mean rate over the stream's span (Hz), from measurement times.
+fn rate_hz<T: Message>(msgs: &[Recorded<T>]) -> f64 {
+    let span = msgs.last().unwrap().publish_time.as_secs_f64() - msgs[0].publish_time.as_secs_f64();
+    (msgs.len() - 1) as f64 / span
+}
+
+/// Every message's lag: when it was published minus when it was measured (s).
+fn lags_s<T: Message>(msgs: &[Recorded<T>]) -> Vec<f64> {
+    msgs.iter().map(|m| m.log_time.as_secs_f64() - m.publish_time.as_secs_f64()).collect()
+}
+
+#[test]
+fn ten_second_run_records_every_sensor_at_its_rate() {
+    let path = temp_path("run10.mcap");
+    let out = kestrel()
+        .args(["run", "--duration", "10", "--speedup", "0", "--quiet", "--record"])
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let log = LogReader::open(&path).unwrap();
+    let imu = read::<ImuSample>(&log, "imu");
+    let gps = read::<GpsFix>(&log, "gps");
+    let baro = read::<BaroSample>(&log, "baro");
+    let mag = read::<MagSample>(&log, "mag");
+    let truth = read::<GroundTruth>(&log, "ground_truth");
+    let battery = read::<BatteryStatus>(&log, "battery");
+    let _ = std::fs::remove_file(&path);
+
+    let within = |got: f64, want: f64| (got - want).abs() <= 0.01 * want;
+    assert_eq!(imu.len(), 4000, "IMU at 400 Hz for 10 s");
+    assert!(within(rate_hz(&imu), 400.0), "imu {}", rate_hz(&imu));
+    assert!(within(rate_hz(&gps), 5.0) && gps.len() >= 48, "gps {} Hz, {}", rate_hz(&gps), gps.len());
+    assert!(within(rate_hz(&baro), 10.0) && baro.len() >= 99, "baro {} Hz, {}", rate_hz(&baro), baro.len());
+    assert!(within(rate_hz(&mag), 100.0), "mag {}", rate_hz(&mag));
+    assert!(truth.len() >= 499 && battery.len() >= 99, "truth {} battery {}", truth.len(), battery.len());
+    assert!(lags_s(&gps).iter().all(|l| (l - 0.220).abs() < 1e-6), "gps lag {:?}", &lags_s(&gps)[..3]);
+    assert!(lags_s(&baro).iter().all(|l| (l - 0.050).abs() < 1e-6), "baro lag {:?}", &lags_s(&baro)[..3]);
+    assert!(lags_s(&imu).iter().all(|l| l.abs() < 1e-6), "the IMU is not lagged");
+    let at_rest = truth.last().unwrap();
+    assert!(at_rest.message.landed && !at_rest.message.crashed, "{:?}", at_rest.message);
+}
+
+#[cfg(unix)]
+#[test]
+fn sigterm_stops_within_a_second_and_leaves_a_readable_log() {
+    let path = temp_path("sigterm.mcap");
+    let mut child = kestrel()
+        .args(["run", "--speedup", "1", "--quiet", "--record"])
+        .arg(&path)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let signalled = Instant::now();
+    let kill = Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        assert!(signalled.elapsed() < Duration::from_secs(5), "kestrel ignored SIGTERM");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    let took = signalled.elapsed();
+    assert!(status.success(), "exit status {status:?}");
+    assert!(took < Duration::from_secs(1), "shutdown took {took:?}");
+    let log = LogReader::open(&path).unwrap();
+    let imu = read::<ImuSample>(&log, "imu");
+    let _ = std::fs::remove_file(&path);
+    assert!(imu.len() > 400, "about 1.5 s at 400 Hz was flushed, got {}", imu.len());
+}
+
+#[test]
+fn a_config_with_an_unknown_actor_fails_naming_it() {
+    let path = temp_path("bad.toml");
+    std::fs::write(&path, "[actors.sim]\ntype = \"sim\"\n\n[actors.eye]\ntype = \"laser_eyes\"\n").unwrap();
+    let out = kestrel().args(["run", "--duration", "1", "--config"]).arg(&path).output().unwrap();
+    let _ = std::fs::remove_file(&path);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains(&format!("{}:5: unknown actor type 'laser_eyes'", path.display())), "{stderr}");
+}
+
+#[test]
+fn help_documents_every_flag() {
+    let out = kestrel().args(["run", "--help"]).output().unwrap();
+    let help = String::from_utf8_lossy(&out.stdout);
+    for flag in ["--config", "--duration", "--speedup", "--record", "--log-level", "--quiet"] {
+        assert!(help.contains(flag), "{flag} missing from:\n{help}");
+    }
+    assert!(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/sim.toml").exists());
+}
