@@ -79,5 +79,5 @@ fn vehicle(truth: Option<&GroundTruth>) -> String {
         "flying"
     };
     let [n, e, d] = t.position_ned_m;
-    format!("vehicle {state} at N {n:.1} E {e:.1} alt {:.1} m, collisions {}", -d, t.collisions)
+    format!("vehicle {state} at N {n:.1} E {e:.1} alt {:.1} m, collisions {}", 0.0 - d, t.collisions)
 }

@@ -7,6 +7,7 @@ mod gps;
 mod ground_truth;
 mod imu;
 mod mag;
+mod nav_state;
 mod supervisor;
 
 pub use actuators::{ActuatorOutputs, MAX_MOTORS};
@@ -16,4 +17,5 @@ pub use gps::{GpsFix, GpsFixType};
 pub use ground_truth::GroundTruth;
 pub use imu::ImuSample;
 pub use mag::MagSample;
+pub use nav_state::{NavState, NavValidity};
 pub use supervisor::{SupervisorEvent, SupervisorEventKind};
