@@ -1,0 +1,139 @@
+//! The simulator as an actor: every IMU period it takes the latest actuator outputs, advances
+//! the core to the tick's time and publishes what the core released.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use kestrel_proto::messages::{
+    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample,
+};
+use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
+use serde::Deserialize;
+
+use crate::rigid_body::RigidBodyState;
+use crate::sensors::schedule::period_us;
+use crate::simulator::{InitialState, SimOptions, SimOutput, Simulator};
+use crate::vehicle::VehicleParams;
+use crate::world::World;
+
+/// `[actors.sim.params]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SimActorParams {
+    /// Vehicle file, relative to the config file's directory.
+    pub vehicle: PathBuf,
+    /// World file, relative to the config file's directory.
+    pub world: PathBuf,
+    /// Seed of wind and sensor noise.
+    pub seed: u64,
+    /// Physics steps per IMU period.
+    pub physics_substeps: u32,
+    /// Rate of the `ground_truth` output (Hz).
+    pub ground_truth_rate_hz: f64,
+    /// Rate of the `battery` output (Hz).
+    pub battery_rate_hz: f64,
+    /// Start position, north/east/down from home (m); down ≤ 0.
+    pub initial_position_ned_m: [f64; 3],
+}
+
+impl Default for SimActorParams {
+    fn default() -> SimActorParams {
+        let options = SimOptions::default();
+        SimActorParams {
+            vehicle: PathBuf::from("vehicles/quad_x.toml"),
+            world: PathBuf::from("worlds/empty.toml"),
+            seed: options.seed,
+            physics_substeps: options.physics_substeps,
+            ground_truth_rate_hz: options.ground_truth_rate_hz,
+            battery_rate_hz: options.battery_rate_hz,
+            initial_position_ned_m: [0.0; 3],
+        }
+    }
+}
+
+/// What the simulator actor handles.
+#[derive(Debug)]
+pub enum SimInput {
+    /// New motor commands (port `actuators`); until the first, the motors are stopped.
+    Actuators(ActuatorOutputs),
+    /// Advance to this time (timer `step`, every IMU period).
+    Step(Time),
+}
+
+/// The simulator actor. Outputs: `imu`, `gps`, `baro`, `mag`, `ground_truth`, `battery`.
+pub struct SimActor {
+    sim: Simulator,
+    imu: Publisher<ImuSample>,
+    gps: Publisher<GpsFix>,
+    baro: Publisher<BaroSample>,
+    mag: Publisher<MagSample>,
+    ground_truth: Publisher<GroundTruth>,
+    battery: Publisher<BatteryStatus>,
+}
+
+impl SimActor {
+    /// The simulator core, for inspection.
+    pub fn simulator(&self) -> &Simulator {
+        &self.sim
+    }
+}
+
+impl Actor for SimActor {
+    type Params = SimActorParams;
+    type Input = SimInput;
+
+    fn build(params: &SimActorParams, setup: &mut impl Setup<SimInput>) -> Result<SimActor, ActorError> {
+        let dir = setup.config_dir().to_path_buf();
+        let vehicle =
+            VehicleParams::load(&dir.join(&params.vehicle)).map_err(|e| ActorError::Params(e.to_string()))?;
+        let world = World::load(&dir.join(&params.world)).map_err(|e| ActorError::Params(e.to_string()))?;
+        let tick_us = period_us(vehicle.sensors.imu.rate_hz);
+        let now = setup.clock().now();
+        let options = SimOptions {
+            seed: params.seed,
+            physics_substeps: params.physics_substeps,
+            ground_truth_rate_hz: params.ground_truth_rate_hz,
+            battery_rate_hz: params.battery_rate_hz,
+            start_time: Time(now.0 / tick_us * tick_us),
+            initial: InitialState {
+                body: RigidBodyState {
+                    position_ned_m: params.initial_position_ned_m.into(),
+                    ..RigidBodyState::default()
+                },
+                actuators: ActuatorOutputs::default(),
+            },
+        };
+        let sim = Simulator::new(vehicle, world, options).map_err(|e| ActorError::Params(e.to_string()))?;
+        setup.input("actuators", SimInput::Actuators);
+        setup.timer("step", Duration::from_micros(tick_us), SimInput::Step);
+        Ok(SimActor {
+            sim,
+            imu: setup.output("imu"),
+            gps: setup.output("gps"),
+            baro: setup.output("baro"),
+            mag: setup.output("mag"),
+            ground_truth: setup.output("ground_truth"),
+            battery: setup.output("battery"),
+        })
+    }
+
+    async fn handle(&mut self, _ctx: &Context, input: SimInput) -> Result<(), ActorError> {
+        match input {
+            SimInput::Actuators(outputs) => self.sim.set_actuators(&outputs),
+            SimInput::Step(time) => {
+                self.sim.advance_to(time);
+                for output in self.sim.drain() {
+                    match output {
+                        SimOutput::Imu(m) => self.imu.publish(m),
+                        SimOutput::Gps(m) => self.gps.publish(m),
+                        SimOutput::Baro(m) => self.baro.publish(m),
+                        SimOutput::Mag(m) => self.mag.publish(m),
+                        SimOutput::GroundTruth(m) => self.ground_truth.publish(m),
+                        SimOutput::Battery(m) => self.battery.publish(m),
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}

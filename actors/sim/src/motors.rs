@@ -1,0 +1,149 @@
+//! Motors and propellers: command → commanded speed → first-order lag → thrust and torque.
+//!
+//! The command map is *linear in thrust*: a command `u` in 0..1 asks for the speed
+//! `ω_max·√u`, so steady thrust is `u·k_f·ω_max²`. That is what a mixer assumes when it adds
+//! thrust and torque demands linearly (PX4's `THR_MDL_FAC = 1`), and it makes the hover command
+//! a closed form. Supply voltage does not change the map: the ESCs are assumed to hold speed.
+
+use kestrel_proto::messages::{ActuatorOutputs, MAX_MOTORS};
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{InvalidParam, positive};
+use crate::frame_layout::{FrameLayout, MotorGeometry};
+
+/// One motor-propeller pair; every motor of a frame is the same.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MotorParams {
+    /// `k_f` in thrust = k_f·ω² (N per (rad/s)²).
+    pub thrust_coefficient_n_per_rad2_s2: f64,
+    /// `k_m` in the propeller's drag torque = k_m·ω² (N·m per (rad/s)²); its reaction yaws the body.
+    pub torque_coefficient_n_m_per_rad2_s2: f64,
+    /// Speed at command 1 (rad/s).
+    pub max_speed_rad_s: f64,
+    /// First-order lag from commanded to actual speed (s).
+    pub time_constant_s: f64,
+    /// Shaft power over electrical power, 0..1; sets the battery current.
+    pub efficiency: f64,
+}
+
+impl Default for MotorParams {
+    /// An 850 KV motor with a 10×4.5 propeller on 4S (the thesis's airframe): about 11 N of
+    /// thrust at 1000 rad/s (9 500 rpm), torque/thrust ratio 0.016 m.
+    fn default() -> MotorParams {
+        MotorParams {
+            thrust_coefficient_n_per_rad2_s2: 1.1e-5,
+            torque_coefficient_n_m_per_rad2_s2: 1.76e-7,
+            max_speed_rad_s: 1000.0,
+            time_constant_s: 0.04,
+            efficiency: 0.75,
+        }
+    }
+}
+
+impl MotorParams {
+    pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
+        positive("thrust_coefficient_n_per_rad2_s2", self.thrust_coefficient_n_per_rad2_s2)?;
+        positive("torque_coefficient_n_m_per_rad2_s2", self.torque_coefficient_n_m_per_rad2_s2)?;
+        positive("max_speed_rad_s", self.max_speed_rad_s)?;
+        positive("time_constant_s", self.time_constant_s)?;
+        positive("efficiency", self.efficiency)?;
+        if self.efficiency > 1.0 {
+            return Err(InvalidParam::new("efficiency", "must not exceed 1"));
+        }
+        Ok(())
+    }
+
+    /// Thrust of one motor at full command (N).
+    pub fn max_thrust_n(&self) -> f64 {
+        self.thrust_coefficient_n_per_rad2_s2 * self.max_speed_rad_s.powi(2)
+    }
+
+    /// The steady speed a command asks for (rad/s); NaN and out-of-range commands clamp to 0..1.
+    pub fn commanded_speed_rad_s(&self, command: f64) -> f64 {
+        let u = if command.is_nan() { 0.0 } else { command.clamp(0.0, 1.0) };
+        self.max_speed_rad_s * u.sqrt()
+    }
+}
+
+/// The motors of one frame and their current speeds.
+#[derive(Clone, Debug)]
+pub(crate) struct Motors {
+    params: MotorParams,
+    geometry: Vec<MotorGeometry>,
+    speed_rad_s: [f64; MAX_MOTORS],
+    target_rad_s: [f64; MAX_MOTORS],
+}
+
+impl Motors {
+    pub(crate) fn new(params: &MotorParams, layout: FrameLayout, arm_length_m: f64) -> Motors {
+        Motors {
+            params: params.clone(),
+            geometry: layout.motors(arm_length_m).collect(),
+            speed_rad_s: [0.0; MAX_MOTORS],
+            target_rad_s: [0.0; MAX_MOTORS],
+        }
+    }
+
+    /// Takes new commands; a disarmed output stops every motor.
+    pub(crate) fn command(&mut self, outputs: &ActuatorOutputs) {
+        for (target, &u) in self.target_rad_s.iter_mut().zip(&outputs.motors) {
+            *target = if outputs.armed { self.params.commanded_speed_rad_s(u) } else { 0.0 };
+        }
+    }
+
+    /// Jumps every motor to its commanded speed, as if it had been running for a long time.
+    pub(crate) fn settle(&mut self) {
+        self.speed_rad_s = self.target_rad_s;
+    }
+
+    /// Advances the lag by `dt_s`, exactly (the discrete form of dω/dt = (ω_cmd − ω)/τ).
+    pub(crate) fn advance(&mut self, dt_s: f64) {
+        let blend = 1.0 - (-dt_s / self.params.time_constant_s).exp();
+        for (speed, target) in self.speed_rad_s.iter_mut().zip(&self.target_rad_s) {
+            *speed += (target - *speed) * blend;
+        }
+    }
+
+    /// Total thrust force and torque about the centre of mass, body FRD (N, N·m).
+    pub(crate) fn force_torque_frd(&self) -> (Vector3<f64>, Vector3<f64>) {
+        let mut force = Vector3::zeros();
+        let mut torque = Vector3::zeros();
+        for (motor, &speed) in self.geometry.iter().zip(&self.speed_rad_s) {
+            let w2 = speed * speed;
+            let thrust = Vector3::new(0.0, 0.0, -self.params.thrust_coefficient_n_per_rad2_s2 * w2);
+            force += thrust;
+            torque += motor.position_frd_m.cross(&thrust);
+            torque.z += motor.spin.yaw_sign() * self.params.torque_coefficient_n_m_per_rad2_s2 * w2;
+        }
+        (force, torque)
+    }
+
+    /// Mechanical power the propellers absorb (W): drag torque times speed.
+    pub(crate) fn shaft_power_w(&self) -> f64 {
+        let k_m = self.params.torque_coefficient_n_m_per_rad2_s2;
+        self.speed_rad_s[..self.geometry.len()].iter().map(|w| k_m * w.powi(3)).sum()
+    }
+
+    /// Current speeds of the frame's motors, in mixer order (rad/s).
+    pub(crate) fn speeds_rad_s(&self) -> &[f64] {
+        &self.speed_rad_s[..self.geometry.len()]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn commands_map_linearly_to_thrust_and_bad_commands_clamp() {
+        let p = MotorParams::default();
+        let thrust = |u: f64| p.thrust_coefficient_n_per_rad2_s2 * p.commanded_speed_rad_s(u).powi(2);
+        assert!((thrust(0.25) - 0.25 * p.max_thrust_n()).abs() < 1e-12);
+        assert!((thrust(0.8) - 0.8 * p.max_thrust_n()).abs() < 1e-12);
+        assert_eq!(p.commanded_speed_rad_s(f64::NAN), 0.0);
+        assert_eq!(p.commanded_speed_rad_s(-1.0), 0.0);
+        assert_eq!(p.commanded_speed_rad_s(7.0), p.max_speed_rad_s);
+    }
+}

@@ -1,0 +1,113 @@
+//! The inertial measurement unit: gyro and accelerometer in body FRD, each with white noise and
+//! a bias that random-walks.
+//!
+//! The accelerometer reports the *specific force* averaged over the sample interval:
+//! (Δv/Δt − g) rotated into the body, which is what a delta-velocity IMU integrates. At rest it
+//! reads about `[0, 0, −9.81]`; in free fall it reads zero.
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::ImuSample;
+use nalgebra::Vector3;
+use rand_pcg::Pcg64;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{InvalidParam, finite, non_negative, positive};
+use crate::rigid_body::RigidBodyState;
+use crate::sensors::noise::{RandomWalk, standard_normal3};
+use crate::vehicle::GRAVITY_M_S2;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ImuParams {
+    /// Sample rate (Hz); the simulator's physics tick.
+    pub rate_hz: f64,
+    /// 1σ white noise of each gyro sample (rad/s).
+    pub gyro_noise_rad_s: f64,
+    /// 1σ white noise of each accelerometer sample (m/s²).
+    pub accel_noise_m_s2: f64,
+    /// Gyro bias random walk (rad/s per √s).
+    pub gyro_bias_walk_rad_s_per_sqrt_s: f64,
+    /// Accelerometer bias random walk (m/s² per √s).
+    pub accel_bias_walk_m_s2_per_sqrt_s: f64,
+    /// Gyro bias at start, body FRD (rad/s).
+    pub gyro_bias_initial_rad_s: [f64; 3],
+    /// Accelerometer bias at start, body FRD (m/s²).
+    pub accel_bias_initial_m_s2: [f64; 3],
+}
+
+impl Default for ImuParams {
+    /// MPU-9250 at 400 Hz with a ~100 Hz filter, plus some motor vibration on the accelerometer.
+    fn default() -> ImuParams {
+        ImuParams {
+            rate_hz: 400.0,
+            gyro_noise_rad_s: 0.003,
+            accel_noise_m_s2: 0.05,
+            gyro_bias_walk_rad_s_per_sqrt_s: 3e-5,
+            accel_bias_walk_m_s2_per_sqrt_s: 3e-4,
+            gyro_bias_initial_rad_s: [0.0; 3],
+            accel_bias_initial_m_s2: [0.0; 3],
+        }
+    }
+}
+
+impl ImuParams {
+    pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
+        positive("rate_hz", self.rate_hz)?;
+        if self.rate_hz > 10_000.0 {
+            return Err(InvalidParam::new("rate_hz", "must not exceed 10 kHz"));
+        }
+        non_negative("gyro_noise_rad_s", self.gyro_noise_rad_s)?;
+        non_negative("accel_noise_m_s2", self.accel_noise_m_s2)?;
+        non_negative("gyro_bias_walk_rad_s_per_sqrt_s", self.gyro_bias_walk_rad_s_per_sqrt_s)?;
+        non_negative("accel_bias_walk_m_s2_per_sqrt_s", self.accel_bias_walk_m_s2_per_sqrt_s)?;
+        finite("gyro_bias_initial_rad_s", &self.gyro_bias_initial_rad_s)?;
+        finite("accel_bias_initial_m_s2", &self.accel_bias_initial_m_s2)
+    }
+}
+
+/// The IMU's state: its biases and random stream.
+#[derive(Clone, Debug)]
+pub(crate) struct Imu {
+    params: ImuParams,
+    gyro_bias: RandomWalk,
+    accel_bias: RandomWalk,
+    rng: Pcg64,
+}
+
+impl Imu {
+    pub(crate) fn new(params: &ImuParams, rng: Pcg64) -> Imu {
+        Imu {
+            params: params.clone(),
+            gyro_bias: RandomWalk::new(
+                params.gyro_bias_initial_rad_s,
+                params.gyro_bias_walk_rad_s_per_sqrt_s,
+            ),
+            accel_bias: RandomWalk::new(
+                params.accel_bias_initial_m_s2,
+                params.accel_bias_walk_m_s2_per_sqrt_s,
+            ),
+            rng,
+        }
+    }
+
+    /// A sample at `time` covering the last `dt_s`, over which the mean acceleration was
+    /// `accel_ned_m_s2`.
+    pub(crate) fn measure(
+        &mut self,
+        time: Time,
+        dt_s: f64,
+        state: &RigidBodyState,
+        accel_ned_m_s2: &Vector3<f64>,
+    ) -> ImuSample {
+        let gyro_bias = self.gyro_bias.advance(dt_s, &mut self.rng);
+        let accel_bias = self.accel_bias.advance(dt_s, &mut self.rng);
+        let specific_force_ned = accel_ned_m_s2 - Vector3::new(0.0, 0.0, GRAVITY_M_S2);
+        let specific_force_frd = state.attitude.inverse_transform_vector(&specific_force_ned);
+        let gyro = state.angular_velocity_frd_rad_s
+            + gyro_bias
+            + standard_normal3(&mut self.rng) * self.params.gyro_noise_rad_s;
+        let accel =
+            specific_force_frd + accel_bias + standard_normal3(&mut self.rng) * self.params.accel_noise_m_s2;
+        ImuSample { time, gyro_rad_s: gyro.into(), accel_m_s2: accel.into(), dt_s }
+    }
+}

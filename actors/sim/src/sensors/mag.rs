@@ -1,0 +1,70 @@
+//! The magnetometer: the Earth's field at home rotated into the body, plus a hard-iron offset
+//! (fields of the airframe itself, fixed in the body) and white noise.
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::MagSample;
+use nalgebra::Vector3;
+use rand_pcg::Pcg64;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{InvalidParam, finite, non_negative, positive};
+use crate::rigid_body::RigidBodyState;
+use crate::sensors::noise::standard_normal3;
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MagParams {
+    /// Sample rate (Hz).
+    pub rate_hz: f64,
+    /// Delay from measurement to delivery (s).
+    pub lag_s: f64,
+    /// 1σ white noise of each axis (gauss).
+    pub noise_gauss: f64,
+    /// Constant offset in body FRD from magnetised parts and currents (gauss).
+    pub hard_iron_gauss: [f64; 3],
+}
+
+impl Default for MagParams {
+    /// The MPU-9250's AK8963 at 100 Hz.
+    fn default() -> MagParams {
+        MagParams { rate_hz: 100.0, lag_s: 0.0, noise_gauss: 0.005, hard_iron_gauss: [0.0; 3] }
+    }
+}
+
+impl MagParams {
+    pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
+        positive("rate_hz", self.rate_hz)?;
+        non_negative("lag_s", self.lag_s)?;
+        if self.lag_s > 10.0 {
+            return Err(InvalidParam::new("lag_s", "must not exceed 10 s"));
+        }
+        non_negative("noise_gauss", self.noise_gauss)?;
+        finite("hard_iron_gauss", &self.hard_iron_gauss)
+    }
+}
+
+/// The magnetometer's random stream.
+#[derive(Clone, Debug)]
+pub(crate) struct Mag {
+    params: MagParams,
+    rng: Pcg64,
+}
+
+impl Mag {
+    pub(crate) fn new(params: &MagParams, rng: Pcg64) -> Mag {
+        Mag { params: params.clone(), rng }
+    }
+
+    /// A sample at `time` in the Earth field `field_ned_gauss`.
+    pub(crate) fn measure(
+        &mut self,
+        time: Time,
+        state: &RigidBodyState,
+        field_ned_gauss: &Vector3<f64>,
+    ) -> MagSample {
+        let field = state.attitude.inverse_transform_vector(field_ned_gauss)
+            + Vector3::from(self.params.hard_iron_gauss)
+            + standard_normal3(&mut self.rng) * self.params.noise_gauss;
+        MagSample { time, field_gauss: field.into() }
+    }
+}

@@ -1,0 +1,50 @@
+//! Sensor models: what the flight computer would read, with noise, bias and lag.
+//!
+//! Sensor parameters live in the vehicle file's `[sensors.*]` tables (the sensors belong to the
+//! airframe, not to the world). Every model draws from its own seeded random stream, so
+//! changing one sensor's settings never changes another's noise.
+//!
+//! Defaults follow the thesis's hardware (Navio2: MPU-9250 IMU, MS5611 barometer, u-blox M8N
+//! GPS) at the rates and lags the thesis used (IMU 400 Hz; GPS 5 Hz, 220 ms; baro 10 Hz, 50 ms).
+//! The thesis's EKF noise settings (GPS 0.5 m and 0.5 m/s, baro 2 m, accel 0.25 m/s²) are
+//! tuning values and deliberately larger than the simulated sensors' noise, except GPS
+//! horizontal position, where 0.5 m is used as is.
+
+pub mod baro;
+pub mod gps;
+pub mod imu;
+pub mod mag;
+pub(crate) mod noise;
+pub(crate) mod schedule;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::InvalidParam;
+
+pub use baro::BaroParams;
+pub use gps::GpsParams;
+pub use imu::ImuParams;
+pub use mag::MagParams;
+
+/// Every sensor's settings.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SensorParams {
+    /// `[sensors.imu]`
+    pub imu: ImuParams,
+    /// `[sensors.gps]`
+    pub gps: GpsParams,
+    /// `[sensors.baro]`
+    pub baro: BaroParams,
+    /// `[sensors.mag]`
+    pub mag: MagParams,
+}
+
+impl SensorParams {
+    pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
+        self.imu.validate().map_err(|e| e.within("imu"))?;
+        self.gps.validate().map_err(|e| e.within("gps"))?;
+        self.baro.validate().map_err(|e| e.within("baro"))?;
+        self.mag.validate().map_err(|e| e.within("mag"))
+    }
+}

@@ -1,0 +1,360 @@
+//! The simulator core: physics, world and sensors stepped together on integer-microsecond time.
+//!
+//! One *tick* is one IMU sample period (2.5 ms at 400 Hz); each tick runs `physics_substeps`
+//! Runge–Kutta steps (default 2, so physics runs at 800 Hz), then samples every sensor that is
+//! due and releases every sample whose lag has elapsed into an output buffer the caller drains.
+//! The buffer and the lag queues keep their capacity, so steady-state stepping does not
+//! allocate. Everything is deterministic given the seed.
+
+use std::time::Duration;
+
+use kestrel_proto::Time;
+use kestrel_proto::geo::LocalFrame;
+use kestrel_proto::messages::{
+    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample,
+};
+use nalgebra::Vector3;
+
+use crate::battery::Battery;
+use crate::error::{InvalidParam, finite, positive};
+use crate::ground::Ground;
+use crate::motors::Motors;
+use crate::obstacles::Collisions;
+use crate::rigid_body::{RigidBody, RigidBodyState, Wrench};
+use crate::sensors::baro::Baro;
+use crate::sensors::gps::Gps;
+use crate::sensors::imu::Imu;
+use crate::sensors::mag::Mag;
+use crate::sensors::noise::{Stream, rng};
+use crate::sensors::schedule::{Delayed, Periodic, period_us};
+use crate::vehicle::{GRAVITY_M_S2, VehicleParams};
+use crate::wind::Wind;
+use crate::world::World;
+
+/// The physics must run at least this fast (Hz).
+const MIN_PHYSICS_RATE_HZ: f64 = 400.0;
+
+/// Run settings that belong to neither the vehicle nor the world.
+#[derive(Clone, Debug)]
+pub struct SimOptions {
+    /// Seed of every random stream (wind, sensor noise).
+    pub seed: u64,
+    /// Physics steps per IMU sample; IMU rate × substeps must reach 400 Hz.
+    pub physics_substeps: u32,
+    /// Rate of `GroundTruth` outputs (Hz).
+    pub ground_truth_rate_hz: f64,
+    /// Rate of `BatteryStatus` outputs (Hz).
+    pub battery_rate_hz: f64,
+    /// Simulation time at start; sensor schedules count from here.
+    pub start_time: Time,
+    pub initial: InitialState,
+}
+
+impl Default for SimOptions {
+    fn default() -> SimOptions {
+        SimOptions {
+            seed: 0,
+            physics_substeps: 2,
+            ground_truth_rate_hz: 50.0,
+            battery_rate_hz: 10.0,
+            start_time: Time::ZERO,
+            initial: InitialState::default(),
+        }
+    }
+}
+
+/// Where the vehicle starts and how its motors are already spinning.
+#[derive(Clone, Debug, Default)]
+pub struct InitialState {
+    /// Default: at rest, level, facing north, on the ground at home.
+    pub body: RigidBodyState,
+    /// The motors start settled at these commands (default: disarmed, stopped), so a test can
+    /// start in hover without a spin-up transient. They stay commanded until the next
+    /// [`Simulator::set_actuators`].
+    pub actuators: ActuatorOutputs,
+}
+
+/// Something the simulator released, in release order.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimOutput {
+    Imu(ImuSample),
+    Gps(GpsFix),
+    Baro(BaroSample),
+    Mag(MagSample),
+    GroundTruth(GroundTruth),
+    Battery(BatteryStatus),
+}
+
+/// A simulated multirotor in its world.
+#[derive(Clone, Debug)]
+pub struct Simulator {
+    vehicle: VehicleParams,
+    world: World,
+    body: RigidBody,
+    state: RigidBodyState,
+    motors: Motors,
+    wind: Wind,
+    battery: Battery,
+    ground: Ground,
+    collisions: Collisions,
+    frame: LocalFrame,
+    field_ned_gauss: Vector3<f64>,
+    imu: Imu,
+    gps: Gps,
+    baro: Baro,
+    mag: Mag,
+    gps_due: Periodic,
+    baro_due: Periodic,
+    mag_due: Periodic,
+    truth_due: Periodic,
+    battery_due: Periodic,
+    gps_pending: Delayed<GpsFix>,
+    baro_pending: Delayed<BaroSample>,
+    mag_pending: Delayed<MagSample>,
+    time: Time,
+    tick_us: u64,
+    substeps: u32,
+    accel_ned_m_s2: Vector3<f64>,
+    outputs: Vec<SimOutput>,
+}
+
+impl Simulator {
+    /// A simulator for `vehicle` in `world`; checks every parameter first.
+    pub fn new(vehicle: VehicleParams, world: World, options: SimOptions) -> Result<Simulator, InvalidParam> {
+        vehicle.validate()?;
+        world.validate()?;
+        validate_options(&options, vehicle.sensors.imu.rate_hz)?;
+        let seed = options.seed;
+        let start = options.start_time;
+        let sensors = &vehicle.sensors;
+        let mut motors = Motors::new(&vehicle.motor, vehicle.frame, vehicle.arm_length_m);
+        motors.command(&options.initial.actuators);
+        motors.settle();
+        let body = RigidBody {
+            mass_kg: vehicle.mass_kg,
+            inertia_frd_kg_m2: Vector3::from(vehicle.inertia_frd_kg_m2),
+        };
+        let state = options.initial.body;
+        let mut collisions = Collisions::new();
+        collisions.update(&world.obstacles, &state.position_ned_m, vehicle.contact.collision_radius_m);
+        let ground = Ground { landed: state.position_ned_m.z >= 0.0, crashed: false };
+        Ok(Simulator {
+            body,
+            state,
+            motors,
+            wind: Wind::new(&world.wind, rng(seed, Stream::Wind)),
+            battery: Battery::new(&vehicle.battery),
+            ground,
+            collisions,
+            frame: LocalFrame::new(world.home.geodetic()),
+            field_ned_gauss: world.magnetic_field.ned_gauss(),
+            imu: Imu::new(&sensors.imu, rng(seed, Stream::Imu)),
+            gps: Gps::new(&sensors.gps, rng(seed, Stream::Gps)),
+            baro: Baro::new(&sensors.baro, rng(seed, Stream::Baro)),
+            mag: Mag::new(&sensors.mag, rng(seed, Stream::Mag)),
+            gps_due: Periodic::new(sensors.gps.rate_hz, start),
+            baro_due: Periodic::new(sensors.baro.rate_hz, start),
+            mag_due: Periodic::new(sensors.mag.rate_hz, start),
+            truth_due: Periodic::new(options.ground_truth_rate_hz, start),
+            battery_due: Periodic::new(options.battery_rate_hz, start),
+            gps_pending: Delayed::new(sensors.gps.lag_s, sensors.gps.rate_hz),
+            baro_pending: Delayed::new(sensors.baro.lag_s, sensors.baro.rate_hz),
+            mag_pending: Delayed::new(sensors.mag.lag_s, sensors.mag.rate_hz),
+            time: start,
+            tick_us: period_us(sensors.imu.rate_hz),
+            substeps: options.physics_substeps,
+            accel_ned_m_s2: Vector3::zeros(),
+            outputs: Vec::with_capacity(64),
+            vehicle,
+            world,
+        })
+    }
+
+    /// Simulation time of the last completed tick.
+    pub fn time(&self) -> Time {
+        self.time
+    }
+
+    /// Length of one tick (the IMU sample period).
+    pub fn tick_period(&self) -> Duration {
+        Duration::from_micros(self.tick_us)
+    }
+
+    /// The vehicle being simulated.
+    pub fn vehicle(&self) -> &VehicleParams {
+        &self.vehicle
+    }
+
+    /// The world it flies in.
+    pub fn world(&self) -> &World {
+        &self.world
+    }
+
+    /// Sets the motor commands used from now on.
+    pub fn set_actuators(&mut self, outputs: &ActuatorOutputs) {
+        self.motors.command(outputs);
+    }
+
+    /// Runs whole ticks until the next one would pass `time`.
+    pub fn advance_to(&mut self, time: Time) {
+        while self.time.0 + self.tick_us <= time.0 {
+            self.step();
+        }
+    }
+
+    /// Runs one tick: physics, then sensors, then releases.
+    pub fn step(&mut self) {
+        let tick_s = self.tick_us as f64 * 1e-6;
+        let dt_s = tick_s / f64::from(self.substeps);
+        let velocity_before = self.state.velocity_ned_m_s;
+        let air_ned_m_s = self.wind.advance(tick_s);
+        let weight_ned_n = Vector3::new(0.0, 0.0, self.body.mass_kg * GRAVITY_M_S2);
+        for _ in 0..self.substeps {
+            self.motors.advance(dt_s);
+            let (thrust_frd_n, torque_frd_n_m) = self.motors.force_torque_frd();
+            let drag = &self.vehicle.drag;
+            self.body.step(&mut self.state, dt_s, |s| Wrench {
+                force_ned_n: s.attitude * thrust_frd_n
+                    + weight_ned_n
+                    + drag.force_ned_n(&(s.velocity_ned_m_s - air_ned_m_s)),
+                torque_frd_n_m,
+            });
+            self.ground.resolve(&self.vehicle.contact, &mut self.state);
+        }
+        self.time = Time(self.time.0 + self.tick_us);
+        self.accel_ned_m_s2 = (self.state.velocity_ned_m_s - velocity_before) / tick_s;
+        self.battery.draw(self.motors.shaft_power_w() / self.vehicle.motor.efficiency, tick_s);
+        self.collisions.update(
+            &self.world.obstacles,
+            &self.state.position_ned_m,
+            self.vehicle.contact.collision_radius_m,
+        );
+        self.sample_sensors(tick_s);
+    }
+
+    fn sample_sensors(&mut self, tick_s: f64) {
+        let now = self.time;
+        let imu = self.imu.measure(now, tick_s, &self.state, &self.accel_ned_m_s2);
+        self.outputs.push(SimOutput::Imu(imu));
+        if self.gps_due.due(now) {
+            let fix = self.gps.measure(now, &self.state, &self.frame);
+            self.gps_pending.push(now, fix);
+        }
+        if self.baro_due.due(now) {
+            let altitude_msl_m = self.world.home.alt_msl_m - self.state.position_ned_m.z;
+            let sample = self.baro.measure(now, altitude_msl_m);
+            self.baro_pending.push(now, sample);
+        }
+        if self.mag_due.due(now) {
+            let sample = self.mag.measure(now, &self.state, &self.field_ned_gauss);
+            self.mag_pending.push(now, sample);
+        }
+        self.gps_pending.release(now, |m| self.outputs.push(SimOutput::Gps(m)));
+        self.baro_pending.release(now, |m| self.outputs.push(SimOutput::Baro(m)));
+        self.mag_pending.release(now, |m| self.outputs.push(SimOutput::Mag(m)));
+        if self.truth_due.due(now) {
+            let truth = self.ground_truth();
+            self.outputs.push(SimOutput::GroundTruth(truth));
+        }
+        if self.battery_due.due(now) {
+            let status = self.battery_status();
+            self.outputs.push(SimOutput::Battery(status));
+        }
+    }
+
+    /// Takes everything released so far, in release order. Undrained outputs accumulate.
+    pub fn drain(&mut self) -> std::vec::Drain<'_, SimOutput> {
+        self.outputs.drain(..)
+    }
+
+    /// The true kinematic state.
+    pub fn state(&self) -> &RigidBodyState {
+        &self.state
+    }
+
+    /// Current motor speeds in mixer order (rad/s).
+    pub fn motor_speeds_rad_s(&self) -> &[f64] {
+        self.motors.speeds_rad_s()
+    }
+
+    /// True while the vehicle rests on the ground.
+    pub fn landed(&self) -> bool {
+        self.ground.landed
+    }
+
+    /// True once the vehicle has touched the ground too fast or too tilted.
+    pub fn crashed(&self) -> bool {
+        self.ground.crashed
+    }
+
+    /// Collisions with obstacles so far.
+    pub fn collisions(&self) -> u32 {
+        self.collisions.count
+    }
+
+    /// Distance from the vehicle's centre to the nearest obstacle surface (m).
+    pub fn clearance_m(&self) -> f64 {
+        self.collisions.clearance_m
+    }
+
+    /// The ground-truth message for now.
+    pub fn ground_truth(&self) -> GroundTruth {
+        let s = &self.state;
+        let q = s.attitude.into_inner();
+        let position = self.frame.to_geodetic(s.position_ned_m.into());
+        GroundTruth {
+            time: self.time,
+            position_ned_m: s.position_ned_m.into(),
+            velocity_ned_m_s: s.velocity_ned_m_s.into(),
+            acceleration_ned_m_s2: self.accel_ned_m_s2.into(),
+            attitude: [q.w, q.i, q.j, q.k],
+            angular_velocity_rad_s: s.angular_velocity_frd_rad_s.into(),
+            lat_deg: position.lat_deg,
+            lon_deg: position.lon_deg,
+            alt_msl_m: position.alt_m,
+            landed: self.ground.landed,
+            crashed: self.ground.crashed,
+            collisions: self.collisions.count,
+            clearance_m: Some(self.collisions.clearance_m).filter(|c| c.is_finite()),
+        }
+    }
+
+    /// The battery message for now.
+    pub fn battery_status(&self) -> BatteryStatus {
+        BatteryStatus {
+            time: self.time,
+            voltage_v: self.battery.voltage_v(),
+            current_a: self.battery.current_a(),
+            consumed_mah: self.battery.consumed_mah(),
+            remaining: self.battery.remaining(),
+        }
+    }
+}
+
+fn validate_options(options: &SimOptions, imu_rate_hz: f64) -> Result<(), InvalidParam> {
+    if !(1..=64).contains(&options.physics_substeps) {
+        return Err(InvalidParam::new("physics_substeps", "must be within 1..=64"));
+    }
+    let physics_rate_hz = imu_rate_hz * f64::from(options.physics_substeps);
+    if physics_rate_hz < MIN_PHYSICS_RATE_HZ {
+        return Err(InvalidParam::new(
+            "physics_substeps",
+            format!(
+                "gives {physics_rate_hz} Hz physics with a {imu_rate_hz} Hz IMU; at least 400 Hz is needed"
+            ),
+        ));
+    }
+    positive("ground_truth_rate_hz", options.ground_truth_rate_hz)?;
+    positive("battery_rate_hz", options.battery_rate_hz)?;
+    let body = &options.initial.body;
+    finite("initial.position_ned_m", body.position_ned_m.as_slice())?;
+    finite("initial.velocity_ned_m_s", body.velocity_ned_m_s.as_slice())?;
+    finite("initial.angular_velocity_frd_rad_s", body.angular_velocity_frd_rad_s.as_slice())?;
+    if body.position_ned_m.z > 0.0 {
+        return Err(InvalidParam::new(
+            "initial.position_ned_m",
+            "must not start below the ground (down > 0)",
+        ));
+    }
+    Ok(())
+}

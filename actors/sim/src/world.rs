@@ -1,0 +1,108 @@
+//! The world file: where home is, its magnetic field, the wind and the obstacles.
+
+use std::path::Path;
+
+use kestrel_proto::geo::Geodetic;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::config_file;
+use crate::error::{ConfigError, InvalidParam, finite, positive};
+use crate::obstacles::Obstacle;
+use crate::wind::WindParams;
+
+/// The world the vehicle flies in, as `config/worlds/*.toml` describes it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct World {
+    /// `[home]`: origin of the NED frame and ground altitude.
+    pub home: Home,
+    /// `[magnetic_field]`: the Earth's field at home.
+    pub magnetic_field: MagneticField,
+    /// `[wind]`: steady wind and gusts.
+    pub wind: WindParams,
+    /// `[[obstacles]]`: boxes, cylinders and walls; none by default.
+    pub obstacles: Vec<Obstacle>,
+}
+
+/// The origin of the local NED frame; the ground is flat at its altitude.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Home {
+    /// WGS-84 latitude (degrees, north positive).
+    pub lat_deg: f64,
+    /// WGS-84 longitude (degrees, east positive).
+    pub lon_deg: f64,
+    /// Ground altitude above mean sea level (m).
+    pub alt_msl_m: f64,
+}
+
+impl Default for Home {
+    /// The University of Moratuwa, Sri Lanka, where the thesis flew.
+    fn default() -> Home {
+        Home { lat_deg: 6.79710, lon_deg: 79.90170, alt_msl_m: 20.0 }
+    }
+}
+
+impl Home {
+    pub fn geodetic(&self) -> Geodetic {
+        Geodetic { lat_deg: self.lat_deg, lon_deg: self.lon_deg, alt_m: self.alt_msl_m }
+    }
+}
+
+/// The Earth's field at home, as a magnetic model gives it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MagneticField {
+    /// Total intensity (gauss; 1 G = 100 µT).
+    pub total_intensity_gauss: f64,
+    /// Angle from true north to magnetic north, east positive (degrees).
+    pub declination_deg: f64,
+    /// Angle of the field below the horizontal, down positive (degrees).
+    pub inclination_deg: f64,
+}
+
+impl Default for MagneticField {
+    /// Approximate World Magnetic Model (WMM2025) values for Moratuwa: the site lies just
+    /// south of the magnetic dip equator, so the field is almost horizontal and points slightly
+    /// up. Check a current model before relying on the last digit.
+    fn default() -> MagneticField {
+        MagneticField { total_intensity_gauss: 0.410, declination_deg: -2.0, inclination_deg: -3.5 }
+    }
+}
+
+impl MagneticField {
+    /// The field vector in NED (gauss).
+    pub fn ned_gauss(&self) -> Vector3<f64> {
+        let (dec, inc) = (self.declination_deg.to_radians(), self.inclination_deg.to_radians());
+        let horizontal = self.total_intensity_gauss * inc.cos();
+        Vector3::new(horizontal * dec.cos(), horizontal * dec.sin(), self.total_intensity_gauss * inc.sin())
+    }
+}
+
+impl World {
+    /// Loads and checks a world file.
+    pub fn load(path: &Path) -> Result<World, ConfigError> {
+        config_file::load(path, World::validate)
+    }
+
+    /// Checks every field; the error names the offending one.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        let h = &self.home;
+        finite("home", &[h.lat_deg, h.lon_deg, h.alt_msl_m])?;
+        if h.lat_deg.abs() > 89.0 {
+            return Err(InvalidParam::new("home.lat_deg", "must be within ±89°"));
+        }
+        let m = &self.magnetic_field;
+        positive("magnetic_field.total_intensity_gauss", m.total_intensity_gauss)?;
+        finite("magnetic_field", &[m.declination_deg, m.inclination_deg])?;
+        if m.inclination_deg.abs() > 90.0 {
+            return Err(InvalidParam::new("magnetic_field.inclination_deg", "must be within ±90°"));
+        }
+        self.wind.validate().map_err(|e| e.within("wind"))?;
+        for (i, obstacle) in self.obstacles.iter().enumerate() {
+            obstacle.validate().map_err(|e| e.within(&format!("obstacles[{i}]")))?;
+        }
+        Ok(())
+    }
+}

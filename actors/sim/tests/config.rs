@@ -1,0 +1,88 @@
+//! The shipped vehicle and world files load; bad files fail with errors naming file and field.
+
+use std::path::{Path, PathBuf};
+
+use kestrel_sim::{ConfigError, FrameLayout, Obstacle, VehicleParams, World, hover_throttle};
+
+fn config(relative: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config").join(relative)
+}
+
+fn scratch(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kestrel-sim-config-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write");
+    path
+}
+
+#[test]
+fn shipped_vehicles_load_and_can_hover() {
+    for (file, frame) in
+        [("quad_x", FrameLayout::QuadX), ("hexa_x", FrameLayout::HexaX), ("octo_x", FrameLayout::OctoX)]
+    {
+        let vehicle = VehicleParams::load(&config(&format!("vehicles/{file}.toml"))).expect(file);
+        assert_eq!(vehicle.frame, frame);
+        assert!(hover_throttle(&vehicle) < 0.7, "{file}");
+    }
+    let quad = VehicleParams::load(&config("vehicles/quad_x.toml")).expect("quad");
+    assert_eq!(quad, VehicleParams::default(), "quad_x.toml documents the defaults in code");
+}
+
+#[test]
+fn shipped_worlds_load_with_moratuwa_as_home() {
+    let empty = World::load(&config("worlds/empty.toml")).expect("empty");
+    assert_eq!(empty, World::default(), "empty.toml documents the defaults in code");
+    let course = World::load(&config("worlds/obstacles.toml")).expect("obstacles");
+    assert_eq!(course.home, empty.home);
+    assert!((course.home.lat_deg - 6.79710).abs() < 1e-9 && (course.home.lon_deg - 79.90170).abs() < 1e-9);
+    assert!(course.obstacles.iter().any(|o| matches!(o, Obstacle::Wall { textured: false, .. })));
+    assert!(course.obstacles.iter().any(|o| matches!(o, Obstacle::Cylinder { .. })));
+    assert!(course.obstacles.iter().any(|o| matches!(o, Obstacle::Box { .. })));
+}
+
+#[test]
+fn an_out_of_range_field_names_the_file_and_the_field() {
+    let path = scratch("negative_mass.toml", "mass_kg = -1.5\n");
+    let err = VehicleParams::load(&path).unwrap_err();
+    let text = err.to_string();
+    assert!(matches!(err, ConfigError::Invalid { .. }));
+    assert!(text.contains("negative_mass.toml") && text.contains("mass_kg"), "{text}");
+
+    let path = scratch("slow_motor.toml", "[motor]\ntime_constant_s = 0.0\n");
+    let text = VehicleParams::load(&path).unwrap_err().to_string();
+    assert!(text.contains("motor.time_constant_s"), "{text}");
+
+    let path = scratch("bad_gps.toml", "[sensors.gps]\nrate_hz = -5.0\n");
+    let text = VehicleParams::load(&path).unwrap_err().to_string();
+    assert!(text.contains("sensors.gps.rate_hz"), "{text}");
+
+    let path = scratch("weak.toml", "mass_kg = 10.0\n");
+    let text = VehicleParams::load(&path).unwrap_err().to_string();
+    assert!(text.contains("not enough to lift"), "{text}");
+
+    let path = scratch(
+        "bad_tree.toml",
+        "[[obstacles]]\nkind = \"cylinder\"\nbase_ne_m = [1.0, 2.0]\nradius_m = -1.0\nheight_m = 3.0\n",
+    );
+    let text = World::load(&path).unwrap_err().to_string();
+    assert!(text.contains("bad_tree.toml") && text.contains("obstacles[0].radius_m"), "{text}");
+}
+
+#[test]
+fn typos_and_missing_files_are_errors_naming_the_file() {
+    let path = scratch("typo.toml", "mass_kgs = 1.5\n");
+    let err = VehicleParams::load(&path).unwrap_err();
+    assert!(matches!(err, ConfigError::Parse { .. }), "{err}");
+    assert!(err.to_string().contains("typo.toml") && err.to_string().contains("mass_kgs"), "{err}");
+
+    let path = scratch("unknown_kind.toml", "[[obstacles]]\nkind = \"pyramid\"\n");
+    assert!(matches!(World::load(&path), Err(ConfigError::Parse { .. })));
+
+    let missing = Path::new("/nonexistent/kestrel/vehicle.toml");
+    let err = VehicleParams::load(missing).unwrap_err();
+    assert!(
+        matches!(err, ConfigError::Read { .. })
+            && err.to_string().contains("/nonexistent/kestrel/vehicle.toml")
+    );
+}
