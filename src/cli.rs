@@ -24,6 +24,8 @@ pub struct Cli {
 pub enum Command {
     /// Run an actor graph: the full vehicle on the simulator by default.
     Run(RunArgs),
+    /// Evaluate a fuzzy rule base (fuzzylite .fll or Kestrel .toml).
+    Fuzzy(FuzzyArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -47,4 +49,29 @@ pub struct RunArgs {
     /// Do not print the once-a-second status line.
     #[arg(long)]
     pub quiet: bool,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("source").required(true).args(["input", "csv"])))]
+pub struct FuzzyArgs {
+    /// Rule base: fuzzylite FLL (`.fll`) or Kestrel TOML (`.toml`).
+    #[arg(long, value_name = "FILE")]
+    pub rules: PathBuf,
+
+    /// An input value, `NAME=VALUE`; give every input variable once.
+    #[arg(long, value_name = "NAME=VALUE")]
+    pub input: Vec<String>,
+
+    /// Evaluate every row of a CSV whose header names the inputs; prints one row of outputs
+    /// per input row.
+    #[arg(long, value_name = "IN.csv", conflicts_with = "input")]
+    pub csv: Option<PathBuf>,
+
+    /// Print JSON (outputs and every rule's activation) instead of `NAME=VALUE` lines.
+    #[arg(long)]
+    pub json: bool,
+
+    /// Also print each rule's activation degree, as `# DEGREE RULE` lines.
+    #[arg(long)]
+    pub activations: bool,
 }

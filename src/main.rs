@@ -1,17 +1,15 @@
 //! The `kestrel` command.
 
 mod cli;
+mod cmd;
 
 use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Duration;
 
 use clap::Parser;
-use kestrel::{LoadedConfig, Registry, RunError, RunOptions};
 use tracing_subscriber::EnvFilter;
 
-use cli::{Cli, Command, RunArgs};
+use cli::{Cli, Command};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -29,7 +27,8 @@ fn main() -> ExitCode {
     std::panic::set_hook(Box::new(|info| tracing::error!(target: "kestrel::panic", "{info}")));
 
     let result = match cli.command {
-        Command::Run(args) => run(args),
+        Command::Run(args) => cmd::run::run(args),
+        Command::Fuzzy(args) => cmd::fuzzy::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -38,56 +37,4 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
-}
-
-fn run(args: RunArgs) -> Result<(), String> {
-    let config_path = locate_config(&args.config)?;
-    let config = LoadedConfig::load(&config_path).map_err(|e| e.to_string())?;
-    let duration = match args.duration {
-        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
-        Some(s) => return Err(format!("--duration {s}: expected a positive number of seconds")),
-        None => None,
-    };
-    if let Some(n) = args.speedup.filter(|n| !(n.is_finite() && *n >= 0.0)) {
-        return Err(format!("--speedup {n}: expected a number ≥ 0 (0 = as fast as possible)"));
-    }
-    tracing::info!(config = %config_path.display(), "starting");
-    let options = RunOptions {
-        duration,
-        speedup: args.speedup,
-        record: args.record,
-        status: !args.quiet,
-        escalate: None,
-    };
-    let report = kestrel::run(&config, &Registry::standard(), options).map_err(|e| match e {
-        RunError::Config(_) => format!("the config is not usable:\n{e}"),
-        other => other.to_string(),
-    })?;
-    let total: u64 = report.topics.iter().map(|t| t.2).sum();
-    tracing::info!("stopped at t={:.3} s after {total} messages", report.end_time.as_secs_f64());
-    for m in report.mailboxes.iter().filter(|m| m.overflowed > 0) {
-        tracing::warn!(route = %m.route, overflowed = m.overflowed, "messages refused by a full queue");
-    }
-    if let Some(rec) = &report.recording {
-        let n: u64 = rec.messages_per_topic.values().sum();
-        tracing::info!(
-            "recorded {n} messages on {} topics to {}",
-            rec.messages_per_topic.len(),
-            rec.path.display()
-        );
-    }
-    Ok(())
-}
-
-/// Finds the config: as given, or for the default relative path also inside the source tree
-/// this binary was built from, so `kestrel run` works from any directory of a checkout.
-fn locate_config(path: &Path) -> Result<PathBuf, String> {
-    if path.exists() || path.is_absolute() {
-        return Ok(path.to_owned());
-    }
-    let in_tree = Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
-    if in_tree.exists() {
-        return Ok(in_tree);
-    }
-    Err(format!("config {} not found (also looked for {})", path.display(), in_tree.display()))
 }

@@ -116,3 +116,68 @@ fn help_documents_every_flag() {
     }
     assert!(Path::new(env!("CARGO_MANIFEST_DIR")).join("config/sim.toml").exists());
 }
+
+const THESIS_RULES: &str = "config/avoider/thesis.fll";
+const REGIONS: [&str; 9] = ["D_lu", "D_u", "D_ru", "D_l", "D_c", "D_r", "D_ld", "D_d", "D_rd"];
+
+fn fuzzy_inputs(blocked: &[&str], speed: f64) -> Vec<String> {
+    let mut args = Vec::new();
+    for region in REGIONS {
+        args.push("--input".to_owned());
+        args.push(format!("{region}={}", if blocked.contains(&region) { 1.0 } else { 0.0 }));
+    }
+    args.extend(["--input".to_owned(), format!("V_in={speed}")]);
+    args
+}
+
+#[test]
+fn fuzzy_prints_one_line_per_output_and_steers_away() {
+    let out = kestrel()
+        .args(["fuzzy", "--rules", THESIS_RULES])
+        .args(fuzzy_inputs(&["D_c", "D_l"], 0.2))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let values: Vec<(String, f64)> = stdout
+        .lines()
+        .map(|l| {
+            let (name, value) = l.split_once('=').unwrap();
+            (name.to_owned(), value.parse().unwrap())
+        })
+        .collect();
+    let names: Vec<&str> = values.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["Vx", "Vy", "Vz"], "{stdout}");
+    assert!(values[0].1 > 0.2, "obstacle on the left and centre: steer right (table 3.1), got {stdout}");
+    assert!(values[1].1 < 0.0, "and slow down, got {stdout}");
+}
+
+#[test]
+fn fuzzy_json_and_csv_modes() {
+    let out = kestrel()
+        .args(["fuzzy", "--json", "--rules", THESIS_RULES])
+        .args(fuzzy_inputs(&[], 0.5))
+        .output()
+        .unwrap();
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["outputs"].as_array().unwrap().len(), 3);
+    assert_eq!(json["rules"].as_array().unwrap().len(), 18, "the thesis's 18 rules");
+
+    let csv = temp_path("fuzzy.csv");
+    let header = REGIONS.iter().chain(["V_in"].iter()).copied().collect::<Vec<_>>().join(",");
+    std::fs::write(&csv, format!("{header}\n0,0,0,0,0,0,0,0,0,0.5\n0,0,0,1,1,0,0,0,0,0.2\n")).unwrap();
+    let out = kestrel().args(["fuzzy", "--rules", THESIS_RULES, "--csv"]).arg(&csv).output().unwrap();
+    let _ = std::fs::remove_file(&csv);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let lines: Vec<&str> = stdout.lines().collect();
+    assert_eq!(lines.len(), 3, "{stdout}");
+    assert_eq!(lines[0], "Vx,Vy,Vz");
+
+    let out = kestrel().args(["fuzzy", "--rules", THESIS_RULES, "--input", "D_c=1"]).output().unwrap();
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("missing"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

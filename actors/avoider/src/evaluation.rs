@@ -93,7 +93,8 @@ pub fn evaluate<S: AsRef<str>>(
 
 impl fmt::Display for NamedValue {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}={}", self.name, self.value)
+        // Debug formatting is the shortest text that reads back to the same f64.
+        write!(f, "{}={:?}", self.name, self.value)
     }
 }
 
