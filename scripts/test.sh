@@ -13,7 +13,6 @@ cargo clippy --workspace --all-targets --locked -- -D warnings
 echo "== tests"
 if cargo nextest --version >/dev/null 2>&1; then
     cargo nextest run --workspace --locked --no-fail-fast
-    cargo test --workspace --doc --locked
 else
     cargo test --workspace --locked --no-fail-fast
 fi
