@@ -46,6 +46,11 @@ pub struct RunArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
 
+    /// Write the flight report (JSON: mission, collisions, estimator error against ground
+    /// truth, control-loop timing, failsafes) to this file when the run ends.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+
     /// Do not print the once-a-second status line.
     #[arg(long)]
     pub quiet: bool,

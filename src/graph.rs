@@ -95,6 +95,11 @@ impl Graph {
         Arc::clone(&slot.topic).downcast::<Topic<T>>().map_err(|_| slot.type_name)
     }
 
+    /// Whether a topic `name` of message type `type_name` has a publisher.
+    pub fn is_published(&self, name: &str, type_name: &str) -> bool {
+        self.topics.get(name).is_some_and(|s| s.type_name == type_name && !s.publishers.is_empty())
+    }
+
     /// Every actor mailbox of the graph, for reports.
     pub fn mailboxes(&self) -> Vec<Arc<dyn MailboxView>> {
         self.mailboxes.clone()

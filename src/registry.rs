@@ -21,7 +21,10 @@ impl Registry {
 
     /// Every actor type Kestrel ships.
     pub fn standard() -> Registry {
-        Registry::new().with::<kestrel_sim::SimActor>("sim")
+        Registry::new()
+            .with::<kestrel_sim::SimActor>("sim")
+            .with::<kestrel_estimator::EstimatorActor>("estimator")
+            .with::<kestrel_avoider::AvoiderActor>("avoider")
     }
 
     /// Adds actor type `A` under `name`.

@@ -13,12 +13,13 @@ use tokio_util::sync::CancellationToken;
 
 use crate::activity::Activity;
 use crate::clock::{LockstepClock, LockstepDriver, MonotonicClock};
-use crate::config::{ClockKind, ConfigError, LoadedConfig};
+use crate::config::{ActorDecl, ClockKind, ConfigError, LoadedConfig, Route};
+use crate::flight_report::{FlightReportActor, REPORT_INPUTS};
 use crate::graph::Graph;
 use crate::mailbox::{Doorbell, MailboxKind};
 use crate::recorder::{Recorder, RecorderError, RecordingSummary};
 use crate::registry::Registry;
-use crate::supervisor::{EscalationHook, SupervisorContext};
+use crate::supervisor::{ActorKind, EscalationHook, KindOf, SupervisorContext};
 
 /// How long shutdown waits for actors to stop before it closes the log anyway.
 const SHUTDOWN_GRACE: Duration = Duration::from_millis(500);
@@ -34,6 +35,8 @@ pub struct RunOptions {
     pub record: Option<PathBuf>,
     /// Print the 1 Hz status line.
     pub status: bool,
+    /// Write the flight report (JSON) here when the run ends.
+    pub report: Option<PathBuf>,
     /// Called for every supervisor event about a flight-critical actor.
     pub escalate: Option<EscalationHook>,
 }
@@ -128,6 +131,12 @@ async fn run_graph(
             Err(mut e) => errors.append(&mut e),
         }
     }
+    if let Some(out) = &options.report {
+        match flight_report_actor(out, &mut graph, source) {
+            Ok(p) => prepared.push(p),
+            Err(mut e) => errors.append(&mut e),
+        }
+    }
     if !errors.is_empty() {
         return Err(RunError::Config(errors));
     }
@@ -212,6 +221,32 @@ async fn run_graph(
         supervisor_events,
         recording,
     })
+}
+
+/// The report actor, subscribed to whichever of its topics this graph publishes.
+fn flight_report_actor(
+    out: &std::path::Path,
+    graph: &mut Graph,
+    source: &crate::config::Source,
+) -> Result<Box<dyn crate::supervisor::Supervised>, Vec<ConfigError>> {
+    use toml::Spanned;
+    let nowhere = |s: &str| Spanned::new(0..0, s.to_owned());
+    let mut params = toml::Table::new();
+    params.insert("out".into(), toml::Value::String(out.display().to_string()));
+    let inputs = REPORT_INPUTS
+        .iter()
+        .filter(|(topic, type_name)| graph.is_published(topic, type_name))
+        .map(|(topic, _)| (nowhere(topic), Route { topic: nowhere(topic), mailbox: nowhere("queue(65536)") }))
+        .collect();
+    let decl = ActorDecl {
+        kind: nowhere("flight_report"),
+        critical: false,
+        restart: Default::default(),
+        params: Some(Spanned::new(0..0, params)),
+        inputs,
+        outputs: Default::default(),
+    };
+    KindOf::<FlightReportActor>::default().prepare("flight_report", &decl, source, graph)
 }
 
 /// Cancels `shutdown` on Ctrl-C or SIGTERM.

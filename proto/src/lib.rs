@@ -11,6 +11,7 @@
 //! crate) implements the mailboxes, router, clocks and supervisor behind these traits.
 
 pub mod actor;
+pub mod attitude;
 pub mod clock;
 pub mod geo;
 pub mod message;

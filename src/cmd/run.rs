@@ -24,6 +24,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         duration,
         speedup: args.speedup,
         record: args.record,
+        report: args.report.clone(),
         status: !args.quiet,
         escalate: None,
     };
@@ -35,6 +36,11 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     tracing::info!("stopped at t={:.3} s after {total} messages", report.end_time.as_secs_f64());
     for m in report.mailboxes.iter().filter(|m| m.overflowed > 0) {
         tracing::warn!(route = %m.route, overflowed = m.overflowed, "messages refused by a full queue");
+    }
+    if let Some(path) = &args.report
+        && !path.exists()
+    {
+        return Err(format!("the flight report {} was not written (see the log above)", path.display()));
     }
     if let Some(rec) = &report.recording {
         let n: u64 = rec.messages_per_topic.values().sum();

@@ -23,7 +23,7 @@
 //! ```
 //!
 //! Each line is `key: value`; `#` starts a comment. The parser only reads; every check of
-//! meaning is in [`crate::build`].
+//! meaning is in the crate's private `build` module.
 
 use crate::build;
 use crate::defuzzifier::{Defuzzifier, IntegralMethod, WeightedKind};

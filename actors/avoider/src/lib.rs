@@ -11,7 +11,11 @@
 //!   outputs and rule activations out.
 //! * [`THESIS_RULE_BASE`] is the avoider's rule base (thesis table 3.1), as shipped in
 //!   `config/avoider/thesis.fll`.
+//! * [`Avoider`] is the avoider's pure core (depth grid and desired speed in, body-frame
+//!   velocity correction out) and [`AvoiderActor`] its actor shell.
 
+mod actor;
+pub mod avoidance;
 mod build;
 pub mod defuzzifier;
 pub mod engine;
@@ -27,6 +31,10 @@ pub mod term;
 pub mod toml_format;
 pub mod variable;
 
+pub use actor::{AvoiderActor, AvoiderInput};
+pub use avoidance::Avoider;
+pub use avoidance::error::{AvoiderError, GridError, ParamsError, SetpointError};
+pub use avoidance::params::AvoiderParams;
 pub use defuzzifier::{Defuzzifier, IntegralMethod, WeightedKind, WeightedMethod};
 pub use engine::{Engine, RuleBlock, Workspace};
 pub use error::{Cause, InputError, LoadError};

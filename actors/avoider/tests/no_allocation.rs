@@ -1,11 +1,16 @@
-//! `Engine::infer` allocates nothing: the avoider runs it on every depth frame, beside the
-//! real-time controller. A counting global allocator watches one inference per rule base.
+//! `Engine::infer` and the avoider's update allocate nothing: the avoider runs on every depth
+//! frame, beside the real-time controller. A counting global allocator watches inferences of
+//! each rule base and a run of avoider updates. One test function, so that no other test
+//! thread allocates while it counts.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use kestrel_avoider::{rule_file, thesis_engine};
+mod scenes;
+
+use kestrel_avoider::{Avoider, AvoiderParams, rule_file, thesis_engine};
+use scenes::{at, blocked, clear_grid, flying_north, grid};
 
 struct Counting;
 
@@ -29,7 +34,7 @@ unsafe impl GlobalAlloc for Counting {
 static GLOBAL: Counting = Counting;
 
 #[test]
-fn inference_does_not_allocate() {
+fn inference_and_avoider_updates_do_not_allocate() {
     let every_shape = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data/every_shape.fll");
     let engines = [thesis_engine().expect("loads"), rule_file::load(&every_shape).expect("loads")];
     for engine in &engines {
@@ -54,4 +59,26 @@ fn inference_does_not_allocate() {
         let after = ALLOCATIONS.load(Ordering::SeqCst);
         assert_eq!(after - before, 0, "{}: inference allocated", engine.name());
     }
+
+    let mut avoider = Avoider::thesis(AvoiderParams::default()).expect("builds");
+    avoider.set_setpoint(&flying_north(0.0, 3.0)).expect("valid setpoint");
+    let mut textureless = [[0.0; 3]; 3];
+    textureless[1][1] = 0.9;
+    let scenes = [blocked(&[]), blocked(&[(1, 1), (0, 2)]), [[1.0; 3]; 3], blocked(&[(1, 1)])];
+    let grids: Vec<_> = (0..40)
+        .map(|k| {
+            let t = f64::from(k) * 0.05;
+            match k % 5 {
+                4 => grid(t, [[0.0; 3]; 3], textureless),
+                n => clear_grid(t, scenes[n as usize]),
+            }
+        })
+        .collect();
+    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    for g in &grids {
+        avoider.update(g.time, g).expect("valid grid");
+    }
+    avoider.check(at(10.0)).expect("stale by then");
+    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    assert_eq!(after - before, 0, "avoider updates allocated");
 }

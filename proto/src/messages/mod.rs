@@ -1,21 +1,43 @@
 //! The messages of the graph, one file per sensor or subsystem.
 
 mod actuators;
+mod avoidance_command;
 mod baro;
 mod battery;
+mod control_loop;
+mod depth_grid;
+mod estimator_status;
 mod gps;
 mod ground_truth;
 mod imu;
 mod mag;
+mod manual_control;
+mod mission;
 mod nav_state;
+mod param_set;
+mod setpoint;
 mod supervisor;
+mod vehicle_command;
+mod vehicle_status;
 
 pub use actuators::{ActuatorOutputs, MAX_MOTORS};
+pub use avoidance_command::{AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, FuzzyVelocity};
 pub use baro::BaroSample;
 pub use battery::BatteryStatus;
+pub use control_loop::ControlLoopStats;
+pub use depth_grid::{DepthGrid, GridRegion, OBSTACLE_SECTORS, ObstacleSectors, SECTOR_UNKNOWN};
+pub use estimator_status::{AidingCounters, EstimatorHealth, EstimatorStatus, Innovation};
 pub use gps::{GpsFix, GpsFixType};
 pub use ground_truth::GroundTruth;
 pub use imu::ImuSample;
 pub use mag::MagSample;
+pub use manual_control::ManualControl;
+pub use mission::{AltitudeFrame, Mission, MissionItem, MissionPoint};
 pub use nav_state::{NavState, NavValidity};
+pub use param_set::ParamSet;
+pub use setpoint::{Setpoint, SetpointTarget, TrajectorySetpoint};
 pub use supervisor::{SupervisorEvent, SupervisorEventKind};
+pub use vehicle_command::{Command, VehicleCommand};
+pub use vehicle_status::{
+    Failsafe, FailsafeAction, FailsafeCause, FlightMode, LandedState, MissionProgress, VehicleStatus,
+};

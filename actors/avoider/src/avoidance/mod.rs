@@ -1,0 +1,243 @@
+//! The avoider's pure core: depth grid and desired speed in, body-frame velocity correction out
+//! (thesis §3.3), with what the thesis lacked around the rule base.
+//!
+//! For every accepted depth grid [`Avoider::update`]:
+//! 1. checks the grid (shares in 0..1, newer than the last, not older than the age limit on
+//!    arrival) and marks mostly-invalid regions unknown ([`View`]);
+//! 2. feeds the nine near shares and `V_in` = desired speed / maximum speed to the rule base
+//!    (the mapping lives in [`region_inputs`]) and scales its outputs by the maximum speed;
+//! 3. applies the avoider's own behaviours, each reported in the command's health:
+//!    * centre blocked (near share ≥ `blocked_share`): forward progress stops whatever the rule
+//!      base says — table 3.1 only answers when exactly one off-centre region is blocked too, so
+//!      a pole straight ahead with a clear view around it would otherwise get no correction;
+//!    * centre unknown (the textureless wall of §4.2.3): the vehicle keeps at most
+//!      `unknown_speed_share` of its desired speed;
+//!    * every region blocked: forward progress stops and the vehicle climbs at
+//!      `climb_speed_m_s` until the centre's near share falls below `climb_exit_share` (§6);
+//! 4. low-pass filters the result (§3.3.9).
+//!
+//! [`Avoider::check`] runs on a timer: once the newest grid is older than `max_grid_age_s` the
+//! view is unknown, so the grid is ignored and the correction, through the same filter, brakes
+//! forward motion to a stop and lets lateral and vertical corrections (and any climb) decay to
+//! zero. Holding the last correction would steer on a view that no longer exists; releasing it
+//! would fly on blind, which is how the thesis's vehicle met the wall. The commander sees
+//! `stale` and decides on its failsafe.
+//!
+//! No step allocates: the rule base's workspace is made once and the command is plain arrays.
+
+mod desired_speed;
+pub mod error;
+mod low_pass;
+pub mod params;
+pub mod region_inputs;
+mod view;
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::{
+    AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, DepthGrid, FuzzyVelocity, Setpoint,
+};
+
+use crate::engine::{Engine, Workspace};
+pub use desired_speed::desired_speed_m_s;
+use error::{AvoiderError, GridError, SetpointError};
+pub use low_pass::LowPass;
+use params::AvoiderParams;
+use region_inputs::InputMap;
+pub use view::View;
+
+/// The obstacle avoider's state between depth grids.
+#[derive(Debug, Clone)]
+pub struct Avoider {
+    engine: Engine,
+    workspace: Workspace,
+    map: InputMap,
+    params: AvoiderParams,
+    filter: LowPass,
+    /// Desired horizontal speed from the newest accepted setpoint (m/s); 0 before the first.
+    desired_speed_m_s: f64,
+    /// Capture time and frame sequence of the newest accepted grid.
+    last_grid: Option<(Time, u64)>,
+    /// Climbing because every region was blocked, until the centre clears.
+    climbing: bool,
+    grids_rejected: u64,
+    setpoints_rejected: u64,
+}
+
+impl Avoider {
+    /// An avoider running `engine`, which must have the thesis rule base's interface (inputs
+    /// `D_lu … D_rd`, `V_in`; outputs `Vx`, `Vy`, `Vz`; [`AVOIDER_RULES`] rules).
+    pub fn new(engine: Engine, params: AvoiderParams) -> Result<Avoider, AvoiderError> {
+        params.validate()?;
+        let map = InputMap::new(&engine)?;
+        let rules: usize = engine.blocks().iter().map(|b| b.rules.len()).sum();
+        if rules != AVOIDER_RULES {
+            return Err(AvoiderError::RuleCount {
+                rule_base: engine.name().to_string(),
+                expected: AVOIDER_RULES,
+                got: rules,
+            });
+        }
+        Ok(Avoider {
+            workspace: engine.workspace(),
+            engine,
+            map,
+            filter: LowPass::new(params.filter_time_constant_s),
+            params,
+            desired_speed_m_s: 0.0,
+            last_grid: None,
+            climbing: false,
+            grids_rejected: 0,
+            setpoints_rejected: 0,
+        })
+    }
+
+    /// An avoider running the built-in thesis rule base.
+    pub fn thesis(params: AvoiderParams) -> Result<Avoider, AvoiderError> {
+        Avoider::new(crate::thesis_engine()?, params)
+    }
+
+    /// The parameters it runs with.
+    pub fn params(&self) -> &AvoiderParams {
+        &self.params
+    }
+
+    /// Depth grids refused since start.
+    pub fn grids_rejected(&self) -> u64 {
+        self.grids_rejected
+    }
+
+    /// Setpoints refused since start.
+    pub fn setpoints_rejected(&self) -> u64 {
+        self.setpoints_rejected
+    }
+
+    /// Takes the desired speed from the commander's newest setpoint. A refused setpoint is
+    /// counted and the previous speed stays.
+    pub fn set_setpoint(&mut self, setpoint: &Setpoint) -> Result<(), SetpointError> {
+        match desired_speed_m_s(setpoint) {
+            Ok(speed) => {
+                self.desired_speed_m_s = speed;
+                Ok(())
+            }
+            Err(e) => {
+                self.setpoints_rejected += 1;
+                Err(e)
+            }
+        }
+    }
+
+    /// Computes the correction for `grid`, arriving at `now` on the graph clock. A refused grid
+    /// is counted and changes nothing else.
+    pub fn update(&mut self, now: Time, grid: &DepthGrid) -> Result<AvoidanceCommand, GridError> {
+        let result = self.accept(now, grid);
+        if result.is_err() {
+            self.grids_rejected += 1;
+        }
+        result
+    }
+
+    /// The staleness check: `None` while the newest grid is within the age limit; otherwise
+    /// the stale command (see the module docs), advanced to `now`.
+    pub fn check(&mut self, now: Time) -> Option<AvoidanceCommand> {
+        let grid_age_s = self.last_grid.map(|(time, _)| now.saturating_since(time).as_secs_f64());
+        if grid_age_s.is_some_and(|age| age <= self.params.max_grid_age_s) {
+            return None;
+        }
+        self.climbing = false;
+        let brake = [-self.desired_speed_m_s, 0.0, 0.0];
+        let velocity_frd_m_s = self.filter.update(now, brake);
+        Some(AvoidanceCommand {
+            time: now,
+            grid_time: self.last_grid.map(|(time, _)| time),
+            frame_sequence: self.last_grid.map(|(_, sequence)| sequence),
+            velocity_frd_m_s,
+            fuzzy: FuzzyVelocity::default(),
+            rule_activations: [0.0; AVOIDER_RULES],
+            near_shares: [[0.0; 3]; 3],
+            desired_speed_m_s: self.desired_speed_m_s,
+            speed_input: self.speed_input(),
+            health: AvoidanceHealth { grid_age_s, stale: true, ..self.counters() },
+        })
+    }
+
+    fn accept(&mut self, now: Time, grid: &DepthGrid) -> Result<AvoidanceCommand, GridError> {
+        if let Some((last, _)) = self.last_grid
+            && grid.time <= last
+        {
+            return Err(GridError::OutOfOrder { time: grid.time, last });
+        }
+        let age_s = now.saturating_since(grid.time).as_secs_f64();
+        if age_s > self.params.max_grid_age_s {
+            return Err(GridError::TooOld { age_s, limit_s: self.params.max_grid_age_s });
+        }
+        let view = View::new(grid, self.params.unknown_invalid_share)?;
+        let speed_input = self.speed_input();
+        let inputs = self.map.inputs(&view.near, speed_input);
+        let outputs = self.engine.infer(&mut self.workspace, &inputs)?;
+        // A rule base whose rules all miss gives NaN: no rule, no correction.
+        let [vx_right, vy_forward, vz_up] =
+            self.map.outputs(outputs).map(|v| if v.is_nan() { 0.0 } else { v });
+        let fuzzy = FuzzyVelocity { vx_right, vy_forward, vz_up };
+        let mut rule_activations = [0.0; AVOIDER_RULES];
+        for (slot, &degree) in rule_activations.iter_mut().zip(self.workspace.rule_degrees()) {
+            *slot = degree as f32;
+        }
+        self.last_grid = Some((grid.time, grid.frame_sequence));
+
+        let p = &self.params;
+        self.climbing = if self.climbing {
+            view.centre_near() >= p.climb_exit_share
+        } else {
+            view.all_blocked(p.blocked_share)
+        };
+        let centre_blocked = view.centre_near() >= p.blocked_share;
+        let centre_unknown = view.centre_unknown();
+        let desired = self.desired_speed_m_s;
+        let target = if self.climbing {
+            [-desired, 0.0, -p.climb_speed_m_s]
+        } else {
+            let mut target = fuzzy.to_frd().map(|v| v * p.max_speed_m_s);
+            if centre_blocked {
+                target[0] = target[0].min(-desired);
+            }
+            if centre_unknown {
+                target[0] = target[0].min(-(1.0 - p.unknown_speed_share) * desired);
+            }
+            target
+        };
+        let velocity_frd_m_s = self.filter.update(now, target);
+        Ok(AvoidanceCommand {
+            time: grid.time,
+            grid_time: Some(grid.time),
+            frame_sequence: Some(grid.frame_sequence),
+            velocity_frd_m_s,
+            fuzzy,
+            rule_activations,
+            near_shares: grid.regions.map(|row| row.map(|region| region.near_share)),
+            desired_speed_m_s: desired,
+            speed_input,
+            health: AvoidanceHealth {
+                grid_age_s: Some(age_s),
+                unknown_regions: view.unknown,
+                unknown_centre_slowdown: centre_unknown,
+                centre_blocked,
+                climbing: self.climbing,
+                ..self.counters()
+            },
+        })
+    }
+
+    /// `V_in`: the desired speed as a share of the maximum, 0..1.
+    fn speed_input(&self) -> f64 {
+        (self.desired_speed_m_s / self.params.max_speed_m_s).clamp(0.0, 1.0)
+    }
+
+    /// Health with only the counters set.
+    fn counters(&self) -> AvoidanceHealth {
+        AvoidanceHealth {
+            grids_rejected: self.grids_rejected,
+            setpoints_rejected: self.setpoints_rejected,
+            ..AvoidanceHealth::default()
+        }
+    }
+}

@@ -1,0 +1,106 @@
+//! The avoider's parameters (`[actors.NAME.params]` of an `avoider` actor), with defaults that
+//! follow the thesis where it gives a number and say so where it does not.
+
+use std::path::PathBuf;
+
+use serde::Deserialize;
+
+use crate::avoidance::error::ParamsError;
+
+/// Parameters of the avoider core and its actor shell.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AvoiderParams {
+    /// Rule base file (fuzzylite FLL or our TOML), relative to the config file's directory;
+    /// `None` uses the built-in `config/avoider/thesis.fll`. It must keep the thesis's
+    /// interface: inputs `D_lu … D_rd` and `V_in`, outputs `Vx`, `Vy`, `Vz`, 18 rules.
+    /// Used by the actor only.
+    pub rules: Option<PathBuf>,
+    /// Maximum horizontal speed of the vehicle (m/s): `V_in` is the desired speed over it, and
+    /// a fuzzy output of ±1 is a correction of this many m/s. Thesis §3.3.2: 5 m/s.
+    pub max_speed_m_s: f64,
+    /// Time constant of the first-order low-pass on the correction (s); 0 turns it off. The
+    /// thesis added a low-pass against spikes from noisy regions but gives no value (§3.3.9);
+    /// 0.3 s spans about five frames at the stereo engine's 15 Hz.
+    pub filter_time_constant_s: f64,
+    /// Near-pixel share from which a region is blocked, 0..1: where the rule base's Gaussian
+    /// Low and High terms cross (0.5).
+    pub blocked_share: f64,
+    /// Near-pixel share below which the centre counts as clear again and a climb ends, 0..1;
+    /// below `blocked_share` so that the climb does not chatter at the threshold.
+    pub climb_exit_share: f64,
+    /// Climb rate while every region is blocked (m/s, up). Thesis §6 asks for a constant
+    /// climb without a number; 1.5 m/s is half of PX4's default maximum climb rate.
+    pub climb_speed_m_s: f64,
+    /// Share of invalid (no disparity) pixels above which a region is unknown, 0..1.
+    pub unknown_invalid_share: f64,
+    /// Share of the desired speed the vehicle keeps while the centre region is unknown, 0..1:
+    /// slow enough to stop short of a textureless wall, not a full stop, since open sky beyond
+    /// the disparity range is invalid too.
+    pub unknown_speed_share: f64,
+    /// Depth grids older than this are ignored and the view counts as unknown (s): a few frames
+    /// at 15 Hz plus the stereo engine's latency.
+    pub max_grid_age_s: f64,
+    /// Period of the actor's staleness check (s). Used by the actor only.
+    pub check_period_s: f64,
+}
+
+impl Default for AvoiderParams {
+    fn default() -> AvoiderParams {
+        AvoiderParams {
+            rules: None,
+            max_speed_m_s: 5.0,
+            filter_time_constant_s: 0.3,
+            blocked_share: 0.5,
+            climb_exit_share: 0.3,
+            climb_speed_m_s: 1.5,
+            unknown_invalid_share: 0.7,
+            unknown_speed_share: 0.3,
+            max_grid_age_s: 0.5,
+            check_period_s: 0.1,
+        }
+    }
+}
+
+impl AvoiderParams {
+    /// Checks every value, naming the first bad one.
+    pub fn validate(&self) -> Result<(), ParamsError> {
+        let positive = [
+            ("max_speed_m_s", self.max_speed_m_s),
+            ("climb_speed_m_s", self.climb_speed_m_s),
+            ("max_grid_age_s", self.max_grid_age_s),
+            ("check_period_s", self.check_period_s),
+        ];
+        for (field, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ParamsError { field, value, expected: "a finite value > 0" });
+            }
+        }
+        if !(self.filter_time_constant_s.is_finite() && self.filter_time_constant_s >= 0.0) {
+            return Err(ParamsError {
+                field: "filter_time_constant_s",
+                value: self.filter_time_constant_s,
+                expected: "a finite value ≥ 0",
+            });
+        }
+        let shares = [
+            ("blocked_share", self.blocked_share),
+            ("climb_exit_share", self.climb_exit_share),
+            ("unknown_invalid_share", self.unknown_invalid_share),
+            ("unknown_speed_share", self.unknown_speed_share),
+        ];
+        for (field, value) in shares {
+            if !(0.0..=1.0).contains(&value) {
+                return Err(ParamsError { field, value, expected: "a share in 0..1" });
+            }
+        }
+        if self.climb_exit_share > self.blocked_share {
+            return Err(ParamsError {
+                field: "climb_exit_share",
+                value: self.climb_exit_share,
+                expected: "at most blocked_share",
+            });
+        }
+        Ok(())
+    }
+}

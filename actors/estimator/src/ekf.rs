@@ -1,0 +1,328 @@
+//! The estimator: IMU-driven prediction at a delayed fusion horizon, lagged GPS, barometer and
+//! magnetometer fused against the state at their measurement time, and an output predictor
+//! that carries the estimate to the present (thesis §3.1, laid out like PX4 EKF2).
+//!
+//! Every IMU sample goes into the delay buffer and moves the output predictor; samples older
+//! than the horizon (the largest sensor lag) are taken out of the buffer and predict the
+//! filter, after which every observation measured by then is fused. Pure and synchronous: the
+//! actor shell, the replay and the tests all drive it the same way.
+
+use kestrel_proto::Time;
+use kestrel_proto::geo::LocalFrame;
+use kestrel_proto::messages::{
+    BaroSample, EstimatorHealth, EstimatorStatus, GpsFix, ImuSample, MagSample, NavState, NavValidity,
+};
+use nalgebra::Vector3;
+
+use crate::aiding::baro::{BaroControl, ClimbRate, ClimbRateFit};
+use crate::aiding::gps::GpsControl;
+use crate::aiding::mag::MagControl;
+use crate::covariance::{ProcessNoise, SparseRow};
+use crate::delay_buffer::DelayBuffer;
+use crate::error::{InputError, ParamError};
+use crate::filter::Filter;
+use crate::init::Alignment;
+use crate::output_predictor::OutputPredictor;
+use crate::params::{EkfParams, MAX_LAG_S};
+use crate::state::{Covariance, ImuDelta, POS, State};
+
+/// Fastest IMU the delay buffer is sized for (Hz).
+const MAX_IMU_RATE_HZ: f64 = 1000.0;
+/// IMU samples the delay buffer and the output history hold: the longest lag at the fastest
+/// IMU, with a margin.
+const HISTORY_CAPACITY: usize = (MAX_LAG_S * MAX_IMU_RATE_HZ) as usize + 16;
+/// Longest IMU interval accepted (s); a longer gap is a sensor fault.
+const MAX_IMU_DT_S: f64 = 0.1;
+/// Interval of the synthetic position fused while no GPS has ever been available (s).
+const NO_AIDING_INTERVAL_S: f64 = 0.2;
+
+/// The filter and its output once aligned.
+#[derive(Clone, Debug)]
+struct Running {
+    filter: Filter,
+    output: OutputPredictor,
+    last_no_aiding_fusion: Option<Time>,
+}
+
+/// The 16-state EKF with its delay buffers, aiding logic and output predictor.
+#[derive(Clone, Debug)]
+pub struct Ekf {
+    params: EkfParams,
+    noise: ProcessNoise,
+    horizon_us: u64,
+    alignment: Alignment,
+    running: Option<Running>,
+    imu_buffer: DelayBuffer<ImuDelta>,
+    gps_buffer: DelayBuffer<GpsFix>,
+    baro_buffer: DelayBuffer<BaroSample>,
+    climb_buffer: DelayBuffer<ClimbRate>,
+    mag_buffer: DelayBuffer<MagSample>,
+    climb_fit: ClimbRateFit,
+    gps: GpsControl,
+    baro: BaroControl,
+    mag: MagControl,
+    frame: Option<LocalFrame>,
+    newest_imu: Option<Time>,
+    newest_gyro_rad_s: Vector3<f64>,
+    imu_rejected: u64,
+}
+
+impl Ekf {
+    /// A filter waiting for a still vehicle to align.
+    pub fn new(params: EkfParams) -> Result<Ekf, ParamError> {
+        params.validate()?;
+        let noise = ProcessNoise {
+            gyro_rad_s: params.gyro_noise_rad_s,
+            accel_m_s2: params.accel_noise_m_s2,
+            gyro_bias_rad_s2: params.gyro_bias_noise_rad_s2,
+            accel_bias_m_s3: params.accel_bias_noise_m_s3,
+        };
+        Ok(Ekf {
+            horizon_us: (params.fusion_horizon_s() * 1e6).round() as u64,
+            noise,
+            alignment: Alignment::default(),
+            running: None,
+            imu_buffer: DelayBuffer::new(HISTORY_CAPACITY),
+            gps_buffer: DelayBuffer::new(32),
+            baro_buffer: DelayBuffer::new(128),
+            climb_buffer: DelayBuffer::new(128),
+            mag_buffer: DelayBuffer::new(128),
+            climb_fit: ClimbRateFit::default(),
+            gps: GpsControl::default(),
+            baro: BaroControl::default(),
+            mag: MagControl::default(),
+            frame: None,
+            newest_imu: None,
+            newest_gyro_rad_s: Vector3::zeros(),
+            imu_rejected: 0,
+            params,
+        })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &EkfParams {
+        &self.params
+    }
+
+    /// Whether the filter has aligned and is running.
+    pub fn is_aligned(&self) -> bool {
+        self.running.is_some()
+    }
+
+    /// The state at the delayed fusion horizon.
+    pub fn delayed_state(&self) -> Option<&State> {
+        self.running.as_ref().map(|r| &r.filter.state)
+    }
+
+    /// The error-state covariance at the delayed fusion horizon.
+    pub fn covariance(&self) -> Option<&Covariance> {
+        self.running.as_ref().map(|r| &r.filter.cov)
+    }
+
+    /// The local NED frame, once the first good GPS fix has set it.
+    pub fn frame(&self) -> Option<&LocalFrame> {
+        self.frame.as_ref()
+    }
+
+    /// Takes one IMU sample: predicts the output to its time and moves the delayed horizon.
+    pub fn push_imu(&mut self, sample: &ImuSample) -> Result<(), InputError> {
+        if let Err(e) = self.check_imu(sample) {
+            self.imu_rejected += 1;
+            return Err(e);
+        }
+        self.newest_imu = Some(sample.time);
+        self.newest_gyro_rad_s = Vector3::from(sample.gyro_rad_s);
+        let delta = ImuDelta::from_rates(sample.time, sample.gyro_rad_s, sample.accel_m_s2, sample.dt_s);
+        let Some(running) = self.running.as_mut() else {
+            if let Some(aligned) = self.alignment.push_imu(sample, &self.params) {
+                let state = State::at_rest(aligned.time, aligned.attitude);
+                let horizon_s = self.params.fusion_horizon_s();
+                let output =
+                    OutputPredictor::new(&state, HISTORY_CAPACITY, horizon_s, self.params.output_tau_s);
+                if let Some(field) = aligned.mag_earth_ned_gauss {
+                    self.mag.set_earth_field(field);
+                }
+                let filter = Filter::aligned(state, aligned.mag_earth_ned_gauss.is_some());
+                tracing::info!(time = %aligned.time, "estimator aligned");
+                self.running = Some(Running { filter, output, last_no_aiding_fusion: None });
+            }
+            return Ok(());
+        };
+        let f = &running.filter.state;
+        running.output.predict(&delta, &f.gyro_bias_rad_s, &f.accel_bias_m_s2);
+        self.imu_buffer.push(delta);
+        let newest = sample.time.as_micros();
+        while let Some(d) = self.imu_buffer.pop_oldest_if(|d| d.time.as_micros() + self.horizon_us <= newest)
+        {
+            self.step_delayed(&d);
+        }
+        Ok(())
+    }
+
+    /// Takes a GPS fix stamped with its time of validity.
+    pub fn push_gps(&mut self, fix: &GpsFix) -> Result<(), InputError> {
+        let finite = [fix.lat_deg, fix.lon_deg, fix.alt_msl_m, fix.h_acc_m, fix.v_acc_m, fix.s_acc_m_s]
+            .iter()
+            .chain(&fix.vel_ned_m_s)
+            .all(|x| x.is_finite());
+        if !finite {
+            return Err(InputError::NotFinite { sensor: "gps", time: fix.time });
+        }
+        if self.running.is_some() {
+            let fix = GpsFix { time: self.fusion_time(fix.time), ..fix.clone() };
+            self.gps_buffer.push(fix);
+        }
+        Ok(())
+    }
+
+    /// Takes a barometer sample stamped with its measurement time.
+    pub fn push_baro(&mut self, sample: &BaroSample) -> Result<(), InputError> {
+        if !sample.altitude_m.is_finite() {
+            return Err(InputError::NotFinite { sensor: "baro", time: sample.time });
+        }
+        if self.running.is_some() {
+            let sample = BaroSample { time: self.fusion_time(sample.time), ..sample.clone() };
+            if self.params.fuse_baro_climb_rate
+                && let Some(climb) = self.climb_fit.push(&sample)
+            {
+                self.climb_buffer.push(climb);
+            }
+            self.baro_buffer.push(sample);
+        }
+        Ok(())
+    }
+
+    /// Takes a magnetometer sample stamped with its measurement time.
+    pub fn push_mag(&mut self, sample: &MagSample) -> Result<(), InputError> {
+        if !sample.field_gauss.iter().all(|x| x.is_finite()) {
+            return Err(InputError::NotFinite { sensor: "mag", time: sample.time });
+        }
+        if self.running.is_some() {
+            self.mag_buffer.push(MagSample { time: self.fusion_time(sample.time), ..sample.clone() });
+        } else {
+            self.alignment.push_mag(sample);
+        }
+        Ok(())
+    }
+
+    /// The time an observation is fused at: its own with lag compensation, else its arrival
+    /// (the newest IMU time).
+    fn fusion_time(&self, measured: Time) -> Time {
+        match self.newest_imu {
+            Some(newest) if !self.params.lag_compensation => newest,
+            _ => measured,
+        }
+    }
+
+    fn check_imu(&self, s: &ImuSample) -> Result<(), InputError> {
+        if !(s.gyro_rad_s.iter().chain(&s.accel_m_s2).all(|x| x.is_finite())) {
+            return Err(InputError::NotFinite { sensor: "imu", time: s.time });
+        }
+        if !(s.dt_s > 0.0 && s.dt_s <= MAX_IMU_DT_S) {
+            return Err(InputError::BadInterval { time: s.time, dt_s: s.dt_s });
+        }
+        match self.newest_imu {
+            Some(newest) if s.time <= newest => {
+                Err(InputError::OutOfOrder { sensor: "imu", time: s.time, newest })
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// Predicts the filter over `d`, fuses what was measured by then and corrects the output.
+    fn step_delayed(&mut self, d: &ImuDelta) {
+        let Some(running) = self.running.as_mut() else { return };
+        let filter = &mut running.filter;
+        filter.predict(d, &self.noise);
+        let t = filter.state.time;
+        let params = &self.params;
+        while let Some(fix) = self.gps_buffer.pop_oldest_if(|f| f.time <= t) {
+            self.gps.fuse(filter, &fix, &mut self.frame, params);
+        }
+        while let Some(sample) = self.baro_buffer.pop_oldest_if(|s| s.time <= t) {
+            self.baro.fuse_height(filter, &sample, params);
+        }
+        while let Some(climb) = self.climb_buffer.pop_oldest_if(|c| c.time <= t) {
+            self.baro.fuse_climb_rate(filter, &climb, params);
+        }
+        while let Some(sample) = self.mag_buffer.pop_oldest_if(|s| s.time <= t) {
+            self.mag.fuse(filter, &sample, params);
+        }
+        if self.frame.is_none()
+            && running
+                .last_no_aiding_fusion
+                .is_none_or(|last| (t - last).as_secs_f64() >= NO_AIDING_INTERVAL_S)
+        {
+            let r = params.no_aiding_position_noise_m.powi(2);
+            for axis in 0..2 {
+                let y = -filter.state.pos_ned_m[axis];
+                filter.fuse(&SparseRow::unit(POS + axis), y, r);
+            }
+            running.last_no_aiding_fusion = Some(t);
+        }
+        if let Some(reset) = filter.take_reset() {
+            running.output.apply_reset(&reset);
+        }
+        running.output.correct(&filter.state, d.dt_s);
+    }
+
+    /// The present estimate for the controllers; `None` until aligned.
+    pub fn nav_state(&self) -> Option<NavState> {
+        let running = self.running.as_ref()?;
+        let f = &running.filter.state;
+        let o = running.output.current();
+        let q = o.attitude.quaternion();
+        let params = &self.params;
+        let t = f.time;
+        let gps_velocity = self.gps.velocity_aiding(t, params);
+        let baro_height = self.baro.height_aiding(t, params);
+        Some(NavState {
+            time: o.time,
+            attitude: [q.w, q.i, q.j, q.k],
+            angular_velocity_rad_s: (self.newest_gyro_rad_s - f.gyro_bias_rad_s).into(),
+            velocity_ned_m_s: o.vel_ned_m_s.into(),
+            position_ned_m: o.pos_ned_m.into(),
+            gyro_bias_rad_s: f.gyro_bias_rad_s.into(),
+            accel_bias_m_s2: f.accel_bias_m_s2.into(),
+            covariance_diagonal: running.filter.thesis_variances(),
+            origin: self.frame.map(|frame| frame.home()),
+            valid: NavValidity {
+                attitude: true,
+                horizontal_velocity: gps_velocity,
+                horizontal_position: self.gps.position_aiding(t, params),
+                vertical_velocity: gps_velocity || baro_height,
+                vertical_position: baro_height,
+            },
+        })
+    }
+
+    /// Innovations, counters and health.
+    pub fn status(&self) -> EstimatorStatus {
+        let t = self.delayed_state().map_or(Time::ZERO, |s| s.time);
+        let params = &self.params;
+        let aligned = self.running.is_some();
+        EstimatorStatus {
+            time: self.newest_imu.unwrap_or(Time::ZERO),
+            gps_position_ne: self.gps.position,
+            gps_velocity_ned: self.gps.velocity,
+            baro_height: self.baro.height,
+            baro_climb_rate: self.baro.climb_rate,
+            mag_field: self.mag.field,
+            gps: self.gps.counters,
+            baro: self.baro.counters,
+            mag: self.mag.counters,
+            health: EstimatorHealth {
+                tilt_aligned: aligned,
+                yaw_aligned: aligned && self.mag.fusing(t, params),
+                origin_set: self.frame.is_some(),
+                gps_fusing: self.gps.position_aiding(t, params),
+                baro_fusing: self.baro.height_aiding(t, params),
+                mag_fusing: self.mag.fusing(t, params),
+                dead_reckoning: aligned && !self.gps.position_aiding(t, params),
+                numerical_faults: self.running.as_ref().map_or(0, |r| r.filter.numerical_faults),
+                imu_rejected: self.imu_rejected,
+            },
+            fusion_horizon_s: self.newest_imu.map_or(0.0, |n| (n - t).as_secs_f64()),
+        }
+    }
+}

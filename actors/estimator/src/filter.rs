@@ -1,0 +1,156 @@
+//! The filter at the delayed fusion horizon: nominal state, error covariance, the prediction
+//! step (thesis eq. 3.5–3.19) and the correction primitives the aiding sources use.
+
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+
+use crate::covariance::{ProcessNoise, SparseRow, Transition, fuse_scalar, reset_block};
+use crate::state::{
+    ACCEL_BIAS, ATT, Covariance, ERROR_STATES, GRAVITY_M_S2, GYRO_BIAS, ImuDelta, POS, State, VEL,
+};
+
+/// Initial standard deviations after alignment.
+const INIT_TILT_RAD: f64 = 0.05;
+const INIT_YAW_RAD: f64 = 0.15;
+const INIT_VEL_M_S: f64 = 0.5;
+const INIT_POS_M: f64 = 1.0;
+const INIT_GYRO_BIAS_RAD_S: f64 = 0.01;
+const INIT_ACCEL_BIAS_M_S2: f64 = 0.2;
+
+/// Jumps of the state made by resets, which the output predictor must copy.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ResetDelta {
+    pub pos_ned_m: Vector3<f64>,
+    pub vel_ned_m_s: Vector3<f64>,
+}
+
+/// State and covariance at the fusion horizon.
+#[derive(Clone, Debug)]
+pub struct Filter {
+    pub state: State,
+    pub cov: Covariance,
+    /// Fusions refused for numerical reasons.
+    pub numerical_faults: u32,
+    /// Resets since the output predictor last took them.
+    pending_reset: ResetDelta,
+}
+
+/// Propagates `state` over one IMU interval (eq. 3.6–3.11) and returns the new state with the
+/// transition's Jacobian blocks.
+///
+/// The quaternion is integrated exactly for a constant rate over the step and renormalised; the
+/// specific force is rotated with the attitude at the end of the step (where the IMU reports
+/// it); position integrates the mean of the old and new velocity.
+pub fn propagate(state: &State, imu: &ImuDelta) -> (State, Transition) {
+    let dt = imu.dt_s;
+    let d_angle = imu.delta_angle_rad - state.gyro_bias_rad_s * dt;
+    let d_vel = imu.delta_velocity_m_s - state.accel_bias_m_s2 * dt;
+    let attitude = UnitQuaternion::new_normalize(
+        (state.attitude * UnitQuaternion::from_scaled_axis(d_angle)).into_inner(),
+    );
+    let r = attitude.to_rotation_matrix().into_inner();
+    let r_dv = r * d_vel;
+    let vel = state.vel_ned_m_s + r_dv + Vector3::new(0.0, 0.0, GRAVITY_M_S2 * dt);
+    let pos = state.pos_ned_m + (state.vel_ned_m_s + vel) * (0.5 * dt);
+    let next = State { time: imu.time, attitude, vel_ned_m_s: vel, pos_ned_m: pos, ..*state };
+    let right_jacobian = Matrix3::identity() - d_angle.cross_matrix() * 0.5;
+    (next, Transition { a: -r * right_jacobian * dt, b: -r_dv.cross_matrix(), c: -r * dt, dt_s: dt })
+}
+
+impl Filter {
+    /// A filter just aligned at rest with `attitude`; `yaw_known` says whether a compass set the
+    /// heading.
+    pub fn aligned(state: State, yaw_known: bool) -> Filter {
+        let mut cov = Covariance::zeros();
+        let yaw_sd = if yaw_known { INIT_YAW_RAD } else { 1.0 };
+        let sds = [
+            (ATT, [INIT_TILT_RAD, INIT_TILT_RAD, yaw_sd]),
+            (VEL, [INIT_VEL_M_S; 3]),
+            (POS, [INIT_POS_M; 3]),
+            (GYRO_BIAS, [INIT_GYRO_BIAS_RAD_S; 3]),
+            (ACCEL_BIAS, [INIT_ACCEL_BIAS_M_S2; 3]),
+        ];
+        for (start, sd) in sds {
+            for (i, s) in sd.iter().enumerate() {
+                cov[(start + i, start + i)] = s * s;
+            }
+        }
+        Filter { state, cov, numerical_faults: 0, pending_reset: ResetDelta::default() }
+    }
+
+    /// The prediction step: state and covariance over one IMU interval.
+    pub fn predict(&mut self, imu: &ImuDelta, noise: &ProcessNoise) {
+        let (next, transition) = propagate(&self.state, imu);
+        self.state = next;
+        transition.predict(&mut self.cov, noise);
+    }
+
+    /// Innovation variance of row `h` with observation variance `r`.
+    pub fn innovation_variance(&self, h: &SparseRow, r: f64) -> f64 {
+        h.innovation_variance(&self.cov, r)
+    }
+
+    /// Fuses one scalar observation with innovation `y` and observation variance `r` and
+    /// injects the correction. Returns false (and counts a fault) when refused.
+    pub fn fuse(&mut self, h: &SparseRow, y: f64, r: f64) -> bool {
+        match fuse_scalar(&mut self.cov, h, y, r) {
+            Ok(dx) => {
+                let next = self.state.boxplus(&dx);
+                if next.is_finite() {
+                    self.state = next;
+                    true
+                } else {
+                    self.numerical_faults += 1;
+                    false
+                }
+            }
+            Err(fault) => {
+                tracing::debug!(%fault, "fusion refused");
+                self.numerical_faults += 1;
+                false
+            }
+        }
+    }
+
+    /// Sets north/east position to `ne_m` with variance `variance_m2`, forgetting correlations.
+    pub fn reset_horizontal_position(&mut self, ne_m: [f64; 2], variance_m2: f64) {
+        let delta = Vector3::new(ne_m[0] - self.state.pos_ned_m.x, ne_m[1] - self.state.pos_ned_m.y, 0.0);
+        self.state.pos_ned_m += delta;
+        self.pending_reset.pos_ned_m += delta;
+        reset_block(&mut self.cov, POS, 2, variance_m2);
+    }
+
+    /// Sets the NED velocity to `vel_ned_m_s` with variance `variance`, forgetting correlations.
+    pub fn reset_velocity(&mut self, vel_ned_m_s: Vector3<f64>, variance: f64) {
+        let delta = vel_ned_m_s - self.state.vel_ned_m_s;
+        self.state.vel_ned_m_s = vel_ned_m_s;
+        self.pending_reset.vel_ned_m_s += delta;
+        reset_block(&mut self.cov, VEL, 3, variance);
+    }
+
+    /// Takes the resets made since the last call.
+    pub fn take_reset(&mut self) -> Option<ResetDelta> {
+        let reset = std::mem::take(&mut self.pending_reset);
+        (reset != ResetDelta::default()).then_some(reset)
+    }
+
+    /// Variances of the thesis's 16 states (quaternion w, x, y, z; velocity; position; gyro
+    /// bias; accel bias), the quaternion's mapped from the attitude error through
+    /// `∂q/∂δθ = ½ [−vᵀ; w·I − [v]×]` (v the quaternion's vector part).
+    pub fn thesis_variances(&self) -> [f64; 16] {
+        let q = self.state.attitude.quaternion();
+        let v = q.imag();
+        let mut j = nalgebra::SMatrix::<f64, 4, 3>::zeros();
+        j.fixed_view_mut::<1, 3>(0, 0).copy_from(&(-v.transpose() * 0.5));
+        j.fixed_view_mut::<3, 3>(1, 0).copy_from(&((Matrix3::identity() * q.w - v.cross_matrix()) * 0.5));
+        let p_att = self.cov.fixed_view::<3, 3>(ATT, ATT);
+        let p_q = j * p_att * j.transpose();
+        let mut out = [0.0; 16];
+        for (i, o) in out.iter_mut().take(4).enumerate() {
+            *o = p_q[(i, i)];
+        }
+        for i in VEL..ERROR_STATES {
+            out[i + 1] = self.cov[(i, i)];
+        }
+        out
+    }
+}

@@ -1,0 +1,124 @@
+//! Alignment of a still vehicle: roll and pitch from the mean specific force, yaw from the
+//! magnetometer (plus declination), and the Earth field for magnetometer fusion from the first
+//! reading rotated into NED (thesis §3.1.2 after eq. 3.28). The NED origin comes later, from the
+//! first good 3D GPS fix (see `aiding::gps`).
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::{ImuSample, MagSample};
+use nalgebra::{UnitQuaternion, Vector3};
+
+use crate::params::EkfParams;
+
+/// What the alignment found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aligned {
+    /// Time of the last sample of the still window.
+    pub time: Time,
+    /// Rotation from body FRD to NED.
+    pub attitude: UnitQuaternion<f64>,
+    /// The Earth's field in NED (gauss), when a magnetometer sample was available.
+    pub mag_earth_ned_gauss: Option<Vector3<f64>>,
+}
+
+/// Collects IMU samples until they have been still for the alignment window.
+#[derive(Clone, Debug, Default)]
+pub struct Alignment {
+    start: Option<Time>,
+    samples: u32,
+    accel_sum_m_s2: Vector3<f64>,
+    accel_norm_min_m_s2: f64,
+    accel_norm_max_m_s2: f64,
+    latest_mag: Option<MagSample>,
+}
+
+impl Alignment {
+    /// Remembers the newest magnetometer sample for the yaw.
+    pub fn push_mag(&mut self, sample: &MagSample) {
+        self.latest_mag = Some(sample.clone());
+    }
+
+    /// Adds an IMU sample (finite, checked by the caller); returns the alignment once the vehicle
+    /// has been still for `align_duration_s`.
+    pub fn push_imu(&mut self, sample: &ImuSample, params: &EkfParams) -> Option<Aligned> {
+        let accel = Vector3::from(sample.accel_m_s2);
+        let gyro = Vector3::from(sample.gyro_rad_s);
+        let norm = accel.norm();
+        let moving = gyro.norm() > params.align_max_rate_rad_s || norm < 1.0;
+        let start = match self.start {
+            Some(start) if !moving => start,
+            _ => {
+                self.restart(sample.time, accel);
+                return None;
+            }
+        };
+        self.samples += 1;
+        self.accel_sum_m_s2 += accel;
+        self.accel_norm_min_m_s2 = self.accel_norm_min_m_s2.min(norm);
+        self.accel_norm_max_m_s2 = self.accel_norm_max_m_s2.max(norm);
+        if self.accel_norm_max_m_s2 - self.accel_norm_min_m_s2 > params.align_max_accel_spread_m_s2 {
+            self.restart(sample.time, accel);
+            return None;
+        }
+        if (sample.time - start).as_secs_f64() < params.align_duration_s {
+            return None;
+        }
+        let mean = self.accel_sum_m_s2 / f64::from(self.samples);
+        let roll = (-mean.y).atan2(-mean.z);
+        let pitch = mean.x.atan2(mean.y.hypot(mean.z));
+        let tilt = UnitQuaternion::from_euler_angles(roll, pitch, 0.0);
+        let (attitude, mag_earth_ned_gauss) = match &self.latest_mag {
+            Some(mag) => {
+                let body = Vector3::from(mag.field_gauss);
+                let level = tilt * body;
+                let yaw = params.mag_declination_deg.to_radians() - level.y.atan2(level.x);
+                let attitude = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
+                (attitude, Some(attitude * body))
+            }
+            None => (tilt, None),
+        };
+        Some(Aligned { time: sample.time, attitude, mag_earth_ned_gauss })
+    }
+
+    fn restart(&mut self, time: Time, accel: Vector3<f64>) {
+        let norm = accel.norm();
+        self.start = Some(time);
+        self.samples = 1;
+        self.accel_sum_m_s2 = accel;
+        self.accel_norm_min_m_s2 = norm;
+        self.accel_norm_max_m_s2 = norm;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn still(attitude: UnitQuaternion<f64>, field_ned: Vector3<f64>, params: &EkfParams) -> Aligned {
+        let mut a = Alignment::default();
+        let specific_force = attitude.inverse() * Vector3::new(0.0, 0.0, -9.80665);
+        a.push_mag(&MagSample { time: Time::ZERO, field_gauss: (attitude.inverse() * field_ned).into() });
+        for i in 0..1000u64 {
+            let s = ImuSample {
+                time: Time::from_micros(2500 * i),
+                gyro_rad_s: [0.0; 3],
+                accel_m_s2: specific_force.into(),
+                dt_s: 0.0025,
+            };
+            if let Some(aligned) = a.push_imu(&s, params) {
+                return aligned;
+            }
+        }
+        panic!("never aligned");
+    }
+
+    #[test]
+    fn recovers_roll_pitch_yaw_of_a_still_vehicle() {
+        let params = EkfParams { mag_declination_deg: -2.0, ..EkfParams::default() };
+        let truth = UnitQuaternion::from_euler_angles(0.1, -0.2, 2.5);
+        let dec = (-2.0f64).to_radians();
+        let field = Vector3::new(0.4 * dec.cos(), 0.4 * dec.sin(), 0.1);
+        let aligned = still(truth, field, &params);
+        assert!(aligned.attitude.angle_to(&truth) < 1e-9, "{:?}", aligned.attitude.euler_angles());
+        assert!((aligned.mag_earth_ned_gauss.unwrap() - field).norm() < 1e-9);
+    }
+}

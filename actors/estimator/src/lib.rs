@@ -1,0 +1,32 @@
+//! Kestrel's state estimator: the thesis's 16-state extended Kalman filter (§3.1) done the way
+//! PX4 EKF2 does it, and the actor that runs it.
+//!
+//! * [`Ekf`] is the pure core: feed it [`ImuSample`](kestrel_proto::messages::ImuSample)s and
+//!   lagged GPS, barometer and magnetometer samples; read [`Ekf::nav_state`] and
+//!   [`Ekf::status`].
+//! * [`EstimatorActor`] is its actor shell.
+//! * [`replay`] runs the core over a PX4 ULog and compares with the log's own EKF2.
+//!
+//! Layout (after EKF2): `state` (what is estimated), `filter` (prediction, correction
+//! primitives), `covariance` (sparse `F P Fᵀ + G N Gᵀ`, scalar fusion, limits),
+//! `delay_buffer`, `output_predictor`, `init` (alignment), `aiding::{gps, baro, mag}` (when to
+//! fuse each sensor and the maths of its observation), `params`.
+
+pub mod actor;
+pub mod aiding;
+pub mod covariance;
+pub mod delay_buffer;
+pub mod ekf;
+pub mod error;
+pub mod filter;
+pub mod init;
+pub mod output_predictor;
+pub mod params;
+pub mod replay;
+pub mod state;
+
+pub use actor::{EstimatorActor, EstimatorInput};
+pub use ekf::Ekf;
+pub use error::{InputError, ParamError};
+pub use params::EkfParams;
+pub use replay::{ReplayError, ReplayResult, ReplayRow, ReplaySummary, replay_ulog, write_csv};

@@ -1,0 +1,185 @@
+//! The estimator's tuning, from the `[actors.estimator.params]` table of the config.
+//!
+//! Defaults are the thesis's (§3.1, §4.1): accelerometer process noise 0.25 m/s², GPS position
+//! 0.5 m and velocity 0.5 m/s, barometer height 2 m and climb rate 1.5 m/s, GPS lag 220 ms and
+//! barometer lag 50 ms. Where the thesis is silent the values are PX4 EKF2's defaults.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::ParamError;
+
+/// Every tuning value of the filter. Units are in the names; noises are 1σ.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EkfParams {
+    /// Gyro white noise driving attitude uncertainty (rad/s); PX4 EKF2_GYR_NOISE.
+    pub gyro_noise_rad_s: f64,
+    /// Accelerometer white noise driving velocity uncertainty (m/s²); thesis 0.25.
+    pub accel_noise_m_s2: f64,
+    /// Gyro bias random walk (rad/s²); PX4 EKF2_GYR_B_NOISE.
+    pub gyro_bias_noise_rad_s2: f64,
+    /// Accelerometer bias random walk (m/s³); PX4 EKF2_ACC_B_NOISE.
+    pub accel_bias_noise_m_s3: f64,
+    /// GPS north/east position noise (m); the receiver's own `h_acc_m` is used when larger.
+    pub gps_position_noise_m: f64,
+    /// GPS velocity noise per axis (m/s); the receiver's `s_acc_m_s` is used when larger.
+    pub gps_velocity_noise_m_s: f64,
+    /// Barometric height noise (m).
+    pub baro_height_noise_m: f64,
+    /// Noise of the climb rate differentiated from the barometer (m/s).
+    pub baro_climb_rate_noise_m_s: f64,
+    /// Fuse the barometric climb rate (thesis eq. 3.21) besides the height.
+    pub fuse_baro_climb_rate: bool,
+    /// Magnetometer noise per axis (gauss); PX4 EKF2_MAG_NOISE.
+    pub mag_noise_gauss: f64,
+    /// Innovation gate of GPS position and velocity (standard deviations).
+    pub gps_gate_sigma: f64,
+    /// Innovation gate of barometric height and climb rate (standard deviations).
+    pub baro_gate_sigma: f64,
+    /// Innovation gate of each magnetometer axis (standard deviations).
+    pub mag_gate_sigma: f64,
+    /// How long after its time of validity a GPS fix arrives (s).
+    pub gps_lag_s: f64,
+    /// How long after measurement a barometer sample arrives (s).
+    pub baro_lag_s: f64,
+    /// How long after measurement a magnetometer sample arrives (s).
+    pub mag_lag_s: f64,
+    /// Fuse each sample against the state at its measurement time (a delayed fusion horizon
+    /// as long as the largest lag). Off: fuse on arrival against the newest state, as a
+    /// filter without a delay buffer would.
+    pub lag_compensation: bool,
+    /// Angle from true north to magnetic north, east positive (degrees).
+    pub mag_declination_deg: f64,
+    /// Relative deviation of the field strength from the aligned one beyond which a magnetometer
+    /// sample counts as disturbed and is not fused (0.3 = ±30 %).
+    pub mag_strength_tolerance: f64,
+    /// GPS rejected continuously for this long resets position and velocity to GPS (s).
+    pub gps_reset_timeout_s: f64,
+    /// Without horizontal aiding for this long the position is flagged invalid (s).
+    pub horizontal_position_timeout_s: f64,
+    /// Noise of the synthetic "stay here" position fused while there is no GPS at all (m).
+    pub no_aiding_position_noise_m: f64,
+    /// Fewest satellites for a fix to be used.
+    pub gps_min_satellites: u8,
+    /// Largest reported horizontal accuracy for a fix to be used (m).
+    pub gps_max_h_acc_m: f64,
+    /// Length of the still period the alignment averages (s).
+    pub align_duration_s: f64,
+    /// Largest gyro rate during alignment (rad/s).
+    pub align_max_rate_rad_s: f64,
+    /// Largest spread of the specific force magnitude during alignment (m/s²).
+    pub align_max_accel_spread_m_s2: f64,
+    /// Time constant with which the output predictor tracks the delayed state (s).
+    pub output_tau_s: f64,
+}
+
+impl Default for EkfParams {
+    fn default() -> EkfParams {
+        EkfParams {
+            gyro_noise_rad_s: 0.015,
+            accel_noise_m_s2: 0.25,
+            gyro_bias_noise_rad_s2: 1e-3,
+            accel_bias_noise_m_s3: 3e-3,
+            gps_position_noise_m: 0.5,
+            gps_velocity_noise_m_s: 0.5,
+            baro_height_noise_m: 2.0,
+            baro_climb_rate_noise_m_s: 1.5,
+            fuse_baro_climb_rate: true,
+            mag_noise_gauss: 0.05,
+            gps_gate_sigma: 5.0,
+            baro_gate_sigma: 5.0,
+            mag_gate_sigma: 3.0,
+            gps_lag_s: 0.22,
+            baro_lag_s: 0.05,
+            mag_lag_s: 0.0,
+            lag_compensation: true,
+            mag_declination_deg: 0.0,
+            mag_strength_tolerance: 0.3,
+            gps_reset_timeout_s: 5.0,
+            horizontal_position_timeout_s: 5.0,
+            no_aiding_position_noise_m: 10.0,
+            gps_min_satellites: 6,
+            gps_max_h_acc_m: 5.0,
+            align_duration_s: 1.0,
+            align_max_rate_rad_s: 0.1,
+            align_max_accel_spread_m_s2: 0.5,
+            output_tau_s: 0.25,
+        }
+    }
+}
+
+impl EkfParams {
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let positive = [
+            ("gyro_noise_rad_s", self.gyro_noise_rad_s),
+            ("accel_noise_m_s2", self.accel_noise_m_s2),
+            ("gyro_bias_noise_rad_s2", self.gyro_bias_noise_rad_s2),
+            ("accel_bias_noise_m_s3", self.accel_bias_noise_m_s3),
+            ("gps_position_noise_m", self.gps_position_noise_m),
+            ("gps_velocity_noise_m_s", self.gps_velocity_noise_m_s),
+            ("baro_height_noise_m", self.baro_height_noise_m),
+            ("baro_climb_rate_noise_m_s", self.baro_climb_rate_noise_m_s),
+            ("mag_noise_gauss", self.mag_noise_gauss),
+            ("gps_gate_sigma", self.gps_gate_sigma),
+            ("baro_gate_sigma", self.baro_gate_sigma),
+            ("mag_gate_sigma", self.mag_gate_sigma),
+            ("mag_strength_tolerance", self.mag_strength_tolerance),
+            ("gps_reset_timeout_s", self.gps_reset_timeout_s),
+            ("horizontal_position_timeout_s", self.horizontal_position_timeout_s),
+            ("no_aiding_position_noise_m", self.no_aiding_position_noise_m),
+            ("gps_max_h_acc_m", self.gps_max_h_acc_m),
+            ("align_duration_s", self.align_duration_s),
+            ("align_max_rate_rad_s", self.align_max_rate_rad_s),
+            ("align_max_accel_spread_m_s2", self.align_max_accel_spread_m_s2),
+            ("output_tau_s", self.output_tau_s),
+        ];
+        for (name, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(ParamError::new(name, format!("must be finite and positive, got {value}")));
+            }
+        }
+        for (name, value) in
+            [("gps_lag_s", self.gps_lag_s), ("baro_lag_s", self.baro_lag_s), ("mag_lag_s", self.mag_lag_s)]
+        {
+            if !(value.is_finite() && (0.0..=MAX_LAG_S).contains(&value)) {
+                return Err(ParamError::new(name, format!("must be within 0..={MAX_LAG_S} s, got {value}")));
+            }
+        }
+        if !(self.mag_declination_deg.is_finite() && self.mag_declination_deg.abs() <= 180.0) {
+            return Err(ParamError::new("mag_declination_deg", "must be within ±180°"));
+        }
+        Ok(())
+    }
+
+    /// The delayed fusion horizon: how far behind the newest IMU sample the filter runs (s).
+    pub fn fusion_horizon_s(&self) -> f64 {
+        if self.lag_compensation { self.gps_lag_s.max(self.baro_lag_s).max(self.mag_lag_s) } else { 0.0 }
+    }
+}
+
+/// Longest sensor lag the delay buffer is sized for (s).
+pub const MAX_LAG_S: f64 = 1.0;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_thesis_values_and_valid() {
+        let p = EkfParams::default();
+        p.validate().unwrap();
+        assert_eq!((p.accel_noise_m_s2, p.gps_position_noise_m, p.gps_velocity_noise_m_s), (0.25, 0.5, 0.5));
+        assert_eq!((p.baro_height_noise_m, p.baro_climb_rate_noise_m_s), (2.0, 1.5));
+        assert_eq!((p.gps_gate_sigma, p.baro_gate_sigma, p.mag_gate_sigma), (5.0, 5.0, 3.0));
+        assert_eq!((p.gps_lag_s, p.baro_lag_s), (0.22, 0.05));
+    }
+
+    #[test]
+    fn bad_values_name_the_field() {
+        let p = EkfParams { gps_lag_s: -0.1, ..EkfParams::default() };
+        assert!(p.validate().unwrap_err().to_string().contains("gps_lag_s"));
+        let p = EkfParams { accel_noise_m_s2: f64::NAN, ..EkfParams::default() };
+        assert!(p.validate().unwrap_err().to_string().contains("accel_noise_m_s2"));
+    }
+}

@@ -1,0 +1,128 @@
+//! Reading a PX4 ULog into columns (through the `px4-ulog` crate) and parameters.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use px4_ulog::full_parser::{MultiId, SomeVec, read_file};
+use px4_ulog::stream_parser::{
+    Message, ParameterMessage, SimpleCallbackResult, read_file_with_simple_callback,
+};
+
+use crate::replay::ReplayError;
+
+/// The first instance of every topic of a log, as columns, and the log's parameters.
+pub struct Log {
+    path: PathBuf,
+    topics: HashMap<String, HashMap<String, SomeVec>>,
+    params: HashMap<String, f64>,
+}
+
+impl Log {
+    /// Reads the whole log.
+    pub fn read(path: &Path) -> Result<Log, ReplayError> {
+        let name = path.to_str().ok_or_else(|| ReplayError::Path { path: path.to_owned() })?;
+        let io = |source| ReplayError::Read { path: path.to_owned(), source };
+        let parsed = read_file(name).map_err(io)?;
+        let topics = parsed
+            .messages
+            .into_iter()
+            .filter_map(|(topic, mut instances)| {
+                instances.remove(&MultiId::new(0)).map(|fields| (topic, fields))
+            })
+            .collect();
+        let mut params = HashMap::new();
+        read_file_with_simple_callback(name, &mut |msg| {
+            if let Message::ParameterMessage(p) = msg {
+                match p {
+                    ParameterMessage::Float(name, v, _) => params.insert((*name).to_owned(), f64::from(*v)),
+                    ParameterMessage::Int32(name, v, _) => params.insert((*name).to_owned(), f64::from(*v)),
+                };
+            }
+            SimpleCallbackResult::KeepReading
+        })
+        .map_err(io)?;
+        Ok(Log { path: path.to_owned(), topics, params })
+    }
+
+    /// Whether the log has `topic`.
+    pub fn has(&self, topic: &str) -> bool {
+        self.topics.contains_key(topic)
+    }
+
+    /// A parameter's value as the log started.
+    pub fn param(&self, name: &str) -> Option<f64> {
+        self.params.get(name).copied()
+    }
+
+    /// Whether `topic` has `field`.
+    pub fn has_field(&self, topic: &str, field: &str) -> bool {
+        self.topics.get(topic).is_some_and(|t| t.contains_key(field))
+    }
+
+    /// A numeric column.
+    pub fn column(&self, topic: &str, field: &str) -> Result<Vec<f64>, ReplayError> {
+        let fields = self.topics.get(topic).ok_or_else(|| self.missing(topic, None))?;
+        let values = fields.get(field).ok_or_else(|| self.missing(topic, Some(field)))?;
+        Ok(to_f64(values))
+    }
+
+    /// The first of `fields` the topic has, with the index of the one found.
+    pub fn column_any(&self, topic: &str, fields: &[&str]) -> Result<(usize, Vec<f64>), ReplayError> {
+        for (i, field) in fields.iter().enumerate() {
+            if self.has_field(topic, field) {
+                return Ok((i, self.column(topic, field)?));
+            }
+        }
+        Err(self.missing(topic, fields.first().copied()))
+    }
+
+    /// Sample times of `topic` (µs since boot): `timestamp_sample` where logged, else `timestamp`.
+    pub fn sample_times_us(&self, topic: &str) -> Result<Vec<u64>, ReplayError> {
+        let (_, t) = self.column_any(topic, &["timestamp_sample", "timestamp"])?;
+        Ok(t.into_iter().map(|t| t.max(0.0) as u64).collect())
+    }
+
+    /// Publication times of `topic` (µs since boot).
+    pub fn times_us(&self, topic: &str) -> Result<Vec<u64>, ReplayError> {
+        Ok(self.column(topic, "timestamp")?.into_iter().map(|t| t.max(0.0) as u64).collect())
+    }
+
+    /// Three columns `name[0..3]` as vectors.
+    pub fn vec3(&self, topic: &str, name: &str) -> Result<Vec<[f64; 3]>, ReplayError> {
+        let c: Vec<Vec<f64>> =
+            (0..3).map(|i| self.column(topic, &format!("{name}[{i}]"))).collect::<Result<_, _>>()?;
+        Ok((0..c[0].len()).map(|k| [c[0][k], c[1][k], c[2][k]]).collect())
+    }
+
+    /// Four columns `name[0..4]`.
+    pub fn vec4(&self, topic: &str, name: &str) -> Result<Vec<[f64; 4]>, ReplayError> {
+        let c: Vec<Vec<f64>> =
+            (0..4).map(|i| self.column(topic, &format!("{name}[{i}]"))).collect::<Result<_, _>>()?;
+        Ok((0..c[0].len()).map(|k| [c[0][k], c[1][k], c[2][k], c[3][k]]).collect())
+    }
+
+    fn missing(&self, topic: &str, field: Option<&str>) -> ReplayError {
+        ReplayError::Missing {
+            path: self.path.clone(),
+            topic: topic.to_owned(),
+            field: field.map(str::to_owned),
+        }
+    }
+}
+
+fn to_f64(values: &SomeVec) -> Vec<f64> {
+    match values {
+        SomeVec::Int8(v) => v.iter().map(|&x| f64::from(x)).collect(),
+        SomeVec::UInt8(v) => v.iter().map(|&x| f64::from(x)).collect(),
+        SomeVec::Int16(v) => v.iter().map(|&x| f64::from(x)).collect(),
+        SomeVec::UInt16(v) => v.iter().map(|&x| f64::from(x)).collect(),
+        SomeVec::Int32(v) => v.iter().map(|&x| f64::from(x)).collect(),
+        SomeVec::UInt32(v) => v.iter().map(|&x| f64::from(x)).collect(),
+        SomeVec::Int64(v) => v.iter().map(|&x| x as f64).collect(),
+        SomeVec::UInt64(v) => v.iter().map(|&x| x as f64).collect(),
+        SomeVec::Float(v) => v.iter().map(|&x| f64::from(x)).collect(),
+        SomeVec::Double(v) => v.clone(),
+        SomeVec::Bool(v) => v.iter().map(|&x| f64::from(u8::from(x))).collect(),
+        SomeVec::Char(v) => v.iter().map(|&x| f64::from(u32::from(x))).collect(),
+    }
+}

@@ -1,0 +1,130 @@
+//! Each innovation gate rejects a 10σ outlier and leaves the state alone.
+
+use kestrel_estimator::{Ekf, EkfParams};
+use kestrel_proto::Time;
+use kestrel_proto::geo::{Geodetic, LocalFrame};
+use kestrel_proto::messages::{BaroSample, GpsFix, GpsFixType, ImuSample, MagSample};
+use nalgebra::{UnitQuaternion, Vector3};
+
+const HOME: Geodetic = Geodetic { lat_deg: 6.7971, lon_deg: 79.9017, alt_m: 20.0 };
+const FIELD_NED: [f64; 3] = [0.4, 0.0, -0.03];
+
+/// A still, level vehicle at home with noiseless sensors.
+struct Bench {
+    ekf: Ekf,
+    t_us: u64,
+}
+
+impl Bench {
+    fn new(params: EkfParams) -> Bench {
+        Bench { ekf: Ekf::new(params).unwrap(), t_us: 0 }
+    }
+
+    fn gps(&self, ned: [f64; 3]) -> GpsFix {
+        let g = LocalFrame::new(HOME).to_geodetic(ned);
+        GpsFix {
+            time: Time::from_micros(self.t_us),
+            fix_type: GpsFixType::Fix3d,
+            satellites: 12,
+            lat_deg: g.lat_deg,
+            lon_deg: g.lon_deg,
+            alt_msl_m: g.alt_m,
+            vel_ned_m_s: [0.0; 3],
+            h_acc_m: 0.5,
+            v_acc_m: 0.8,
+            s_acc_m_s: 0.1,
+        }
+    }
+
+    /// Runs the sensor streams for `seconds`.
+    fn run(&mut self, seconds: f64) {
+        let end = self.t_us + (seconds * 1e6) as u64;
+        while self.t_us < end {
+            self.t_us += 2500;
+            let time = Time::from_micros(self.t_us);
+            let imu =
+                ImuSample { time, gyro_rad_s: [0.0; 3], accel_m_s2: [0.0, 0.0, -9.80665], dt_s: 0.0025 };
+            self.ekf.push_imu(&imu).unwrap();
+            if self.t_us.is_multiple_of(200_000) {
+                let fix = self.gps([0.0; 3]);
+                self.ekf.push_gps(&fix).unwrap();
+            }
+            if self.t_us.is_multiple_of(100_000) {
+                let baro = BaroSample { time, pressure_pa: 101_000.0, altitude_m: 20.0, temperature_c: 25.0 };
+                self.ekf.push_baro(&baro).unwrap();
+            }
+            if self.t_us.is_multiple_of(10_000) {
+                self.ekf.push_mag(&MagSample { time, field_gauss: FIELD_NED }).unwrap();
+            }
+        }
+    }
+}
+
+fn settled(params: EkfParams) -> Bench {
+    let mut bench = Bench::new(params);
+    bench.run(30.0);
+    bench
+}
+
+#[test]
+fn gps_gate_rejects_a_ten_sigma_position_outlier() {
+    let mut bench = settled(EkfParams::default());
+    let sigma = bench.ekf.status().gps_position_ne[0].variance.sqrt();
+    let before = *bench.ekf.delayed_state().unwrap();
+    let fix = bench.gps([10.0 * sigma, 0.0, 0.0]);
+    bench.ekf.push_gps(&fix).unwrap();
+    bench.run(0.3);
+    let status = bench.ekf.status();
+    let after = bench.ekf.delayed_state().unwrap();
+    assert_eq!(status.gps.rejected, 1, "{status:?}");
+    assert!((status.gps_position_ne[0].test_ratio - 4.0).abs() < 0.5, "{status:?}");
+    assert!((after.pos_ned_m - before.pos_ned_m).norm() < 0.01);
+}
+
+#[test]
+fn baro_gate_rejects_a_ten_sigma_height_outlier() {
+    let mut bench = settled(EkfParams { fuse_baro_climb_rate: false, ..EkfParams::default() });
+    let sigma = bench.ekf.status().baro_height.variance.sqrt();
+    let before = *bench.ekf.delayed_state().unwrap();
+    let time = Time::from_micros(bench.t_us);
+    let outlier =
+        BaroSample { time, pressure_pa: 100_000.0, altitude_m: 20.0 + 10.0 * sigma, temperature_c: 25.0 };
+    bench.ekf.push_baro(&outlier).unwrap();
+    bench.run(0.3);
+    let status = bench.ekf.status();
+    assert_eq!(status.baro.rejected, 1, "{status:?}");
+    assert!((bench.ekf.delayed_state().unwrap().pos_ned_m.z - before.pos_ned_m.z).abs() < 0.01);
+}
+
+#[test]
+fn mag_gate_rejects_a_ten_sigma_heading_outlier() {
+    let params = EkfParams { mag_noise_gauss: 0.01, ..EkfParams::default() };
+    let mut bench = settled(params);
+    let sigma = bench.ekf.status().mag_field[1].variance.sqrt();
+    let before = *bench.ekf.delayed_state().unwrap();
+    // A field turned about down so that the body-right component is off by 10σ, strength kept.
+    let angle = (10.0 * sigma / FIELD_NED[0]).asin();
+    let turned = UnitQuaternion::from_euler_angles(0.0, 0.0, angle) * Vector3::from(FIELD_NED);
+    let time = Time::from_micros(bench.t_us + 1);
+    bench.ekf.push_mag(&MagSample { time, field_gauss: turned.into() }).unwrap();
+    bench.run(0.3);
+    let status = bench.ekf.status();
+    assert_eq!(status.mag.rejected, 1, "{status:?}");
+    assert!(before.attitude.angle_to(&bench.ekf.delayed_state().unwrap().attitude) < 1e-4);
+}
+
+#[test]
+fn bad_samples_are_refused_with_a_typed_error() {
+    let mut ekf = Ekf::new(EkfParams::default()).unwrap();
+    let imu = ImuSample {
+        time: Time::from_micros(10),
+        gyro_rad_s: [f64::NAN, 0.0, 0.0],
+        accel_m_s2: [0.0; 3],
+        dt_s: 0.0025,
+    };
+    assert!(ekf.push_imu(&imu).unwrap_err().to_string().contains("imu"));
+    let imu = ImuSample { gyro_rad_s: [0.0; 3], dt_s: -1.0, ..imu };
+    assert!(ekf.push_imu(&imu).is_err());
+    assert_eq!(ekf.status().health.imu_rejected, 2);
+    assert!(Ekf::new(EkfParams { gps_gate_sigma: 0.0, ..EkfParams::default() }).is_err());
+}

@@ -1,0 +1,61 @@
+//! Quaternion ↔ Euler angles, for display, telemetry and error reports only: controllers and
+//! the estimator work on quaternions and rotation matrices, never on Euler angles.
+
+/// Roll, pitch, yaw (rad) of the attitude quaternion `[w, x, y, z]` (body FRD → NED), in the
+/// aerospace Z-Y-X convention: yaw about down, then pitch about the new right axis, then roll
+/// about forward. Pitch is clamped to ±90° at the singularity.
+pub fn euler_rad(q: [f64; 4]) -> [f64; 3] {
+    let [w, x, y, z] = q;
+    let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
+    let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
+    let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+    [roll, pitch, yaw]
+}
+
+/// The attitude quaternion `[w, x, y, z]` with these roll, pitch, yaw (rad), Z-Y-X.
+pub fn quaternion_from_euler(roll: f64, pitch: f64, yaw: f64) -> [f64; 4] {
+    let (sr, cr) = (roll / 2.0).sin_cos();
+    let (sp, cp) = (pitch / 2.0).sin_cos();
+    let (sy, cy) = (yaw / 2.0).sin_cos();
+    [
+        cr * cp * cy + sr * sp * sy,
+        sr * cp * cy - cr * sp * sy,
+        cr * sp * cy + sr * cp * sy,
+        cr * cp * sy - sr * sp * cy,
+    ]
+}
+
+/// `a − b` wrapped into (−π, π] (rad).
+pub fn angle_difference_rad(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(std::f64::consts::TAU);
+    if d > std::f64::consts::PI { d - std::f64::consts::TAU } else { d }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn a_pure_yaw_of_ninety_degrees() {
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let [r, p, y] = euler_rad([h, 0.0, 0.0, h]);
+        assert!(r.abs() < 1e-12 && p.abs() < 1e-12 && (y - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn differences_wrap_across_north() {
+        assert!((angle_difference_rad(0.1, -0.1) - 0.2).abs() < 1e-12);
+        assert!((angle_difference_rad(-3.1, 3.1) - (std::f64::consts::TAU - 6.2)).abs() < 1e-12);
+    }
+
+    proptest! {
+        #[test]
+        fn euler_round_trip(roll in -3.1f64..3.1, pitch in -1.5f64..1.5, yaw in -3.1f64..3.1) {
+            let [r, p, y] = euler_rad(quaternion_from_euler(roll, pitch, yaw));
+            prop_assert!(angle_difference_rad(r, roll).abs() < 1e-9);
+            prop_assert!((p - pitch).abs() < 1e-9);
+            prop_assert!(angle_difference_rad(y, yaw).abs() < 1e-9);
+        }
+    }
+}

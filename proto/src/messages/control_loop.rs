@@ -1,0 +1,38 @@
+//! The control loop's own account of its timing and the inputs it refused.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::time::Time;
+
+/// Published by the controller about once a second: cumulative since it started.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ControlLoopStats {
+    pub time: Time,
+    /// True when the loop runs on its own OS thread (hardware); false in lockstep.
+    pub dedicated_thread: bool,
+    /// True when that thread got real-time (SCHED_FIFO) priority.
+    pub realtime_priority: bool,
+    /// Loop iterations so far.
+    pub iterations: u64,
+    /// Time between iteration starts (µs): on the thread, wall-clock; in lockstep, between
+    /// the NavStates that drove it (graph time).
+    pub period_p50_us: f64,
+    pub period_p99_us: f64,
+    pub period_max_us: f64,
+    /// Wall-clock time one iteration took (µs).
+    pub execution_p50_us: f64,
+    pub execution_p99_us: f64,
+    pub execution_max_us: f64,
+    /// Iterations that started more than half a period late, or took longer than a period.
+    pub overruns: u64,
+    /// Setpoints refused (non-finite, out of range).
+    pub rejected_setpoints: u64,
+    /// NavStates refused (non-finite).
+    pub rejected_nav: u64,
+    /// Iterations flown without a usable NavState (level and descend).
+    pub blind_steps: u64,
+    /// Iterations flown on the lost-setpoint fallback.
+    pub lost_setpoint_steps: u64,
+}
+crate::impl_message!(ControlLoopStats);

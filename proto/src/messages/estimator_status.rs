@@ -1,0 +1,73 @@
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::time::Time;
+
+/// One scalar observation as the estimator last saw it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Innovation {
+    /// Measurement minus prediction, in the observation's unit (m, m/s or gauss).
+    pub innovation: f64,
+    /// Predicted variance of the innovation, `H P Hᵀ + R` (unit squared).
+    pub variance: f64,
+    /// `innovation² / (gate² · variance)`: above 1 the observation fails its chi-square gate.
+    pub test_ratio: f64,
+}
+
+/// How one sensor's observations have fared since the estimator started.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct AidingCounters {
+    /// Samples fused into the state.
+    pub fused: u64,
+    /// Samples rejected by the innovation gate.
+    pub rejected: u64,
+    /// Times the state was reset to this sensor (after a rejection timeout or a loss).
+    pub resets: u32,
+}
+
+/// What the estimator is doing and whether it can be trusted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct EstimatorHealth {
+    /// Roll and pitch aligned from the accelerometer on a still vehicle.
+    pub tilt_aligned: bool,
+    /// Yaw aligned from the magnetometer.
+    pub yaw_aligned: bool,
+    /// A local NED origin exists (first good 3D GPS fix seen).
+    pub origin_set: bool,
+    /// GPS position or velocity fused within the position timeout.
+    pub gps_fusing: bool,
+    /// Barometer height fused within the timeout.
+    pub baro_fusing: bool,
+    /// Magnetometer fused within the timeout.
+    pub mag_fusing: bool,
+    /// No horizontal aiding for longer than the timeout: position is dead reckoned.
+    pub dead_reckoning: bool,
+    /// Fusions skipped because they would have made a variance negative.
+    pub numerical_faults: u32,
+    /// IMU samples dropped because they were out of order or had an unusable interval.
+    pub imu_rejected: u64,
+}
+
+/// The estimator's innovations, gate test ratios, counters and health, published at ~10 Hz.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct EstimatorStatus {
+    /// IMU time of the newest state.
+    pub time: Time,
+    /// GPS north, east position (m).
+    pub gps_position_ne: [Innovation; 2],
+    /// GPS north, east, down velocity (m/s).
+    pub gps_velocity_ned: [Innovation; 3],
+    /// Barometric height, expressed as down position (m).
+    pub baro_height: Innovation,
+    /// Barometric climb rate, expressed as down velocity (m/s).
+    pub baro_climb_rate: Innovation,
+    /// Magnetometer body forward, right, down field (gauss).
+    pub mag_field: [Innovation; 3],
+    pub gps: AidingCounters,
+    pub baro: AidingCounters,
+    pub mag: AidingCounters,
+    pub health: EstimatorHealth,
+    /// Age of the delayed fusion horizon behind the newest IMU sample (s).
+    pub fusion_horizon_s: f64,
+}
+crate::impl_message!(EstimatorStatus);

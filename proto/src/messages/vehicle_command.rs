@@ -1,0 +1,44 @@
+//! Commands to the commander, from the ground station, a script or the CLI.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use super::vehicle_status::FlightMode;
+use crate::time::Time;
+
+/// One command; the commander answers in `VehicleStatus` (`last_command`, `last_refusal`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Command {
+    /// Arm after the pre-arm checks.
+    Arm,
+    /// Disarm; refused in flight unless `force`.
+    Disarm { force: bool },
+    /// Switch flight mode (checks that the mode's needs are met).
+    SetMode(FlightMode),
+    /// Take off to this height above home (m).
+    Takeoff { altitude_m: f64 },
+    /// Land where the vehicle is.
+    Land,
+    /// Return to launch.
+    ReturnToLaunch,
+    /// Start (or restart) the uploaded mission.
+    MissionStart,
+    /// In ACRO: a full 360° roll.
+    Flip,
+    /// In GUIDED: fly to this NED position (m) from home.
+    GotoNed { position_ned_m: [f64; 3] },
+    /// In GUIDED: fly at this NED velocity (m/s).
+    VelocityNed { velocity_ned_m_s: [f64; 3] },
+    /// The ground station is alive. Heartbeats and sticks (not other commands, which scripts
+    /// send too) establish and refresh the data link whose loss is a failsafe.
+    Heartbeat,
+}
+
+/// A timestamped [`Command`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct VehicleCommand {
+    pub time: Time,
+    pub command: Command,
+}
+crate::impl_message!(VehicleCommand);

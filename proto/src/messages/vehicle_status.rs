@@ -1,0 +1,112 @@
+//! The commander's account of the vehicle, for the link, the log and the report.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::time::Time;
+
+/// Flight modes (ArduPilot's names; PX4's equivalents in the docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum FlightMode {
+    /// Sticks set attitude, throttle sets thrust (PX4 Stabilized).
+    #[default]
+    Stabilize,
+    /// Sticks set body rates; `Flip` rolls 360° (PX4 Acro).
+    Acro,
+    /// Sticks tilt, throttle sets climb rate; altitude held (PX4 Altitude).
+    AltHold,
+    /// Sticks set velocity; position held when centred (PX4 Position).
+    PosHold,
+    /// Position/velocity targets from outside (PX4 Offboard).
+    Guided,
+    /// Fly the uploaded mission (PX4 Mission).
+    Auto,
+    /// Climb to the take-off altitude and hold.
+    Takeoff,
+    /// Climb, return home, loiter, descend, land, disarm.
+    ReturnToLaunch,
+    /// Descend where the vehicle is and disarm on touchdown.
+    Land,
+}
+
+/// Whether the vehicle is on the ground.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum LandedState {
+    #[default]
+    OnGround,
+    InAir,
+    Landing,
+}
+
+/// What a failsafe does, in increasing precedence (PX4's order).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum FailsafeAction {
+    /// Report only.
+    Warn,
+    /// Hold position (or level and hold altitude without position).
+    Hold,
+    /// Return to launch.
+    ReturnToLaunch,
+    /// Land where the vehicle is (level and descend without position).
+    Land,
+    /// Stop the motors.
+    Disarm,
+}
+
+/// Why a failsafe fired.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum FailsafeCause {
+    /// No heartbeat, command or stick input from the ground station within the timeout.
+    DataLinkLost,
+    /// Battery below the low threshold.
+    BatteryLow,
+    /// Battery below the critical threshold.
+    BatteryCritical,
+    /// Outside the geofence (radius, altitude or polygon).
+    GeofenceBreach,
+    /// The estimator reports an attitude or position it cannot vouch for.
+    EstimatorUnhealthy,
+    /// No `NavState` for longer than the stale limit.
+    NavStateStale,
+    /// A flight-critical actor failed (supervisor report).
+    CriticalActorFailed,
+}
+
+/// A failsafe that is active now.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct Failsafe {
+    pub cause: FailsafeCause,
+    pub action: FailsafeAction,
+    /// When it fired.
+    pub since: Time,
+}
+
+/// Mission progress.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct MissionProgress {
+    /// Index of the item being flown (== `total` when finished).
+    pub current: u32,
+    /// Items reached so far.
+    pub reached: u32,
+    pub total: u32,
+    pub completed: bool,
+}
+
+/// Published by the commander at its status rate and on every change.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct VehicleStatus {
+    pub time: Time,
+    pub armed: bool,
+    pub mode: FlightMode,
+    pub landed: LandedState,
+    /// The failsafe with the highest precedence, if any.
+    pub failsafe: Option<Failsafe>,
+    pub mission: MissionProgress,
+    /// Why the last refused command or mode change was refused (for STATUSTEXT).
+    pub last_refusal: Option<String>,
+}
+crate::impl_message!(VehicleStatus);

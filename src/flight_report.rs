@@ -1,0 +1,285 @@
+//! The machine-readable flight report (`kestrel run --report FILE.json`): did the mission
+//! complete, did the vehicle hit anything, how far was the estimate from the truth, how
+//! regular was the control loop, which failsafes fired.
+//!
+//! It is an ordinary actor fed through queue mailboxes, so under lockstep it sees every
+//! message and the report of a simulated flight is as repeatable as the flight itself. Each
+//! section is `null` when the part it scores did not run.
+
+use std::collections::VecDeque;
+use std::path::PathBuf;
+
+use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
+use kestrel_proto::geo::{Geodetic, LocalFrame};
+use kestrel_proto::messages::{ControlLoopStats, GroundTruth, NavState, VehicleStatus};
+use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
+use serde::{Deserialize, Serialize};
+
+/// `params` of the report actor.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlightReportParams {
+    /// Where the JSON report is written when the run ends.
+    pub out: PathBuf,
+}
+
+/// The topics the report reads, with their message types, so the runtime can route the ones
+/// a graph has.
+pub const REPORT_INPUTS: [(&str, &str); 4] = [
+    ("ground_truth", <GroundTruth as kestrel_proto::Message>::TYPE_NAME),
+    ("nav_state", <NavState as kestrel_proto::Message>::TYPE_NAME),
+    ("vehicle_status", <VehicleStatus as kestrel_proto::Message>::TYPE_NAME),
+    ("control_loop_stats", <ControlLoopStats as kestrel_proto::Message>::TYPE_NAME),
+];
+
+/// What the report actor handles.
+#[derive(Debug)]
+pub enum ReportInput {
+    Truth(GroundTruth),
+    Nav(Box<NavState>),
+    Status(VehicleStatus),
+    Loop(ControlLoopStats),
+}
+
+/// The report, in the field layout other tools rely on (docs/design.md).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FlightReport {
+    pub mission: Option<MissionSection>,
+    pub flight: Option<FlightSection>,
+    pub estimator: Option<EstimatorSection>,
+    pub control: Option<ControlSection>,
+    pub avoidance: Option<AvoidanceSection>,
+    pub failsafes: Vec<FailsafeEntry>,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct MissionSection {
+    pub completed: bool,
+    pub items_reached: u32,
+    pub items_total: u32,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FlightSection {
+    /// Graph time from the first message to the end of the run (s).
+    pub duration_s: f64,
+    pub collisions: u32,
+    /// Smallest distance to an obstacle surface (m); `None` in a world without obstacles.
+    pub min_clearance_m: Option<f64>,
+    /// Whether the vehicle ended on the ground, intact.
+    pub landed: bool,
+    /// Horizontal distance of the final position from home (m).
+    pub landing_distance_from_home_m: f64,
+    pub crashed: bool,
+}
+
+/// Root-mean-square estimation errors against ground truth, over the samples where the
+/// estimator had an origin and a valid attitude.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EstimatorSection {
+    pub rms_horizontal_m: f64,
+    pub rms_vertical_m: f64,
+    pub rms_velocity_m_s: f64,
+    pub rms_roll_pitch_deg: f64,
+    pub rms_yaw_deg: f64,
+    /// Ground-truth samples compared.
+    pub samples: u64,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ControlSection {
+    pub period_p50_us: f64,
+    pub period_p99_us: f64,
+    pub overruns: u64,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct AvoidanceSection {
+    pub frame_to_setpoint_p50_ms: f64,
+    pub frame_to_setpoint_p95_ms: f64,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FailsafeEntry {
+    pub t_s: f64,
+    pub cause: String,
+    pub action: String,
+}
+
+/// Sums of squared errors.
+#[derive(Default)]
+struct ErrorSums {
+    horizontal: f64,
+    vertical: f64,
+    velocity: f64,
+    roll_pitch: f64,
+    yaw: f64,
+    samples: u64,
+}
+
+/// Collects the report while the graph runs and writes it on stop.
+pub struct FlightReportActor {
+    out: PathBuf,
+    first: Option<Time>,
+    last: Time,
+    /// Recent ground truth, to pair each NavState with the truth of the same instant.
+    truth: VecDeque<GroundTruth>,
+    latest_truth: Option<GroundTruth>,
+    min_clearance_m: Option<f64>,
+    errors: ErrorSums,
+    status: Option<VehicleStatus>,
+    loop_stats: Option<ControlLoopStats>,
+    failsafes: Vec<FailsafeEntry>,
+}
+
+/// Ground truth kept for pairing: 1 s at the simulator's 50 Hz default.
+const TRUTH_WINDOW: usize = 64;
+
+impl FlightReportActor {
+    fn seen(&mut self, t: Time) {
+        self.first.get_or_insert(t);
+        self.last = self.last.max(t);
+    }
+
+    fn on_truth(&mut self, truth: GroundTruth) {
+        self.seen(truth.time);
+        if let Some(c) = truth.clearance_m {
+            self.min_clearance_m = Some(self.min_clearance_m.map_or(c, |m: f64| m.min(c)));
+        }
+        if self.truth.len() == TRUTH_WINDOW {
+            self.truth.pop_front();
+        }
+        self.truth.push_back(truth.clone());
+        self.latest_truth = Some(truth);
+    }
+
+    fn on_nav(&mut self, nav: &NavState) {
+        self.seen(nav.time);
+        let (Some(origin), true) = (nav.origin, nav.valid.attitude) else { return };
+        let Some(truth) = self.truth.iter().find(|t| t.time == nav.time) else { return };
+        let frame = LocalFrame::new(origin);
+        let true_ned =
+            frame.to_ned(Geodetic { lat_deg: truth.lat_deg, lon_deg: truth.lon_deg, alt_m: truth.alt_msl_m });
+        let d = |i: usize| nav.position_ned_m[i] - true_ned[i];
+        let dv = |i: usize| nav.velocity_ned_m_s[i] - truth.velocity_ned_m_s[i];
+        let (est, tru) = (euler_rad(nav.attitude), euler_rad(truth.attitude));
+        let e = &mut self.errors;
+        e.horizontal += d(0).powi(2) + d(1).powi(2);
+        e.vertical += d(2).powi(2);
+        e.velocity += dv(0).powi(2) + dv(1).powi(2) + dv(2).powi(2);
+        e.roll_pitch += (angle_difference_rad(est[0], tru[0]).powi(2)
+            + angle_difference_rad(est[1], tru[1]).powi(2))
+            / 2.0;
+        e.yaw += angle_difference_rad(est[2], tru[2]).powi(2);
+        e.samples += 1;
+    }
+
+    fn on_status(&mut self, status: VehicleStatus) {
+        self.seen(status.time);
+        let previous = self.status.as_ref().and_then(|s| s.failsafe);
+        if let Some(f) =
+            status.failsafe.filter(|f| previous.is_none_or(|p| p.cause != f.cause || p.action != f.action))
+        {
+            self.failsafes.push(FailsafeEntry {
+                t_s: f.since.as_secs_f64(),
+                cause: snake_case(&f.cause),
+                action: snake_case(&f.action),
+            });
+        }
+        self.status = Some(status);
+    }
+
+    /// The report as it stands.
+    pub fn report(&self) -> FlightReport {
+        let flight = self.latest_truth.as_ref().map(|t| FlightSection {
+            duration_s: self.last.saturating_since(self.first.unwrap_or(self.last)).as_secs_f64(),
+            collisions: t.collisions,
+            min_clearance_m: self.min_clearance_m,
+            landed: t.landed && !t.crashed,
+            landing_distance_from_home_m: t.position_ned_m[0].hypot(t.position_ned_m[1]),
+            crashed: t.crashed,
+        });
+        let e = &self.errors;
+        let rms = |sum: f64| (sum / e.samples as f64).sqrt();
+        let estimator = (e.samples > 0).then(|| EstimatorSection {
+            rms_horizontal_m: rms(e.horizontal),
+            rms_vertical_m: rms(e.vertical),
+            rms_velocity_m_s: rms(e.velocity),
+            rms_roll_pitch_deg: rms(e.roll_pitch).to_degrees(),
+            rms_yaw_deg: rms(e.yaw).to_degrees(),
+            samples: e.samples,
+        });
+        FlightReport {
+            mission: self.status.as_ref().map(|s| MissionSection {
+                completed: s.mission.completed,
+                items_reached: s.mission.reached,
+                items_total: s.mission.total,
+            }),
+            flight,
+            estimator,
+            control: self.loop_stats.as_ref().map(|l| ControlSection {
+                period_p50_us: l.period_p50_us,
+                period_p99_us: l.period_p99_us,
+                overruns: l.overruns,
+            }),
+            avoidance: None,
+            failsafes: self.failsafes.clone(),
+        }
+    }
+}
+
+/// A serde enum's snake_case name (`FailsafeCause::BatteryLow` → `battery_low`).
+fn snake_case<T: Serialize>(value: &T) -> String {
+    match serde_json::to_value(value) {
+        Ok(serde_json::Value::String(s)) => s,
+        Ok(other) => other.to_string(),
+        Err(e) => format!("unserialisable: {e}"),
+    }
+}
+
+impl Actor for FlightReportActor {
+    type Params = FlightReportParams;
+    type Input = ReportInput;
+
+    fn build(params: &FlightReportParams, setup: &mut impl Setup<ReportInput>) -> Result<Self, ActorError> {
+        setup.input("ground_truth", ReportInput::Truth);
+        setup.input("nav_state", |n| ReportInput::Nav(Box::new(n)));
+        setup.input("vehicle_status", ReportInput::Status);
+        setup.input("control_loop_stats", ReportInput::Loop);
+        Ok(FlightReportActor {
+            out: params.out.clone(),
+            first: None,
+            last: Time::ZERO,
+            truth: VecDeque::with_capacity(TRUTH_WINDOW),
+            latest_truth: None,
+            min_clearance_m: None,
+            errors: ErrorSums::default(),
+            status: None,
+            loop_stats: None,
+            failsafes: Vec::new(),
+        })
+    }
+
+    async fn handle(&mut self, _ctx: &Context, input: ReportInput) -> Result<(), ActorError> {
+        match input {
+            ReportInput::Truth(t) => self.on_truth(t),
+            ReportInput::Nav(n) => self.on_nav(&n),
+            ReportInput::Status(s) => self.on_status(s),
+            ReportInput::Loop(l) => {
+                self.seen(l.time);
+                self.loop_stats = Some(l);
+            }
+        }
+        Ok(())
+    }
+
+    async fn stop(&mut self, _ctx: &Context) {
+        let written = serde_json::to_string_pretty(&self.report())
+            .map_err(std::io::Error::other)
+            .and_then(|json| std::fs::write(&self.out, json + "\n"));
+        match written {
+            Ok(()) => tracing::info!(path = %self.out.display(), "flight report written"),
+            Err(e) => tracing::error!(path = %self.out.display(), "cannot write the flight report: {e}"),
+        }
+    }
+}
