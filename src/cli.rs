@@ -26,6 +26,9 @@ pub enum Command {
     Run(RunArgs),
     /// Evaluate a fuzzy rule base (fuzzylite .fll or Kestrel .toml).
     Fuzzy(FuzzyArgs),
+    /// Run the estimator over a recorded flight (PX4 .ulg or Kestrel .mcap) and write its
+    /// estimate beside the log's own as CSV.
+    Replay(ReplayArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -79,4 +82,19 @@ pub struct FuzzyArgs {
     /// Also print each rule's activation degree, as `# DEGREE RULE` lines.
     #[arg(long)]
     pub activations: bool,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct ReplayArgs {
+    /// The flight log: a PX4 ULog (`.ulg`) or a Kestrel MCAP log (`.mcap`).
+    #[arg(long, value_name = "FILE")]
+    pub log: PathBuf,
+
+    /// Where to write the CSV (our estimate beside the log's estimate or ground truth).
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: PathBuf,
+
+    /// Estimator parameters (TOML, the estimator actor's `params` table); defaults otherwise.
+    #[arg(long, value_name = "FILE.toml")]
+    pub params: Option<PathBuf>,
 }

@@ -181,3 +181,51 @@ fn fuzzy_json_and_csv_modes() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn replay_writes_our_estimate_beside_px4s_and_beside_ground_truth() {
+    let ulog =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("actors/estimator/tests/data/px4_sitl_takeoff_land.ulg");
+    let csv = temp_path("replay-ulog.csv");
+    let out = kestrel().args(["replay", "--log"]).arg(&ulog).arg("--out").arg(&csv).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    let _ = std::fs::remove_file(&csv);
+    assert!(rows.starts_with("time_s,roll_deg,pitch_deg,yaw_deg,px4_roll_deg"), "{}", &rows[..80]);
+    assert!(rows.lines().count() > 100, "one row per EKF2 attitude sample");
+
+    let mcap = temp_path("replay.mcap");
+    let run = kestrel()
+        .args(["run", "--duration", "6", "--speedup", "0", "--quiet", "--record"])
+        .arg(&mcap)
+        .output()
+        .unwrap();
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let out = kestrel().args(["replay", "--log"]).arg(&mcap).arg("--out").arg(&csv).output().unwrap();
+    let _ = std::fs::remove_file(&mcap);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let summary = String::from_utf8_lossy(&out.stdout);
+    assert!(summary.contains("against ground truth"), "{summary}");
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    let _ = std::fs::remove_file(&csv);
+    assert!(rows.lines().count() > 100, "ground truth at 50 Hz after alignment");
+}
+
+#[test]
+fn report_scores_the_estimator_against_ground_truth() {
+    let json = temp_path("report.json");
+    let out = kestrel()
+        .args(["run", "--duration", "8", "--speedup", "0", "--quiet", "--report"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let _ = std::fs::remove_file(&json);
+    for field in ["mission", "flight", "estimator", "control", "avoidance", "failsafes"] {
+        assert!(report.get(field).is_some(), "{field} missing: {report}");
+    }
+    assert_eq!(report["flight"]["collisions"], 0);
+    let horizontal = report["estimator"]["rms_horizontal_m"].as_f64().unwrap();
+    assert!(horizontal > 0.0 && horizontal < 1.0, "a vehicle at rest is located within a metre: {report}");
+}

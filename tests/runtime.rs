@@ -239,11 +239,15 @@ fn unknown_port_and_bad_params_are_named() {
 
 #[test]
 fn realtime_clock_ticks_on_the_wall_clock() {
-    let text = "[run]\nclock = \"realtime\"\n\n[actors.steady]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n";
+    let text =
+        "[run]\nclock = \"realtime\"\n\n[actors.steady]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n";
     let started = std::time::Instant::now();
     let report = run_text(text, 0.3).unwrap();
     let took = started.elapsed();
-    assert!(took >= Duration::from_millis(300), "a realtime run lasts its duration on the wall clock ({took:?})");
+    assert!(
+        took >= Duration::from_millis(300),
+        "a realtime run lasts its duration on the wall clock ({took:?})"
+    );
     let ticks = published(&report, "count");
     assert!((10..=31).contains(&ticks), "about 30 ticks of 10 ms in 0.3 s, got {ticks}");
 }

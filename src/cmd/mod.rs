@@ -1,4 +1,5 @@
 //! One module per subcommand.
 
 pub mod fuzzy;
+pub mod replay;
 pub mod run;
