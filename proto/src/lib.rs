@@ -16,6 +16,7 @@ pub mod clock;
 pub mod geo;
 pub mod message;
 pub mod messages;
+pub mod testing;
 pub mod time;
 
 pub use actor::{Actor, ActorError, Context, Publisher, Setup, Sink};
