@@ -72,8 +72,11 @@ pub struct TestSetup<I> {
     published: Published,
     outputs: Vec<&'static str>,
     inputs: Vec<(&'static str, Box<dyn Any + Send>)>,
-    timers: Vec<(&'static str, Duration, fn(Time) -> I)>,
+    timers: Vec<Timer<I>>,
 }
+
+/// A declared timer: port, period and how its tick becomes an input.
+type Timer<I> = (&'static str, Duration, fn(Time) -> I);
 
 impl<I: 'static> TestSetup<I> {
     /// A setup for an actor called `name` whose config lives in `config_dir`.
