@@ -87,12 +87,20 @@ pub struct Context {
     name: Arc<str>,
     clock: Arc<dyn Clock>,
     shutdown: CancellationToken,
+    run: CancellationToken,
 }
 
 impl Context {
     /// Built by the runtime for each actor incarnation.
     pub fn new(name: Arc<str>, clock: Arc<dyn Clock>, shutdown: CancellationToken) -> Self {
-        Context { name, clock, shutdown }
+        let run = shutdown.clone();
+        Context { name, clock, shutdown, run }
+    }
+
+    /// The same context, able to end the whole run through `run` (the runtime's root token).
+    pub fn with_run(mut self, run: CancellationToken) -> Self {
+        self.run = run;
+        self
     }
 
     /// The actor's name in the config.
@@ -114,6 +122,12 @@ impl Context {
     /// for its I/O should end with it.
     pub fn shutdown(&self) -> &CancellationToken {
         &self.shutdown
+    }
+
+    /// Ends the whole run, as Ctrl-C would: every actor stops and the log is closed. For a
+    /// scripted flight that is over (`kestrel run --exit-on-land`).
+    pub fn end_run(&self) {
+        self.run.cancel();
     }
 }
 
