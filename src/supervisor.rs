@@ -167,7 +167,8 @@ async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) 
             Some(Ok((actor, declared))) => {
                 let token = ctx.shutdown.child_token();
                 let actor_ctx =
-                    Context::new(Arc::clone(&prepared.name), Arc::clone(&ctx.clock), token.clone());
+                    Context::new(Arc::clone(&prepared.name), Arc::clone(&ctx.clock), token.clone())
+                        .with_run(ctx.shutdown.clone());
                 for timer in declared.timers {
                     tokio::spawn(run_timer(Arc::clone(&ctx.clock), timer, token.clone()));
                 }

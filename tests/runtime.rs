@@ -93,6 +93,24 @@ impl Actor for Panicker {
     }
 }
 
+/// Ends the whole run on its first tick.
+struct Quitter;
+
+impl Actor for Quitter {
+    type Params = toml::Table;
+    type Input = Time;
+
+    fn build(_: &toml::Table, setup: &mut impl Setup<Time>) -> Result<Self, ActorError> {
+        setup.timer("tick", Duration::from_millis(50), |t| t);
+        Ok(Quitter)
+    }
+
+    async fn handle(&mut self, ctx: &Context, _t: Time) -> Result<(), ActorError> {
+        ctx.end_run();
+        Ok(())
+    }
+}
+
 /// Takes battery messages (a type no test actor publishes).
 struct BatteryWatcher;
 
@@ -116,6 +134,7 @@ fn registry() -> Registry {
         .with::<Counter>("counter")
         .with::<Panicker>("panicker")
         .with::<BatteryWatcher>("battery_watcher")
+        .with::<Quitter>("quitter")
 }
 
 fn run_text(text: &str, seconds: f64) -> Result<RunReport, RunError> {
@@ -207,7 +226,7 @@ fn unknown_actor_type_is_named_with_file_and_line() {
         "[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n\n[actors.b]\ntype = \"warp_drive\"\n",
     );
     assert!(err.starts_with("graph.toml:6: unknown actor type 'warp_drive' for actor 'b'"), "{err}");
-    assert!(err.contains("known types: battery_watcher, counter, panicker, ticker"), "{err}");
+    assert!(err.contains("known types: battery_watcher, counter, panicker, quitter, ticker"), "{err}");
 }
 
 #[test]
@@ -250,4 +269,13 @@ fn realtime_clock_ticks_on_the_wall_clock() {
     );
     let ticks = published(&report, "count");
     assert!((10..=31).contains(&ticks), "about 30 ticks of 10 ms in 0.3 s, got {ticks}");
+}
+
+#[test]
+fn an_actor_can_end_the_run() {
+    let text =
+        "[actors.q]\ntype = \"quitter\"\n\n[actors.steady]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n";
+    let report = run_text(text, 60.0).unwrap();
+    assert_eq!(report.end_time, Time::from_micros(50_000), "the run ended at the quitter's first tick");
+    assert_eq!(published(&report, "count"), 5);
 }
