@@ -1,0 +1,68 @@
+//! The stereo actor: takes the newest [`StereoFrame`] on `stereo_frame` (wire it through a
+//! `latest` mailbox so stale frames are skipped, never queued) and publishes its
+//! [`DepthGrid`] on `depth_grid`.
+//!
+//! The pipeline runs synchronously inside `handle` (~20–30 ms per VGA frame): the actor's
+//! task holds one tokio worker for that long, with at most one frame in flight. DESIGN.md
+//! wants this on the blocking pool; that needs `tokio` as a dependency of this crate (for
+//! `spawn_blocking`), which the lead has not granted yet.
+
+use kestrel_proto::messages::DepthGrid;
+use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup};
+use serde::Deserialize;
+
+use crate::camera_actor::actor_error;
+use crate::error::VisionError;
+use crate::frame::StereoFrame;
+use crate::pipeline::{Geometry, PipelineParams, StereoPipeline};
+
+/// Parameters of [`StereoActor`].
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StereoParams {
+    /// `{ calibration = "stereo.yaml" }` for raw frames, or `{ rectified = { focal_px, cx_px,
+    /// cy_px, baseline_m } }` for frames that arrive rectified.
+    pub geometry: Geometry,
+    #[serde(default)]
+    pub pipeline: PipelineParams,
+}
+
+/// Frame → depth grid; ports `stereo_frame` (input) and `depth_grid` (output).
+pub struct StereoActor {
+    pipeline: StereoPipeline,
+    out: Publisher<DepthGrid>,
+    /// Frames that could not be used (no pixels, wrong size), for the logs.
+    rejected: u64,
+}
+
+impl Actor for StereoActor {
+    type Params = StereoParams;
+    type Input = StereoFrame;
+
+    fn build(params: &StereoParams, setup: &mut impl Setup<StereoFrame>) -> Result<Self, ActorError> {
+        let pipeline = StereoPipeline::new(&params.geometry, &params.pipeline, setup.config_dir())
+            .map_err(actor_error)?;
+        setup.input("stereo_frame", |f| f);
+        Ok(StereoActor { pipeline, out: setup.output("depth_grid"), rejected: 0 })
+    }
+
+    async fn handle(&mut self, _ctx: &Context, frame: StereoFrame) -> Result<(), ActorError> {
+        match self.pipeline.process(&frame) {
+            Ok(grid) => {
+                self.out.publish(grid);
+                Ok(())
+            }
+            // A bad frame is skipped and counted; restarting would not make it better.
+            Err(VisionError::Input(why)) => {
+                self.rejected += 1;
+                tracing::warn!(
+                    frame = frame.sequence,
+                    rejected = self.rejected,
+                    "stereo frame skipped: {why}"
+                );
+                Ok(())
+            }
+            Err(e) => Err(actor_error(e)),
+        }
+    }
+}

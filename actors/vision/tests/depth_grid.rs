@@ -1,0 +1,193 @@
+//! The depth grid on synthetic scenes with known geometry: hand-made depth maps (exact) and a
+//! rendered textured stereo pair driven through the whole pipeline.
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::{DepthGrid, SECTOR_UNKNOWN};
+use kestrel_vision::{
+    DepthMap, Geometry, GridParams, PipelineParams, StereoFrame, StereoGeometry, StereoPipeline, depth_grid,
+};
+
+const W: usize = 640;
+const H: usize = 480;
+
+fn geometry() -> StereoGeometry {
+    StereoGeometry {
+        focal_px: 500.0,
+        cx_px: 319.5,
+        cy_px: 239.5,
+        baseline_m: 0.12,
+        doffs_px: 0.0,
+        depth_scale: 1.0,
+    }
+}
+
+fn in_centre(x: usize, y: usize) -> bool {
+    (213..427).contains(&x) && (160..320).contains(&y)
+}
+
+fn print(grid: &DepthGrid) {
+    for row in &grid.regions {
+        let cells: Vec<String> = row
+            .iter()
+            .map(|r| {
+                format!("near {:.3} invalid {:.3} nearest {:?}", r.near_share, r.invalid_share, r.nearest_m)
+            })
+            .collect();
+        println!("{}", cells.join(" | "));
+    }
+}
+
+#[test]
+fn exact_plane_at_three_metres_fills_the_centre_and_nothing_else() {
+    let mut values = vec![20.0f32; W * H];
+    for (i, z) in values.iter_mut().enumerate() {
+        if in_centre(i % W, i / W) {
+            *z = 3.0;
+        } else if i / W < H / 3 && i % W < W / 3 {
+            *z = f32::NAN;
+        }
+    }
+    let depth = DepthMap { width: W, height: H, values };
+    let grid = depth_grid(&depth, &geometry(), &GridParams::default(), Time(42), 7);
+    assert_eq!((grid.time, grid.frame_sequence, grid.threshold_m), (Time(42), 7, 5.0));
+    let c = grid.regions[1][1];
+    assert_eq!((c.near_share, c.invalid_share, c.nearest_m), (1.0, 0.0, Some(3.0)));
+    let up_left = grid.regions[0][0];
+    assert_eq!((up_left.near_share, up_left.invalid_share, up_left.nearest_m), (0.0, 1.0, None));
+    for (r, c) in [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1), (2, 2)] {
+        let region = grid.regions[r][c];
+        assert_eq!(
+            (region.near_share, region.invalid_share, region.nearest_m),
+            (0.0, 0.0, Some(20.0)),
+            "{r},{c}"
+        );
+    }
+    // Sectors: the camera sees ±32.6° (fx 500 over 640 px): sectors −35°..+35° are known
+    // (the outermost ones only in part).
+    let s = &grid.sectors;
+    assert_eq!((s.distances_cm.len(), s.increment_deg, s.angle_offset_deg), (72, 5.0, 0.0));
+    assert_eq!(s.distances_cm[0], 300, "straight ahead: the plane at 3 m");
+    let range_cm = |deg: f64| (2000.0 / deg.to_radians().cos()).round() as u16;
+    assert_eq!(
+        s.distances_cm[6],
+        range_cm(30.0).min(s.max_distance_cm + 1),
+        "30° right: the background, beyond range"
+    );
+    assert_eq!(s.distances_cm[6], s.max_distance_cm + 1);
+    assert_eq!((s.distances_cm[7], s.distances_cm[65]), (s.max_distance_cm + 1, s.max_distance_cm + 1));
+    assert!((8..=64).all(|i| s.distances_cm[i] == SECTOR_UNKNOWN), "outside the field of view: unknown");
+    assert_eq!(s.distances_cm[66], s.max_distance_cm + 1, "30° left");
+}
+
+/// Smooth pseudo-random texture on a surface, in world units (value noise, bilinear).
+fn texture(u: f64, v: f64, seed: u64) -> f64 {
+    let hash = |i: i64, j: i64| {
+        let mut h = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ (j as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
+            ^ seed;
+        h ^= h >> 29;
+        h = h.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h ^= h >> 32;
+        (h % 256) as f64
+    };
+    let (i, j) = (u.floor() as i64, v.floor() as i64);
+    let (fu, fv) = (u - u.floor(), v - v.floor());
+    let top = hash(i, j) * (1.0 - fu) + hash(i + 1, j) * fu;
+    let bottom = hash(i, j + 1) * (1.0 - fu) + hash(i + 1, j + 1) * fu;
+    top * (1.0 - fv) + bottom * fv
+}
+
+/// Renders one camera at `camera_x_m` looking at a background plane at 20 m and a textured
+/// plane at 3 m whose left-camera image is the centre third; the world rectangle `flat`
+/// (left-image pixels on the background) is painted uniform grey: a textureless wall.
+fn render(camera_x_m: f64, flat: Option<[usize; 4]>) -> Vec<u8> {
+    let g = geometry();
+    let ray = |px: f64, c: f64| (px - c) / g.focal_px;
+    // The foreground rectangle in world coordinates (m) at Z = 3 m, from the left image's centre third.
+    let (x0, x1) = (ray(W as f64 / 3.0, g.cx_px) * 3.0, ray(2.0 * W as f64 / 3.0, g.cx_px) * 3.0);
+    let (y0, y1) = (ray(H as f64 / 3.0, g.cy_px) * 3.0, ray(2.0 * H as f64 / 3.0, g.cy_px) * 3.0);
+    let mut image = vec![0u8; W * H];
+    for y in 0..H {
+        for x in 0..W {
+            let (rx, ry) = (ray(x as f64, g.cx_px), ray(y as f64, g.cy_px));
+            let (fx, fy) = (camera_x_m + rx * 3.0, ry * 3.0);
+            let value = if (x0..x1).contains(&fx) && (y0..y1).contains(&fy) {
+                texture(fx / 0.008, fy / 0.008, 1)
+            } else {
+                let (bx, by) = (camera_x_m + rx * 20.0, ry * 20.0);
+                let on_wall = flat.is_some_and(|[a, b, c, d]| {
+                    let (wx0, wx1) = (ray(a as f64, g.cx_px) * 20.0, ray(b as f64, g.cx_px) * 20.0);
+                    let (wy0, wy1) = (ray(c as f64, g.cy_px) * 20.0, ray(d as f64, g.cy_px) * 20.0);
+                    (wx0..wx1).contains(&bx) && (wy0..wy1).contains(&by)
+                });
+                if on_wall { 128.0 } else { texture(bx / 0.06, by / 0.06, 2) }
+            };
+            image[y * W + x] = value.round() as u8;
+        }
+    }
+    image
+}
+
+fn rendered_grid(flat: Option<[usize; 4]>) -> DepthGrid {
+    let frame =
+        StereoFrame::new(Time(1), 0, W as u32, H as u32, render(0.0, flat), render(0.12, flat)).unwrap();
+    let mut pipeline = StereoPipeline::new(
+        &Geometry::Rectified(geometry()),
+        &PipelineParams::default(),
+        std::path::Path::new("."),
+    )
+    .unwrap();
+    let grid = pipeline.process(&frame).unwrap();
+    print(&grid);
+    grid
+}
+
+#[test]
+fn rendered_plane_at_three_metres_reads_near_in_the_centre_only() {
+    let grid = rendered_grid(None);
+    let centre = grid.regions[1][1];
+    assert!(centre.near_share > 0.97, "{centre:?}");
+    let nearest = centre.nearest_m.unwrap();
+    assert!((2.7..3.05).contains(&nearest), "{nearest}");
+    for (r, c) in [(0, 0), (0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1), (2, 2)] {
+        assert!(grid.regions[r][c].near_share < 0.05, "{r},{c}: {:?}", grid.regions[r][c]);
+    }
+    assert!((250..=320).contains(&grid.sectors.distances_cm[0]), "{:?}", grid.sectors.distances_cm);
+}
+
+#[test]
+fn textureless_wall_reads_invalid_not_free() {
+    // The whole up-right region (and a margin) is a uniform wall on the background.
+    let grid = rendered_grid(Some([2 * W / 3 - 20, W, 0, H / 3 + 20]));
+    let wall = grid.regions[0][2];
+    assert!(wall.invalid_share > 0.9, "{wall:?}");
+    assert!(grid.regions[1][1].near_share > 0.97);
+}
+
+proptest::proptest! {
+    /// Any depth map, however sparse, gives shares in 0..1, a nearest depth only where some
+    /// pixel is valid, and 72 sectors within MAVLink's value range.
+    #[test]
+    fn grid_invariants_hold_for_any_depth_map(
+        values in proptest::collection::vec(proptest::option::of(0.05f32..100.0), 48 * 36),
+    ) {
+        let values: Vec<f32> = values.into_iter().map(|v| v.unwrap_or(f32::NAN)).collect();
+        let depth = DepthMap { width: 48, height: 36, values };
+        let small = StereoGeometry { focal_px: 40.0, cx_px: 23.5, cy_px: 17.5, ..geometry() };
+        let params = GridParams::default();
+        let grid = depth_grid(&depth, &small, &params, Time(0), 0);
+        for region in grid.regions.iter().flatten() {
+            proptest::prop_assert!((0.0..=1.0).contains(&region.near_share));
+            proptest::prop_assert!((0.0..=1.0).contains(&region.invalid_share));
+            proptest::prop_assert_eq!(region.nearest_m.is_none(), region.invalid_share == 1.0);
+            if let Some(z) = region.nearest_m {
+                proptest::prop_assert!(z > 0.0 && z.is_finite());
+                proptest::prop_assert_eq!(region.near_share > 0.0, z < params.threshold_m);
+            }
+        }
+        proptest::prop_assert_eq!(grid.sectors.distances_cm.len(), 72);
+        for &d in &grid.sectors.distances_cm {
+            proptest::prop_assert!(d <= params.max_distance_cm + 1 || d == SECTOR_UNKNOWN);
+        }
+    }
+}
