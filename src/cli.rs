@@ -29,6 +29,12 @@ pub enum Command {
     /// Run the estimator over a recorded flight (PX4 .ulg or Kestrel .mcap) and write its
     /// estimate beside the log's own as CSV.
     Replay(ReplayArgs),
+    /// Calibrate a stereo camera from chessboard image pairs (OpenCV-compatible YAML out).
+    Calibrate(CalibrateArgs),
+    /// Compute the disparity of a stereo pair; with ground truth, print its error figures.
+    Disparity(DisparityArgs),
+    /// Plots (PNG) and an error summary of a recorded flight (`kestrel run --record`).
+    Report(crate::cmd::report::ReportArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -48,6 +54,18 @@ pub struct RunArgs {
     /// Record the topics selected in the config's [record] table to this MCAP file.
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
+
+    /// Load this QGroundControl mission (`.plan`) into the commander.
+    #[arg(long, value_name = "FILE.plan")]
+    pub mission: Option<PathBuf>,
+
+    /// Arm, take off and fly the mission as soon as the pre-arm checks pass.
+    #[arg(long)]
+    pub auto: bool,
+
+    /// End the run once the vehicle has flown, landed and disarmed.
+    #[arg(long)]
+    pub exit_on_land: bool,
 
     /// Write the flight report (JSON: mission, collisions, estimator error against ground
     /// truth, control-loop timing, failsafes) to this file when the run ends.
@@ -97,4 +115,70 @@ pub struct ReplayArgs {
     /// Estimator parameters (TOML, the estimator actor's `params` table); defaults otherwise.
     #[arg(long, value_name = "FILE.toml")]
     pub params: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct CalibrateArgs {
+    /// Left images, a glob such as 'calib/left*.jpg' (pairs match in sorted name order).
+    #[arg(long, value_name = "GLOB")]
+    pub left: String,
+
+    /// Right images, a glob such as 'calib/right*.jpg'.
+    #[arg(long, value_name = "GLOB")]
+    pub right: String,
+
+    /// Inner corners of the chessboard, COLSxROWS.
+    #[arg(long, default_value = "9x6", value_name = "COLSxROWS")]
+    pub board: String,
+
+    /// Side of one chessboard square (m).
+    #[arg(long, default_value_t = 0.025, value_name = "M")]
+    pub square: f64,
+
+    /// A measured and a true distance to the same target (m), `MEASURED:TRUE`; several give
+    /// the depth-scale correction stored in the file (thesis §3.2.5).
+    #[arg(long, value_name = "MEASURED:TRUE")]
+    pub reference: Vec<String>,
+
+    /// Where to write the calibration (OpenCV FileStorage YAML).
+    #[arg(long, value_name = "FILE.yaml")]
+    pub out: PathBuf,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct DisparityArgs {
+    /// Left image.
+    #[arg(long, value_name = "FILE")]
+    pub left: PathBuf,
+
+    /// Right image.
+    #[arg(long, value_name = "FILE")]
+    pub right: PathBuf,
+
+    /// Calibration (from `kestrel calibrate`) to rectify the pair with; without it the pair
+    /// must already be rectified.
+    #[arg(long, value_name = "FILE.yaml")]
+    pub calib: Option<PathBuf>,
+
+    /// Matcher parameters (TOML: `algorithm = "sgbm"` or `"bm"` and OpenCV's parameters);
+    /// Kestrel's SGBM defaults otherwise.
+    #[arg(long, value_name = "FILE.toml")]
+    pub matcher: Option<PathBuf>,
+
+    /// Disparity search range (px, a multiple of 16), overriding the matcher's.
+    #[arg(long, value_name = "N")]
+    pub num_disparities: Option<i32>,
+
+    /// Ground-truth disparity image (Middlebury: 0 = unknown).
+    #[arg(long, value_name = "FILE")]
+    pub gt: Option<PathBuf>,
+
+    /// Ground-truth value per pixel of disparity (Middlebury quarter-size sets: 4).
+    #[arg(long, value_name = "S")]
+    pub gt_scale: Option<f32>,
+
+    /// Output: `.pfm` (Middlebury float, invalid = +inf) or `.png` (16-bit, value = d·256,
+    /// 0 = invalid, KITTI's convention).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
 }

@@ -30,6 +30,9 @@ fn main() -> ExitCode {
         Command::Run(args) => cmd::run::run(args),
         Command::Fuzzy(args) => cmd::fuzzy::run(args),
         Command::Replay(args) => cmd::replay::run(args),
+        Command::Calibrate(args) => cmd::calibrate::run(args),
+        Command::Disparity(args) => cmd::disparity::run(args),
+        Command::Report(args) => cmd::report::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

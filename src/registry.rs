@@ -25,6 +25,12 @@ impl Registry {
             .with::<kestrel_sim::SimActor>("sim")
             .with::<kestrel_estimator::EstimatorActor>("estimator")
             .with::<kestrel_avoider::AvoiderActor>("avoider")
+            .with::<kestrel_vision::CameraActor>("camera")
+            .with::<kestrel_vision::StereoActor>("stereo")
+            .with::<kestrel_control::CommanderActor>("commander")
+            .with::<kestrel_control::ControllerActor>("controller")
+            .with::<kestrel_control::TruthNavActor>("truth_nav")
+            .with::<kestrel_link::LinkActor>("link")
     }
 
     /// Adds actor type `A` under `name`.

@@ -229,3 +229,29 @@ fn report_scores_the_estimator_against_ground_truth() {
     let horizontal = report["estimator"]["rms_horizontal_m"].as_f64().unwrap();
     assert!(horizontal > 0.0 && horizontal < 1.0, "a vehicle at rest is located within a metre: {report}");
 }
+
+#[test]
+fn auto_mission_flies_on_the_full_stack_and_lands_home() {
+    let json = temp_path("mission.json");
+    let out = kestrel()
+        .args(["run", "--speedup", "0", "--quiet", "--duration", "300", "--auto", "--exit-on-land"])
+        .args(["--mission", "config/missions/square.plan", "--report"])
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    let _ = std::fs::remove_file(&json);
+    assert_eq!(report["mission"]["completed"], true, "{report:#}");
+    assert_eq!(report["mission"]["items_reached"], report["mission"]["items_total"], "{report:#}");
+    let flight = &report["flight"];
+    assert_eq!(flight["collisions"], 0);
+    assert_eq!(flight["landed"], true, "{report:#}");
+    assert!(
+        flight["duration_s"].as_f64().unwrap() < 120.0,
+        "ended on landing, not at the time limit: {report:#}"
+    );
+    assert!(flight["landing_distance_from_home_m"].as_f64().unwrap() < 2.0, "{report:#}");
+    assert!(report["estimator"]["rms_horizontal_m"].as_f64().unwrap() < 1.0, "{report:#}");
+    assert!(report["failsafes"].as_array().unwrap().is_empty(), "{report:#}");
+}

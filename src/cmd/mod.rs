@@ -1,5 +1,8 @@
 //! One module per subcommand.
 
+pub mod calibrate;
+pub mod disparity;
 pub mod fuzzy;
 pub mod replay;
+pub mod report;
 pub mod run;

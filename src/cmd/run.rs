@@ -10,7 +10,8 @@ use crate::cli::RunArgs;
 /// Runs the graph `args` name until its duration passes or a signal arrives.
 pub fn run(args: RunArgs) -> Result<(), String> {
     let config_path = locate_config(&args.config)?;
-    let config = LoadedConfig::load(&config_path).map_err(|e| e.to_string())?;
+    let mut config = LoadedConfig::load(&config_path).map_err(|e| e.to_string())?;
+    apply_flight_flags(&mut config, &args)?;
     let duration = match args.duration {
         Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
         Some(s) => return Err(format!("--duration {s}: expected a positive number of seconds")),
@@ -49,6 +50,34 @@ pub fn run(args: RunArgs) -> Result<(), String> {
             rec.messages_per_topic.len(),
             rec.path.display()
         );
+    }
+    Ok(())
+}
+
+/// Hands `--mission`, `--auto` and `--exit-on-land` to the graph's commander as parameters.
+fn apply_flight_flags(config: &mut LoadedConfig, args: &RunArgs) -> Result<(), String> {
+    if args.mission.is_none() && !args.auto && !args.exit_on_land {
+        return Ok(());
+    }
+    let path = config.source.path.display().to_string();
+    let mut commanders = config.graph.actors.values_mut().filter(|d| d.kind.get_ref() == "commander");
+    let (Some(commander), None) = (commanders.next(), commanders.next()) else {
+        return Err(format!(
+            "--mission, --auto and --exit-on-land need exactly one commander actor in {path}"
+        ));
+    };
+    let params =
+        commander.params.get_or_insert_with(|| toml::Spanned::new(0..0, toml::Table::new())).get_mut();
+    if let Some(mission) = &args.mission {
+        let absolute =
+            std::path::absolute(mission).map_err(|e| format!("--mission {}: {e}", mission.display()))?;
+        params.insert("mission".into(), toml::Value::String(absolute.display().to_string()));
+    }
+    if args.auto {
+        params.insert("auto".into(), toml::Value::Boolean(true));
+    }
+    if args.exit_on_land {
+        params.insert("exit_on_land".into(), toml::Value::Boolean(true));
     }
     Ok(())
 }

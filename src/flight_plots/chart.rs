@@ -23,6 +23,10 @@ pub(crate) const TRUTH: RGBColor = RGBColor(44, 160, 44);
 /// draw a long flight quickly.
 const MAX_POINTS: usize = 4000;
 
+/// Share of a panel's value span left free above the data, so the legend (upper right) does
+/// not hide it.
+const LEGEND_HEADROOM: f64 = 0.4;
+
 /// How a trace joins its samples.
 #[derive(Clone, Copy, Debug)]
 pub(crate) enum Shape {
@@ -84,6 +88,9 @@ fn draw_panel(
 ) -> Result<(), AreaError> {
     let traces: Vec<(&Trace, Vec<(f64, f64)>)> = panel.traces.iter().map(|t| (t, drawn_points(t))).collect();
     let (x, y) = ranges(traces.iter().flat_map(|(_, p)| p));
+    let (x_decimals, y_decimals) = (decimals(x.1 - x.0), decimals(y.1 - y.0));
+    let x_label = |v: &f64| tick_label(*v, x_decimals);
+    let y_label = |v: &f64| tick_label(*v, y_decimals);
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.title, (FAMILY, 22))
         .margin(12)
@@ -94,6 +101,8 @@ fn draw_panel(
         .configure_mesh()
         .x_desc("time (s)")
         .y_desc(&panel.y_label)
+        .x_label_formatter(&x_label)
+        .y_label_formatter(&y_label)
         .label_style((FAMILY, 16))
         .axis_desc_style((FAMILY, 18))
         .light_line_style(RGBColor(236, 236, 236))
@@ -154,21 +163,33 @@ fn thin(points: Vec<(f64, f64)>) -> Vec<(f64, f64)> {
     out
 }
 
-/// Axis ranges covering `points` with a margin; a flat or empty series gets a unit-wide range.
+/// Decimals that tell apart the ticks of an axis `span` wide (about ten ticks).
+fn decimals(span: f64) -> usize {
+    (-(span / 10.0).log10()).ceil().clamp(0.0, 6.0) as usize
+}
+
+/// `value` with `decimals`, without the "-0.0" of a value that rounds to zero.
+fn tick_label(value: f64, decimals: usize) -> String {
+    let text = format!("{value:.decimals$}");
+    if text.chars().all(|c| matches!(c, '-' | '0' | '.')) { text.replace('-', "") } else { text }
+}
+
+/// Axis ranges covering `points`: time edge to edge; values with a margin below and headroom
+/// above for the legend. A flat or empty series gets a unit-wide range.
 fn ranges<'a>(points: impl Iterator<Item = &'a (f64, f64)>) -> ((f64, f64), (f64, f64)) {
     let (mut x, mut y) = ((f64::INFINITY, f64::NEG_INFINITY), (f64::INFINITY, f64::NEG_INFINITY));
     for &(t, v) in points {
         x = (x.0.min(t), x.1.max(t));
         y = (y.0.min(v), y.1.max(v));
     }
-    let widen = |(lo, hi): (f64, f64), margin: f64| {
+    let widen = |(lo, hi): (f64, f64), below: f64, above: f64| {
         if !(lo.is_finite() && hi.is_finite()) {
             (0.0, 1.0)
         } else if hi - lo < 1e-9 {
             (lo - 0.5, hi + 0.5)
         } else {
-            (lo - margin * (hi - lo), hi + margin * (hi - lo))
+            (lo - below * (hi - lo), hi + above * (hi - lo))
         }
     };
-    (widen(x, 0.0), widen(y, 0.08))
+    (widen(x, 0.0, 0.0), widen(y, 0.05, LEGEND_HEADROOM))
 }

@@ -1,1 +1,33 @@
-//! kestrel-link
+//! kestrel-link: MAVLink between the vehicle and ground stations (QGroundControl, Mission
+//! Planner, MAVProxy, MAVSDK scripts) over UDP, TCP and serial radios.
+//!
+//! Layers, wire to graph:
+//! * [`frame`] — MAVLink 1/2 framing: parse (resync, checksums, counters) and encode (signing).
+//! * [`router`] — mavlink-router's rules between links, without sockets.
+//! * [`services`] — the vehicle's microservices, each a pure state machine: heartbeat, commands,
+//!   parameters, missions, telemetry, offboard control, status text.
+//! * [`vehicle`] — dispatches what is addressed to us to the services.
+//! * [`hub`] — links + router + vehicle: signatures, routing, per-link encoding, radio thinning.
+//! * [`transport`] — UDP client/server, TCP server and serial tasks feeding the hub.
+//! * [`actor`] — [`LinkActor`], the graph's side.
+//!
+//! Custom modes follow ArduCopter's numbering ([`modes`]), so ground stations show our modes.
+//!
+//! Graph ports of [`LinkActor`]: inputs `nav_state` (NavState), `gps` (GpsFix), `battery`
+//! (BatteryStatus), `vehicle_status` (VehicleStatus), `depth_grid` (DepthGrid); outputs
+//! `vehicle_command` (VehicleCommand, including `Command::Heartbeat` for every ground-station
+//! heartbeat), `mission` (Mission), `manual_control` (ManualControl), `param_set` (ParamSet);
+//! timers `heartbeat` (1 Hz) and `tick` (50 Hz, telemetry and timeouts).
+
+pub mod actor;
+pub mod config;
+pub mod frame;
+pub mod hub;
+pub mod modes;
+pub mod router;
+pub mod services;
+pub mod transport;
+pub mod vehicle;
+
+pub use actor::{LinkActor, LinkInput};
+pub use config::{EndpointConfig, EndpointKind, LinkParams, ParamKind, ParamSpec};

@@ -1,0 +1,112 @@
+//! Pre-arm checks and what each mode needs before it may be entered.
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::{FlightMode, LandedState};
+
+use super::Commander;
+
+/// Why a command or mode change was refused (reported in `VehicleStatus::last_refusal`).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct Refusal(pub String);
+
+pub(crate) fn refuse<T>(reason: impl Into<String>) -> Result<T, Refusal> {
+    Err(Refusal(reason.into()))
+}
+
+/// Modes that fly on the estimator's horizontal position.
+pub fn needs_position(mode: FlightMode) -> bool {
+    matches!(
+        mode,
+        FlightMode::PosHold
+            | FlightMode::Guided
+            | FlightMode::Auto
+            | FlightMode::Takeoff
+            | FlightMode::ReturnToLaunch
+    )
+}
+
+/// Modes flown from the sticks alone.
+pub fn needs_sticks(mode: FlightMode) -> bool {
+    matches!(mode, FlightMode::Stabilize | FlightMode::Acro)
+}
+
+/// How long a battery report stays valid for the pre-arm check (s).
+const BATTERY_FRESH_S: f64 = 2.0;
+/// Largest tilt at which the vehicle may arm (rad): it must stand on its legs.
+const MAX_ARM_TILT_RAD: f64 = 0.5;
+/// Throttle below which the sticks count as "low" for arming.
+const LOW_THROTTLE: f64 = 0.1;
+
+impl Commander {
+    /// Whether `mode` can be flown with what the commander knows now.
+    pub(crate) fn mode_allowed(&self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
+        if let Some(f) = self
+            .failsafes
+            .worst()
+            .filter(|f| f.action >= kestrel_proto::messages::FailsafeAction::ReturnToLaunch)
+            && self.armed
+            && mode != FlightMode::Land
+            && mode != self.mode
+        {
+            return refuse(format!("{mode:?} refused: failsafe {:?} ({:?}) is active", f.action, f.cause));
+        }
+        let nav = self.fresh_nav(now);
+        if needs_position(mode) {
+            let Some(nav) = nav else { return refuse(format!("{mode:?} needs a fresh navigation state")) };
+            if !(nav.valid.horizontal_position && nav.valid.vertical_position && nav.origin.is_some()) {
+                return refuse(format!("{mode:?} needs a position estimate (GPS fix)"));
+            }
+        }
+        if mode == FlightMode::AltHold && !nav.is_some_and(|n| n.valid.vertical_position) {
+            return refuse("AltHold needs a height estimate");
+        }
+        if mode == FlightMode::Auto && self.mission.is_none() {
+            return refuse("Auto needs a mission");
+        }
+        if needs_sticks(mode) && self.manual.is_none() {
+            return refuse(format!("{mode:?} needs manual control input"));
+        }
+        Ok(())
+    }
+
+    /// The pre-arm checks, first failure first.
+    pub(crate) fn prearm(&self, now: Time) -> Result<(), Refusal> {
+        if self.armed {
+            return refuse("already armed");
+        }
+        let Some(nav) = self.fresh_nav(now) else {
+            return refuse("arming refused: no fresh navigation state");
+        };
+        if !nav.valid.attitude {
+            return refuse("arming refused: attitude estimate not converged");
+        }
+        if self.tilt_rad(nav) > MAX_ARM_TILT_RAD {
+            return refuse("arming refused: vehicle not level");
+        }
+        if self.landed != LandedState::OnGround {
+            return refuse("arming refused: not on the ground");
+        }
+        self.mode_allowed(now, self.mode).map_err(|r| Refusal(format!("arming refused: {r}")))?;
+        if needs_sticks(self.mode) && self.manual.is_some_and(|m| m.throttle > LOW_THROTTLE) {
+            return refuse("arming refused: throttle not low");
+        }
+        if self.params.require_battery {
+            match &self.battery {
+                Some(b) if now.saturating_since(b.time).as_secs_f64() <= BATTERY_FRESH_S => {
+                    if b.remaining <= self.params.failsafe.battery_low {
+                        return refuse(format!("arming refused: battery at {:.0} %", b.remaining * 100.0));
+                    }
+                }
+                _ => return refuse("arming refused: no battery report"),
+            }
+        }
+        if let Some(f) = self.failsafes.worst() {
+            return refuse(format!("arming refused: failsafe {:?} active", f.cause));
+        }
+        if self.outside_geofence(nav, &self.home_or(nav)) {
+            return refuse("arming refused: outside the geofence");
+        }
+        Ok(())
+    }
+}

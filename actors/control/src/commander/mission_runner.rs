@@ -1,0 +1,191 @@
+//! Flying a [`Mission`]: which item is current, when it counts as reached, and the
+//! trajectory setpoint towards it.
+
+use kestrel_proto::Time;
+use kestrel_proto::geo::{Geodetic, LocalFrame};
+use kestrel_proto::messages::{
+    AltitudeFrame, Mission, MissionItem, MissionPoint, MissionProgress, TrajectorySetpoint,
+};
+use nalgebra::Vector3;
+
+/// A take-off item counts as reached within this height (m).
+const TAKEOFF_TOLERANCE_M: f64 = 0.5;
+
+/// What the mission wants now.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MissionStep {
+    /// Fly this setpoint.
+    Fly(TrajectorySetpoint),
+    /// Land at this NED horizontal position (m).
+    Land { north_m: f64, east_m: f64 },
+    /// Hand over to RTL.
+    ReturnToLaunch,
+    /// Every item done: hold where the last one left the vehicle.
+    Finished,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Phase {
+    /// Flying to the current item; the NED target is resolved when the item starts.
+    Flying { target: Vector3<f64> },
+    /// Reached; waiting until then before the next item.
+    Holding { target: Vector3<f64>, until: Time },
+}
+
+/// Progress through one mission.
+#[derive(Clone, Debug)]
+pub struct MissionRunner {
+    mission: Mission,
+    cruise_m_s: f64,
+    current: usize,
+    reached: u32,
+    phase: Option<Phase>,
+}
+
+impl MissionRunner {
+    pub fn new(mission: Mission) -> MissionRunner {
+        MissionRunner { cruise_m_s: mission.cruise_speed_m_s, mission, current: 0, reached: 0, phase: None }
+    }
+
+    /// Progress for `VehicleStatus`. A return-to-launch item counts as reached when RTL takes
+    /// over; a land item when the vehicle has landed.
+    pub fn progress(&self) -> MissionProgress {
+        let total = u32::try_from(self.mission.items.len()).unwrap_or(u32::MAX);
+        MissionProgress {
+            current: u32::try_from(self.current).unwrap_or(u32::MAX),
+            reached: self.reached,
+            total,
+            completed: self.reached >= total,
+        }
+    }
+
+    /// The vehicle has landed: a land item being flown is thereby reached.
+    pub fn landed(&mut self) {
+        if matches!(self.mission.items.get(self.current), Some(MissionItem::Land { .. })) {
+            self.advance();
+        }
+    }
+
+    /// The next step, given the vehicle's NED position, the NED frame and home (NED, m).
+    pub fn update(
+        &mut self,
+        now: Time,
+        pos: &Vector3<f64>,
+        frame: &LocalFrame,
+        home: &Vector3<f64>,
+    ) -> MissionStep {
+        loop {
+            let Some(item) = self.mission.items.get(self.current).copied() else {
+                return MissionStep::Finished;
+            };
+            match item {
+                MissionItem::ChangeSpeed { speed_m_s } => {
+                    self.cruise_m_s = speed_m_s;
+                    self.advance();
+                }
+                MissionItem::ReturnToLaunch => {
+                    self.advance();
+                    return MissionStep::ReturnToLaunch;
+                }
+                MissionItem::Land { point } => {
+                    let target = resolve(&point, frame, home, pos);
+                    return MissionStep::Land { north_m: target.x, east_m: target.y };
+                }
+                MissionItem::Takeoff { point } => {
+                    let target = self.target_or(|| {
+                        let t = resolve(&point, frame, home, pos);
+                        Vector3::new(pos.x, pos.y, t.z)
+                    });
+                    if (pos.z - target.z).abs() < TAKEOFF_TOLERANCE_M {
+                        self.advance();
+                        continue;
+                    }
+                    return MissionStep::Fly(self.setpoint(&target));
+                }
+                MissionItem::Waypoint { point, acceptance_radius_m, hold_s } => {
+                    let target = self.target_or(|| resolve(&point, frame, home, pos));
+                    if let Some(step) = self.arrive(now, pos, target, acceptance_radius_m, hold_s) {
+                        return step;
+                    }
+                }
+                MissionItem::LoiterTime { duration_s } => {
+                    let target = self.target_or(|| *pos);
+                    if let Some(step) = self.arrive(now, pos, target, f64::INFINITY, duration_s) {
+                        return step;
+                    }
+                }
+            }
+        }
+    }
+
+    /// While at `target`: the hold setpoint; once the hold is over, `None` (item done).
+    fn arrive(
+        &mut self,
+        now: Time,
+        pos: &Vector3<f64>,
+        target: Vector3<f64>,
+        radius: f64,
+        hold_s: f64,
+    ) -> Option<MissionStep> {
+        match self.phase {
+            Some(Phase::Flying { .. }) if (pos - target).norm() <= radius => {
+                let until = now + std::time::Duration::from_secs_f64(hold_s.clamp(0.0, 86_400.0));
+                self.phase = Some(Phase::Holding { target, until });
+                self.arrive(now, pos, target, radius, hold_s)
+            }
+            Some(Phase::Holding { until, .. }) if now >= until => {
+                self.advance();
+                None
+            }
+            _ => Some(MissionStep::Fly(self.setpoint(&target))),
+        }
+    }
+
+    fn target_or(&mut self, resolve: impl FnOnce() -> Vector3<f64>) -> Vector3<f64> {
+        match self.phase {
+            Some(Phase::Flying { target } | Phase::Holding { target, .. }) => target,
+            None => {
+                let target = resolve();
+                self.phase = Some(Phase::Flying { target });
+                target
+            }
+        }
+    }
+
+    fn advance(&mut self) {
+        self.current += 1;
+        self.reached += 1;
+        self.phase = None;
+    }
+
+    fn setpoint(&self, target: &Vector3<f64>) -> TrajectorySetpoint {
+        TrajectorySetpoint {
+            position_ned_m: [Some(target.x), Some(target.y), Some(target.z)],
+            max_horizontal_speed_m_s: Some(self.cruise_m_s),
+            ..TrajectorySetpoint::default()
+        }
+    }
+}
+
+/// NED position (m) of a mission point; a point without lat/lon keeps the vehicle's north/east.
+pub fn resolve(
+    point: &MissionPoint,
+    frame: &LocalFrame,
+    home: &Vector3<f64>,
+    pos: &Vector3<f64>,
+) -> Vector3<f64> {
+    let down = match point.frame {
+        AltitudeFrame::RelativeHome => home.z - point.alt_m,
+        AltitudeFrame::Amsl => -(point.alt_m - frame.home().alt_m),
+    };
+    if point.lat_deg.is_finite() && point.lon_deg.is_finite() {
+        let ned = frame.to_ned(Geodetic {
+            lat_deg: point.lat_deg,
+            lon_deg: point.lon_deg,
+            alt_m: frame.home().alt_m,
+        });
+        Vector3::new(ned[0], ned[1], down)
+    } else {
+        Vector3::new(pos.x, pos.y, down)
+    }
+}

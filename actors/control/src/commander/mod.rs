@@ -1,0 +1,549 @@
+//! The commander: arming, flight modes, missions and failsafes — a pure state machine fed
+//! with messages and asked, at its own pace, for the setpoint to fly and the status to report.
+//!
+//! Home is the NED position where the vehicle armed. Failsafes follow PX4's precedence
+//! (warn < hold < RTL < land < disarm): the active cause with the strongest action decides,
+//! its cause is reported in `VehicleStatus`, and while an RTL-or-stronger failsafe is active
+//! the pilot may only switch to LAND (PX4 lets the pilot take over in some cases; we are
+//! conservative here). On the ground, a failsafe of RTL or stronger disarms.
+
+mod arming;
+mod failsafe;
+mod land_detector;
+mod mission_runner;
+mod modes;
+mod params;
+
+use kestrel_proto::Time;
+use kestrel_proto::geo::LocalFrame;
+use kestrel_proto::messages::{
+    BatteryStatus, Command, FailsafeAction, FailsafeCause, FlightMode, LandedState, ManualControl, Mission,
+    MissionProgress, NavState, Setpoint, SetpointTarget, SupervisorEvent, SupervisorEventKind,
+    VehicleCommand, VehicleStatus,
+};
+use nalgebra::{UnitQuaternion, Vector3};
+
+pub use arming::{Refusal, needs_position, needs_sticks};
+pub use failsafe::{FailsafeMonitor, FailsafeRecord};
+pub use land_detector::LandDetector;
+pub use mission_runner::{MissionRunner, MissionStep};
+pub use params::{CommanderParams, FailsafeParams, GeofenceParams};
+
+use crate::error::InvalidParam;
+use crate::flip::Flip;
+use crate::position::yaw_of;
+use arming::refuse;
+use modes::{Hold, RtlPhase};
+
+/// Height above home at which the vehicle counts as airborne (m).
+const AIRBORNE_HEIGHT_M: f64 = 0.5;
+
+/// The commander's state.
+#[derive(Debug)]
+pub struct Commander {
+    params: CommanderParams,
+    armed: bool,
+    mode: FlightMode,
+    landed: LandedState,
+    nav: Option<NavState>,
+    frame: Option<LocalFrame>,
+    /// Polygon fence vertices, north/east (m), once the NED origin is known.
+    fence_ned: Vec<[f64; 2]>,
+    home_ned: Option<Vector3<f64>>,
+    battery: Option<BatteryStatus>,
+    manual: Option<ManualControl>,
+    last_link: Option<Time>,
+    mission: Option<Mission>,
+    runner: Option<MissionRunner>,
+    last_progress: MissionProgress,
+    hold: Hold,
+    rtl: RtlPhase,
+    flip: Option<Flip>,
+    guided: modes::GuidedTarget,
+    takeoff_height_m: f64,
+    land_detector: LandDetector,
+    failsafes: FailsafeMonitor,
+    applied_action: Option<FailsafeAction>,
+    critical_failure: bool,
+    last_refusal: Option<String>,
+    last_update: Option<Time>,
+}
+
+impl Commander {
+    pub fn new(params: CommanderParams) -> Result<Commander, InvalidParam> {
+        params.validate()?;
+        Ok(Commander {
+            takeoff_height_m: params.takeoff_altitude_m,
+            params,
+            armed: false,
+            mode: FlightMode::Stabilize,
+            landed: LandedState::OnGround,
+            nav: None,
+            frame: None,
+            fence_ned: Vec::new(),
+            home_ned: None,
+            battery: None,
+            manual: None,
+            last_link: None,
+            mission: None,
+            runner: None,
+            last_progress: MissionProgress::default(),
+            hold: Hold::default(),
+            rtl: RtlPhase::Climb,
+            flip: None,
+            guided: modes::GuidedTarget::Hold,
+            land_detector: LandDetector::default(),
+            failsafes: FailsafeMonitor::default(),
+            applied_action: None,
+            critical_failure: false,
+            last_refusal: None,
+            last_update: None,
+        })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &CommanderParams {
+        &self.params
+    }
+
+    pub fn armed(&self) -> bool {
+        self.armed
+    }
+
+    pub fn mode(&self) -> FlightMode {
+        self.mode
+    }
+
+    pub fn landed(&self) -> LandedState {
+        self.landed
+    }
+
+    /// Home, NED from the estimator's origin (m); set at arming.
+    pub fn home_ned(&self) -> Option<Vector3<f64>> {
+        self.home_ned
+    }
+
+    /// Every failsafe that fired while armed.
+    pub fn failsafe_log(&self) -> &[FailsafeRecord] {
+        self.failsafes.log()
+    }
+
+    /// A new navigation state (non-finite ones are ignored: the loop rejects them too).
+    pub fn on_nav(&mut self, nav: &NavState) {
+        let finite = nav
+            .position_ned_m
+            .iter()
+            .chain(&nav.velocity_ned_m_s)
+            .chain(&nav.attitude)
+            .all(|v| v.is_finite());
+        if !finite {
+            return;
+        }
+        if self.frame.is_none()
+            && let Some(origin) = nav.origin
+        {
+            let frame = LocalFrame::new(origin);
+            self.fence_ned = self
+                .params
+                .geofence
+                .polygon
+                .iter()
+                .map(|&[lat_deg, lon_deg]| {
+                    let ned =
+                        frame.to_ned(kestrel_proto::geo::Geodetic { lat_deg, lon_deg, alt_m: origin.alt_m });
+                    [ned[0], ned[1]]
+                })
+                .collect();
+            self.frame = Some(frame);
+        }
+        self.nav = Some(nav.clone());
+    }
+
+    pub fn on_battery(&mut self, battery: &BatteryStatus) {
+        self.battery = Some(battery.clone());
+    }
+
+    /// Sticks; they also count as a live data link. Non-finite sticks are ignored.
+    pub fn on_manual(&mut self, manual: &ManualControl) {
+        let m = manual;
+        if [m.roll, m.pitch, m.yaw, m.throttle].iter().all(|v| v.is_finite()) {
+            self.manual = Some(ManualControl {
+                roll: m.roll.clamp(-1.0, 1.0),
+                pitch: m.pitch.clamp(-1.0, 1.0),
+                yaw: m.yaw.clamp(-1.0, 1.0),
+                throttle: m.throttle.clamp(0.0, 1.0),
+                ..*m
+            });
+            self.last_link = Some(m.time);
+        }
+    }
+
+    /// A failure report from the supervisor; a flight-critical actor's failure is a failsafe.
+    pub fn on_supervisor(&mut self, event: &SupervisorEvent) {
+        if event.critical && matches!(event.kind, SupervisorEventKind::Failed | SupervisorEventKind::GaveUp) {
+            tracing::error!(actor = %event.actor, reason = %event.reason, "flight-critical actor failed");
+            self.critical_failure = true;
+        }
+    }
+
+    /// A new mission; replaces the old one. Refused while flying it.
+    pub fn on_mission(&mut self, mission: Mission) -> Result<(), Refusal> {
+        if self.armed && self.mode == FlightMode::Auto {
+            return self.refused(refuse("mission upload refused while flying AUTO"));
+        }
+        if mission.items.is_empty()
+            || !(mission.cruise_speed_m_s.is_finite() && mission.cruise_speed_m_s > 0.0)
+        {
+            return self.refused(refuse("mission refused: no items or bad cruise speed"));
+        }
+        self.last_progress = MissionRunner::new(mission.clone()).progress();
+        self.mission = Some(mission);
+        self.runner = None;
+        Ok(())
+    }
+
+    /// A command; refused ones say why (also in the next status).
+    pub fn on_command(&mut self, cmd: &VehicleCommand) -> Result<(), Refusal> {
+        let now = cmd.time;
+        let result = match cmd.command {
+            Command::Heartbeat => {
+                self.last_link = Some(now);
+                Ok(())
+            }
+            Command::Arm => self.arm(now),
+            Command::Disarm { force } => {
+                if self.landed == LandedState::OnGround || force {
+                    self.disarm("commanded");
+                    Ok(())
+                } else {
+                    refuse("disarm refused in flight (use force)")
+                }
+            }
+            Command::SetMode(mode) => self.set_mode(now, mode),
+            Command::Takeoff { altitude_m } => {
+                if !(altitude_m.is_finite()
+                    && altitude_m > 1.0
+                    && altitude_m <= self.params.geofence.max_altitude_m)
+                {
+                    refuse(format!("take-off altitude {altitude_m} m out of range"))
+                } else if !self.armed {
+                    refuse("take-off refused: not armed")
+                } else {
+                    self.takeoff_height_m = altitude_m;
+                    self.set_mode(now, FlightMode::Takeoff)
+                }
+            }
+            Command::Land => self.set_mode(now, FlightMode::Land),
+            Command::ReturnToLaunch => self.set_mode(now, FlightMode::ReturnToLaunch),
+            Command::MissionStart => {
+                let r = self.set_mode(now, FlightMode::Auto);
+                if r.is_ok() {
+                    self.runner = self.mission.clone().map(MissionRunner::new);
+                }
+                r
+            }
+            Command::Flip => self.start_flip(now),
+            Command::GotoNed { position_ned_m } => {
+                self.guided_command(modes::GuidedTarget::Position(position_ned_m))
+            }
+            Command::VelocityNed { velocity_ned_m_s } => {
+                self.guided_command(modes::GuidedTarget::Velocity(velocity_ned_m_s))
+            }
+        };
+        self.refused(result)
+    }
+
+    fn refused<T>(&mut self, result: Result<T, Refusal>) -> Result<T, Refusal> {
+        if let Err(r) = &result {
+            tracing::info!(reason = %r, "refused");
+            self.last_refusal = Some(r.0.clone());
+        }
+        result
+    }
+
+    fn arm(&mut self, now: Time) -> Result<(), Refusal> {
+        self.prearm(now)?;
+        let nav = self.fresh_nav(now).cloned();
+        self.armed = true;
+        self.home_ned = nav.map(|n| Vector3::from(n.position_ned_m));
+        self.landed = LandedState::OnGround;
+        self.failsafes.clear();
+        self.applied_action = None;
+        self.critical_failure = false;
+        self.enter(self.mode);
+        if self.mode == FlightMode::Auto {
+            self.runner = self.mission.clone().map(MissionRunner::new);
+        }
+        tracing::info!(mode = ?self.mode, "armed");
+        Ok(())
+    }
+
+    fn disarm(&mut self, why: &str) {
+        if self.armed {
+            tracing::info!(why, "disarmed");
+        }
+        self.armed = false;
+        self.flip = None;
+        self.landed = LandedState::OnGround;
+    }
+
+    fn set_mode(&mut self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
+        self.mode_allowed(now, mode)?;
+        if mode == FlightMode::Auto && (self.runner.is_none() || self.mode != FlightMode::Auto) {
+            self.runner = self.mission.clone().map(MissionRunner::new);
+        }
+        self.enter(mode);
+        Ok(())
+    }
+
+    /// Switches mode and resets what the new mode latches.
+    fn enter(&mut self, mode: FlightMode) {
+        if mode != self.mode {
+            tracing::info!(from = ?self.mode, to = ?mode, "mode");
+        }
+        self.mode = mode;
+        self.hold = Hold::default();
+        self.rtl = RtlPhase::Climb;
+        self.flip = None;
+        self.guided = modes::GuidedTarget::Hold;
+        self.land_detector.reset();
+    }
+
+    fn start_flip(&mut self, now: Time) -> Result<(), Refusal> {
+        if self.mode != FlightMode::Acro {
+            return refuse("flip refused: only in ACRO");
+        }
+        if self.landed != LandedState::InAir {
+            return refuse("flip refused: not flying");
+        }
+        let Some(nav) = self.fresh_nav(now).cloned() else {
+            return refuse("flip refused: no navigation state");
+        };
+        if self.height_m(&nav) < self.params.flip_min_height_m {
+            return refuse(format!("flip refused: below {} m", self.params.flip_min_height_m));
+        }
+        self.flip = Some(Flip::start(&nav, self.params.hover_thrust));
+        Ok(())
+    }
+
+    fn guided_command(&mut self, target: modes::GuidedTarget) -> Result<(), Refusal> {
+        if self.mode != FlightMode::Guided {
+            return refuse("position/velocity targets are accepted in GUIDED only");
+        }
+        let finite = match target {
+            modes::GuidedTarget::Position(v) | modes::GuidedTarget::Velocity(v) => {
+                v.iter().all(|x| x.is_finite())
+            }
+            modes::GuidedTarget::Hold => true,
+        };
+        if !finite {
+            return refuse("guided target is not finite");
+        }
+        self.guided = target;
+        Ok(())
+    }
+
+    /// The newest NavState if it is fresh at `now`.
+    fn fresh_nav(&self, now: Time) -> Option<&NavState> {
+        self.nav.as_ref().filter(|n| now.saturating_since(n.time).as_secs_f64() <= self.params.nav_timeout_s)
+    }
+
+    fn tilt_rad(&self, nav: &NavState) -> f64 {
+        (attitude(nav) * Vector3::z()).angle(&Vector3::z())
+    }
+
+    fn home_or(&self, nav: &NavState) -> Vector3<f64> {
+        self.home_ned.unwrap_or_else(|| Vector3::from(nav.position_ned_m))
+    }
+
+    /// Height above home (m).
+    fn height_m(&self, nav: &NavState) -> f64 {
+        self.home_or(nav).z - nav.position_ned_m[2]
+    }
+
+    fn outside_geofence(&self, nav: &NavState, home: &Vector3<f64>) -> bool {
+        if !(nav.valid.horizontal_position && nav.valid.vertical_position) {
+            return false;
+        }
+        let p = Vector3::from(nav.position_ned_m);
+        let g = &self.params.geofence;
+        let radius = (p.x - home.x).hypot(p.y - home.y);
+        let height = home.z - p.z;
+        radius > g.max_radius_m || height > g.max_altitude_m || !inside_polygon(&self.fence_ned, p.x, p.y)
+    }
+
+    /// Runs the state machine at `now` and returns the setpoint to fly.
+    pub fn update(&mut self, now: Time) -> Setpoint {
+        let dt_s = self.last_update.map_or(0.0, |t| now.saturating_since(t).as_secs_f64().min(0.1));
+        self.last_update = Some(now);
+        self.track_landed(now);
+        self.check_failsafes(now);
+        let target = if self.armed { self.fly(now, dt_s) } else { SetpointTarget::MotorsOff };
+        let landing = self.armed && self.landed == LandedState::Landing;
+        Setpoint { time: now, armed: self.armed, target, landing }
+    }
+
+    /// The status to report at `now`.
+    pub fn status(&self, now: Time) -> VehicleStatus {
+        VehicleStatus {
+            time: now,
+            armed: self.armed,
+            mode: self.mode,
+            landed: self.landed,
+            failsafe: self.failsafes.worst(),
+            mission: self.runner.as_ref().map_or(self.last_progress, MissionRunner::progress),
+            last_refusal: self.last_refusal.clone(),
+        }
+    }
+
+    fn check_failsafes(&mut self, now: Time) {
+        let fs = self.params.failsafe.clone();
+        let armed = self.armed;
+        let nav = self.nav.clone();
+        let fresh = self.fresh_nav(now).is_some();
+        let link_lost =
+            self.last_link.is_some_and(|t| now.saturating_since(t).as_secs_f64() > fs.link_timeout_s);
+        let remaining = self.battery.as_ref().map(|b| b.remaining);
+        let unhealthy = nav.as_ref().is_some_and(|n| {
+            fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
+        });
+        let fence = nav.as_ref().is_some_and(|n| {
+            let home = self.home_or(n);
+            self.outside_geofence(n, &home)
+        });
+        let m = &mut self.failsafes;
+        m.set(now, FailsafeCause::DataLinkLost, armed && link_lost, fs.link_action);
+        m.set(
+            now,
+            FailsafeCause::BatteryLow,
+            armed && remaining.is_some_and(|r| r < fs.battery_low),
+            fs.battery_low_action,
+        );
+        m.set(
+            now,
+            FailsafeCause::BatteryCritical,
+            armed && remaining.is_some_and(|r| r < fs.battery_critical),
+            fs.battery_critical_action,
+        );
+        m.set(now, FailsafeCause::GeofenceBreach, armed && fence, fs.geofence_action);
+        m.set(now, FailsafeCause::EstimatorUnhealthy, armed && unhealthy, fs.estimator_action);
+        m.set(now, FailsafeCause::NavStateStale, armed && !fresh, FailsafeAction::Land);
+        m.set(
+            now,
+            FailsafeCause::CriticalActorFailed,
+            armed && self.critical_failure,
+            fs.critical_actor_action,
+        );
+        self.apply_failsafe(now);
+    }
+
+    fn apply_failsafe(&mut self, now: Time) {
+        let Some(worst) = self.failsafes.worst() else {
+            self.applied_action = None;
+            return;
+        };
+        if !self.armed || self.applied_action.is_some_and(|a| a >= worst.action) {
+            return;
+        }
+        self.applied_action = Some(worst.action);
+        let on_ground = self.landed == LandedState::OnGround;
+        let position_ok = self.mode_allowed_ignoring_failsafe(now, FlightMode::ReturnToLaunch);
+        match worst.action {
+            FailsafeAction::Warn => {}
+            FailsafeAction::Disarm => self.disarm("failsafe"),
+            _ if on_ground => self.disarm("failsafe on the ground"),
+            FailsafeAction::Hold => {
+                let mode = if position_ok { FlightMode::PosHold } else { FlightMode::AltHold };
+                self.enter(mode);
+            }
+            FailsafeAction::ReturnToLaunch if position_ok && self.home_ned.is_some() => {
+                if self.mode != FlightMode::ReturnToLaunch {
+                    self.enter(FlightMode::ReturnToLaunch);
+                }
+            }
+            FailsafeAction::ReturnToLaunch | FailsafeAction::Land => {
+                if self.mode != FlightMode::Land {
+                    self.enter(FlightMode::Land);
+                }
+            }
+        }
+    }
+
+    fn mode_allowed_ignoring_failsafe(&self, now: Time, mode: FlightMode) -> bool {
+        let nav = self.fresh_nav(now);
+        !needs_position(mode)
+            || nav.is_some_and(|n| {
+                n.valid.horizontal_position && n.valid.vertical_position && n.origin.is_some()
+            })
+    }
+
+    fn track_landed(&mut self, now: Time) {
+        let Some(nav) = self.nav.clone() else { return };
+        if !self.armed {
+            self.landed = LandedState::OnGround;
+            return;
+        }
+        let landing_mode = self.is_landing();
+        match self.landed {
+            LandedState::OnGround if self.height_m(&nav) > AIRBORNE_HEIGHT_M => {
+                self.landed = LandedState::InAir
+            }
+            LandedState::InAir if landing_mode => {
+                self.landed = LandedState::Landing;
+                self.land_detector.reset();
+            }
+            LandedState::Landing if !landing_mode => self.landed = LandedState::InAir,
+            LandedState::Landing
+                if self.land_detector.update(now, &nav.velocity_ned_m_s, self.params.land_detect_s) =>
+            {
+                self.landed = LandedState::OnGround;
+                if let Some(runner) = &mut self.runner {
+                    if self.mode == FlightMode::Auto {
+                        runner.landed();
+                    }
+                    self.last_progress = runner.progress();
+                }
+                self.disarm("landed");
+            }
+            _ => {}
+        }
+    }
+
+    fn is_landing(&self) -> bool {
+        match self.mode {
+            FlightMode::Land => true,
+            FlightMode::ReturnToLaunch => self.rtl == RtlPhase::Land,
+            FlightMode::Auto => self.hold.landing,
+            _ => false,
+        }
+    }
+}
+
+fn attitude(nav: &NavState) -> UnitQuaternion<f64> {
+    let [w, x, y, z] = nav.attitude;
+    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+}
+
+fn heading(nav: &NavState) -> f64 {
+    yaw_of(&attitude(nav))
+}
+
+/// Even-odd ray casting; an empty polygon contains everything.
+fn inside_polygon(vertices: &[[f64; 2]], north: f64, east: f64) -> bool {
+    if vertices.len() < 3 {
+        return true;
+    }
+    let mut inside = false;
+    let mut j = vertices.len() - 1;
+    for i in 0..vertices.len() {
+        let ([ni, ei], [nj, ej]) = (vertices[i], vertices[j]);
+        if (ei > east) != (ej > east) && north < (nj - ni) * (east - ei) / (ej - ei) + ni {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,309 @@
+//! What each flight mode flies: sticks, targets, the mission, RTL and landing → a setpoint.
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::{
+    FlightMode, LandedState, ManualControl, NavState, SetpointTarget, TrajectorySetpoint,
+};
+use nalgebra::{UnitQuaternion, Vector3};
+
+use super::mission_runner::MissionStep;
+use super::{Commander, heading};
+use crate::airframe::GRAVITY_M_S2;
+
+/// A landing target closer than this is descended onto directly (m); farther, flown to first.
+const LAND_APPROACH_RADIUS_M: f64 = 1.5;
+/// An altitude counts as reached within this (m).
+const ALTITUDE_TOLERANCE_M: f64 = 0.5;
+/// RTL counts as home within this horizontal distance and below this speed (m, m/s).
+const HOME_RADIUS_M: f64 = 1.0;
+const HOME_SPEED_M_S: f64 = 0.5;
+/// Sticks closer to centre than this count as centred.
+const STICK_CENTRED: f64 = 0.05;
+/// Largest collective thrust the sticks may ask for (share): the mixer keeps the rest for torque.
+const MAX_STICK_THRUST: f64 = 0.9;
+
+/// What the current mode latched when it started or the sticks were let go.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Hold {
+    /// Held NED position (m).
+    pub position: Option<Vector3<f64>>,
+    /// Held down coordinate (m).
+    pub down_m: Option<f64>,
+    /// Held heading (rad).
+    pub yaw_rad: Option<f64>,
+    /// AUTO is descending onto a landing item.
+    pub landing: bool,
+}
+
+/// Where RTL is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum RtlPhase {
+    Climb,
+    Return { down_m: f64 },
+    Loiter { down_m: f64, until: Time },
+    Land,
+}
+
+/// GUIDED's target.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum GuidedTarget {
+    Hold,
+    Position([f64; 3]),
+    Velocity([f64; 3]),
+}
+
+fn traj(position: [Option<f64>; 3], velocity: [Option<f64>; 3], yaw_rad: Option<f64>) -> SetpointTarget {
+    SetpointTarget::Trajectory(TrajectorySetpoint {
+        position_ned_m: position,
+        velocity_ned_m_s: velocity,
+        yaw_rad,
+        ..TrajectorySetpoint::default()
+    })
+}
+
+fn at(p: &Vector3<f64>) -> [Option<f64>; 3] {
+    [Some(p.x), Some(p.y), Some(p.z)]
+}
+
+impl Commander {
+    /// The setpoint of the current mode (armed only).
+    pub(super) fn fly(&mut self, now: Time, dt_s: f64) -> SetpointTarget {
+        let Some(nav) = self.nav.clone() else {
+            return traj([None; 3], [None, None, Some(self.params.land_slow_m_s)], None);
+        };
+        if let Some(flip) = &mut self.flip {
+            let target = flip.update(&nav);
+            if flip.done() {
+                self.flip = None;
+            }
+            return target;
+        }
+        let sticks = self.manual.unwrap_or(ManualControl { throttle: 0.5, ..ManualControl::default() });
+        let on_ground = self.landed == LandedState::OnGround;
+        match self.mode {
+            FlightMode::Stabilize => self.stabilize(&nav, &sticks, dt_s),
+            FlightMode::Acro => self.acro(&sticks),
+            FlightMode::AltHold | FlightMode::PosHold if on_ground && !self.climb_requested(&sticks) => {
+                SetpointTarget::MotorsOff
+            }
+            FlightMode::AltHold => self.alt_hold(&nav, &sticks, dt_s),
+            FlightMode::PosHold => self.pos_hold(&nav, &sticks, dt_s),
+            FlightMode::Guided => self.guided(&nav, on_ground),
+            FlightMode::Auto => self.auto(now, &nav),
+            FlightMode::Takeoff => {
+                let home = self.home_or(&nav);
+                let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+                let yaw = *self.hold.yaw_rad.get_or_insert(heading(&nav));
+                traj([Some(p.x), Some(p.y), Some(home.z - self.takeoff_height_m)], [None; 3], Some(yaw))
+            }
+            FlightMode::ReturnToLaunch => self.rtl(now, &nav),
+            FlightMode::Land => {
+                let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+                self.land_at(&nav, Some([p.x, p.y]))
+            }
+        }
+    }
+
+    /// Throttle → collective thrust share: mid-stick hovers (ArduPilot's `THR_MID` idea).
+    fn stick_thrust(&self, throttle: f64) -> f64 {
+        let h = self.params.hover_thrust;
+        if throttle <= 0.5 { throttle * 2.0 * h } else { h + (throttle - 0.5) * 2.0 * (MAX_STICK_THRUST - h) }
+    }
+
+    fn held_yaw(&mut self, nav: &NavState, rate_rad_s: f64, dt_s: f64) -> f64 {
+        let yaw = self.hold.yaw_rad.unwrap_or_else(|| heading(nav)) + rate_rad_s * dt_s;
+        self.hold.yaw_rad = Some(yaw);
+        yaw
+    }
+
+    fn stabilize(&mut self, nav: &NavState, s: &ManualControl, dt_s: f64) -> SetpointTarget {
+        let tilt = self.params.max_tilt_deg.to_radians();
+        let yaw_rate = s.yaw * self.params.yaw_rate_deg_s.to_radians();
+        let yaw = self.held_yaw(nav, yaw_rate, dt_s);
+        let q = UnitQuaternion::from_euler_angles(s.roll * tilt, -s.pitch * tilt, yaw);
+        SetpointTarget::Attitude {
+            attitude: [q.w, q.i, q.j, q.k],
+            yaw_rate_rad_s: yaw_rate,
+            thrust: self.stick_thrust(s.throttle),
+        }
+    }
+
+    fn acro(&self, s: &ManualControl) -> SetpointTarget {
+        let rate = self.params.acro_rate_deg_s.to_radians();
+        SetpointTarget::Rates {
+            rates_frd_rad_s: [
+                s.roll * rate,
+                -s.pitch * rate,
+                s.yaw * self.params.yaw_rate_deg_s.to_radians(),
+            ],
+            thrust: self.stick_thrust(s.throttle),
+        }
+    }
+
+    fn climb_requested(&self, s: &ManualControl) -> bool {
+        s.throttle > 0.5 + 0.5 * self.params.throttle_deadband
+    }
+
+    /// Vertical part of ALT_HOLD/POSHOLD: hold the height with the throttle centred, else climb
+    /// or descend in proportion.
+    fn vertical(&mut self, nav: &NavState, s: &ManualControl) -> (Option<f64>, Option<f64>) {
+        let stick = (s.throttle - 0.5) * 2.0;
+        let band = self.params.throttle_deadband;
+        if stick.abs() <= band {
+            (Some(*self.hold.down_m.get_or_insert(nav.position_ned_m[2])), None)
+        } else {
+            self.hold.down_m = None;
+            let scaled = (stick.abs() - band) / (1.0 - band) * stick.signum();
+            (None, Some(-scaled * self.params.stick_climb_m_s))
+        }
+    }
+
+    fn alt_hold(&mut self, nav: &NavState, s: &ManualControl, dt_s: f64) -> SetpointTarget {
+        let yaw_rate = s.yaw * self.params.yaw_rate_deg_s.to_radians();
+        let yaw = self.held_yaw(nav, yaw_rate, dt_s);
+        let (pz, vz) = self.vertical(nav, s);
+        // Sticks tilt: horizontal acceleration g·tan(stick·max tilt), in the heading's frame.
+        let a = |stick: f64| GRAVITY_M_S2 * (stick * self.params.max_tilt_deg.to_radians()).tan();
+        let (fwd, right) = (a(s.pitch), a(s.roll));
+        let (sin, cos) = yaw.sin_cos();
+        SetpointTarget::Trajectory(TrajectorySetpoint {
+            position_ned_m: [None, None, pz],
+            velocity_ned_m_s: [None, None, vz],
+            acceleration_ned_m_s2: [fwd * cos - right * sin, fwd * sin + right * cos, 0.0],
+            yaw_rad: Some(yaw),
+            yaw_rate_rad_s: yaw_rate,
+            max_horizontal_speed_m_s: None,
+        })
+    }
+
+    fn pos_hold(&mut self, nav: &NavState, s: &ManualControl, dt_s: f64) -> SetpointTarget {
+        let yaw_rate = s.yaw * self.params.yaw_rate_deg_s.to_radians();
+        let yaw = self.held_yaw(nav, yaw_rate, dt_s);
+        let (pz, vz) = self.vertical(nav, s);
+        let centred = s.roll.abs() < STICK_CENTRED && s.pitch.abs() < STICK_CENTRED;
+        let (pn, pe, vn, ve) = if centred {
+            let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+            (Some(p.x), Some(p.y), None, None)
+        } else {
+            self.hold.position = None;
+            let v = self.params.stick_speed_m_s;
+            let (sin, cos) = yaw.sin_cos();
+            let (fwd, right) = (s.pitch * v, s.roll * v);
+            (None, None, Some(fwd * cos - right * sin), Some(fwd * sin + right * cos))
+        };
+        SetpointTarget::Trajectory(TrajectorySetpoint {
+            position_ned_m: [pn, pe, pz],
+            velocity_ned_m_s: [vn, ve, vz],
+            yaw_rad: Some(yaw),
+            yaw_rate_rad_s: yaw_rate,
+            ..TrajectorySetpoint::default()
+        })
+    }
+
+    fn guided(&mut self, nav: &NavState, on_ground: bool) -> SetpointTarget {
+        let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        match self.guided {
+            GuidedTarget::Hold if on_ground => SetpointTarget::MotorsOff,
+            GuidedTarget::Hold => {
+                let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+                traj(at(&p), [None; 3], Some(yaw))
+            }
+            GuidedTarget::Position(p) => traj(p.map(Some), [None; 3], Some(yaw)),
+            GuidedTarget::Velocity(v) => traj([None; 3], v.map(Some), Some(yaw)),
+        }
+    }
+
+    fn auto(&mut self, now: Time, nav: &NavState) -> SetpointTarget {
+        let (Some(frame), Some(runner)) = (self.frame, self.runner.as_mut()) else {
+            return self.hold_here(nav);
+        };
+        let pos = Vector3::from(nav.position_ned_m);
+        let home = self.home_ned.unwrap_or(pos);
+        match runner.update(now, &pos, &frame, &home) {
+            MissionStep::Fly(mut sp) => {
+                sp.yaw_rad = Some(*self.hold.yaw_rad.get_or_insert(heading(nav)));
+                SetpointTarget::Trajectory(sp)
+            }
+            MissionStep::Land { north_m, east_m } => self.land_at(nav, Some([north_m, east_m])),
+            MissionStep::ReturnToLaunch => {
+                self.last_progress = runner.progress();
+                self.enter(FlightMode::ReturnToLaunch);
+                self.rtl(now, nav)
+            }
+            MissionStep::Finished => self.hold_here(nav),
+        }
+    }
+
+    fn hold_here(&mut self, nav: &NavState) -> SetpointTarget {
+        let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+        let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        traj(at(&p), [None; 3], Some(yaw))
+    }
+
+    fn rtl(&mut self, now: Time, nav: &NavState) -> SetpointTarget {
+        let Some(home) = self.home_ned else { return self.land_at(nav, None) };
+        let pos = Vector3::from(nav.position_ned_m);
+        let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        match self.rtl {
+            RtlPhase::Climb => {
+                let down = pos.z.min(home.z - self.params.rtl_altitude_m);
+                let start = *self.hold.position.get_or_insert(pos);
+                let down = *self.hold.down_m.get_or_insert(down);
+                if (pos.z - down).abs() < ALTITUDE_TOLERANCE_M {
+                    self.rtl = RtlPhase::Return { down_m: down };
+                }
+                traj([Some(start.x), Some(start.y), Some(down)], [None; 3], Some(yaw))
+            }
+            RtlPhase::Return { down_m } | RtlPhase::Loiter { down_m, .. } => {
+                let distance = (pos.x - home.x).hypot(pos.y - home.y);
+                let speed = nav.velocity_ned_m_s[0].hypot(nav.velocity_ned_m_s[1]);
+                match self.rtl {
+                    RtlPhase::Return { .. } if distance < HOME_RADIUS_M && speed < HOME_SPEED_M_S => {
+                        let loiter = std::time::Duration::from_secs_f64(self.params.rtl_loiter_s);
+                        self.rtl = RtlPhase::Loiter { down_m, until: now + loiter };
+                    }
+                    RtlPhase::Loiter { until, .. } if now >= until => {
+                        self.rtl = RtlPhase::Land;
+                        self.hold.down_m = None;
+                    }
+                    _ => {}
+                }
+                SetpointTarget::Trajectory(TrajectorySetpoint {
+                    position_ned_m: [Some(home.x), Some(home.y), Some(down_m)],
+                    max_horizontal_speed_m_s: Some(self.params.rtl_speed_m_s),
+                    yaw_rad: Some(yaw),
+                    ..TrajectorySetpoint::default()
+                })
+            }
+            RtlPhase::Land => self.land_at(nav, Some([home.x, home.y])),
+        }
+    }
+
+    /// Descends onto `xy` (NED north/east, m), flying there first if it is far; without a
+    /// horizontal position it levels and descends.
+    pub(super) fn land_at(&mut self, nav: &NavState, xy: Option<[f64; 2]>) -> SetpointTarget {
+        let rate = if self.height_m(nav) > self.params.land_slow_height_m {
+            self.params.land_fast_m_s
+        } else {
+            self.params.land_slow_m_s
+        };
+        let yaw = self.hold.yaw_rad;
+        match xy.filter(|_| nav.valid.horizontal_position) {
+            Some([n, e]) => {
+                let far =
+                    (nav.position_ned_m[0] - n).hypot(nav.position_ned_m[1] - e) > LAND_APPROACH_RADIUS_M;
+                if far && !self.hold.landing {
+                    let down = *self.hold.down_m.get_or_insert(nav.position_ned_m[2]);
+                    return traj([Some(n), Some(e), Some(down)], [None; 3], yaw);
+                }
+                self.hold.landing = true;
+                traj([Some(n), Some(e), None], [None, None, Some(rate)], yaw)
+            }
+            None => {
+                self.hold.landing = true;
+                let v = nav.valid.horizontal_velocity.then_some(0.0);
+                traj([None; 3], [v, v, Some(rate)], yaw)
+            }
+        }
+    }
+}

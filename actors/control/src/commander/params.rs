@@ -1,0 +1,179 @@
+//! `CommanderParams`: modes, arming, landing and failsafe settings, with PX4/ArduPilot-like
+//! defaults scaled to the thesis's small field (RTL at 15 m, a 300 m fence).
+
+use kestrel_proto::messages::FailsafeAction;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{InvalidParam, positive, within};
+
+/// The commander's parameters (`[actors.commander.params]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CommanderParams {
+    /// Collective thrust share that hovers (maps mid-throttle in STABILIZE/ACRO).
+    pub hover_thrust: f64,
+    /// Stick full deflection in STABILIZE/ALT_HOLD (degrees of tilt).
+    pub max_tilt_deg: f64,
+    /// Stick full deflection in ACRO (deg/s about forward and right).
+    pub acro_rate_deg_s: f64,
+    /// Yaw stick full deflection (deg/s).
+    pub yaw_rate_deg_s: f64,
+    /// Climb/descent rate at full throttle deflection in ALT_HOLD/POSHOLD (m/s).
+    pub stick_climb_m_s: f64,
+    /// Horizontal speed at full stick in POSHOLD (m/s).
+    pub stick_speed_m_s: f64,
+    /// Throttle dead band around mid-stick (share of half travel).
+    pub throttle_deadband: f64,
+    /// Take-off height above home (m).
+    pub takeoff_altitude_m: f64,
+    /// RTL climbs to at least this height above home (m).
+    pub rtl_altitude_m: f64,
+    /// RTL return speed (m/s).
+    pub rtl_speed_m_s: f64,
+    /// RTL loiter above home before landing (s).
+    pub rtl_loiter_s: f64,
+    /// Descent rate while landing, above `land_slow_height_m` (m/s).
+    pub land_fast_m_s: f64,
+    /// Descent rate below `land_slow_height_m` (m/s).
+    pub land_slow_m_s: f64,
+    /// Height above home below which the landing slows (m).
+    pub land_slow_height_m: f64,
+    /// The land detector trips after this long without vertical motion while landing (s).
+    pub land_detect_s: f64,
+    /// Least height above home for a flip (m).
+    pub flip_min_height_m: f64,
+    /// A NavState older than this is stale (s).
+    pub nav_timeout_s: f64,
+    /// Setpoints are published at least this often (Hz).
+    pub setpoint_rate_hz: f64,
+    /// `VehicleStatus` is published at least this often (Hz), and on every change.
+    pub status_rate_hz: f64,
+    /// Arming needs a battery report; false for benches without a power module.
+    pub require_battery: bool,
+    pub failsafe: FailsafeParams,
+    pub geofence: GeofenceParams,
+}
+
+impl Default for CommanderParams {
+    fn default() -> CommanderParams {
+        CommanderParams {
+            hover_thrust: 0.3343,
+            max_tilt_deg: 30.0,
+            acro_rate_deg_s: 220.0,
+            yaw_rate_deg_s: 90.0,
+            stick_climb_m_s: 2.5,
+            stick_speed_m_s: 5.0,
+            throttle_deadband: 0.1,
+            takeoff_altitude_m: 10.0,
+            rtl_altitude_m: 15.0,
+            rtl_speed_m_s: 5.0,
+            rtl_loiter_s: 2.0,
+            land_fast_m_s: 1.5,
+            land_slow_m_s: 0.6,
+            land_slow_height_m: 4.0,
+            land_detect_s: 1.0,
+            flip_min_height_m: 5.0,
+            nav_timeout_s: 0.05,
+            setpoint_rate_hz: 50.0,
+            status_rate_hz: 5.0,
+            require_battery: true,
+            failsafe: FailsafeParams::default(),
+            geofence: GeofenceParams::default(),
+        }
+    }
+}
+
+/// `[failsafe]`: thresholds and the action each cause takes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FailsafeParams {
+    /// Data link lost after this long without a GCS heartbeat or sticks (s); armed only once a
+    /// link was seen, so a scripted flight without a ground station does not trip it.
+    pub link_timeout_s: f64,
+    pub link_action: FailsafeAction,
+    /// Battery share below which `battery_low_action` fires.
+    pub battery_low: f64,
+    pub battery_low_action: FailsafeAction,
+    /// Battery share below which `battery_critical_action` fires.
+    pub battery_critical: f64,
+    pub battery_critical_action: FailsafeAction,
+    pub geofence_action: FailsafeAction,
+    pub estimator_action: FailsafeAction,
+    pub critical_actor_action: FailsafeAction,
+}
+
+impl Default for FailsafeParams {
+    fn default() -> FailsafeParams {
+        FailsafeParams {
+            link_timeout_s: 5.0,
+            link_action: FailsafeAction::ReturnToLaunch,
+            battery_low: 0.25,
+            battery_low_action: FailsafeAction::ReturnToLaunch,
+            battery_critical: 0.10,
+            battery_critical_action: FailsafeAction::Land,
+            geofence_action: FailsafeAction::ReturnToLaunch,
+            estimator_action: FailsafeAction::Land,
+            critical_actor_action: FailsafeAction::Land,
+        }
+    }
+}
+
+/// `[geofence]`: a cylinder around home and an optional inclusion polygon.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GeofenceParams {
+    /// Largest horizontal distance from home (m).
+    pub max_radius_m: f64,
+    /// Largest height above home (m).
+    pub max_altitude_m: f64,
+    /// Inclusion polygon as `[lat_deg, lon_deg]` vertices; empty for none.
+    pub polygon: Vec<[f64; 2]>,
+}
+
+impl Default for GeofenceParams {
+    fn default() -> GeofenceParams {
+        GeofenceParams { max_radius_m: 300.0, max_altitude_m: 120.0, polygon: Vec::new() }
+    }
+}
+
+impl CommanderParams {
+    /// Checks every field; the error names the first offending one.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        within("hover_thrust", self.hover_thrust, 0.05, 0.9)?;
+        within("max_tilt_deg", self.max_tilt_deg, 1.0, 60.0)?;
+        for (name, v) in [
+            ("acro_rate_deg_s", self.acro_rate_deg_s),
+            ("yaw_rate_deg_s", self.yaw_rate_deg_s),
+            ("stick_climb_m_s", self.stick_climb_m_s),
+            ("stick_speed_m_s", self.stick_speed_m_s),
+            ("takeoff_altitude_m", self.takeoff_altitude_m),
+            ("rtl_altitude_m", self.rtl_altitude_m),
+            ("rtl_speed_m_s", self.rtl_speed_m_s),
+            ("land_fast_m_s", self.land_fast_m_s),
+            ("land_slow_m_s", self.land_slow_m_s),
+            ("land_slow_height_m", self.land_slow_height_m),
+            ("land_detect_s", self.land_detect_s),
+            ("flip_min_height_m", self.flip_min_height_m),
+            ("nav_timeout_s", self.nav_timeout_s),
+            ("setpoint_rate_hz", self.setpoint_rate_hz),
+            ("status_rate_hz", self.status_rate_hz),
+            ("failsafe.link_timeout_s", self.failsafe.link_timeout_s),
+            ("geofence.max_radius_m", self.geofence.max_radius_m),
+            ("geofence.max_altitude_m", self.geofence.max_altitude_m),
+        ] {
+            positive(name, v)?;
+        }
+        within("rtl_loiter_s", self.rtl_loiter_s, 0.0, 600.0)?;
+        within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
+        within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;
+        within("failsafe.battery_critical", self.failsafe.battery_critical, 0.0, self.failsafe.battery_low)?;
+        let polygon = &self.geofence.polygon;
+        if !polygon.is_empty() && polygon.len() < 3 {
+            return Err(InvalidParam::new("geofence.polygon", "needs at least 3 vertices"));
+        }
+        if polygon.iter().any(|[lat, lon]| !(lat.abs() <= 90.0 && lon.abs() <= 180.0)) {
+            return Err(InvalidParam::new("geofence.polygon", "vertex outside latitude/longitude range"));
+        }
+        Ok(())
+    }
+}

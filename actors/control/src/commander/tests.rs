@@ -1,0 +1,259 @@
+//! The mode state machine without physics: every mode entered from the ground and in the air,
+//! and the refusals, each with its reason.
+
+use kestrel_proto::Time;
+use kestrel_proto::geo::Geodetic;
+use kestrel_proto::messages::{
+    AltitudeFrame, BatteryStatus, Command, FlightMode, LandedState, ManualControl, Mission, MissionItem,
+    MissionPoint, NavState, NavValidity, SetpointTarget, VehicleCommand,
+};
+
+use super::{Commander, CommanderParams};
+
+const ALL_MODES: [FlightMode; 9] = [
+    FlightMode::Stabilize,
+    FlightMode::Acro,
+    FlightMode::AltHold,
+    FlightMode::PosHold,
+    FlightMode::Guided,
+    FlightMode::Auto,
+    FlightMode::Takeoff,
+    FlightMode::ReturnToLaunch,
+    FlightMode::Land,
+];
+
+fn nav(t: Time, down_m: f64, position: bool) -> NavState {
+    NavState {
+        time: t,
+        attitude: [1.0, 0.0, 0.0, 0.0],
+        angular_velocity_rad_s: [0.0; 3],
+        velocity_ned_m_s: [0.0; 3],
+        position_ned_m: [0.0, 0.0, down_m],
+        gyro_bias_rad_s: [0.0; 3],
+        accel_bias_m_s2: [0.0; 3],
+        covariance_diagonal: [0.0; 16],
+        origin: position.then_some(Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
+        valid: NavValidity {
+            attitude: true,
+            horizontal_velocity: position,
+            horizontal_position: position,
+            vertical_velocity: true,
+            vertical_position: true,
+        },
+    }
+}
+
+fn mission() -> Mission {
+    let point =
+        MissionPoint { lat_deg: 6.7972, lon_deg: 79.9017, alt_m: 10.0, frame: AltitudeFrame::RelativeHome };
+    Mission {
+        time: Time::ZERO,
+        items: vec![MissionItem::Takeoff { point }, MissionItem::ReturnToLaunch],
+        cruise_speed_m_s: 5.0,
+    }
+}
+
+/// A commander with fresh navigation (with or without position) and a full battery.
+fn ready(position: bool) -> Commander {
+    let mut c = Commander::new(CommanderParams::default()).expect("valid");
+    c.on_nav(&nav(Time(1000), 0.0, position));
+    c.on_battery(&BatteryStatus {
+        time: Time(1000),
+        voltage_v: 16.4,
+        current_a: 1.0,
+        consumed_mah: 0.0,
+        remaining: 1.0,
+    });
+    c
+}
+
+fn cmd(c: &mut Commander, command: Command) -> Result<(), String> {
+    c.on_command(&VehicleCommand { time: Time(1000), command }).map_err(|r| r.0)
+}
+
+#[test]
+fn every_mode_can_be_entered_on_the_ground_when_its_needs_are_met() {
+    for mode in ALL_MODES {
+        let mut c = ready(true);
+        c.on_mission(mission()).expect("mission");
+        c.on_manual(&ManualControl { time: Time(1000), ..ManualControl::default() });
+        assert_eq!(cmd(&mut c, Command::SetMode(mode)), Ok(()), "{mode:?}");
+        assert_eq!(c.mode(), mode);
+    }
+}
+
+#[test]
+fn modes_refuse_with_a_reason_when_their_needs_are_missing() {
+    let expectations = [
+        (FlightMode::Stabilize, Some("manual control")),
+        (FlightMode::Acro, Some("manual control")),
+        (FlightMode::AltHold, None),
+        (FlightMode::PosHold, Some("position estimate")),
+        (FlightMode::Guided, Some("position estimate")),
+        (FlightMode::Auto, Some("position estimate")),
+        (FlightMode::Takeoff, Some("position estimate")),
+        (FlightMode::ReturnToLaunch, Some("position estimate")),
+        (FlightMode::Land, None),
+    ];
+    for (mode, reason) in expectations {
+        let mut c = ready(false);
+        let result = cmd(&mut c, Command::SetMode(mode));
+        match reason {
+            None => assert_eq!(result, Ok(()), "{mode:?}"),
+            Some(r) => {
+                let why = result.expect_err("refused");
+                assert!(why.contains(r), "{mode:?}: {why}");
+                assert_eq!(c.status(Time(1000)).last_refusal.as_deref(), Some(why.as_str()));
+            }
+        }
+    }
+}
+
+#[test]
+fn arming_checks_refuse_with_reasons() {
+    let mut c = Commander::new(CommanderParams::default()).expect("valid");
+    assert!(cmd(&mut c, Command::Arm).expect_err("no nav").contains("navigation"));
+    c.on_nav(&nav(Time(1000), 0.0, true));
+    assert!(cmd(&mut c, Command::SetMode(FlightMode::PosHold)).is_ok());
+    assert!(cmd(&mut c, Command::Arm).expect_err("no battery").contains("battery"));
+    c.on_battery(&BatteryStatus {
+        time: Time(1000),
+        voltage_v: 14.0,
+        current_a: 1.0,
+        consumed_mah: 0.0,
+        remaining: 0.2,
+    });
+    assert!(cmd(&mut c, Command::Arm).expect_err("low battery").contains("20 %"));
+    c.on_battery(&BatteryStatus {
+        time: Time(1000),
+        voltage_v: 16.0,
+        current_a: 1.0,
+        consumed_mah: 0.0,
+        remaining: 0.9,
+    });
+    let mut tilted = nav(Time(1000), 0.0, true);
+    tilted.attitude = [0.8, 0.6, 0.0, 0.0];
+    c.on_nav(&tilted);
+    assert!(cmd(&mut c, Command::Arm).expect_err("tilted").contains("level"));
+    c.on_nav(&nav(Time(1000), 0.0, true));
+    assert_eq!(cmd(&mut c, Command::Arm), Ok(()));
+    assert!(cmd(&mut c, Command::Arm).expect_err("twice").contains("already"));
+    // Stale navigation is refused too.
+    let mut c = ready(true);
+    c.on_command(&VehicleCommand { time: Time(1_000_000), command: Command::SetMode(FlightMode::Land) }).ok();
+    let late = c.on_command(&VehicleCommand { time: Time(1_000_000), command: Command::Arm });
+    assert!(late.expect_err("stale").0.contains("navigation"));
+}
+
+#[test]
+fn disarmed_means_motors_off_and_armed_on_the_ground_idles_in_position_modes() {
+    let mut c = ready(true);
+    assert_eq!(c.update(Time(1000)).target, SetpointTarget::MotorsOff);
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arm");
+    let sp = c.update(Time(1000));
+    assert!(sp.armed && sp.target == SetpointTarget::MotorsOff);
+    cmd(&mut c, Command::Takeoff { altitude_m: 8.0 }).expect("takeoff");
+    let SetpointTarget::Trajectory(t) = c.update(Time(1000)).target else { panic!("trajectory expected") };
+    assert_eq!(t.position_ned_m[2], Some(-8.0));
+}
+
+#[test]
+fn in_the_air_every_mode_switch_works_and_landing_disarms() {
+    for mode in ALL_MODES {
+        let mut c = ready(true);
+        c.on_mission(mission()).expect("mission");
+        c.on_manual(&ManualControl { time: Time(1000), throttle: 0.0, ..ManualControl::default() });
+        cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+        cmd(&mut c, Command::Arm).expect("arm");
+        c.on_nav(&nav(Time(2000), -5.0, true));
+        c.update(Time(2000));
+        assert_eq!(c.landed(), LandedState::InAir);
+        c.on_command(&VehicleCommand { time: Time(2000), command: Command::SetMode(mode) }).expect("switch");
+        let sp = c.update(Time(2000));
+        assert!(sp.armed, "{mode:?}");
+        assert_ne!(sp.target, SetpointTarget::MotorsOff, "{mode:?}");
+    }
+    let mut c = ready(true);
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arm");
+    c.on_nav(&nav(Time(2000), -5.0, true));
+    c.update(Time(2000));
+    c.on_command(&VehicleCommand { time: Time(2000), command: Command::Land }).expect("land");
+    let mut t = 2000;
+    while c.armed() && t < 3_000_000 {
+        t += 2500;
+        c.on_nav(&nav(Time(t), 0.0, true));
+        c.update(Time(t));
+    }
+    assert!(!c.armed(), "land detector did not disarm");
+    assert!(t >= 1_000_000, "disarmed before the detection time");
+}
+
+#[test]
+fn polygon_fence_inclusion() {
+    let square = [[-10.0, -10.0], [-10.0, 10.0], [10.0, 10.0], [10.0, -10.0]];
+    assert!(super::inside_polygon(&square, 0.0, 0.0));
+    assert!(super::inside_polygon(&square, 9.9, -9.9));
+    assert!(!super::inside_polygon(&square, 10.1, 0.0));
+    assert!(!super::inside_polygon(&square, 0.0, -30.0));
+    assert!(super::inside_polygon(&[], 1e6, 1e6), "no polygon, no limit");
+}
+
+#[test]
+fn leaving_the_polygon_fence_in_flight_triggers_its_failsafe() {
+    let params = CommanderParams {
+        geofence: super::GeofenceParams {
+            polygon: vec![[6.7970, 79.9016], [6.7970, 79.9018], [6.7972, 79.9018], [6.7972, 79.9016]],
+            ..super::GeofenceParams::default()
+        },
+        ..CommanderParams::default()
+    };
+    let mut c = Commander::new(params).expect("valid");
+    c.on_nav(&nav(Time(1000), 0.0, true));
+    c.on_battery(&BatteryStatus {
+        time: Time(1000),
+        voltage_v: 16.4,
+        current_a: 1.0,
+        consumed_mah: 0.0,
+        remaining: 1.0,
+    });
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("inside the fence");
+    let mut outside = nav(Time(2000), -5.0, true);
+    outside.position_ned_m = [30.0, 0.0, -5.0];
+    c.on_nav(&outside);
+    c.update(Time(2000));
+    let status = c.status(Time(2000));
+    assert_eq!(
+        status.failsafe.map(|f| f.cause),
+        Some(kestrel_proto::messages::FailsafeCause::GeofenceBreach)
+    );
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
+}
+
+#[test]
+fn a_mission_ending_in_a_land_item_completes_on_touchdown() {
+    let mut c = ready(true);
+    let point =
+        MissionPoint { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 5.0, frame: AltitudeFrame::RelativeHome };
+    let mission = Mission {
+        time: Time::ZERO,
+        items: vec![MissionItem::Takeoff { point }, MissionItem::Land { point }],
+        cruise_speed_m_s: 5.0,
+    };
+    c.on_mission(mission).expect("mission");
+    cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect("auto");
+    cmd(&mut c, Command::Arm).expect("arm");
+    c.on_nav(&nav(Time(2000), -5.0, true));
+    c.update(Time(2000));
+    let mut t = 2000;
+    while c.armed() && t < 5_000_000 {
+        t += 2500;
+        c.on_nav(&nav(Time(t), 0.0, true));
+        c.update(Time(t));
+    }
+    let progress = c.status(Time(t)).mission;
+    assert!(!c.armed());
+    assert!(progress.completed && progress.reached == 2, "{progress:?}");
+}

@@ -1,0 +1,210 @@
+//! `CommanderActor`: the actor shell of the [`Commander`].
+//!
+//! Ports — inputs `nav` (NavState, `latest`), `battery` (BatteryStatus, `latest`), `manual`
+//! (ManualControl, `latest`), `command` (VehicleCommand, `queue`), `mission` (Mission,
+//! `queue`), `supervisor` (SupervisorEvent, `queue`); timer `tick` at `tick_rate_hz`;
+//! outputs `setpoint` (Setpoint) and `status` (VehicleStatus).
+//!
+//! The state machine runs on every NavState (so a flip's setpoints follow the vehicle at the
+//! estimator's rate) and on the tick when NavStates stop (so a silent estimator is noticed).
+//! Setpoints are published when they change and at least at `setpoint_rate_hz`; the status on
+//! every change and at least at `status_rate_hz`.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use kestrel_proto::messages::{
+    BatteryStatus, Command, FlightMode, LandedState, ManualControl, Mission, NavState, Setpoint,
+    SupervisorEvent, VehicleCommand, VehicleStatus,
+};
+use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
+use serde::Deserialize;
+
+use crate::commander::{Commander, CommanderParams};
+use crate::plan::load_plan;
+
+/// How often `auto` retries arming while the pre-arm checks fail (s).
+const AUTO_RETRY_S: f64 = 1.0;
+
+/// `[actors.commander.params]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CommanderActorParams {
+    pub commander: CommanderParams,
+    /// A QGroundControl `.plan` to load at start, relative to the config file.
+    pub mission: Option<PathBuf>,
+    /// Arm in AUTO and fly the mission as soon as the pre-arm checks pass (once per run).
+    pub auto: bool,
+    /// End the whole run once the vehicle has flown and is disarmed on the ground again
+    /// (`kestrel run --exit-on-land`).
+    pub exit_on_land: bool,
+    /// Rate of the `tick` timer (Hz).
+    pub tick_rate_hz: f64,
+}
+
+impl Default for CommanderActorParams {
+    fn default() -> CommanderActorParams {
+        CommanderActorParams {
+            commander: CommanderParams::default(),
+            mission: None,
+            auto: false,
+            exit_on_land: false,
+            tick_rate_hz: 50.0,
+        }
+    }
+}
+
+/// What the commander actor handles.
+#[derive(Debug)]
+pub enum CommanderInput {
+    /// Boxed: a NavState is several times larger than the other inputs.
+    Nav(Box<NavState>),
+    Battery(BatteryStatus),
+    Manual(ManualControl),
+    Command(VehicleCommand),
+    Mission(Mission),
+    Supervisor(SupervisorEvent),
+    Tick(Time),
+}
+
+/// The commander actor.
+pub struct CommanderActor {
+    commander: Commander,
+    setpoint: Publisher<Setpoint>,
+    status: Publisher<VehicleStatus>,
+    auto: bool,
+    auto_started: bool,
+    exit_on_land: bool,
+    /// Set once the vehicle has been airborne, for `exit_on_land`.
+    flew: bool,
+    last_auto_try: Option<Time>,
+    last_setpoint: Option<Setpoint>,
+    last_status: Option<VehicleStatus>,
+    last_step: Option<Time>,
+    tick_period: Duration,
+}
+
+impl Actor for CommanderActor {
+    type Params = CommanderActorParams;
+    type Input = CommanderInput;
+
+    fn build(
+        params: &CommanderActorParams,
+        setup: &mut impl Setup<CommanderInput>,
+    ) -> Result<Self, ActorError> {
+        let mut commander =
+            Commander::new(params.commander.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
+        if let Some(path) = &params.mission {
+            let mission =
+                load_plan(&setup.config_dir().join(path)).map_err(|e| ActorError::Params(e.to_string()))?;
+            commander.on_mission(mission).map_err(|e| ActorError::Params(e.to_string()))?;
+        }
+        if !(params.tick_rate_hz.is_finite() && (1.0..=1000.0).contains(&params.tick_rate_hz)) {
+            return Err(ActorError::Params(format!(
+                "tick_rate_hz {} not within 1..=1000",
+                params.tick_rate_hz
+            )));
+        }
+        let tick_period = Duration::from_secs_f64(1.0 / params.tick_rate_hz);
+        setup.input("nav", |nav| CommanderInput::Nav(Box::new(nav)));
+        setup.input("battery", CommanderInput::Battery);
+        setup.input("manual", CommanderInput::Manual);
+        setup.input("command", CommanderInput::Command);
+        setup.input("mission", CommanderInput::Mission);
+        setup.input("supervisor", CommanderInput::Supervisor);
+        setup.timer("tick", tick_period, CommanderInput::Tick);
+        Ok(CommanderActor {
+            commander,
+            setpoint: setup.output("setpoint"),
+            status: setup.output("status"),
+            auto: params.auto,
+            auto_started: false,
+            exit_on_land: params.exit_on_land,
+            flew: false,
+            last_auto_try: None,
+            last_setpoint: None,
+            last_status: None,
+            last_step: None,
+            tick_period,
+        })
+    }
+
+    async fn handle(&mut self, ctx: &Context, input: CommanderInput) -> Result<(), ActorError> {
+        match input {
+            CommanderInput::Nav(nav) => {
+                self.commander.on_nav(&nav);
+                self.step(ctx, nav.time);
+            }
+            CommanderInput::Tick(time) => {
+                if self.last_step.is_none_or(|t| time.saturating_since(t) >= self.tick_period) {
+                    self.step(ctx, time);
+                }
+            }
+            CommanderInput::Battery(b) => self.commander.on_battery(&b),
+            CommanderInput::Manual(m) => self.commander.on_manual(&m),
+            CommanderInput::Supervisor(e) => self.commander.on_supervisor(&e),
+            CommanderInput::Command(cmd) => {
+                // A refusal is reported in the status; it is not an actor failure.
+                let _ = self.commander.on_command(&cmd);
+                self.step(ctx, ctx.now());
+            }
+            CommanderInput::Mission(mission) => {
+                let _ = self.commander.on_mission(mission);
+                self.step(ctx, ctx.now());
+            }
+        }
+        Ok(())
+    }
+}
+
+impl CommanderActor {
+    fn step(&mut self, ctx: &Context, now: Time) {
+        self.try_auto(now);
+        self.last_step = Some(now);
+        let sp = self.commander.update(now);
+        let p = self.commander.params();
+        let due = |last: Option<Time>, rate_hz: f64| {
+            last.is_none_or(|t| now.saturating_since(t).as_secs_f64() >= 1.0 / rate_hz)
+        };
+        let changed = self.last_setpoint.is_none_or(|l| l.target != sp.target || l.armed != sp.armed);
+        if changed || due(self.last_setpoint.map(|s| s.time), p.setpoint_rate_hz) {
+            self.setpoint.publish(sp);
+            self.last_setpoint = Some(sp);
+        }
+        let status = self.commander.status(now);
+        let status_changed =
+            self.last_status.as_ref().is_none_or(|l| VehicleStatus { time: now, ..l.clone() } != status);
+        if status_changed || due(self.last_status.as_ref().map(|s| s.time), p.status_rate_hz) {
+            self.status.publish(status.clone());
+            self.last_status = Some(status);
+        }
+        self.flew |= self.commander.landed() != LandedState::OnGround;
+        if self.exit_on_land && self.flew && !self.commander.armed() {
+            tracing::info!("landed and disarmed: ending the run");
+            self.exit_on_land = false;
+            ctx.end_run();
+        }
+    }
+
+    fn try_auto(&mut self, now: Time) {
+        if !self.auto
+            || self.auto_started
+            || self.last_auto_try.is_some_and(|t| now.saturating_since(t).as_secs_f64() < AUTO_RETRY_S)
+        {
+            return;
+        }
+        self.last_auto_try = Some(now);
+        let command = |command| VehicleCommand { time: now, command };
+        let result = self
+            .commander
+            .on_command(&command(Command::SetMode(FlightMode::Auto)))
+            .and_then(|()| self.commander.on_command(&command(Command::Arm)));
+        match result {
+            Ok(()) => {
+                tracing::info!("auto: armed, flying the mission");
+                self.auto_started = true;
+            }
+            Err(why) => tracing::info!(%why, "auto: waiting for the pre-arm checks"),
+        }
+    }
+}

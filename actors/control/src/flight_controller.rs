@@ -1,0 +1,393 @@
+//! One iteration of the control loop: the newest setpoint and NavState → motor commands.
+//!
+//! `FlightController` composes the cascade (position → attitude on SO(3) → body rate → mixer)
+//! and decides which part runs for each kind of setpoint. It also owns the loop's own
+//! failsafes, which act before the commander can: a rejected (non-finite) NavState or none at
+//! all flies *blind* (zero torque, thrust a little below hover: level-ish and descending), and a
+//! lost setpoint brakes to a stop and descends. It is pure: the lockstep actor calls it once
+//! per NavState, the real-time thread once per period.
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::{ActuatorOutputs, NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+
+use crate::attitude::AttitudeController;
+use crate::error::{InvalidParam, RejectedInput};
+use crate::mixer::{Mixer, Saturation};
+use crate::params::ControlParams;
+use crate::position::{PositionController, yaw_of};
+use crate::rate::RateController;
+
+/// Largest step the integrators accept (s): a longer gap (a paused simulation, a stall) is
+/// treated as this long.
+const MAX_DT_S: f64 = 0.02;
+/// Step assumed for the first iteration (s).
+const FIRST_DT_S: f64 = 0.0025;
+
+/// What the loop counted since it started.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct LoopCounters {
+    /// Setpoints refused (non-finite values, thrust outside 0..1).
+    pub rejected_setpoints: u64,
+    /// NavStates refused (non-finite values).
+    pub rejected_nav: u64,
+    /// Iterations flown blind (no usable NavState).
+    pub blind_steps: u64,
+    /// Iterations flown on the lost-setpoint fallback.
+    pub lost_setpoint_steps: u64,
+}
+
+/// The intermediate demands of the last iteration, for logs and tests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Demand {
+    /// Attitude setpoint (body FRD → NED), when the attitude loop ran.
+    pub attitude: Option<UnitQuaternion<f64>>,
+    /// Body-rate setpoint (FRD, rad/s).
+    pub rates_rad_s: Vector3<f64>,
+    /// Torque demand (FRD, N·m).
+    pub torque_n_m: Vector3<f64>,
+    /// Collective thrust demand (N).
+    pub thrust_n: f64,
+    pub saturation: Saturation,
+}
+
+impl Default for Demand {
+    fn default() -> Demand {
+        Demand {
+            attitude: None,
+            rates_rad_s: Vector3::zeros(),
+            torque_n_m: Vector3::zeros(),
+            thrust_n: 0.0,
+            saturation: Saturation::default(),
+        }
+    }
+}
+
+/// The whole control cascade and its state.
+#[derive(Clone, Debug)]
+pub struct FlightController {
+    params: ControlParams,
+    hover_thrust: f64,
+    mixer: Mixer,
+    attitude: AttitudeController,
+    rate: RateController,
+    position: PositionController,
+    setpoint: Option<Setpoint>,
+    last_step: Option<Time>,
+    yaw_hold_rad: Option<f64>,
+    counters: LoopCounters,
+    demand: Demand,
+}
+
+impl FlightController {
+    /// A controller with validated parameters.
+    pub fn new(params: ControlParams) -> Result<FlightController, InvalidParam> {
+        params.validate()?;
+        let hover_thrust = params.hover_thrust();
+        Ok(FlightController {
+            mixer: Mixer::new(&params.airframe),
+            attitude: AttitudeController::new(params.attitude.clone()),
+            rate: RateController::new(params.rate.clone(), params.airframe.inertia_frd_kg_m2),
+            position: PositionController::new(params.position.clone(), hover_thrust),
+            hover_thrust,
+            params,
+            setpoint: None,
+            last_step: None,
+            yaw_hold_rad: None,
+            counters: LoopCounters::default(),
+            demand: Demand::default(),
+        })
+    }
+
+    /// The parameters in use.
+    pub fn params(&self) -> &ControlParams {
+        &self.params
+    }
+
+    /// What the loop counted.
+    pub fn counters(&self) -> LoopCounters {
+        self.counters
+    }
+
+    /// The demands of the last iteration.
+    pub fn demand(&self) -> &Demand {
+        &self.demand
+    }
+
+    /// The setpoint being tracked.
+    pub fn setpoint(&self) -> Option<&Setpoint> {
+        self.setpoint.as_ref()
+    }
+
+    /// Takes a new setpoint; a malformed one is refused and counted, and the previous one kept.
+    pub fn set_setpoint(&mut self, sp: &Setpoint) -> Result<(), RejectedInput> {
+        match check_setpoint(sp) {
+            Ok(()) => {
+                // A new kind of target starts a new heading hold; a moving one of the same kind
+                // keeps it.
+                let previous = self.setpoint.map_or(SetpointTarget::MotorsOff, |s| s.target);
+                if std::mem::discriminant(&sp.target) != std::mem::discriminant(&previous) {
+                    self.yaw_hold_rad = None;
+                }
+                self.setpoint = Some(*sp);
+                Ok(())
+            }
+            Err(e) => {
+                self.counters.rejected_setpoints += 1;
+                Err(e)
+            }
+        }
+    }
+
+    /// One loop iteration at `nav.time`.
+    pub fn update(&mut self, nav: &NavState) -> ActuatorOutputs {
+        let now = nav.time;
+        if !nav_is_finite(nav) {
+            self.counters.rejected_nav += 1;
+            return self.fly_blind(now);
+        }
+        if !nav.valid.attitude {
+            return self.fly_blind(now);
+        }
+        let dt = self.step_dt(now);
+        let Some(sp) = self.setpoint.filter(|s| s.armed) else {
+            return self.idle(now, false);
+        };
+        let q = quaternion(&nav.attitude);
+        let omega = Vector3::from(nav.angular_velocity_rad_s);
+        let lost = now.saturating_since(sp.time).as_secs_f64() > self.params.timing.setpoint_timeout_s;
+        let target = if lost {
+            self.counters.lost_setpoint_steps += 1;
+            let descend = self.params.timing.failsafe_descent_m_s;
+            SetpointTarget::Trajectory(TrajectorySetpoint {
+                velocity_ned_m_s: [Some(0.0), Some(0.0), Some(descend)],
+                ..TrajectorySetpoint::default()
+            })
+        } else {
+            sp.target
+        };
+        let full = self.mixer.full_thrust_n();
+        let (rates, thrust_n, attitude_sp) = match target {
+            SetpointTarget::MotorsOff => return self.idle(now, true),
+            SetpointTarget::Rates { rates_frd_rad_s, thrust } => {
+                (Vector3::from(rates_frd_rad_s), thrust * full, None)
+            }
+            SetpointTarget::Attitude { attitude, yaw_rate_rad_s, thrust } => {
+                let q_d = quaternion(&attitude);
+                (self.attitude.rate_setpoint(&q, &q_d, yaw_rate_rad_s), thrust * full, Some(q_d))
+            }
+            SetpointTarget::Trajectory(traj) => {
+                let traj = self.usable(traj, nav, dt);
+                let pos = Vector3::from(nav.position_ned_m);
+                let vel = Vector3::from(nav.velocity_ned_m_s);
+                let out = self.position.update(&traj, &pos, &vel, yaw_of(&q), dt);
+                let rates = self.attitude.rate_setpoint(&q, &out.attitude, out.yaw_rate_rad_s);
+                // Lee et al.: thrust is the demanded force projected on the current thrust axis,
+                // floored so the mixer keeps authority while the vehicle is far from its target.
+                let axis_now = q * Vector3::z();
+                let axis_wanted = out.attitude * Vector3::z();
+                let projected = out.thrust * axis_now.dot(&axis_wanted);
+                let floor = self.params.position.min_thrust;
+                (rates, projected.max(floor) * full, Some(out.attitude))
+            }
+        };
+        let torque = self.rate.torque(&rates, &omega, dt, self.demand.saturation);
+        let mixed = self.mixer.mix(&torque, thrust_n);
+        self.demand = Demand {
+            attitude: attitude_sp,
+            rates_rad_s: rates,
+            torque_n_m: torque,
+            thrust_n,
+            saturation: mixed.saturation,
+        };
+        ActuatorOutputs { time: now, armed: true, motors: mixed.motors }
+    }
+
+    /// An iteration without a usable NavState: zero torque and a little less than hover thrust
+    /// while armed and flying, so the vehicle sinks instead of climbing away; stopped otherwise.
+    pub fn fly_blind(&mut self, now: Time) -> ActuatorOutputs {
+        self.counters.blind_steps += 1;
+        self.last_step = Some(now);
+        let flying = self.setpoint.is_some_and(|s| s.armed && s.target != SetpointTarget::MotorsOff);
+        if !flying {
+            return self.idle(now, self.setpoint.is_some_and(|s| s.armed));
+        }
+        let thrust_n =
+            self.params.timing.blind_thrust_of_hover * self.hover_thrust * self.mixer.full_thrust_n();
+        let mixed = self.mixer.mix(&Vector3::zeros(), thrust_n);
+        self.demand = Demand { thrust_n, saturation: mixed.saturation, ..Demand::default() };
+        ActuatorOutputs { time: now, armed: true, motors: mixed.motors }
+    }
+
+    fn idle(&mut self, now: Time, armed: bool) -> ActuatorOutputs {
+        self.rate.reset();
+        self.position.reset();
+        self.yaw_hold_rad = None;
+        self.demand = Demand::default();
+        ActuatorOutputs { time: now, armed, motors: Default::default() }
+    }
+
+    fn step_dt(&mut self, now: Time) -> f64 {
+        let dt = match self.last_step {
+            Some(last) if now > last => (now - last).as_secs_f64().min(MAX_DT_S),
+            _ => FIRST_DT_S,
+        };
+        self.last_step = Some(now);
+        dt
+    }
+
+    /// Drops the parts of a trajectory setpoint the estimator cannot support, and resolves the
+    /// heading to hold.
+    fn usable(&mut self, mut sp: TrajectorySetpoint, nav: &NavState, dt: f64) -> TrajectorySetpoint {
+        let v = nav.valid;
+        if !v.horizontal_position {
+            sp.position_ned_m[0] = None;
+            sp.position_ned_m[1] = None;
+        }
+        if !v.horizontal_velocity {
+            sp.velocity_ned_m_s[0] = None;
+            sp.velocity_ned_m_s[1] = None;
+        }
+        if !v.vertical_position {
+            sp.position_ned_m[2] = None;
+        }
+        if !v.vertical_velocity {
+            sp.velocity_ned_m_s[2] = None;
+        }
+        if sp.yaw_rad.is_none() {
+            let yaw_now = yaw_of(&quaternion(&nav.attitude));
+            let held = self.yaw_hold_rad.unwrap_or(yaw_now) + sp.yaw_rate_rad_s * dt;
+            self.yaw_hold_rad = Some(held);
+            sp.yaw_rad = Some(held);
+        }
+        sp
+    }
+}
+
+/// A unit quaternion from `[w, x, y, z]`; a zero quaternion reads as identity.
+fn quaternion(q: &[f64; 4]) -> UnitQuaternion<f64> {
+    let raw = Quaternion::new(q[0], q[1], q[2], q[3]);
+    if raw.norm() > 1e-9 { UnitQuaternion::from_quaternion(raw) } else { UnitQuaternion::identity() }
+}
+
+fn all_finite<'a>(values: impl IntoIterator<Item = &'a f64>) -> bool {
+    values.into_iter().all(|v| v.is_finite())
+}
+
+fn nav_is_finite(nav: &NavState) -> bool {
+    all_finite(&nav.attitude)
+        && all_finite(&nav.angular_velocity_rad_s)
+        && all_finite(&nav.velocity_ned_m_s)
+        && all_finite(&nav.position_ned_m)
+        && quaternion(&nav.attitude).norm() > 0.5
+}
+
+fn check_setpoint(sp: &Setpoint) -> Result<(), RejectedInput> {
+    let thrust_ok =
+        |t: f64| if (0.0..=1.0).contains(&t) { Ok(()) } else { Err(RejectedInput::ThrustOutOfRange) };
+    let finite = |ok: bool| if ok { Ok(()) } else { Err(RejectedInput::NonFiniteSetpoint) };
+    match &sp.target {
+        SetpointTarget::MotorsOff => Ok(()),
+        SetpointTarget::Rates { rates_frd_rad_s, thrust } => {
+            finite(all_finite(rates_frd_rad_s) && thrust.is_finite())?;
+            thrust_ok(*thrust)
+        }
+        SetpointTarget::Attitude { attitude, yaw_rate_rad_s, thrust } => {
+            let norm = attitude.iter().map(|v| v * v).sum::<f64>().sqrt();
+            finite(all_finite(attitude) && yaw_rate_rad_s.is_finite() && thrust.is_finite() && norm > 1e-6)?;
+            thrust_ok(*thrust)
+        }
+        SetpointTarget::Trajectory(t) => finite(
+            t.position_ned_m.iter().chain(&t.velocity_ned_m_s).flatten().all(|v| v.is_finite())
+                && all_finite(&t.acceleration_ned_m_s2)
+                && t.yaw_rad.is_none_or(f64::is_finite)
+                && t.yaw_rate_rad_s.is_finite()
+                && t.max_horizontal_speed_m_s.is_none_or(|v| v.is_finite() && v >= 0.0),
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kestrel_proto::messages::NavValidity;
+
+    fn nav(time_us: u64) -> NavState {
+        NavState {
+            time: Time(time_us),
+            attitude: [1.0, 0.0, 0.0, 0.0],
+            angular_velocity_rad_s: [0.0; 3],
+            velocity_ned_m_s: [0.0; 3],
+            position_ned_m: [0.0, 0.0, -10.0],
+            gyro_bias_rad_s: [0.0; 3],
+            accel_bias_m_s2: [0.0; 3],
+            covariance_diagonal: [0.0; 16],
+            origin: None,
+            valid: NavValidity {
+                attitude: true,
+                horizontal_velocity: true,
+                horizontal_position: true,
+                vertical_velocity: true,
+                vertical_position: true,
+            },
+        }
+    }
+
+    fn hold() -> Setpoint {
+        Setpoint {
+            time: Time(0),
+            armed: true,
+            target: SetpointTarget::Trajectory(TrajectorySetpoint {
+                position_ned_m: [Some(0.0), Some(0.0), Some(-10.0)],
+                ..TrajectorySetpoint::default()
+            }),
+            landing: false,
+        }
+    }
+
+    #[test]
+    fn a_nan_setpoint_is_refused_counted_and_the_previous_one_kept() {
+        let mut ctl = FlightController::new(ControlParams::default()).expect("valid");
+        ctl.set_setpoint(&hold()).expect("good setpoint");
+        let bad = Setpoint {
+            target: SetpointTarget::Rates { rates_frd_rad_s: [f64::NAN, 0.0, 0.0], thrust: 0.5 },
+            ..hold()
+        };
+        assert_eq!(ctl.set_setpoint(&bad), Err(RejectedInput::NonFiniteSetpoint));
+        let too_much =
+            Setpoint { target: SetpointTarget::Rates { rates_frd_rad_s: [0.0; 3], thrust: 1.5 }, ..hold() };
+        assert_eq!(ctl.set_setpoint(&too_much), Err(RejectedInput::ThrustOutOfRange));
+        assert_eq!(ctl.counters().rejected_setpoints, 2);
+        assert_eq!(ctl.setpoint(), Some(&hold()));
+        let out = ctl.update(&nav(2500));
+        assert!(out.armed && out.motors[..4].iter().all(|m| (m - 0.334).abs() < 0.01), "{out:?}");
+    }
+
+    #[test]
+    fn a_nan_nav_state_flies_blind_below_hover() {
+        let mut ctl = FlightController::new(ControlParams::default()).expect("valid");
+        ctl.set_setpoint(&hold()).expect("good setpoint");
+        let mut bad = nav(2500);
+        bad.velocity_ned_m_s[0] = f64::NAN;
+        let out = ctl.update(&bad);
+        assert_eq!(ctl.counters().rejected_nav, 1);
+        assert!(out.motors[..4].iter().all(|m| *m < 0.334 && *m > 0.25), "{out:?}");
+    }
+
+    #[test]
+    fn a_lost_setpoint_descends() {
+        let mut ctl = FlightController::new(ControlParams::default()).expect("valid");
+        ctl.set_setpoint(&hold()).expect("good setpoint");
+        let out = ctl.update(&nav(2_000_000));
+        assert_eq!(ctl.counters().lost_setpoint_steps, 1);
+        assert!(out.motors[0] < 0.334, "{out:?}");
+    }
+
+    #[test]
+    fn disarmed_stops_the_motors() {
+        let mut ctl = FlightController::new(ControlParams::default()).expect("valid");
+        ctl.set_setpoint(&Setpoint { armed: false, ..hold() }).expect("good setpoint");
+        let out = ctl.update(&nav(2500));
+        assert!(!out.armed && out.motors.iter().all(|m| *m == 0.0));
+    }
+}

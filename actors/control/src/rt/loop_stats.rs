@@ -1,0 +1,151 @@
+//! Period and execution-time statistics of the control loop, in fixed histograms (1 µs bins
+//! up to 50 ms, everything above in the last bin), so recording never allocates.
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::ControlLoopStats;
+
+use crate::flight_controller::LoopCounters;
+
+const BINS: usize = 50_000;
+
+/// A latency histogram in whole microseconds.
+#[derive(Clone, Debug)]
+pub struct Histogram {
+    counts: Box<[u32]>,
+    total: u64,
+    max_us: u64,
+}
+
+impl Default for Histogram {
+    fn default() -> Histogram {
+        Histogram { counts: vec![0; BINS].into_boxed_slice(), total: 0, max_us: 0 }
+    }
+}
+
+impl Histogram {
+    pub fn record(&mut self, us: u64) {
+        let bin = usize::try_from(us).unwrap_or(BINS - 1).min(BINS - 1);
+        self.counts[bin] = self.counts[bin].saturating_add(1);
+        self.total += 1;
+        self.max_us = self.max_us.max(us);
+    }
+
+    /// The `q` quantile (0..1) in µs; 0 when empty.
+    pub fn quantile_us(&self, q: f64) -> f64 {
+        if self.total == 0 {
+            return 0.0;
+        }
+        let rank = ((q.clamp(0.0, 1.0) * self.total as f64).ceil() as u64).max(1);
+        let mut seen = 0u64;
+        for (us, &c) in self.counts.iter().enumerate() {
+            seen += u64::from(c);
+            if seen >= rank {
+                return us as f64;
+            }
+        }
+        self.max_us as f64
+    }
+
+    pub fn max_us(&self) -> f64 {
+        self.max_us as f64
+    }
+
+    pub fn count(&self) -> u64 {
+        self.total
+    }
+}
+
+/// The loop's timing record.
+#[derive(Clone, Debug)]
+pub struct LoopStats {
+    nominal_us: u64,
+    period: Histogram,
+    execution: Histogram,
+    overruns: u64,
+    last_start: Option<u64>,
+}
+
+impl LoopStats {
+    /// Statistics for a loop meant to run every `nominal_us` microseconds.
+    pub fn new(nominal_us: u64) -> LoopStats {
+        LoopStats {
+            nominal_us,
+            period: Histogram::default(),
+            execution: Histogram::default(),
+            overruns: 0,
+            last_start: None,
+        }
+    }
+
+    /// Records one iteration that started at `start_us` and took `execution_us` (µs).
+    pub fn record(&mut self, start_us: u64, execution_us: u64) {
+        if let Some(last) = self.last_start {
+            let period = start_us.saturating_sub(last);
+            self.period.record(period);
+            if period > self.nominal_us + self.nominal_us / 2 {
+                self.overruns += 1;
+            }
+        }
+        if execution_us > self.nominal_us {
+            self.overruns += 1;
+        }
+        self.execution.record(execution_us);
+        self.last_start = Some(start_us);
+    }
+
+    pub fn period(&self) -> &Histogram {
+        &self.period
+    }
+
+    pub fn execution(&self) -> &Histogram {
+        &self.execution
+    }
+
+    pub fn overruns(&self) -> u64 {
+        self.overruns
+    }
+
+    /// The message form, with the controller's counters.
+    pub fn message(
+        &self,
+        time: Time,
+        counters: LoopCounters,
+        thread: bool,
+        realtime: bool,
+    ) -> ControlLoopStats {
+        ControlLoopStats {
+            time,
+            dedicated_thread: thread,
+            realtime_priority: realtime,
+            iterations: self.execution.count(),
+            period_p50_us: self.period.quantile_us(0.5),
+            period_p99_us: self.period.quantile_us(0.99),
+            period_max_us: self.period.max_us(),
+            execution_p50_us: self.execution.quantile_us(0.5),
+            execution_p99_us: self.execution.quantile_us(0.99),
+            execution_max_us: self.execution.max_us(),
+            overruns: self.overruns,
+            rejected_setpoints: counters.rejected_setpoints,
+            rejected_nav: counters.rejected_nav,
+            blind_steps: counters.blind_steps,
+            lost_setpoint_steps: counters.lost_setpoint_steps,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_and_overruns() {
+        let mut s = LoopStats::new(2500);
+        for i in 0..100u64 {
+            s.record(i * 2500 + if i == 50 { 2000 } else { 0 }, 40 + i % 2);
+        }
+        assert_eq!(s.period().quantile_us(0.5), 2500.0);
+        assert_eq!(s.period().max_us(), 4500.0);
+        assert_eq!(s.overruns(), 1);
+        assert_eq!(s.execution().quantile_us(0.99), 41.0);
+    }
+}

@@ -1,0 +1,131 @@
+//! The control loop on its own OS thread (hardware, realtime clock): every period it takes the
+//! newest setpoint and NavState from triple buffers, runs one [`FlightController`] iteration
+//! when a new NavState arrived (flies blind when the newest is older than the timeout), hands
+//! the motor commands to `output`, and records its period and execution time. It never waits on
+//! tokio or a lock, and allocates nothing per iteration; it ends when told to or when the
+//! actor that feeds it is gone.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use kestrel_proto::Clock;
+use kestrel_proto::messages::{ActuatorOutputs, ControlLoopStats, NavState, Setpoint};
+
+use super::loop_stats::LoopStats;
+use super::priority::{RealtimePriority, set_realtime_priority};
+use super::triple_buffer::Reader;
+use crate::flight_controller::FlightController;
+
+/// What the thread hands out: motor commands every iteration, statistics about once a second.
+pub trait ThreadOutput: Send + 'static {
+    fn actuators(&mut self, outputs: &ActuatorOutputs);
+    fn stats(&mut self, stats: ControlLoopStats);
+}
+
+/// A running control thread; stopped and joined on drop.
+pub struct ControlThread {
+    stop: Arc<AtomicBool>,
+    realtime: Arc<AtomicBool>,
+    handle: Option<JoinHandle<()>>,
+}
+
+impl ControlThread {
+    /// Starts the loop at `ctl.params().timing.rate_hz` with SCHED_FIFO `priority` if permitted.
+    pub fn spawn(
+        mut ctl: FlightController,
+        mut nav: Reader<Option<NavState>>,
+        mut setpoint: Reader<Option<Setpoint>>,
+        clock: Arc<dyn Clock>,
+        mut output: impl ThreadOutput,
+        priority: i32,
+    ) -> std::io::Result<ControlThread> {
+        let stop = Arc::new(AtomicBool::new(false));
+        let realtime = Arc::new(AtomicBool::new(false));
+        let (stop_flag, realtime_flag) = (Arc::clone(&stop), Arc::clone(&realtime));
+        let handle = std::thread::Builder::new().name("kestrel-control".into()).spawn(move || {
+            let got_fifo = match set_realtime_priority(priority) {
+                RealtimePriority::Fifo(p) => {
+                    tracing::info!(priority = p, "control loop on a SCHED_FIFO thread");
+                    true
+                }
+                RealtimePriority::Normal(why) => {
+                    tracing::warn!(%why, "control loop on a normal-priority thread");
+                    false
+                }
+            };
+            realtime_flag.store(got_fifo, Ordering::Release);
+            let timing = ctl.params().timing.clone();
+            let period = Duration::from_secs_f64(1.0 / timing.rate_hz);
+            let period_us = u64::try_from(period.as_micros()).unwrap_or(u64::MAX);
+            let stats_every = timing.rate_hz.round().max(1.0) as u64;
+            let mut stats = LoopStats::new(period_us);
+            let origin = Instant::now();
+            let mut next = origin + period;
+            let mut last = ActuatorOutputs::default();
+            let mut iteration = 0u64;
+            while !stop_flag.load(Ordering::Acquire) && !nav.writer_gone() {
+                let now_wall = Instant::now();
+                if next > now_wall {
+                    std::thread::sleep(next - now_wall);
+                }
+                let started = Instant::now();
+                let now = clock.now();
+                if let (Some(sp), true) = setpoint.read() {
+                    // A refused setpoint is counted by the controller and the last good one kept.
+                    let _ = ctl.set_setpoint(sp);
+                }
+                last =
+                    match nav.read() {
+                        (Some(n), fresh)
+                            if now.saturating_since(n.time).as_secs_f64() <= timing.nav_timeout_s =>
+                        {
+                            if fresh { ctl.update(n) } else { ActuatorOutputs { time: now, ..last } }
+                        }
+                        _ => ctl.fly_blind(now),
+                    };
+                output.actuators(&last);
+                let execution = started.elapsed();
+                stats.record(
+                    u64::try_from((started - origin).as_micros()).unwrap_or(u64::MAX),
+                    u64::try_from(execution.as_micros()).unwrap_or(u64::MAX),
+                );
+                iteration += 1;
+                if iteration.is_multiple_of(stats_every) {
+                    output.stats(stats.message(now, ctl.counters(), true, got_fifo));
+                }
+                next += period;
+                let late = Instant::now();
+                if next + period < late {
+                    // Fell more than a period behind (a stall): restart the schedule from now
+                    // instead of bursting through the missed iterations.
+                    next = late + period;
+                }
+            }
+            tracing::info!(iterations = iteration, overruns = stats.overruns(), "control loop stopped");
+        })?;
+        Ok(ControlThread { stop, realtime, handle: Some(handle) })
+    }
+
+    /// Whether the thread runs with SCHED_FIFO (false until it has tried).
+    pub fn realtime(&self) -> bool {
+        self.realtime.load(Ordering::Acquire)
+    }
+
+    /// Stops the loop and waits for it (at most about one period).
+    pub fn stop(&mut self) {
+        self.stop.store(true, Ordering::Release);
+        if let Some(handle) = self.handle.take()
+            && handle.join().is_err()
+        {
+            tracing::error!("control thread panicked");
+        }
+    }
+}
+
+impl Drop for ControlThread {
+    fn drop(&mut self) {
+        self.stop();
+    }
+}

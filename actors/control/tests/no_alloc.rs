@@ -1,0 +1,100 @@
+//! The control loop allocates nothing per iteration: a counting global allocator watches one
+//! thread through every kind of setpoint, the loop's failsafes and the lock-free hand-over.
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use kestrel_control::rt::triple_buffer;
+use kestrel_control::{ControlParams, FlightController};
+use kestrel_proto::Time;
+use kestrel_proto::messages::{NavState, NavValidity, Setpoint, SetpointTarget, TrajectorySetpoint};
+
+struct Counting;
+
+thread_local! {
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards to the system allocator unchanged; only counts calls on the current thread.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        // SAFETY: same contract as the caller's.
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: same contract as the caller's.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+fn nav(i: u64) -> NavState {
+    let phase = i as f64 * 0.01;
+    NavState {
+        time: Time::from_micros(i * 2500),
+        attitude: [phase.cos(), phase.sin(), 0.0, 0.0],
+        angular_velocity_rad_s: [0.1, -0.2, 0.05],
+        velocity_ned_m_s: [1.0, 0.5, -0.2],
+        position_ned_m: [3.0, -2.0, -10.0],
+        gyro_bias_rad_s: [0.0; 3],
+        accel_bias_m_s2: [0.0; 3],
+        covariance_diagonal: [0.0; 16],
+        origin: None,
+        valid: NavValidity {
+            attitude: true,
+            horizontal_velocity: true,
+            horizontal_position: true,
+            vertical_velocity: true,
+            vertical_position: true,
+        },
+    }
+}
+
+#[test]
+fn a_loop_iteration_allocates_nothing() {
+    let mut ctl = FlightController::new(ControlParams::default()).expect("valid");
+    let (mut nav_w, mut nav_r) = triple_buffer(Some(nav(0)));
+    let (mut sp_w, mut sp_r) = triple_buffer::<Option<Setpoint>>(None);
+    let targets = [
+        SetpointTarget::Trajectory(TrajectorySetpoint {
+            position_ned_m: [Some(10.0), Some(0.0), Some(-12.0)],
+            yaw_rad: None,
+            yaw_rate_rad_s: 0.3,
+            ..TrajectorySetpoint::default()
+        }),
+        SetpointTarget::Attitude { attitude: [0.9, 0.3, 0.1, 0.0], yaw_rate_rad_s: 0.1, thrust: 0.4 },
+        SetpointTarget::Rates { rates_frd_rad_s: [9.0, 0.0, 0.0], thrust: 0.05 },
+        SetpointTarget::Rates { rates_frd_rad_s: [f64::NAN, 0.0, 0.0], thrust: 0.05 },
+        SetpointTarget::MotorsOff,
+    ];
+    let mut run = |from: u64, to: u64| {
+        for i in from..to {
+            let target = targets[(i / 400) as usize % targets.len()];
+            sp_w.write(Some(Setpoint {
+                time: Time::from_micros(i * 2500),
+                armed: true,
+                target,
+                landing: false,
+            }));
+            nav_w.write(Some(nav(i)));
+            if let (Some(sp), true) = sp_r.read() {
+                let _ = ctl.set_setpoint(sp);
+            }
+            let out = match nav_r.read() {
+                (Some(n), _) if i % 97 != 0 => ctl.update(n),
+                _ => ctl.fly_blind(Time::from_micros(i * 2500)),
+            };
+            assert!(out.motors.iter().all(|m| m.is_finite()));
+        }
+    };
+    run(0, 10);
+    let before = ALLOCATIONS.with(Cell::get);
+    run(10, 4000);
+    let allocations = ALLOCATIONS.with(Cell::get) - before;
+    println!("allocations in 3990 loop iterations: {allocations}");
+    assert_eq!(allocations, 0);
+}

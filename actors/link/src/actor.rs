@@ -1,0 +1,243 @@
+//! The link actor: the graph's side of MAVLink. Inputs update what telemetry reports, timers
+//! drive the heartbeat and the stream scheduler, and the endpoint tasks spawned in `start` carry
+//! frames in and out until shutdown.
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use kestrel_proto::messages::{
+    BatteryStatus, DepthGrid, GpsFix, ManualControl, Mission, NavState, ParamSet, VehicleCommand,
+    VehicleStatus,
+};
+use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
+
+use crate::config::LinkParams;
+use crate::hub::Hub;
+use crate::services::ToGraph;
+use crate::services::params::{ParamTable, parse_param_file};
+use crate::transport::{GraphSink, OpenEndpoint, Shared, open_all};
+use crate::vehicle::Vehicle;
+
+/// Period of the scheduler that sends telemetry and checks timeouts (50 Hz: the fastest stream
+/// rate we honour).
+pub const TICK_PERIOD: Duration = Duration::from_millis(20);
+
+/// Everything the link actor handles.
+#[derive(Debug)]
+pub enum LinkInput {
+    Nav(NavState),
+    Gps(GpsFix),
+    Battery(BatteryStatus),
+    Status(VehicleStatus),
+    Depth(DepthGrid),
+    Heartbeat(Time),
+    Tick(Time),
+}
+
+/// The link's outputs into the graph.
+#[derive(Clone)]
+pub struct LinkOutputs {
+    pub command: Publisher<VehicleCommand>,
+    pub mission: Publisher<Mission>,
+    pub manual: Publisher<ManualControl>,
+    pub param: Publisher<ParamSet>,
+}
+
+impl LinkOutputs {
+    /// Publishes `out`, stamping commands with `now`.
+    pub fn publish(&self, out: Vec<ToGraph>, now: Time) {
+        for o in out {
+            match o {
+                ToGraph::Command(command) => self.command.publish(VehicleCommand { time: now, command }),
+                ToGraph::Mission(m) => self.mission.publish(m),
+                ToGraph::Manual(m) => self.manual.publish(m),
+                ToGraph::Param(p) => self.param.publish(p),
+            }
+        }
+    }
+}
+
+/// The MAVLink link actor (config type name: `link`).
+pub struct LinkActor {
+    params: LinkParams,
+    config_dir: PathBuf,
+    hub: Arc<Mutex<Hub>>,
+    outputs: LinkOutputs,
+    clock: Arc<dyn Clock>,
+    endpoints: Vec<OpenEndpoint>,
+}
+
+impl LinkActor {
+    /// The endpoints opened by `start` (with their bound addresses).
+    pub fn endpoints(&self) -> &[OpenEndpoint] {
+        &self.endpoints
+    }
+
+    fn hub(&self) -> std::sync::MutexGuard<'_, Hub> {
+        self.hub.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// Builds the parameter table from the config and the persisted file (if any).
+pub fn load_params(params: &LinkParams, config_dir: &std::path::Path) -> Result<ParamTable, ActorError> {
+    let mut table = ParamTable::new(params.params.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
+    if let Some(file) = &params.param_file {
+        let path = config_dir.join(file);
+        match std::fs::read_to_string(&path) {
+            Ok(text) => {
+                let (pairs, bad) = parse_param_file(&text);
+                for line in bad {
+                    tracing::warn!(path = %path.display(), %line, "unreadable parameter line ignored");
+                }
+                for (name, value) in pairs {
+                    if let Err(e) = table.restore(&name, value) {
+                        tracing::warn!(path = %path.display(), error = %e, "stored parameter ignored");
+                    }
+                }
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(source) => {
+                return Err(ActorError::Io { what: format!("parameter file {}", path.display()), source });
+            }
+        }
+    }
+    Ok(table)
+}
+
+impl Actor for LinkActor {
+    type Params = LinkParams;
+    type Input = LinkInput;
+
+    fn build(params: &LinkParams, setup: &mut impl Setup<LinkInput>) -> Result<Self, ActorError> {
+        if params.system_id == 0 {
+            return Err(ActorError::Params("system_id must be 1..=255".into()));
+        }
+        if !(params.gcs_timeout_s.is_finite() && params.gcs_timeout_s > 0.0) {
+            return Err(ActorError::Params("gcs_timeout_s must be a positive number of seconds".into()));
+        }
+        let config_dir = setup.config_dir().to_owned();
+        let table = load_params(params, &config_dir)?;
+        setup.input("nav_state", LinkInput::Nav);
+        setup.input("gps", LinkInput::Gps);
+        setup.input("battery", LinkInput::Battery);
+        setup.input("vehicle_status", LinkInput::Status);
+        setup.input("depth_grid", LinkInput::Depth);
+        setup.timer("heartbeat", Duration::from_secs(1), LinkInput::Heartbeat);
+        setup.timer("tick", TICK_PERIOD, LinkInput::Tick);
+        let outputs = LinkOutputs {
+            command: setup.output("vehicle_command"),
+            mission: setup.output("mission"),
+            manual: setup.output("manual_control"),
+            param: setup.output("param_set"),
+        };
+        let vehicle = Vehicle::new(params.system_id, table, Duration::from_secs_f64(params.gcs_timeout_s));
+        Ok(LinkActor {
+            params: params.clone(),
+            config_dir,
+            hub: Arc::new(Mutex::new(Hub::new(vehicle))),
+            outputs,
+            clock: setup.clock(),
+            endpoints: Vec::new(),
+        })
+    }
+
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        let outputs = self.outputs.clone();
+        let clock = Arc::clone(&self.clock);
+        let graph: GraphSink = Arc::new(move |out| outputs.publish(out, clock.now()));
+        let shared = Shared {
+            hub: Arc::clone(&self.hub),
+            clock: Arc::clone(&self.clock),
+            shutdown: ctx.shutdown().clone(),
+            graph,
+            param_file: self.params.param_file.as_ref().map(|p| self.config_dir.join(p)),
+        };
+        self.endpoints = open_all(&self.params.endpoints, &self.config_dir, &shared)
+            .await
+            .map_err(|e| ActorError::Failed(e.to_string()))?;
+        for e in &self.endpoints {
+            tracing::info!(endpoint = %e.name, local = ?e.local_addr, "MAVLink endpoint open");
+        }
+        Ok(())
+    }
+
+    async fn handle(&mut self, _ctx: &Context, input: LinkInput) -> Result<(), ActorError> {
+        let out = {
+            let mut hub = self.hub();
+            match input {
+                LinkInput::Nav(n) => {
+                    hub.vehicle().on_nav(n);
+                    Vec::new()
+                }
+                LinkInput::Gps(g) => {
+                    hub.vehicle().on_gps(g);
+                    Vec::new()
+                }
+                LinkInput::Battery(b) => {
+                    hub.vehicle().on_battery(b);
+                    Vec::new()
+                }
+                LinkInput::Depth(d) => {
+                    hub.vehicle().on_depth(d);
+                    Vec::new()
+                }
+                LinkInput::Status(s) => {
+                    let out = hub.vehicle().on_status(s);
+                    hub.dispatch(out)
+                }
+                LinkInput::Heartbeat(_) => {
+                    hub.send_heartbeat();
+                    Vec::new()
+                }
+                LinkInput::Tick(t) => hub.on_tick(t),
+            }
+        };
+        if !out.is_empty() {
+            self.outputs.publish(out, self.clock.now());
+        }
+        Ok(())
+    }
+
+    async fn stop(&mut self, _ctx: &Context) {
+        let hub = self.hub();
+        for (name, stats) in hub.link_stats() {
+            tracing::info!(link = %name, ?stats, "MAVLink link counters");
+        }
+        tracing::info!(stats = ?hub.stats(), "MAVLink hub counters");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::{ParamKind, ParamSpec};
+    use crate::transport::write_atomically;
+
+    #[test]
+    fn persisted_parameters_come_back_after_a_restart_and_bad_lines_are_skipped() {
+        let dir = std::env::temp_dir().join(format!("kestrel-link-params-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        write_atomically(&dir.join("p.txt"), "RTL_ALT_M=55\nRTL_ALT_M_X=1\nRTL_ALT_M=oops\n").expect("write");
+        let params = LinkParams {
+            params: vec![ParamSpec {
+                name: "RTL_ALT_M".into(),
+                value: 30.0,
+                min: 5.0,
+                max: 120.0,
+                kind: ParamKind::Real32,
+                unit: "m".into(),
+            }],
+            param_file: Some("p.txt".into()),
+            ..LinkParams::default()
+        };
+        let table = load_params(&params, &dir).expect("loads");
+        assert_eq!(table.values().collect::<Vec<_>>(), [("RTL_ALT_M", 55.0)]);
+        let missing = LinkParams { param_file: Some("absent.txt".into()), ..params };
+        assert_eq!(
+            load_params(&missing, &dir).expect("no file yet").values().next(),
+            Some(("RTL_ALT_M", 30.0))
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

@@ -1,0 +1,154 @@
+//! The link actor's parameters (`[actors.link.params]`): endpoints, identity, parameter table.
+//!
+//! ```toml
+//! [actors.link]
+//! type = "link"
+//! params.system_id = 1
+//! params.gcs_timeout_s = 5.0
+//! params.param_file = "link_params.txt"   # NAME=VALUE lines, rewritten atomically on PARAM_SET
+//! params.endpoints = [
+//!   { type = "udp_out", address = "127.0.0.1:14550" },   # to QGroundControl / MAVProxy
+//!   { type = "udp_in", bind = "0.0.0.0:14540" },         # MAVSDK, scripts: answers whoever talks
+//!   { type = "tcp_in", bind = "0.0.0.0:5760" },
+//!   { type = "serial", device = "/dev/ttyUSB0", baud = 57600, flow_control = false,
+//!     signing_key_file = "radio.key" },
+//! ]
+//! params.params = [
+//!   { name = "RTL_ALT_M", value = 30.0, min = 5.0, max = 120.0, unit = "m" },
+//!   { name = "FS_GCS_ENABLE", value = 1, min = 0, max = 1, kind = "int32" },
+//! ]
+//! ```
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+
+use serde::Deserialize;
+
+/// Everything the link actor is configured with; every field has a default, so `params = {}`
+/// gives PX4-SITL-like behaviour: MAVLink to UDP 127.0.0.1:14550 and a UDP server on 14540.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LinkParams {
+    /// Our MAVLink system id (1..=255).
+    #[serde(default = "default_system_id")]
+    pub system_id: u8,
+    /// Where MAVLink goes in and out; several at once are routed between each other.
+    #[serde(default = "default_endpoints")]
+    pub endpoints: Vec<EndpointConfig>,
+    /// The vehicle's parameters as the ground station sees them.
+    #[serde(default)]
+    pub params: Vec<ParamSpec>,
+    /// Where changed parameter values persist (`NAME=VALUE` lines, replaced atomically);
+    /// relative to the config directory. `None`: changes live only until restart.
+    #[serde(default)]
+    pub param_file: Option<PathBuf>,
+    /// Seconds without a ground-station heartbeat before a STATUSTEXT says the link is lost
+    /// (the commander's own data-link timer decides the failsafe).
+    #[serde(default = "default_gcs_timeout_s")]
+    pub gcs_timeout_s: f64,
+}
+
+impl Default for LinkParams {
+    fn default() -> Self {
+        LinkParams {
+            system_id: default_system_id(),
+            endpoints: default_endpoints(),
+            params: Vec::new(),
+            param_file: None,
+            gcs_timeout_s: default_gcs_timeout_s(),
+        }
+    }
+}
+
+fn default_system_id() -> u8 {
+    1
+}
+
+fn default_gcs_timeout_s() -> f64 {
+    5.0
+}
+
+fn default_endpoints() -> Vec<EndpointConfig> {
+    vec![
+        EndpointConfig {
+            kind: EndpointKind::UdpOut { address: SocketAddr::from(([127, 0, 0, 1], 14550)) },
+            signing_key_file: None,
+        },
+        EndpointConfig {
+            kind: EndpointKind::UdpIn { bind: SocketAddr::from(([0, 0, 0, 0], 14540)) },
+            signing_key_file: None,
+        },
+    ]
+}
+
+/// One endpoint and its signing policy.
+#[derive(Clone, Debug, Deserialize)]
+pub struct EndpointConfig {
+    #[serde(flatten)]
+    pub kind: EndpointKind,
+    /// MAVLink 2 signing key for this endpoint: a file holding 32 raw bytes or 64 hex digits.
+    /// When set, outgoing frames are signed and unsigned inbound frames are refused and counted.
+    #[serde(default)]
+    pub signing_key_file: Option<PathBuf>,
+}
+
+/// The kinds of endpoint, as in mavlink-router's config.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum EndpointKind {
+    /// UDP client: sends to `address` from an ephemeral port and hears replies on it.
+    UdpOut { address: SocketAddr },
+    /// UDP server: listens on `bind` and answers every peer that has talked to it.
+    UdpIn { bind: SocketAddr },
+    /// TCP server: every accepted connection is a link of its own.
+    TcpIn { bind: SocketAddr },
+    /// Serial port, e.g. a 433 MHz SiK radio.
+    Serial {
+        device: PathBuf,
+        #[serde(default = "default_baud")]
+        baud: u32,
+        /// RTS/CTS hardware flow control (SiK radios support it when wired).
+        #[serde(default)]
+        flow_control: bool,
+    },
+}
+
+fn default_baud() -> u32 {
+    57_600
+}
+
+/// A named, typed, bounded parameter.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParamSpec {
+    /// At most 16 characters (MAVLink's `param_id`).
+    pub name: String,
+    pub value: f64,
+    #[serde(default = "neg_inf")]
+    pub min: f64,
+    #[serde(default = "pos_inf")]
+    pub max: f64,
+    #[serde(default)]
+    pub kind: ParamKind,
+    /// Unit, for documentation and STATUSTEXT (`m`, `m/s`, `s`, ...).
+    #[serde(default)]
+    pub unit: String,
+}
+
+fn neg_inf() -> f64 {
+    f64::NEG_INFINITY
+}
+
+fn pos_inf() -> f64 {
+    f64::INFINITY
+}
+
+/// How a parameter's value is typed on the wire (C-cast into `param_value`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ParamKind {
+    #[default]
+    Real32,
+    Int32,
+    Uint8,
+}

@@ -1,0 +1,529 @@
+//! The mission protocol (mavlink.io "Mission Protocol"): upload with MISSION_COUNT →
+//! MISSION_REQUEST_INT / MISSION_ITEM_INT → MISSION_ACK, download with MISSION_REQUEST_LIST →
+//! MISSION_COUNT → MISSION_REQUEST_INT → MISSION_ITEM_INT, and MISSION_CLEAR_ALL; missions,
+//! geofences and rally points kept apart by `mission_type`.
+//!
+//! ArduPilot convention (we announce ArduPilot): item 0 of a flight mission is the home
+//! position, stored and sent back but not flown. An upload that fails keeps the previous plan.
+//! Each item request is retried [`RETRIES`] times, [`ITEM_TIMEOUT`] apart, before the upload is
+//! cancelled.
+#![allow(
+    deprecated,
+    reason = "legacy MAVLink (MISSION_ITEM, REQUEST_DATA_STREAM, SET_MODE, *_INT frames) is still spoken by ground stations and must be accepted"
+)]
+
+use std::time::Duration;
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::{AltitudeFrame, Mission, MissionItem, MissionPoint};
+use mavlink::dialects::ardupilotmega::{
+    MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
+    MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType,
+};
+
+use super::{Outputs, Sender, ToGraph};
+
+/// Most items a plan of any type may hold; larger uploads are refused with NO_SPACE.
+pub const MAX_ITEMS: u16 = 1000;
+/// Time to wait for a requested item before asking again.
+pub const ITEM_TIMEOUT: Duration = Duration::from_millis(1500);
+/// Requests repeated before an upload is given up.
+pub const RETRIES: u32 = 5;
+/// Cruise speed of a mission that does not set one (m/s).
+pub const DEFAULT_CRUISE_M_S: f64 = 5.0;
+/// Acceptance radius of a waypoint that gives none (m).
+const DEFAULT_ACCEPTANCE_M: f64 = 2.0;
+
+#[derive(Debug)]
+struct Upload {
+    partner: Sender,
+    mission_type: MavMissionType,
+    count: u16,
+    items: Vec<MISSION_ITEM_INT_DATA>,
+    deadline: Time,
+    retries: u32,
+}
+
+/// Plans stored on the vehicle and the upload in progress.
+#[derive(Debug, Default)]
+pub struct MissionService {
+    mission: Vec<MISSION_ITEM_INT_DATA>,
+    fence: Vec<MISSION_ITEM_INT_DATA>,
+    rally: Vec<MISSION_ITEM_INT_DATA>,
+    upload: Option<Upload>,
+    /// Items or acks that did not fit the transfer in progress.
+    pub ignored: u64,
+}
+
+impl MissionService {
+    /// Empty plans.
+    pub fn new() -> MissionService {
+        MissionService { mission: Vec::new(), fence: Vec::new(), rally: Vec::new(), upload: None, ignored: 0 }
+    }
+
+    /// Items of the stored flight mission (home included).
+    pub fn mission_len(&self) -> usize {
+        self.mission.len()
+    }
+
+    fn plan(&mut self, t: MavMissionType) -> Option<&mut Vec<MISSION_ITEM_INT_DATA>> {
+        match t {
+            MavMissionType::MAV_MISSION_TYPE_MISSION => Some(&mut self.mission),
+            MavMissionType::MAV_MISSION_TYPE_FENCE => Some(&mut self.fence),
+            MavMissionType::MAV_MISSION_TYPE_RALLY => Some(&mut self.rally),
+            _ => None,
+        }
+    }
+
+    fn ack(to: Sender, mission_type: MavMissionType, result: MavMissionResult) -> MavMessage {
+        MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+            target_system: to.target_system(),
+            target_component: to.component_id,
+            mavtype: result,
+            mission_type,
+            opaque_id: 0,
+        })
+    }
+
+    fn request(&self, up: &Upload) -> MavMessage {
+        MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
+            seq: u16::try_from(up.items.len()).unwrap_or(u16::MAX),
+            target_system: up.partner.target_system(),
+            target_component: up.partner.component_id,
+            mission_type: up.mission_type,
+        })
+    }
+
+    /// MISSION_COUNT: starts an upload (or clears the plan when `count` is 0).
+    pub fn on_count(&mut self, from: Sender, m: &MISSION_COUNT_DATA, now: Time) -> Outputs {
+        let t = m.mission_type;
+        if self.upload.as_ref().is_some_and(|u| u.partner != from) {
+            return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_DENIED));
+        }
+        if self.plan(t).is_none() {
+            return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_UNSUPPORTED));
+        }
+        if m.count > MAX_ITEMS {
+            self.upload = None;
+            return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_NO_SPACE));
+        }
+        if m.count == 0 {
+            self.upload = None;
+            return self.clear(from, t, now);
+        }
+        let up = Upload {
+            partner: from,
+            mission_type: t,
+            count: m.count,
+            items: Vec::with_capacity(usize::from(m.count)),
+            deadline: now + ITEM_TIMEOUT,
+            retries: 0,
+        };
+        let out = Outputs::send(self.request(&up));
+        self.upload = Some(up);
+        out
+    }
+
+    /// MISSION_ITEM (legacy float form): converted and handled as MISSION_ITEM_INT.
+    pub fn on_item_float(&mut self, from: Sender, m: &MISSION_ITEM_DATA, now: Time) -> Outputs {
+        let global = is_global(m.frame);
+        let scale = |v: f32| if global { (f64::from(v) * 1e7).round() as i32 } else { v as i32 };
+        let item = MISSION_ITEM_INT_DATA {
+            param1: m.param1,
+            param2: m.param2,
+            param3: m.param3,
+            param4: m.param4,
+            x: scale(m.x),
+            y: scale(m.y),
+            z: m.z,
+            seq: m.seq,
+            command: m.command,
+            target_system: m.target_system,
+            target_component: m.target_component,
+            frame: int_frame(m.frame),
+            current: m.current,
+            autocontinue: m.autocontinue,
+            mission_type: m.mission_type,
+        };
+        self.on_item(from, &item, now)
+    }
+
+    /// MISSION_ITEM_INT during an upload.
+    pub fn on_item(&mut self, from: Sender, m: &MISSION_ITEM_INT_DATA, now: Time) -> Outputs {
+        let Some(up) = self.upload.as_mut().filter(|u| u.partner == from && u.mission_type == m.mission_type)
+        else {
+            self.ignored += 1;
+            return Outputs::none();
+        };
+        if usize::from(m.seq) != up.items.len() {
+            self.ignored += 1;
+            let up = self.upload.as_ref().map(|u| self.request(u));
+            return Outputs { mav: up.into_iter().collect(), graph: Vec::new() };
+        }
+        up.items.push(m.clone());
+        up.deadline = now + ITEM_TIMEOUT;
+        up.retries = 0;
+        if up.items.len() < usize::from(up.count) {
+            let req = self.upload.as_ref().map(|u| self.request(u));
+            return Outputs { mav: req.into_iter().collect(), graph: Vec::new() };
+        }
+        let Some(up) = self.upload.take() else { return Outputs::none() };
+        let t = up.mission_type;
+        let mut out = Outputs::none();
+        if t == MavMissionType::MAV_MISSION_TYPE_MISSION {
+            match to_mission(&up.items, now) {
+                Ok(mission) => out.graph.push(ToGraph::Mission(mission)),
+                Err(result) => return Outputs::send(Self::ack(from, t, result)),
+            }
+        }
+        if let Some(plan) = self.plan(t) {
+            *plan = up.items;
+        }
+        out.mav.push(Self::ack(from, t, MavMissionResult::MAV_MISSION_ACCEPTED));
+        out
+    }
+
+    /// MISSION_ACK from the ground station: ends a download, or cancels its upload.
+    pub fn on_ack(&mut self, from: Sender) {
+        if self.upload.as_ref().is_some_and(|u| u.partner == from) {
+            self.upload = None;
+        }
+    }
+
+    /// MISSION_REQUEST_LIST.
+    pub fn on_request_list(&mut self, from: Sender, t: MavMissionType) -> Outputs {
+        let Some(count) = self.plan(t).map(|p| p.len()) else {
+            return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_UNSUPPORTED));
+        };
+        Outputs::send(MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count: u16::try_from(count).unwrap_or(u16::MAX),
+            target_system: from.target_system(),
+            target_component: from.component_id,
+            mission_type: t,
+            opaque_id: 0,
+        }))
+    }
+
+    /// MISSION_REQUEST_INT (or the legacy MISSION_REQUEST when `legacy`).
+    pub fn on_request(&mut self, from: Sender, seq: u16, t: MavMissionType, legacy: bool) -> Outputs {
+        let Some(item) = self.plan(t).and_then(|p| p.get(usize::from(seq))).cloned() else {
+            return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE));
+        };
+        let mut item = MISSION_ITEM_INT_DATA {
+            target_system: from.target_system(),
+            target_component: from.component_id,
+            ..item
+        };
+        item.current = u8::from(seq == 0 && t == MavMissionType::MAV_MISSION_TYPE_MISSION);
+        if legacy {
+            return Outputs::send(MavMessage::MISSION_ITEM(to_float(&item)));
+        }
+        Outputs::send(MavMessage::MISSION_ITEM_INT(item))
+    }
+
+    /// MISSION_CLEAR_ALL.
+    pub fn clear(&mut self, from: Sender, t: MavMissionType, now: Time) -> Outputs {
+        let Some(plan) = self.plan(t) else {
+            return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_UNSUPPORTED));
+        };
+        plan.clear();
+        let mut out = Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_ACCEPTED));
+        if t == MavMissionType::MAV_MISSION_TYPE_MISSION {
+            out.graph.push(ToGraph::Mission(Mission {
+                time: now,
+                items: Vec::new(),
+                cruise_speed_m_s: DEFAULT_CRUISE_M_S,
+            }));
+        }
+        out
+    }
+
+    /// Repeats an unanswered request, or cancels the upload after [`RETRIES`].
+    pub fn on_tick(&mut self, now: Time) -> Outputs {
+        let Some(up) = self.upload.as_mut().filter(|u| now >= u.deadline) else {
+            return Outputs::none();
+        };
+        if up.retries >= RETRIES {
+            let (partner, t) = (up.partner, up.mission_type);
+            self.upload = None;
+            return Outputs::send(Self::ack(partner, t, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED));
+        }
+        up.retries += 1;
+        up.deadline = now + ITEM_TIMEOUT;
+        let req = self.upload.as_ref().map(|u| self.request(u));
+        Outputs { mav: req.into_iter().collect(), graph: Vec::new() }
+    }
+}
+
+fn is_global(f: MavFrame) -> bool {
+    matches!(
+        f,
+        MavFrame::MAV_FRAME_GLOBAL
+            | MavFrame::MAV_FRAME_GLOBAL_INT
+            | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+            | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+            | MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT
+            | MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT
+    )
+}
+
+fn int_frame(f: MavFrame) -> MavFrame {
+    match f {
+        MavFrame::MAV_FRAME_GLOBAL => MavFrame::MAV_FRAME_GLOBAL_INT,
+        MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT => MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT => MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
+        other => other,
+    }
+}
+
+fn to_float(m: &MISSION_ITEM_INT_DATA) -> MISSION_ITEM_DATA {
+    let global = is_global(m.frame);
+    let unscale = |v: i32| if global { (f64::from(v) * 1e-7) as f32 } else { v as f32 };
+    MISSION_ITEM_DATA {
+        param1: m.param1,
+        param2: m.param2,
+        param3: m.param3,
+        param4: m.param4,
+        x: unscale(m.x),
+        y: unscale(m.y),
+        z: m.z,
+        seq: m.seq,
+        command: m.command,
+        target_system: m.target_system,
+        target_component: m.target_component,
+        frame: m.frame,
+        current: m.current,
+        autocontinue: m.autocontinue,
+        mission_type: m.mission_type,
+    }
+}
+
+fn point(m: &MISSION_ITEM_INT_DATA) -> Result<MissionPoint, MavMissionResult> {
+    let frame = match m.frame {
+        MavFrame::MAV_FRAME_GLOBAL | MavFrame::MAV_FRAME_GLOBAL_INT => AltitudeFrame::Amsl,
+        MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => {
+            AltitudeFrame::RelativeHome
+        }
+        _ => return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME),
+    };
+    let (lat_deg, lon_deg) = (f64::from(m.x) * 1e-7, f64::from(m.y) * 1e-7);
+    if lat_deg.abs() > 90.0 {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM5_X);
+    }
+    if lon_deg.abs() > 180.0 {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y);
+    }
+    if !m.z.is_finite() {
+        return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM7);
+    }
+    Ok(MissionPoint { lat_deg, lon_deg, alt_m: f64::from(m.z), frame })
+}
+
+/// The commander's mission from uploaded items (item 0, home, skipped).
+pub fn to_mission(items: &[MISSION_ITEM_INT_DATA], now: Time) -> Result<Mission, MavMissionResult> {
+    let mut out = Vec::with_capacity(items.len().saturating_sub(1));
+    for m in items.iter().skip(1) {
+        let item = match m.command {
+            MavCmd::MAV_CMD_NAV_WAYPOINT => {
+                let hold_s = f64::from(m.param1);
+                let radius = f64::from(m.param2);
+                if !(hold_s.is_finite() && hold_s >= 0.0) {
+                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+                }
+                if !(radius.is_finite() && radius >= 0.0) {
+                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
+                }
+                let acceptance_radius_m = if radius > 0.0 { radius } else { DEFAULT_ACCEPTANCE_M };
+                MissionItem::Waypoint { point: point(m)?, acceptance_radius_m, hold_s }
+            }
+            MavCmd::MAV_CMD_NAV_TAKEOFF => MissionItem::Takeoff { point: point(m)? },
+            MavCmd::MAV_CMD_NAV_LAND => MissionItem::Land { point: point(m)? },
+            MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => MissionItem::ReturnToLaunch,
+            MavCmd::MAV_CMD_NAV_LOITER_TIME => {
+                let duration_s = f64::from(m.param1);
+                if !(duration_s.is_finite() && duration_s >= 0.0) {
+                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+                }
+                MissionItem::LoiterTime { duration_s }
+            }
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED => {
+                let speed_m_s = f64::from(m.param2);
+                if !(speed_m_s.is_finite() && speed_m_s > 0.0) {
+                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
+                }
+                MissionItem::ChangeSpeed { speed_m_s }
+            }
+            _ => return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED),
+        };
+        out.push(item);
+    }
+    Ok(Mission { time: now, items: out, cruise_speed_m_s: DEFAULT_CRUISE_M_S })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GCS: Sender = Sender { system_id: 255, component_id: 190 };
+    const OTHER: Sender = Sender { system_id: 254, component_id: 190 };
+    const MISSION: MavMissionType = MavMissionType::MAV_MISSION_TYPE_MISSION;
+
+    fn t(s: f64) -> Time {
+        Time::from_secs_f64(s)
+    }
+
+    fn item(seq: u16, command: MavCmd) -> MISSION_ITEM_INT_DATA {
+        MISSION_ITEM_INT_DATA {
+            seq,
+            command,
+            frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+            x: 67_971_000 + i32::from(seq) * 100,
+            y: 799_017_000,
+            z: 20.0,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MISSION,
+            autocontinue: 1,
+            ..Default::default()
+        }
+    }
+
+    fn count(n: u16) -> MISSION_COUNT_DATA {
+        MISSION_COUNT_DATA {
+            count: n,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MISSION,
+            opaque_id: 0,
+        }
+    }
+
+    fn ack_result(out: &Outputs) -> Option<MavMissionResult> {
+        out.mav.iter().find_map(|m| match m {
+            MavMessage::MISSION_ACK(a) => Some(a.mavtype),
+            _ => None,
+        })
+    }
+
+    fn requested(out: &Outputs) -> Option<u16> {
+        out.mav.iter().find_map(|m| match m {
+            MavMessage::MISSION_REQUEST_INT(r) => Some(r.seq),
+            _ => None,
+        })
+    }
+
+    fn upload(s: &mut MissionService, items: &[MISSION_ITEM_INT_DATA]) -> Outputs {
+        let n = u16::try_from(items.len()).expect("small");
+        let mut out = s.on_count(GCS, &count(n), t(0.0));
+        for it in items {
+            assert_eq!(requested(&out), Some(it.seq));
+            out = s.on_item(GCS, it, t(0.1));
+        }
+        out
+    }
+
+    #[test]
+    fn upload_then_download_gives_the_same_items() {
+        let mut s = MissionService::new();
+        let items = [
+            item(0, MavCmd::MAV_CMD_NAV_WAYPOINT),
+            item(1, MavCmd::MAV_CMD_NAV_TAKEOFF),
+            item(2, MavCmd::MAV_CMD_NAV_WAYPOINT),
+            item(3, MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH),
+        ];
+        let out = upload(&mut s, &items);
+        assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+        let Some(ToGraph::Mission(m)) = out.graph.first() else { panic!("no mission published") };
+        assert_eq!(m.items.len(), 3, "home (item 0) is not flown");
+        assert!(matches!(m.items[0], MissionItem::Takeoff { .. }));
+
+        let out = s.on_request_list(GCS, MISSION);
+        assert!(matches!(out.mav[0], MavMessage::MISSION_COUNT(MISSION_COUNT_DATA { count: 4, .. })));
+        for want in &items {
+            let out = s.on_request(GCS, want.seq, MISSION, false);
+            let MavMessage::MISSION_ITEM_INT(got) = &out.mav[0] else { panic!("no item") };
+            assert_eq!(
+                (got.x, got.y, got.z, got.command, got.seq),
+                (want.x, want.y, want.z, want.command, want.seq)
+            );
+        }
+        assert_eq!(
+            ack_result(&s.on_request(GCS, 9, MISSION, false)),
+            Some(MavMissionResult::MAV_MISSION_INVALID_SEQUENCE)
+        );
+    }
+
+    #[test]
+    fn a_bad_item_keeps_the_previous_plan() {
+        let mut s = MissionService::new();
+        upload(&mut s, &[item(0, MavCmd::MAV_CMD_NAV_WAYPOINT), item(1, MavCmd::MAV_CMD_NAV_WAYPOINT)]);
+        let mut bad = item(1, MavCmd::MAV_CMD_NAV_WAYPOINT);
+        bad.frame = MavFrame::MAV_FRAME_BODY_FRD;
+        let out = upload(&mut s, &[item(0, MavCmd::MAV_CMD_NAV_WAYPOINT), bad]);
+        assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME));
+        assert!(out.graph.is_empty());
+        let out = s.on_request(GCS, 1, MISSION, false);
+        let MavMessage::MISSION_ITEM_INT(kept) = &out.mav[0] else { panic!("no item") };
+        assert_eq!(kept.frame, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT);
+    }
+
+    #[test]
+    fn huge_uploads_busy_partners_and_silence_are_refused() {
+        let mut s = MissionService::new();
+        assert_eq!(
+            ack_result(&s.on_count(GCS, &count(10_000), t(0.0))),
+            Some(MavMissionResult::MAV_MISSION_NO_SPACE)
+        );
+        s.on_count(GCS, &count(3), t(0.0));
+        assert_eq!(
+            ack_result(&s.on_count(OTHER, &count(3), t(0.0))),
+            Some(MavMissionResult::MAV_MISSION_DENIED)
+        );
+        assert!(s.on_item(OTHER, &item(0, MavCmd::MAV_CMD_NAV_WAYPOINT), t(0.1)).mav.is_empty());
+        assert_eq!(requested(&s.on_item(GCS, &item(2, MavCmd::MAV_CMD_NAV_WAYPOINT), t(0.1))), Some(0));
+        let mut retries = 0;
+        let mut now = 0.0;
+        loop {
+            now += 1.6;
+            let out = s.on_tick(t(now));
+            if let Some(r) = ack_result(&out) {
+                assert_eq!(r, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED);
+                break;
+            }
+            assert_eq!(requested(&out), Some(0));
+            retries += 1;
+        }
+        assert_eq!(retries, RETRIES);
+    }
+
+    #[test]
+    fn fence_items_are_kept_apart_and_clear_all_publishes_an_empty_mission() {
+        let mut s = MissionService::new();
+        let mut c = count(1);
+        c.mission_type = MavMissionType::MAV_MISSION_TYPE_FENCE;
+        s.on_count(GCS, &c, t(0.0));
+        let mut f = item(0, MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION);
+        f.mission_type = MavMissionType::MAV_MISSION_TYPE_FENCE;
+        let out = s.on_item(GCS, &f, t(0.1));
+        assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+        assert!(out.graph.is_empty());
+        assert_eq!(s.mission_len(), 0);
+        let out = s.clear(GCS, MISSION, t(1.0));
+        assert!(matches!(&out.graph[0], ToGraph::Mission(m) if m.items.is_empty()));
+    }
+
+    #[test]
+    fn legacy_float_items_are_accepted() {
+        let mut s = MissionService::new();
+        s.on_count(GCS, &count(2), t(0.0));
+        for seq in 0..2 {
+            let int = item(seq, MavCmd::MAV_CMD_NAV_WAYPOINT);
+            let mut f = to_float(&int);
+            f.frame = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT;
+            let out = s.on_item_float(GCS, &f, t(0.1));
+            if seq == 1 {
+                assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+            }
+        }
+    }
+}

@@ -1,0 +1,65 @@
+//! The vehicle side of MAVLink's microservices, each a small synchronous state machine: it takes
+//! decoded messages (and the graph's state) and answers with messages to send and messages for
+//! the graph. No sockets, no tokio: the shell in `hub.rs` does the I/O.
+
+pub mod command;
+pub mod events;
+pub mod heartbeat;
+pub mod mission;
+pub mod offboard;
+pub mod params;
+pub mod telemetry;
+
+use kestrel_proto::messages::{Command, ManualControl, Mission, ParamSet};
+use mavlink::dialects::ardupilotmega::MavMessage;
+
+/// Who sent a message.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sender {
+    pub system_id: u32,
+    pub component_id: u8,
+}
+
+impl Sender {
+    /// The system id as a MAVLink `target_system` (ids above 255 cannot be addressed in a
+    /// payload and become 0, broadcast).
+    pub fn target_system(&self) -> u8 {
+        u8::try_from(self.system_id).unwrap_or(0)
+    }
+}
+
+/// What the link hands to the rest of the graph.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ToGraph {
+    Command(Command),
+    Mission(Mission),
+    Manual(ManualControl),
+    Param(ParamSet),
+}
+
+/// What a service wants done.
+#[derive(Debug, Default)]
+pub struct Outputs {
+    /// Messages to send (routed by their target, broadcast when they have none).
+    pub mav: Vec<MavMessage>,
+    /// Messages to publish in the graph.
+    pub graph: Vec<ToGraph>,
+}
+
+impl Outputs {
+    /// Nothing to do.
+    pub fn none() -> Outputs {
+        Outputs::default()
+    }
+
+    /// One message to send.
+    pub fn send(msg: MavMessage) -> Outputs {
+        Outputs { mav: vec![msg], graph: Vec::new() }
+    }
+
+    /// Appends `other`.
+    pub fn extend(&mut self, other: Outputs) {
+        self.mav.extend(other.mav);
+        self.graph.extend(other.graph);
+    }
+}

@@ -1,0 +1,474 @@
+//! Telemetry streams: which messages go out how often (defaults, MAV_CMD_SET_MESSAGE_INTERVAL,
+//! legacy REQUEST_DATA_STREAM, MAV_CMD_REQUEST_MESSAGE), and each message built from the graph's
+//! latest state. Quaternion → Euler happens here for display only.
+#![allow(
+    deprecated,
+    reason = "legacy MAVLink (MISSION_ITEM, REQUEST_DATA_STREAM, SET_MODE, *_INT frames) is still spoken by ground stations and must be accepted"
+)]
+
+use std::time::Duration;
+
+use kestrel_proto::Time;
+use kestrel_proto::geo::{Geodetic, LocalFrame};
+use kestrel_proto::messages::{
+    BatteryStatus, DepthGrid, GpsFix, GpsFixType, LandedState, NavState, OBSTACLE_SECTORS, VehicleStatus,
+};
+use mavlink::MessageData;
+use mavlink::dialects::ardupilotmega::{
+    ATTITUDE_DATA, BATTERY_STATUS_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA,
+    GpsFixType as MavFix, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
+    MavBatteryFunction, MavBatteryType, MavDataStream, MavDistanceSensor, MavFrame, MavLandedState,
+    MavMessage, MavResult, MavSysStatusSensor, MavVtolState, MissionState, OBSTACLE_DISTANCE_DATA,
+    SYS_STATUS_DATA, VFR_HUD_DATA,
+};
+
+/// The graph's latest state, as telemetry needs it.
+#[derive(Debug, Default)]
+pub struct Snapshot {
+    pub nav: Option<NavState>,
+    pub gps: Option<GpsFix>,
+    pub battery: Option<BatteryStatus>,
+    pub status: Option<VehicleStatus>,
+    pub depth: Option<DepthGrid>,
+    /// Whether a flight mission is stored (for MISSION_CURRENT).
+    pub mission_items: u16,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Stream {
+    id: u32,
+    default: Option<Duration>,
+    interval: Option<Duration>,
+    next: Time,
+}
+
+fn hz(rate: f64) -> Option<Duration> {
+    Some(Duration::from_secs_f64(1.0 / rate))
+}
+
+/// Default rates (Hz): PX4's and ArduPilot's SITL rates, rounded.
+fn default_streams() -> Vec<Stream> {
+    [
+        (SYS_STATUS_DATA::ID, hz(1.0)),
+        (ATTITUDE_DATA::ID, hz(10.0)),
+        (LOCAL_POSITION_NED_DATA::ID, hz(5.0)),
+        (GLOBAL_POSITION_INT_DATA::ID, hz(5.0)),
+        (GPS_RAW_INT_DATA::ID, hz(2.0)),
+        (VFR_HUD_DATA::ID, hz(4.0)),
+        (BATTERY_STATUS_DATA::ID, hz(1.0)),
+        (HOME_POSITION_DATA::ID, hz(0.5)),
+        (EXTENDED_SYS_STATE_DATA::ID, hz(1.0)),
+        (MISSION_CURRENT_DATA::ID, hz(1.0)),
+        (OBSTACLE_DISTANCE_DATA::ID, hz(5.0)),
+    ]
+    .into_iter()
+    .map(|(id, default)| Stream { id, default, interval: default, next: Time::ZERO })
+    .collect()
+}
+
+/// The telemetry scheduler and message builder.
+#[derive(Debug)]
+pub struct Telemetry {
+    streams: Vec<Stream>,
+    pub snapshot: Snapshot,
+}
+
+impl Default for Telemetry {
+    fn default() -> Self {
+        Telemetry { streams: default_streams(), snapshot: Snapshot::default() }
+    }
+}
+
+impl Telemetry {
+    /// Default streams, no state yet.
+    pub fn new() -> Telemetry {
+        Telemetry::default()
+    }
+
+    /// The interval of message `id` (`None`: not streamed).
+    pub fn interval(&self, id: u32) -> Option<Duration> {
+        self.streams.iter().find(|s| s.id == id).and_then(|s| s.interval)
+    }
+
+    /// MAV_CMD_SET_MESSAGE_INTERVAL: `interval_us` -1 stops, 0 restores the default, > 0 sets.
+    pub fn set_interval(&mut self, id: f64, interval_us: f64, now: Time) -> MavResult {
+        let Some(s) = self.streams.iter_mut().find(|s| f64::from(s.id) == id) else {
+            return MavResult::MAV_RESULT_UNSUPPORTED;
+        };
+        s.interval = match interval_us {
+            -1.0 => None,
+            0.0 => s.default,
+            // Faster than 50 Hz is more than the scheduler's tick can honour.
+            x if x.is_finite() && x >= 20_000.0 => Some(Duration::from_micros(x as u64)),
+            _ => return MavResult::MAV_RESULT_DENIED,
+        };
+        s.next = now;
+        MavResult::MAV_RESULT_ACCEPTED
+    }
+
+    /// REQUEST_DATA_STREAM, mapped onto our messages as ArduPilot groups them.
+    pub fn request_data_stream(&mut self, stream: MavDataStream, rate_hz: u16, start: bool, now: Time) {
+        let ids: &[u32] = match stream {
+            MavDataStream::MAV_DATA_STREAM_ALL => &[
+                SYS_STATUS_DATA::ID,
+                GPS_RAW_INT_DATA::ID,
+                MISSION_CURRENT_DATA::ID,
+                GLOBAL_POSITION_INT_DATA::ID,
+                LOCAL_POSITION_NED_DATA::ID,
+                ATTITUDE_DATA::ID,
+                VFR_HUD_DATA::ID,
+                BATTERY_STATUS_DATA::ID,
+                EXTENDED_SYS_STATE_DATA::ID,
+            ],
+            MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS => {
+                &[SYS_STATUS_DATA::ID, GPS_RAW_INT_DATA::ID, MISSION_CURRENT_DATA::ID]
+            }
+            MavDataStream::MAV_DATA_STREAM_POSITION => {
+                &[GLOBAL_POSITION_INT_DATA::ID, LOCAL_POSITION_NED_DATA::ID]
+            }
+            MavDataStream::MAV_DATA_STREAM_EXTRA1 => &[ATTITUDE_DATA::ID],
+            MavDataStream::MAV_DATA_STREAM_EXTRA2 => &[VFR_HUD_DATA::ID],
+            MavDataStream::MAV_DATA_STREAM_EXTRA3 => &[BATTERY_STATUS_DATA::ID, EXTENDED_SYS_STATE_DATA::ID],
+            _ => &[],
+        };
+        let interval = (start && rate_hz > 0).then(|| hz(f64::from(rate_hz.min(50)))).flatten();
+        for s in self.streams.iter_mut().filter(|s| ids.contains(&s.id)) {
+            s.interval = interval;
+            s.next = now;
+        }
+    }
+
+    /// Every stream message due at `now`.
+    pub fn due(&mut self, now: Time) -> Vec<MavMessage> {
+        let mut due = Vec::new();
+        for i in 0..self.streams.len() {
+            let s = self.streams[i];
+            let Some(interval) = s.interval else { continue };
+            if now < s.next {
+                continue;
+            }
+            // Keep the cadence; after a stall, restart from now rather than bursting.
+            let next = s.next + interval;
+            self.streams[i].next = if next <= now { now + interval } else { next };
+            due.extend(self.build(s.id, now));
+        }
+        due
+    }
+
+    /// Message `id` from the latest state (`None`: not ours, or nothing known yet).
+    pub fn build(&self, id: u32, now: Time) -> Option<MavMessage> {
+        let snap = &self.snapshot;
+        let boot_ms = (now.as_micros() / 1000) as u32;
+        Some(match id {
+            SYS_STATUS_DATA::ID => MavMessage::SYS_STATUS(self.sys_status()),
+            ATTITUDE_DATA::ID => {
+                let nav = snap.nav.as_ref()?;
+                let [roll, pitch, yaw] = euler(nav.attitude);
+                let [p, q, r] = nav.angular_velocity_rad_s;
+                MavMessage::ATTITUDE(ATTITUDE_DATA {
+                    time_boot_ms: boot_ms,
+                    roll: roll as f32,
+                    pitch: pitch as f32,
+                    yaw: yaw as f32,
+                    rollspeed: p as f32,
+                    pitchspeed: q as f32,
+                    yawspeed: r as f32,
+                })
+            }
+            LOCAL_POSITION_NED_DATA::ID => {
+                let nav = snap.nav.as_ref()?;
+                let [x, y, z] = nav.position_ned_m.map(|v| v as f32);
+                let [vx, vy, vz] = nav.velocity_ned_m_s.map(|v| v as f32);
+                MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
+                    time_boot_ms: boot_ms,
+                    x,
+                    y,
+                    z,
+                    vx,
+                    vy,
+                    vz,
+                })
+            }
+            GLOBAL_POSITION_INT_DATA::ID => {
+                let nav = snap.nav.as_ref()?;
+                let home = nav.origin?;
+                let p = LocalFrame::new(home).to_geodetic(nav.position_ned_m);
+                let v = nav.velocity_ned_m_s;
+                MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                    time_boot_ms: boot_ms,
+                    lat: deg_e7(p.lat_deg),
+                    lon: deg_e7(p.lon_deg),
+                    alt: (p.alt_m * 1000.0).round() as i32,
+                    relative_alt: (-nav.position_ned_m[2] * 1000.0).round() as i32,
+                    vx: (v[0] * 100.0).round() as i16,
+                    vy: (v[1] * 100.0).round() as i16,
+                    vz: (v[2] * 100.0).round() as i16,
+                    hdg: heading_cdeg(nav.attitude),
+                })
+            }
+            GPS_RAW_INT_DATA::ID => MavMessage::GPS_RAW_INT(gps_raw(snap.gps.as_ref()?)),
+            VFR_HUD_DATA::ID => {
+                let nav = snap.nav.as_ref()?;
+                let v = nav.velocity_ned_m_s;
+                let alt = nav.origin.map_or(-nav.position_ned_m[2], |o| o.alt_m - nav.position_ned_m[2]);
+                MavMessage::VFR_HUD(VFR_HUD_DATA {
+                    airspeed: v[0].hypot(v[1]) as f32,
+                    groundspeed: v[0].hypot(v[1]) as f32,
+                    alt: alt as f32,
+                    climb: -v[2] as f32,
+                    heading: (heading_cdeg(nav.attitude) / 100) as i16,
+                    throttle: 0,
+                })
+            }
+            BATTERY_STATUS_DATA::ID => {
+                let b = snap.battery.as_ref()?;
+                let mut voltages = [u16::MAX; 10];
+                voltages[0] = (b.voltage_v * 1000.0).clamp(0.0, 65_534.0) as u16;
+                MavMessage::BATTERY_STATUS(BATTERY_STATUS_DATA {
+                    current_consumed: b.consumed_mah.round() as i32,
+                    energy_consumed: -1,
+                    temperature: i16::MAX,
+                    voltages,
+                    current_battery: (b.current_a * 100.0).round() as i16,
+                    battery_function: MavBatteryFunction::MAV_BATTERY_FUNCTION_ALL,
+                    mavtype: MavBatteryType::MAV_BATTERY_TYPE_LIPO,
+                    battery_remaining: (b.remaining * 100.0).round().clamp(0.0, 100.0) as i8,
+                    ..Default::default()
+                })
+            }
+            HOME_POSITION_DATA::ID => {
+                let home = snap.nav.as_ref()?.origin?;
+                MavMessage::HOME_POSITION(HOME_POSITION_DATA {
+                    latitude: deg_e7(home.lat_deg),
+                    longitude: deg_e7(home.lon_deg),
+                    altitude: (home.alt_m * 1000.0).round() as i32,
+                    q: [1.0, 0.0, 0.0, 0.0],
+                    time_usec: now.as_micros(),
+                    ..Default::default()
+                })
+            }
+            EXTENDED_SYS_STATE_DATA::ID => {
+                let s = snap.status.as_ref()?;
+                MavMessage::EXTENDED_SYS_STATE(EXTENDED_SYS_STATE_DATA {
+                    vtol_state: MavVtolState::MAV_VTOL_STATE_UNDEFINED,
+                    landed_state: match s.landed {
+                        LandedState::OnGround => MavLandedState::MAV_LANDED_STATE_ON_GROUND,
+                        LandedState::InAir => MavLandedState::MAV_LANDED_STATE_IN_AIR,
+                        LandedState::Landing => MavLandedState::MAV_LANDED_STATE_LANDING,
+                    },
+                })
+            }
+            MISSION_CURRENT_DATA::ID => {
+                let progress = snap.status.as_ref().map(|s| s.mission).unwrap_or_default();
+                let state = match (snap.mission_items, progress) {
+                    (0, _) => MissionState::MISSION_STATE_NO_MISSION,
+                    (_, p) if p.completed => MissionState::MISSION_STATE_COMPLETE,
+                    (_, p)
+                        if p.reached > 0
+                            || snap
+                                .status
+                                .as_ref()
+                                .is_some_and(|s| s.mode == kestrel_proto::messages::FlightMode::Auto) =>
+                    {
+                        MissionState::MISSION_STATE_ACTIVE
+                    }
+                    _ => MissionState::MISSION_STATE_NOT_STARTED,
+                };
+                MavMessage::MISSION_CURRENT(MISSION_CURRENT_DATA {
+                    // Item 0 is home: the commander's item i is our item i + 1.
+                    seq: u16::try_from(progress.current + 1).unwrap_or(u16::MAX),
+                    total: snap.mission_items,
+                    mission_state: state,
+                    ..Default::default()
+                })
+            }
+            OBSTACLE_DISTANCE_DATA::ID => {
+                let d = snap.depth.as_ref()?;
+                let mut distances = [u16::MAX; OBSTACLE_SECTORS];
+                for (out, v) in distances.iter_mut().zip(&d.sectors.distances_cm) {
+                    *out = *v;
+                }
+                MavMessage::OBSTACLE_DISTANCE(OBSTACLE_DISTANCE_DATA {
+                    time_usec: d.time.as_micros(),
+                    distances,
+                    min_distance: d.sectors.min_distance_cm,
+                    max_distance: d.sectors.max_distance_cm,
+                    sensor_type: MavDistanceSensor::MAV_DISTANCE_SENSOR_UNKNOWN,
+                    increment: 0,
+                    increment_f: d.sectors.increment_deg,
+                    angle_offset: d.sectors.angle_offset_deg,
+                    frame: MavFrame::MAV_FRAME_BODY_FRD,
+                })
+            }
+            _ => return None,
+        })
+    }
+
+    fn sys_status(&self) -> SYS_STATUS_DATA {
+        let snap = &self.snapshot;
+        let present = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
+        let mut health = MavSysStatusSensor::empty();
+        if let Some(v) = snap.nav.as_ref().map(|n| n.valid) {
+            if v.attitude {
+                health |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
+                    | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+                    | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG;
+            }
+            if v.vertical_position {
+                health |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE;
+            }
+            if v.horizontal_position {
+                health |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
+            }
+        }
+        let (voltage, current, remaining) = snap.battery.as_ref().map_or((u16::MAX, -1, -1), |b| {
+            (
+                (b.voltage_v * 1000.0).clamp(0.0, 65_534.0) as u16,
+                (b.current_a * 100.0).round() as i16,
+                (b.remaining * 100.0).round().clamp(0.0, 100.0) as i8,
+            )
+        });
+        SYS_STATUS_DATA {
+            onboard_control_sensors_present: present,
+            onboard_control_sensors_enabled: present,
+            onboard_control_sensors_health: health,
+            voltage_battery: voltage,
+            current_battery: current,
+            battery_remaining: remaining,
+            ..Default::default()
+        }
+    }
+}
+
+fn deg_e7(deg: f64) -> i32 {
+    (deg * 1e7).round() as i32
+}
+
+/// Roll, pitch, yaw (rad) of `[w, x, y, z]` (ZYX convention), for display.
+pub fn euler(q: [f64; 4]) -> [f64; 3] {
+    let [w, x, y, z] = q;
+    let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
+    let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
+    let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+    [roll, pitch, yaw]
+}
+
+fn heading_cdeg(q: [f64; 4]) -> u16 {
+    let yaw_deg = euler(q)[2].to_degrees().rem_euclid(360.0);
+    ((yaw_deg * 100.0).round() as u16) % 36_000
+}
+
+fn gps_raw(g: &GpsFix) -> GPS_RAW_INT_DATA {
+    let v = g.vel_ned_m_s;
+    let speed = v[0].hypot(v[1]);
+    GPS_RAW_INT_DATA {
+        time_usec: g.time.as_micros(),
+        lat: deg_e7(g.lat_deg),
+        lon: deg_e7(g.lon_deg),
+        alt: (g.alt_msl_m * 1000.0).round() as i32,
+        eph: (g.h_acc_m * 100.0).clamp(0.0, 65_534.0) as u16,
+        epv: (g.v_acc_m * 100.0).clamp(0.0, 65_534.0) as u16,
+        vel: (speed * 100.0).clamp(0.0, 65_534.0) as u16,
+        cog: ((v[1].atan2(v[0]).to_degrees().rem_euclid(360.0) * 100.0) as u16) % 36_000,
+        fix_type: match g.fix_type {
+            GpsFixType::NoFix => MavFix::GPS_FIX_TYPE_NO_FIX,
+            GpsFixType::Fix2d => MavFix::GPS_FIX_TYPE_2D_FIX,
+            GpsFixType::Fix3d => MavFix::GPS_FIX_TYPE_3D_FIX,
+            GpsFixType::Dgps => MavFix::GPS_FIX_TYPE_DGPS,
+            GpsFixType::RtkFloat => MavFix::GPS_FIX_TYPE_RTK_FLOAT,
+            GpsFixType::RtkFixed => MavFix::GPS_FIX_TYPE_RTK_FIXED,
+        },
+        satellites_visible: g.satellites,
+        h_acc: (g.h_acc_m * 1000.0) as u32,
+        v_acc: (g.v_acc_m * 1000.0) as u32,
+        vel_acc: (g.s_acc_m_s * 1000.0) as u32,
+        ..Default::default()
+    }
+}
+
+/// Where home is, if the estimator has anchored its frame.
+pub fn home(snapshot: &Snapshot) -> Option<Geodetic> {
+    snapshot.nav.as_ref().and_then(|n| n.origin)
+}
+
+#[cfg(test)]
+mod tests {
+    use kestrel_proto::messages::NavValidity;
+
+    use super::*;
+
+    fn nav() -> NavState {
+        let half = (std::f64::consts::FRAC_PI_2 / 2.0, 0.0);
+        NavState {
+            time: Time::ZERO,
+            attitude: [half.0.cos(), 0.0, 0.0, half.0.sin()],
+            angular_velocity_rad_s: [0.0; 3],
+            velocity_ned_m_s: [1.0, 0.0, -0.5],
+            position_ned_m: [10.0, 0.0, -30.0],
+            gyro_bias_rad_s: [0.0; 3],
+            accel_bias_m_s2: [0.0; 3],
+            covariance_diagonal: [0.0; 16],
+            origin: Some(Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
+            valid: NavValidity { attitude: true, ..Default::default() },
+        }
+    }
+
+    #[test]
+    fn default_rates_and_interval_changes() {
+        let mut t = Telemetry::new();
+        t.snapshot.nav = Some(nav());
+        let count = |t: &mut Telemetry| {
+            let mut n = 0;
+            for ms in (0..1000).step_by(20) {
+                n += t
+                    .due(Time::from_micros(ms * 1000))
+                    .iter()
+                    .filter(|m| matches!(m, MavMessage::ATTITUDE(_)))
+                    .count();
+            }
+            n
+        };
+        assert_eq!(count(&mut t), 10);
+        let mut t = Telemetry::new();
+        t.snapshot.nav = Some(nav());
+        assert_eq!(
+            t.set_interval(f64::from(ATTITUDE_DATA::ID), 50_000.0, Time::ZERO),
+            MavResult::MAV_RESULT_ACCEPTED
+        );
+        assert_eq!(count(&mut t), 20);
+        assert_eq!(
+            t.set_interval(f64::from(ATTITUDE_DATA::ID), -1.0, Time::ZERO),
+            MavResult::MAV_RESULT_ACCEPTED
+        );
+        assert_eq!(t.interval(ATTITUDE_DATA::ID), None);
+        assert_eq!(
+            t.set_interval(f64::from(ATTITUDE_DATA::ID), 0.0, Time::ZERO),
+            MavResult::MAV_RESULT_ACCEPTED
+        );
+        assert_eq!(t.interval(ATTITUDE_DATA::ID), Some(Duration::from_millis(100)));
+        assert_eq!(t.set_interval(9999.0, 1.0, Time::ZERO), MavResult::MAV_RESULT_UNSUPPORTED);
+        t.request_data_stream(MavDataStream::MAV_DATA_STREAM_EXTRA1, 2, true, Time::ZERO);
+        assert_eq!(t.interval(ATTITUDE_DATA::ID), Some(Duration::from_millis(500)));
+    }
+
+    #[test]
+    fn messages_carry_the_state_in_mavlink_units() {
+        let mut t = Telemetry::new();
+        t.snapshot.nav = Some(nav());
+        let Some(MavMessage::GLOBAL_POSITION_INT(g)) = t.build(GLOBAL_POSITION_INT_DATA::ID, Time::ZERO)
+        else {
+            panic!()
+        };
+        assert_eq!(g.relative_alt, 30_000);
+        assert_eq!(g.alt, 50_000);
+        assert_eq!(g.hdg, 9_000, "facing east");
+        assert!((f64::from(g.lat) * 1e-7 - 6.79710 - 10.0 / 110_600.0).abs() < 1e-5, "{}", g.lat);
+        let Some(MavMessage::ATTITUDE(a)) = t.build(ATTITUDE_DATA::ID, Time::ZERO) else { panic!() };
+        assert!((f64::from(a.yaw) - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
+        assert!(t.build(GPS_RAW_INT_DATA::ID, Time::ZERO).is_none(), "no fix yet, nothing to send");
+    }
+}

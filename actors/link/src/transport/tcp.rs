@@ -1,0 +1,45 @@
+//! TCP server endpoint: every accepted connection is its own link.
+
+use std::net::SocketAddr;
+use std::sync::Arc;
+
+use mavlink::SigningData;
+use tokio::net::TcpListener;
+
+use super::{EndpointError, OpenEndpoint, Shared, stream};
+
+/// Listens on `bind` and serves connections until shutdown.
+pub async fn open_server(
+    bind: SocketAddr,
+    signing: Option<Arc<SigningData>>,
+    shared: &Shared,
+) -> Result<OpenEndpoint, EndpointError> {
+    let listener = TcpListener::bind(bind).await.map_err(|source| EndpointError::Bind {
+        what: "TCP server",
+        addr: bind,
+        source,
+    })?;
+    let local = listener.local_addr().map_err(|source| EndpointError::Bind {
+        what: "TCP server",
+        addr: bind,
+        source,
+    })?;
+    let shared = shared.clone();
+    tokio::spawn(async move {
+        loop {
+            let accepted = tokio::select! {
+                _ = shared.shutdown.cancelled() => break,
+                a = listener.accept() => a,
+            };
+            match accepted {
+                Ok((socket, peer)) => {
+                    let _ = socket.set_nodelay(true);
+                    let (r, w) = socket.into_split();
+                    stream::spawn(format!("tcp {peer}"), r, w, signing.clone(), shared.clone());
+                }
+                Err(e) => tracing::warn!(error = %e, "TCP accept failed"),
+            }
+        }
+    });
+    Ok(OpenEndpoint { name: format!("tcp server {local}"), local_addr: Some(local) })
+}
