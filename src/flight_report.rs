@@ -11,7 +11,9 @@ use std::path::PathBuf;
 
 use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
 use kestrel_proto::geo::{Geodetic, LocalFrame};
-use kestrel_proto::messages::{ControlLoopStats, GroundTruth, NavState, VehicleStatus};
+use kestrel_proto::messages::{
+    ControlLoopStats, GroundTruth, NavState, Setpoint, SetpointTarget, VehicleStatus,
+};
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use serde::{Deserialize, Serialize};
 
@@ -25,11 +27,12 @@ pub struct FlightReportParams {
 
 /// The topics the report reads, with their message types, so the runtime can route the ones
 /// a graph has.
-pub const REPORT_INPUTS: [(&str, &str); 4] = [
+pub const REPORT_INPUTS: [(&str, &str); 5] = [
     ("ground_truth", <GroundTruth as kestrel_proto::Message>::TYPE_NAME),
     ("nav_state", <NavState as kestrel_proto::Message>::TYPE_NAME),
     ("vehicle_status", <VehicleStatus as kestrel_proto::Message>::TYPE_NAME),
     ("control_loop_stats", <ControlLoopStats as kestrel_proto::Message>::TYPE_NAME),
+    ("setpoint", <Setpoint as kestrel_proto::Message>::TYPE_NAME),
 ];
 
 /// What the report actor handles.
@@ -39,6 +42,7 @@ pub enum ReportInput {
     Nav(Box<NavState>),
     Status(VehicleStatus),
     Loop(ControlLoopStats),
+    Setpoint(Setpoint),
 }
 
 /// The report, in the field layout other tools rely on (docs/design.md).
@@ -71,6 +75,11 @@ pub struct FlightSection {
     /// Horizontal distance of the final position from home (m).
     pub landing_distance_from_home_m: f64,
     pub crashed: bool,
+    /// Largest distance of the true position from the straight leg between consecutive
+    /// position targets (m); `None` when no leg was flown.
+    pub tracking_error_max_m: Option<f64>,
+    /// RMS of the same distance over the ground-truth samples on a leg (m).
+    pub tracking_error_rms_m: Option<f64>,
 }
 
 /// Root-mean-square estimation errors against ground truth, over the samples where the
@@ -90,6 +99,7 @@ pub struct EstimatorSection {
 pub struct ControlSection {
     pub period_p50_us: f64,
     pub period_p99_us: f64,
+    pub period_max_us: f64,
     pub overruns: u64,
 }
 
@@ -117,6 +127,45 @@ struct ErrorSums {
     samples: u64,
 }
 
+/// Cross-track error along the legs the commander flies: from one position target to the next.
+#[derive(Default)]
+struct Tracking {
+    /// The previous and the current position target (m, NED in the estimator's frame).
+    leg: (Option<[f64; 3]>, Option<[f64; 3]>),
+    max_m: f64,
+    sum_sq: f64,
+    samples: u64,
+}
+
+impl Tracking {
+    /// A new setpoint: a full position target extends the path; anything else (a velocity-
+    /// controlled axis while landing, attitude or rate control) is not a path to track.
+    fn on_setpoint(&mut self, target: Option<[f64; 3]>) {
+        match target {
+            Some(t) if self.leg.1 != Some(t) => self.leg = (self.leg.1, Some(t)),
+            Some(_) => {}
+            None => self.leg = (None, None),
+        }
+    }
+
+    /// Adds the distance of `p` from the current leg.
+    fn on_position(&mut self, p: [f64; 3]) {
+        let (Some(a), Some(b)) = self.leg else { return };
+        let ab = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+        let ap = [p[0] - a[0], p[1] - a[1], p[2] - a[2]];
+        let length_sq: f64 = ab.iter().map(|x| x * x).sum();
+        let along = if length_sq > 0.0 {
+            (ab.iter().zip(&ap).map(|(x, y)| x * y).sum::<f64>() / length_sq).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let distance = (0..3).map(|i| (ap[i] - along * ab[i]).powi(2)).sum::<f64>().sqrt();
+        self.max_m = self.max_m.max(distance);
+        self.sum_sq += distance * distance;
+        self.samples += 1;
+    }
+}
+
 /// Collects the report while the graph runs and writes it on stop.
 pub struct FlightReportActor {
     out: PathBuf,
@@ -127,6 +176,9 @@ pub struct FlightReportActor {
     latest_truth: Option<GroundTruth>,
     min_clearance_m: Option<f64>,
     errors: ErrorSums,
+    tracking: Tracking,
+    /// The estimator's frame, in which setpoints are given.
+    nav_frame: Option<LocalFrame>,
     status: Option<VehicleStatus>,
     loop_stats: Option<ControlLoopStats>,
     failsafes: Vec<FailsafeEntry>,
@@ -143,6 +195,10 @@ impl FlightReportActor {
 
     fn on_truth(&mut self, truth: GroundTruth) {
         self.seen(truth.time);
+        if let Some(frame) = &self.nav_frame {
+            let here = Geodetic { lat_deg: truth.lat_deg, lon_deg: truth.lon_deg, alt_m: truth.alt_msl_m };
+            self.tracking.on_position(frame.to_ned(here));
+        }
         if let Some(c) = truth.clearance_m {
             self.min_clearance_m = Some(self.min_clearance_m.map_or(c, |m: f64| m.min(c)));
         }
@@ -156,6 +212,9 @@ impl FlightReportActor {
     fn on_nav(&mut self, nav: &NavState) {
         self.seen(nav.time);
         let (Some(origin), true) = (nav.origin, nav.valid.attitude) else { return };
+        if self.nav_frame.is_none_or(|f| f.home() != origin) {
+            self.nav_frame = Some(LocalFrame::new(origin));
+        }
         let Some(truth) = self.truth.iter().find(|t| t.time == nav.time) else { return };
         let frame = LocalFrame::new(origin);
         let true_ned =
@@ -198,6 +257,9 @@ impl FlightReportActor {
             landed: t.landed && !t.crashed,
             landing_distance_from_home_m: t.position_ned_m[0].hypot(t.position_ned_m[1]),
             crashed: t.crashed,
+            tracking_error_max_m: (self.tracking.samples > 0).then_some(self.tracking.max_m),
+            tracking_error_rms_m: (self.tracking.samples > 0)
+                .then(|| (self.tracking.sum_sq / self.tracking.samples as f64).sqrt()),
         });
         let e = &self.errors;
         let rms = |sum: f64| (sum / e.samples as f64).sqrt();
@@ -220,6 +282,7 @@ impl FlightReportActor {
             control: self.loop_stats.as_ref().map(|l| ControlSection {
                 period_p50_us: l.period_p50_us,
                 period_p99_us: l.period_p99_us,
+                period_max_us: l.period_max_us,
                 overruns: l.overruns,
             }),
             avoidance: None,
@@ -246,6 +309,7 @@ impl Actor for FlightReportActor {
         setup.input("nav_state", |n| ReportInput::Nav(Box::new(n)));
         setup.input("vehicle_status", ReportInput::Status);
         setup.input("control_loop_stats", ReportInput::Loop);
+        setup.input("setpoint", ReportInput::Setpoint);
         Ok(FlightReportActor {
             out: params.out.clone(),
             first: None,
@@ -254,6 +318,8 @@ impl Actor for FlightReportActor {
             latest_truth: None,
             min_clearance_m: None,
             errors: ErrorSums::default(),
+            tracking: Tracking::default(),
+            nav_frame: None,
             status: None,
             loop_stats: None,
             failsafes: Vec::new(),
@@ -265,6 +331,13 @@ impl Actor for FlightReportActor {
             ReportInput::Truth(t) => self.on_truth(t),
             ReportInput::Nav(n) => self.on_nav(&n),
             ReportInput::Status(s) => self.on_status(s),
+            ReportInput::Setpoint(sp) => self.tracking.on_setpoint(match sp.target {
+                SetpointTarget::Trajectory(t) => match t.position_ned_m {
+                    [Some(n), Some(e), Some(d)] => Some([n, e, d]),
+                    _ => None,
+                },
+                _ => None,
+            }),
             ReportInput::Loop(l) => {
                 self.seen(l.time);
                 self.loop_stats = Some(l);
