@@ -29,7 +29,8 @@ pub struct StereoParams {
 
 /// Frame → depth grid; ports `stereo_frame` (input) and `depth_grid` (output).
 pub struct StereoActor {
-    pipeline: StereoPipeline,
+    /// The matcher and its buffers; lent to the blocking pool while a frame is processed.
+    pipeline: Option<StereoPipeline>,
     out: Publisher<DepthGrid>,
     /// Frames that could not be used (no pixels, wrong size), for the logs.
     rejected: u64,
@@ -43,11 +44,24 @@ impl Actor for StereoActor {
         let pipeline = StereoPipeline::new(&params.geometry, &params.pipeline, setup.config_dir())
             .map_err(actor_error)?;
         setup.input("stereo_frame", |f| f);
-        Ok(StereoActor { pipeline, out: setup.output("depth_grid"), rejected: 0 })
+        Ok(StereoActor { pipeline: Some(pipeline), out: setup.output("depth_grid"), rejected: 0 })
     }
 
+    /// Runs the pipeline on tokio's blocking pool, so tens of milliseconds of matching never
+    /// hold an async worker; awaiting it keeps one frame in flight, and the `latest` mailbox
+    /// means the next frame is the newest. A panic in the matcher comes back as an error, and
+    /// the supervisor restarts this actor with a fresh pipeline.
     async fn handle(&mut self, _ctx: &Context, frame: StereoFrame) -> Result<(), ActorError> {
-        match self.pipeline.process(&frame) {
+        let mut pipeline =
+            self.pipeline.take().ok_or_else(|| ActorError::Failed("stereo pipeline lost by an earlier panic".into()))?;
+        let (pipeline, frame, result) = tokio::task::spawn_blocking(move || {
+            let result = pipeline.process(&frame);
+            (pipeline, frame, result)
+        })
+        .await
+        .map_err(|e| ActorError::Failed(format!("stereo worker failed: {e}")))?;
+        self.pipeline = Some(pipeline);
+        match result {
             Ok(grid) => {
                 self.out.publish(grid);
                 Ok(())
