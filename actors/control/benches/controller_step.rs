@@ -9,28 +9,17 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use kestrel_control::{ControlParams, FlightController, PositionController, PositionGains};
 use kestrel_proto::Time;
-use kestrel_proto::messages::{NavState, NavValidity, Setpoint, SetpointTarget, TrajectorySetpoint};
+use kestrel_proto::messages::{NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
 use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
 
 fn nav(i: u64) -> NavState {
-    NavState {
-        time: Time::from_micros(i * 2500),
-        attitude: [0.995, 0.05, -0.03, 0.08],
-        angular_velocity_rad_s: [0.1, -0.2, 0.05],
-        velocity_ned_m_s: [1.0, 0.5, -0.2],
-        position_ned_m: [3.0, -2.0, -10.0],
-        gyro_bias_rad_s: [0.0; 3],
-        accel_bias_m_s2: [0.0; 3],
-        covariance_diagonal: [0.0; 16],
-        origin: None,
-        valid: NavValidity {
-            attitude: true,
-            horizontal_velocity: true,
-            horizontal_position: true,
-            vertical_velocity: true,
-            vertical_position: true,
-        },
-    }
+    NavState::exact(
+        Time::from_micros(i * 2500),
+        [0.995, 0.05, -0.03, 0.08],
+        [0.1, -0.2, 0.05],
+        [1.0, 0.5, -0.2],
+        [3.0, -2.0, -10.0],
+    )
 }
 
 fn target() -> TrajectorySetpoint {

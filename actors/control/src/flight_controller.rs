@@ -310,27 +310,9 @@ fn check_setpoint(sp: &Setpoint) -> Result<(), RejectedInput> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kestrel_proto::messages::NavValidity;
 
     fn nav(time_us: u64) -> NavState {
-        NavState {
-            time: Time(time_us),
-            attitude: [1.0, 0.0, 0.0, 0.0],
-            angular_velocity_rad_s: [0.0; 3],
-            velocity_ned_m_s: [0.0; 3],
-            position_ned_m: [0.0, 0.0, -10.0],
-            gyro_bias_rad_s: [0.0; 3],
-            accel_bias_m_s2: [0.0; 3],
-            covariance_diagonal: [0.0; 16],
-            origin: None,
-            valid: NavValidity {
-                attitude: true,
-                horizontal_velocity: true,
-                horizontal_position: true,
-                vertical_velocity: true,
-                vertical_position: true,
-            },
-        }
+        NavState::exact(Time(time_us), [1.0, 0.0, 0.0, 0.0], [0.0; 3], [0.0; 3], [0.0, 0.0, -10.0])
     }
 
     fn hold() -> Setpoint {

@@ -7,7 +7,7 @@
 //! Ports — input `ground_truth` (GroundTruth, `latest`); output `nav` (NavState).
 
 use kestrel_proto::geo::{Geodetic, LocalFrame};
-use kestrel_proto::messages::{GroundTruth, NavState, NavValidity};
+use kestrel_proto::messages::{GroundTruth, NavState};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup};
 use serde::Deserialize;
 
@@ -32,22 +32,14 @@ pub struct TruthNavActor {
 /// A perfect NavState from ground truth; `origin` is the NED frame's anchor (home).
 pub fn nav_from_truth(truth: &GroundTruth, origin: Geodetic) -> NavState {
     NavState {
-        time: truth.time,
-        attitude: truth.attitude,
-        angular_velocity_rad_s: truth.angular_velocity_rad_s,
-        velocity_ned_m_s: truth.velocity_ned_m_s,
-        position_ned_m: truth.position_ned_m,
-        gyro_bias_rad_s: [0.0; 3],
-        accel_bias_m_s2: [0.0; 3],
-        covariance_diagonal: [0.0; 16],
         origin: Some(origin),
-        valid: NavValidity {
-            attitude: true,
-            horizontal_velocity: true,
-            horizontal_position: true,
-            vertical_velocity: true,
-            vertical_position: true,
-        },
+        ..NavState::exact(
+            truth.time,
+            truth.attitude,
+            truth.angular_velocity_rad_s,
+            truth.velocity_ned_m_s,
+            truth.position_ned_m,
+        )
     }
 }
 

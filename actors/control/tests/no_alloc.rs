@@ -7,7 +7,7 @@ use std::cell::Cell;
 use kestrel_control::rt::triple_buffer;
 use kestrel_control::{ControlParams, FlightController};
 use kestrel_proto::Time;
-use kestrel_proto::messages::{NavState, NavValidity, Setpoint, SetpointTarget, TrajectorySetpoint};
+use kestrel_proto::messages::{NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
 
 struct Counting;
 
@@ -34,24 +34,13 @@ static GLOBAL: Counting = Counting;
 
 fn nav(i: u64) -> NavState {
     let phase = i as f64 * 0.01;
-    NavState {
-        time: Time::from_micros(i * 2500),
-        attitude: [phase.cos(), phase.sin(), 0.0, 0.0],
-        angular_velocity_rad_s: [0.1, -0.2, 0.05],
-        velocity_ned_m_s: [1.0, 0.5, -0.2],
-        position_ned_m: [3.0, -2.0, -10.0],
-        gyro_bias_rad_s: [0.0; 3],
-        accel_bias_m_s2: [0.0; 3],
-        covariance_diagonal: [0.0; 16],
-        origin: None,
-        valid: NavValidity {
-            attitude: true,
-            horizontal_velocity: true,
-            horizontal_position: true,
-            vertical_velocity: true,
-            vertical_position: true,
-        },
-    }
+    NavState::exact(
+        Time::from_micros(i * 2500),
+        [phase.cos(), phase.sin(), 0.0, 0.0],
+        [0.1, -0.2, 0.05],
+        [1.0, 0.5, -0.2],
+        [3.0, -2.0, -10.0],
+    )
 }
 
 #[test]

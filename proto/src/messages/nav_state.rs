@@ -19,6 +19,17 @@ pub struct NavValidity {
     pub vertical_position: bool,
 }
 
+impl NavValidity {
+    /// Everything observed.
+    pub const ALL: NavValidity = NavValidity {
+        attitude: true,
+        horizontal_velocity: true,
+        horizontal_position: true,
+        vertical_velocity: true,
+        vertical_position: true,
+    };
+}
+
 /// The estimator's best knowledge of the vehicle, published at IMU rate for the controllers.
 ///
 /// This is the thesis's 16-element state (eq. 3.13): attitude quaternion, NED velocity, NED
@@ -47,3 +58,28 @@ pub struct NavState {
     pub valid: NavValidity,
 }
 crate::impl_message!(NavState);
+
+impl NavState {
+    /// A state known exactly: true values with zero biases and covariance, every part valid and
+    /// no geodetic origin. For feeding ground truth to the controllers in tests and benches.
+    pub fn exact(
+        time: Time,
+        attitude: [f64; 4],
+        angular_velocity_rad_s: [f64; 3],
+        velocity_ned_m_s: [f64; 3],
+        position_ned_m: [f64; 3],
+    ) -> NavState {
+        NavState {
+            time,
+            attitude,
+            angular_velocity_rad_s,
+            velocity_ned_m_s,
+            position_ned_m,
+            gyro_bias_rad_s: [0.0; 3],
+            accel_bias_m_s2: [0.0; 3],
+            covariance_diagonal: [0.0; 16],
+            origin: None,
+            valid: NavValidity::ALL,
+        }
+    }
+}

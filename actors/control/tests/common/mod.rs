@@ -12,7 +12,7 @@
 use kestrel_control::{ControlParams, FlightController};
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    ActuatorOutputs, MAX_MOTORS, NavState, NavValidity, Setpoint, SetpointTarget, TrajectorySetpoint,
+    ActuatorOutputs, MAX_MOTORS, NavState, Setpoint, SetpointTarget, TrajectorySetpoint,
 };
 use kestrel_sim::{
     InitialState, RigidBodyState, SimOptions, Simulator, VehicleParams, World, hover_throttle,
@@ -52,24 +52,13 @@ pub fn vehicle(name: &str) -> VehicleParams {
 pub fn truth_nav(sim: &Simulator) -> NavState {
     let s = sim.state();
     let q = s.attitude.into_inner();
-    NavState {
-        time: sim.time(),
-        attitude: [q.w, q.i, q.j, q.k],
-        angular_velocity_rad_s: s.angular_velocity_frd_rad_s.into(),
-        velocity_ned_m_s: s.velocity_ned_m_s.into(),
-        position_ned_m: s.position_ned_m.into(),
-        gyro_bias_rad_s: [0.0; 3],
-        accel_bias_m_s2: [0.0; 3],
-        covariance_diagonal: [0.0; 16],
-        origin: None,
-        valid: NavValidity {
-            attitude: true,
-            horizontal_velocity: true,
-            horizontal_position: true,
-            vertical_velocity: true,
-            vertical_position: true,
-        },
-    }
+    NavState::exact(
+        sim.time(),
+        [q.w, q.i, q.j, q.k],
+        s.angular_velocity_frd_rad_s.into(),
+        s.velocity_ned_m_s.into(),
+        s.position_ned_m.into(),
+    )
 }
 
 /// The simulator and the controller, stepped together.
