@@ -253,6 +253,7 @@ fn auto_mission_flies_on_the_full_stack_and_lands_home() {
     );
     assert!(flight["landing_distance_from_home_m"].as_f64().unwrap() < 2.0, "{report:#}");
     assert!(report["estimator"]["rms_horizontal_m"].as_f64().unwrap() < 1.0, "{report:#}");
+    assert!(report["estimator"]["rms_vertical_m"].as_f64().unwrap() < 0.5, "geodetic height: {report:#}");
     let tracking = flight["tracking_error_max_m"].as_f64().unwrap();
     assert!(tracking > 0.0 && tracking < 3.0, "cross-track error along the legs: {report:#}");
     assert_eq!(report["control"]["overruns"], 0, "{report:#}");

@@ -6,6 +6,12 @@
 //! `gps_reset_timeout_s` resets position and velocity to GPS, as does the first fix after the
 //! filter has dead reckoned past `horizontal_position_timeout_s`.
 //!
+//! The origin's altitude is the mean, over the first [`ORIGIN_ALTITUDE_FIXES`] fixes, of GPS
+//! altitude plus the filter's height at each fix: heights come from the barometer, so this
+//! anchors them above sea level with the GPS noise averaged down (one fix's vertical error, about
+//! a metre, would otherwise stay in every geodetic altitude the filter reports). Only the
+//! geodetic anchor moves; local NED positions are untouched.
+//!
 //! Maths: every observation is a state directly (`H` a unit row), fused as sequential scalars;
 //! the observation variance is the larger of the configured noise and the receiver's accuracy.
 
@@ -20,9 +26,14 @@ use crate::filter::Filter;
 use crate::params::EkfParams;
 use crate::state::{POS, VEL};
 
+/// Fixes averaged into the origin's altitude (10 s at 5 Hz).
+pub const ORIGIN_ALTITUDE_FIXES: u32 = 50;
+
 /// GPS fusion state.
 #[derive(Clone, Debug, Default)]
 pub struct GpsControl {
+    /// Sum of GPS altitude plus filter height over the fixes averaged so far, and their count.
+    origin_altitude: (f64, u32),
     last_position_fused: Option<Time>,
     last_velocity_fused: Option<Time>,
     /// Start of the current run of rejected positions.
@@ -63,10 +74,17 @@ impl GpsControl {
         let geodetic = Geodetic { lat_deg: fix.lat_deg, lon_deg: fix.lon_deg, alt_m: fix.alt_msl_m };
         let Some(local) = frame else {
             let origin = Geodetic { alt_m: fix.alt_msl_m + filter.state.pos_ned_m.z, ..geodetic };
+            self.origin_altitude = (origin.alt_m, 1);
             *frame = Some(LocalFrame::new(origin));
             self.reset(filter, [0.0, 0.0], vel, pos_var, vel_var, now);
             return;
         };
+        if self.origin_altitude.1 < ORIGIN_ALTITUDE_FIXES {
+            let (sum, n) = self.origin_altitude;
+            self.origin_altitude = (sum + fix.alt_msl_m + filter.state.pos_ned_m.z, n + 1);
+            let alt_m = self.origin_altitude.0 / f64::from(n + 1);
+            *local = LocalFrame::new(Geodetic { alt_m, ..local.home() });
+        }
         let ned = local.to_ned(geodetic);
         if !self.position_aiding(now, params) {
             tracing::info!(time = %now, "GPS resumed after dead reckoning: resetting position and velocity");
