@@ -17,6 +17,8 @@ use kestrel_proto::messages::{
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use serde::{Deserialize, Serialize};
 
+use crate::serde_name::serde_name;
+
 /// `params` of the report actor.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -241,8 +243,8 @@ impl FlightReportActor {
         {
             self.failsafes.push(FailsafeEntry {
                 t_s: f.since.as_secs_f64(),
-                cause: snake_case(&f.cause),
-                action: snake_case(&f.action),
+                cause: serde_name(&f.cause),
+                action: serde_name(&f.action),
             });
         }
         self.status = Some(status);
@@ -288,15 +290,6 @@ impl FlightReportActor {
             avoidance: None,
             failsafes: self.failsafes.clone(),
         }
-    }
-}
-
-/// A serde enum's snake_case name (`FailsafeCause::BatteryLow` → `battery_low`).
-fn snake_case<T: Serialize>(value: &T) -> String {
-    match serde_json::to_value(value) {
-        Ok(serde_json::Value::String(s)) => s,
-        Ok(other) => other.to_string(),
-        Err(e) => format!("unserialisable: {e}"),
     }
 }
 

@@ -11,6 +11,7 @@ pub mod mailbox;
 pub mod recorder;
 pub mod registry;
 pub mod run;
+pub mod serde_name;
 pub mod status;
 pub mod supervisor;
 pub mod topic;

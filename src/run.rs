@@ -7,7 +7,7 @@ use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use kestrel_proto::messages::{GroundTruth, SupervisorEvent};
+use kestrel_proto::messages::{GroundTruth, SupervisorEvent, VehicleStatus};
 use kestrel_proto::{Clock, Time};
 use tokio_util::sync::CancellationToken;
 
@@ -144,6 +144,7 @@ async fn run_graph(
     let record_path = options.record.clone().or_else(|| config.graph.record.path.clone());
     let recorder = record_path.as_deref().map(Recorder::create).transpose()?;
     let truth = graph.observe::<GroundTruth>("ground_truth", Doorbell::new());
+    let commander = graph.observe::<VehicleStatus>("vehicle_status", Doorbell::new());
     let topics = graph
         .finish(source, recorder.as_ref().map(|r| (r, config.graph.record.topics.as_slice())))
         .map_err(|e| RunError::Config(vec![e]))?;
@@ -171,6 +172,7 @@ async fn run_graph(
             Arc::clone(&clock),
             topics.clone(),
             truth,
+            commander,
             shutdown.clone(),
         ));
     }

@@ -4,12 +4,13 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use kestrel_proto::messages::GroundTruth;
+use kestrel_proto::messages::{GroundTruth, VehicleStatus};
 use kestrel_proto::{Clock, Time};
 use tokio_util::sync::CancellationToken;
 
 use crate::graph::TopicHandle;
 use crate::mailbox::Mailbox;
+use crate::serde_name::serde_name;
 
 /// Topics whose rates the status line shows, in this order, when they exist.
 const SHOWN: &[&str] = &["imu", "gps", "baro", "mag", "ground_truth", "actuator_outputs", "nav_state"];
@@ -20,6 +21,7 @@ pub async fn run(
     clock: Arc<dyn Clock>,
     topics: Vec<TopicHandle>,
     truth: Option<Arc<Mailbox<GroundTruth>>>,
+    commander: Option<Arc<Mailbox<VehicleStatus>>>,
     shutdown: CancellationToken,
 ) {
     let shown: Vec<&TopicHandle> =
@@ -28,6 +30,7 @@ pub async fn run(
     let mut last_sim = clock.now();
     let mut last_wall = tokio::time::Instant::now();
     let mut latest_truth: Option<GroundTruth> = None;
+    let mut latest_status: Option<VehicleStatus> = None;
     let mut ticker = tokio::time::interval_at(last_wall + period, period);
     loop {
         tokio::select! {
@@ -39,6 +42,9 @@ pub async fn run(
         let wall_dt = last_wall.elapsed().as_secs_f64();
         if let Some(t) = truth.as_ref().and_then(|m| m.take()) {
             latest_truth = Some(t.0);
+        }
+        if let Some(s) = commander.as_ref().and_then(|m| m.take()) {
+            latest_status = Some(s.0);
         }
         let rates: Vec<String> = shown
             .iter()
@@ -52,9 +58,10 @@ pub async fn run(
             .collect();
         tracing::info!(
             target: "kestrel::status",
-            "t={} (x{:.1}) {} | {}",
+            "t={} (x{:.1}) {}{} | {}",
             seconds(now),
             if wall_dt > 0.0 { sim_dt / wall_dt } else { 0.0 },
+            mode(latest_status.as_ref()),
             vehicle(latest_truth.as_ref()),
             rates.join(" ")
         );
@@ -65,6 +72,20 @@ pub async fn run(
 
 fn seconds(t: Time) -> String {
     format!("{:.1}s", t.as_secs_f64())
+}
+
+/// `AUTO armed, mission 3/6, failsafe rtl (battery_low); ` from the commander's status.
+fn mode(status: Option<&VehicleStatus>) -> String {
+    let Some(s) = status else { return String::new() };
+    let mut text =
+        format!("{} {}", serde_name(&s.mode).to_uppercase(), if s.armed { "armed" } else { "disarmed" });
+    if s.mission.total > 0 {
+        text += &format!(", mission {}/{}", s.mission.reached, s.mission.total);
+    }
+    if let Some(f) = s.failsafe {
+        text += &format!(", failsafe {} ({})", serde_name(&f.action), serde_name(&f.cause));
+    }
+    text + "; "
 }
 
 fn vehicle(truth: Option<&GroundTruth>) -> String {
