@@ -274,10 +274,18 @@ impl Telemetry {
                     }
                     _ => MissionState::MISSION_STATE_NOT_STARTED,
                 };
+                // Item 0 is home: the commander's item i is our item i + 1. As the message
+                // defines it (and ArduPilot sends it), `total` excludes home so that the last
+                // item has `seq == total`, and is UINT16_MAX when no mission is stored; a
+                // finished mission stays on its last item rather than one past it.
+                let total = snap.mission_items.checked_sub(1).unwrap_or(u16::MAX);
+                let seq = match snap.mission_items {
+                    0 => 0,
+                    _ => u16::try_from(progress.current + 1).unwrap_or(u16::MAX).min(total),
+                };
                 MavMessage::MISSION_CURRENT(MISSION_CURRENT_DATA {
-                    // Item 0 is home: the commander's item i is our item i + 1.
-                    seq: u16::try_from(progress.current + 1).unwrap_or(u16::MAX),
-                    total: snap.mission_items,
+                    seq,
+                    total,
                     mission_state: state,
                     ..Default::default()
                 })
@@ -470,5 +478,30 @@ mod tests {
         let Some(MavMessage::ATTITUDE(a)) = t.build(ATTITUDE_DATA::ID, Time::ZERO) else { panic!() };
         assert!((f64::from(a.yaw) - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
         assert!(t.build(GPS_RAW_INT_DATA::ID, Time::ZERO).is_none(), "no fix yet, nothing to send");
+    }
+
+    #[test]
+    fn mission_current_counts_items_after_home_and_never_points_past_the_last() {
+        use kestrel_proto::messages::{FlightMode, LandedState, MissionProgress};
+        let mut t = Telemetry::new();
+        let current = |t: &Telemetry| match t.build(MISSION_CURRENT_DATA::ID, Time::ZERO) {
+            Some(MavMessage::MISSION_CURRENT(m)) => (m.seq, m.total, m.mission_state),
+            other => panic!("{other:?}"),
+        };
+        assert_eq!(current(&t), (0, u16::MAX, MissionState::MISSION_STATE_NO_MISSION));
+        t.snapshot.mission_items = 7; // home, take-off, four waypoints, RTL
+        let status = |current, reached| VehicleStatus {
+            time: Time::ZERO,
+            armed: true,
+            mode: FlightMode::Auto,
+            landed: LandedState::InAir,
+            failsafe: None,
+            mission: MissionProgress { current, reached, total: 6, completed: reached >= 6 },
+            last_refusal: None,
+        };
+        t.snapshot.status = Some(status(0, 0));
+        assert_eq!(current(&t), (1, 6, MissionState::MISSION_STATE_ACTIVE));
+        t.snapshot.status = Some(status(6, 6));
+        assert_eq!(current(&t), (6, 6, MissionState::MISSION_STATE_COMPLETE), "finished: on the last item");
     }
 }

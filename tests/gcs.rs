@@ -1,0 +1,305 @@
+//! Issue 7's acceptance against the real vehicle: a pymavlink ground station (from the venv made
+//! by `scripts/python-env.sh`) talks to `kestrel run` on the simulator over UDP loopback.
+//!
+//! Each test writes config/sim.toml's text to a temp dir with only the link's params changed:
+//! one `udp_out` endpoint to the port the client listens on (127.0.0.1, ephemeral, so parallel
+//! tests never collide; no UDP server on 14540), a parameter table, and per test a parameter
+//! file or a signing key. The sim's vehicle and world paths are made absolute so they resolve
+//! from the temp dir. The vehicle runs `--speedup 5` with `--duration` as a hard bound; the
+//! client's transcript (wall time, vehicle time, event) is printed for `--nocapture`. A test
+//! passes when the client exits 0 and `kestrel` exits 0 on SIGTERM; on failure both are killed.
+
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// Simulated seconds per wall second: a 60 s flight takes 12 s, and the 5 s (vehicle time)
+/// link-loss timeout is a full second of wall time, ten of the client's heartbeats.
+const SPEEDUP: &str = "5";
+/// Hard bound on one run, in vehicle seconds (`--duration`): 40 s of wall time.
+const DURATION_S: &str = "200";
+/// Wall-clock bound on one client.
+const CLIENT_LIMIT: Duration = Duration::from_secs(55);
+
+/// The vehicle's MAVLink parameters as the ground station sees them (the sim config has none).
+const PARAM_TABLE: &str = r#"[
+  { name = "RTL_ALT_M", value = 15.0, min = 5.0, max = 120.0, unit = "m" },
+  { name = "WPNAV_SPEED_MS", value = 5.0, min = 0.5, max = 15.0, unit = "m/s" },
+  { name = "LAND_SPEED_MS", value = 1.5, min = 0.3, max = 3.0, unit = "m/s" },
+  { name = "FENCE_RADIUS_M", value = 300.0, min = 10.0, max = 10000.0, unit = "m" },
+  { name = "FS_GCS_ENABLE", value = 1, min = 0, max = 1, kind = "int32" },
+  { name = "FS_GCS_TIMEOUT_S", value = 5.0, min = 1.0, max = 60.0, unit = "s" },
+]"#;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn python() -> PathBuf {
+    let python = root().join(".venv/bin/python");
+    assert!(
+        python.exists(),
+        "no Python venv at {}: run scripts/python-env.sh (it installs pymavlink from scripts/requirements-test.txt)",
+        python.display()
+    );
+    python
+}
+
+/// A fresh temp dir for one test.
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kestrel-gcs-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// config/sim.toml with the link's params set to `link_params` (TOML lines of dotted keys) and
+/// the sim's relative paths made absolute.
+fn sim_config(link_params: &str) -> String {
+    let text = std::fs::read_to_string(root().join("config/sim.toml")).expect("config/sim.toml");
+    let config_dir = root().join("config");
+    let mut out = String::new();
+    let (mut section, mut inserted) = (String::new(), false);
+    for line in text.lines() {
+        let trimmed = line.trim();
+        if trimmed.starts_with('[') {
+            section = trimmed.to_owned();
+        }
+        let mut line = line.to_owned();
+        if section == "[actors.sim]" && trimmed.starts_with("params") {
+            for key in ["vehicle", "world"] {
+                let relative = format!("{key} = \"");
+                assert!(line.contains(&relative), "config/sim.toml's sim has no {key}: {line}");
+                line = line.replace(&relative, &format!("{key} = \"{}/", config_dir.display()));
+            }
+        }
+        if section == "[actors.link]" {
+            assert!(
+                !trimmed.starts_with("params"),
+                "config/sim.toml now sets the link's params: update tests/gcs.rs"
+            );
+        }
+        out.push_str(&line);
+        out.push('\n');
+        if section == "[actors.link]" && trimmed.starts_with("type") {
+            out.push_str(link_params);
+            inserted = true;
+        }
+    }
+    assert!(inserted, "config/sim.toml has no [actors.link] with a type");
+    out
+}
+
+/// The link's params for a ground station at 127.0.0.1:`port`; `endpoint_extra` goes into the
+/// endpoint's table, `extra` after it.
+fn link_params(port: u16, endpoint_extra: &str, extra: &str) -> String {
+    format!(
+        "params.system_id = 1\n\
+         params.endpoints = [ {{ type = \"udp_out\", address = \"127.0.0.1:{port}\"{endpoint_extra} }} ]\n\
+         params.params = {PARAM_TABLE}\n{extra}"
+    )
+}
+
+/// A child process killed (and reaped) when dropped, so a failing test leaves nothing behind.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Ok(None) = self.0.try_wait() {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+}
+
+/// What one client run produced.
+struct Flight {
+    transcript: Vec<String>,
+    kestrel_log: String,
+}
+
+fn tail(text: &str, lines: usize) -> String {
+    let all: Vec<&str> = text.lines().collect();
+    all[all.len().saturating_sub(lines)..].join("\n")
+}
+
+/// Runs `script ARGS` against `kestrel run` with the config `link(port)` makes, in `dir`.
+fn fly(dir: &Path, label: &str, script: &str, args: &[&str], link: impl Fn(u16) -> String) -> Flight {
+    let mut client = Proc(
+        Command::new(python())
+            .arg(root().join("tests/python").join(script))
+            .args(args)
+            .env_remove("MAVLINK20")
+            .env("PYTHONUNBUFFERED", "1")
+            .env("PYTHONDONTWRITEBYTECODE", "1")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start the pymavlink client"),
+    );
+    let (tx, lines) = mpsc::channel::<String>();
+    let stdout = client.0.stdout.take().expect("stdout");
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut stderr_pipe = client.0.stderr.take().expect("stderr");
+    let stderr = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = stderr_pipe.read_to_string(&mut s);
+        s
+    });
+    let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
+    let Some(port) = first.strip_prefix("PORT ").and_then(|p| p.trim().parse::<u16>().ok()) else {
+        drop(client);
+        panic!(
+            "{label}: the client did not announce its port: {first:?}\n{}",
+            stderr.join().unwrap_or_default()
+        );
+    };
+
+    let config = dir.join(format!("{label}.toml"));
+    std::fs::write(&config, sim_config(&link(port))).expect("write the config");
+    let log_path = dir.join(format!("{label}.log"));
+    let log = std::fs::File::create(&log_path).expect("log file");
+    let mut kestrel = Proc(
+        Command::new(env!("CARGO_BIN_EXE_kestrel"))
+            .current_dir(dir)
+            .env_remove("RUST_LOG")
+            .args(["run", "--quiet", "--speedup", SPEEDUP, "--duration", DURATION_S, "--config"])
+            .arg(&config)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(log)
+            .spawn()
+            .expect("start kestrel run"),
+    );
+    println!("── {label}: {script} {} against kestrel run (udp_out → 127.0.0.1:{port}) ──", args.join(" "));
+
+    let started = Instant::now();
+    let mut transcript = Vec::new();
+    let mut kestrel_exit = None;
+    let client_exit = loop {
+        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
+            println!("  {line}");
+            transcript.push(line);
+        }
+        if let Some(status) = client.0.try_wait().expect("client status") {
+            while let Ok(line) = lines.recv_timeout(Duration::from_millis(200)) {
+                println!("  {line}");
+                transcript.push(line);
+            }
+            break Some(status);
+        }
+        if kestrel_exit.is_none() {
+            kestrel_exit = kestrel.0.try_wait().expect("kestrel status");
+        }
+        if started.elapsed() > CLIENT_LIMIT {
+            break None;
+        }
+    };
+    let read_log = || std::fs::read_to_string(&log_path).unwrap_or_default();
+    let ok = client_exit.is_some_and(|s| s.success());
+    if !ok {
+        drop(client);
+        drop(kestrel);
+        panic!(
+            "{label}: the client {} (kestrel: {kestrel_exit:?})\nclient stderr:\n{}\nkestrel log (tail):\n{}",
+            client_exit.map_or("ran past its time limit".to_owned(), |s| format!("failed with {s}")),
+            stderr.join().unwrap_or_default(),
+            tail(&read_log(), 40)
+        );
+    }
+    assert!(
+        transcript.last().is_some_and(|l| l.starts_with("{\"ok\": true")),
+        "{label}: no result line: {transcript:?}"
+    );
+
+    // The client is done: stop the vehicle as an operator would.
+    if kestrel_exit.is_none() {
+        let kill = Command::new("kill").args(["-TERM", &kestrel.0.id().to_string()]).status().expect("kill");
+        assert!(kill.success(), "SIGTERM to kestrel");
+    }
+    let stopping = Instant::now();
+    let status = loop {
+        if let Some(status) = kestrel.0.try_wait().expect("kestrel status") {
+            break status;
+        }
+        assert!(stopping.elapsed() < Duration::from_secs(5), "{label}: kestrel ignored SIGTERM");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let kestrel_log = read_log();
+    assert!(status.success(), "{label}: kestrel exited with {status}\n{}", tail(&kestrel_log, 40));
+    println!("── {label}: client exit 0, kestrel exit 0 after {:.1} s ──", started.elapsed().as_secs_f64());
+    Flight { transcript, kestrel_log }
+}
+
+#[test]
+fn a_ground_station_flies_the_square_mission_through_telemetry_alone() {
+    let dir = temp_dir("flight");
+    let plan = root().join("config/missions/square.plan");
+    let flight = fly(&dir, "flight", "gcs_flight.py", &[plan.to_str().expect("utf-8 path")], |port| {
+        link_params(port, "", "")
+    });
+    let result = flight.transcript.last().expect("result");
+    for needed in ["\"downloaded_identical\": true", "\"RTL\"", "\"reached\": [1, 2, 3, 4, 5"] {
+        assert!(result.contains(needed), "{needed} not in {result}");
+    }
+    assert!(flight.kestrel_log.contains("disarmed why=\"landed\""), "{}", tail(&flight.kestrel_log, 30));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn losing_the_ground_station_in_flight_returns_and_lands() {
+    let dir = temp_dir("link-loss");
+    let flight = fly(&dir, "link-loss", "gcs_link_loss.py", &[], |port| link_params(port, "", ""));
+    assert!(
+        flight.transcript.iter().any(|l| l.contains("Failsafe: GCS link lost")),
+        "{:?}",
+        flight.transcript
+    );
+    assert!(flight.kestrel_log.contains("DataLinkLost"), "{}", tail(&flight.kestrel_log, 30));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_parameter_set_over_mavlink_survives_a_restart() {
+    let dir = temp_dir("params");
+    let with_file = |port| link_params(port, "", "params.param_file = \"params.txt\"\n");
+    fly(&dir, "params-set", "gcs_params.py", &["set", "RTL_ALT_M", "42.5"], with_file);
+    let saved =
+        std::fs::read_to_string(dir.join("params.txt")).expect("params.txt written next to the config");
+    assert!(saved.lines().any(|l| l == "RTL_ALT_M=42.5"), "{saved}");
+    fly(&dir, "params-restart", "gcs_params.py", &["expect", "RTL_ALT_M", "42.5"], with_file);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn with_signing_on_only_a_client_holding_the_key_can_arm() {
+    let dir = temp_dir("signing");
+    let key: String = (0u8..32).map(|i| format!("{:02x}", i.wrapping_mul(37).wrapping_add(11))).collect();
+    std::fs::write(dir.join("gcs.key"), format!("{key}\n")).expect("key file");
+    let flight = fly(&dir, "signing", "gcs_signing.py", &[&key], |port| {
+        link_params(port, ", signing_key_file = \"gcs.key\"", "")
+    });
+    let refused = flight
+        .kestrel_log
+        .lines()
+        .find(|l| l.contains("MAVLink link counters"))
+        .and_then(|l| l.split("unsigned_refused: ").nth(1))
+        .and_then(|s| s.split(|c: char| !c.is_ascii_digit()).next())
+        .and_then(|n| n.parse::<u64>().ok());
+    assert!(
+        refused.is_some_and(|n| n >= 4),
+        "unsigned_refused {refused:?}\n{}",
+        tail(&flight.kestrel_log, 20)
+    );
+    println!("kestrel counted {} refused frames", refused.unwrap_or(0));
+    std::fs::remove_dir_all(&dir).ok();
+}
