@@ -192,6 +192,10 @@ pub trait InputPort<I>: Send + Sync {
     fn oldest_arrival(&self) -> Option<u64>;
     /// Takes the oldest waiting message, converted, with its work token.
     fn take(&self) -> Option<(I, Option<Busy>)>;
+    /// The actor is down: waiting messages stop counting as work (see [`Mailbox::park`]).
+    fn park(&self);
+    /// The actor is back.
+    fn unpark(&self);
 }
 
 struct BoundInput<T, I> {
@@ -206,6 +210,14 @@ impl<T: Send, I: Send> InputPort<I> for BoundInput<T, I> {
 
     fn take(&self) -> Option<(I, Option<Busy>)> {
         self.mailbox.take().map(|(m, busy)| ((self.wrap)(m), busy))
+    }
+
+    fn park(&self) {
+        self.mailbox.park();
+    }
+
+    fn unpark(&self) {
+        self.mailbox.unpark();
     }
 }
 
@@ -231,7 +243,7 @@ enum PortKind {
 
 /// The ports one build of an actor declared.
 pub struct Declared<I> {
-    pub inputs: Vec<Box<dyn InputPort<I>>>,
+    pub inputs: Vec<Arc<dyn InputPort<I>>>,
     pub timers: Vec<TimerSpec>,
 }
 
@@ -474,7 +486,7 @@ impl<I: Send + 'static> Setup<I> for Wiring<'_, I> {
             None => self.stored::<Option<Arc<Mailbox<T>>>>(port, PortKind::Input).and_then(|m| (*m).clone()),
         };
         if let Some(mailbox) = mailbox {
-            self.declared.inputs.push(Box::new(BoundInput { mailbox, wrap }));
+            self.declared.inputs.push(Arc::new(BoundInput { mailbox, wrap }));
         }
     }
 
@@ -499,7 +511,7 @@ impl<I: Send + 'static> Setup<I> for Wiring<'_, I> {
             self.stored::<Mailbox<Time>>(port, PortKind::Timer)
         };
         if let Some(mailbox) = mailbox {
-            self.declared.inputs.push(Box::new(BoundInput { mailbox: Arc::clone(&mailbox), wrap: tick }));
+            self.declared.inputs.push(Arc::new(BoundInput { mailbox: Arc::clone(&mailbox), wrap: tick }));
             self.declared.timers.push(TimerSpec { mailbox, period });
         }
     }

@@ -90,6 +90,15 @@ pub struct MailboxStats {
     pub conflated: AtomicU64,
 }
 
+/// Waiting messages, and whether their actor is down.
+struct Letters<T> {
+    queue: VecDeque<Letter<T>>,
+    /// Set while the subscriber is between incarnations (failed, waiting for its restart, or
+    /// given up): its waiting messages then count as no work, or the lockstep clock could never
+    /// reach the restart.
+    parked: bool,
+}
+
 struct Letter<T> {
     arrival: u64,
     message: T,
@@ -125,7 +134,7 @@ pub struct Mailbox<T> {
     /// `topic → actor.port`, for overflow reports.
     label: String,
     kind: MailboxKind,
-    letters: Mutex<VecDeque<Letter<T>>>,
+    letters: Mutex<Letters<T>>,
     doorbell: Arc<Doorbell>,
     /// `None` for observers (status line, tests) whose unread messages must not hold the
     /// lockstep clock back.
@@ -162,7 +171,7 @@ impl<T> Mailbox<T> {
         Arc::new(Mailbox {
             label,
             kind,
-            letters: Mutex::new(VecDeque::with_capacity(capacity)),
+            letters: Mutex::new(Letters { queue: VecDeque::with_capacity(capacity), parked: false }),
             doorbell,
             activity,
             stats: MailboxStats::default(),
@@ -171,10 +180,12 @@ impl<T> Mailbox<T> {
 
     /// Leaves `message` for the subscriber. Returns false if a full queue refused it.
     pub fn deliver(&self, message: T) -> bool {
-        let mut letters = self.lock();
+        let mut guard = self.lock();
+        let parked = guard.parked;
+        let letters = &mut guard.queue;
         match self.kind {
             MailboxKind::Queue(capacity) if letters.len() >= capacity => {
-                drop(letters);
+                drop(guard);
                 let n = self.stats.overflowed.fetch_add(1, Ordering::Relaxed) + 1;
                 if n.is_power_of_two() {
                     tracing::warn!(route = %self.label, overflows = n, "mailbox full, message refused");
@@ -191,7 +202,7 @@ impl<T> Mailbox<T> {
         letters.push_back(Letter {
             arrival: self.doorbell.ring(),
             message,
-            busy: self.activity.as_ref().map(|a| a.begin()),
+            busy: self.activity.as_ref().filter(|_| !parked).map(|a| a.begin()),
         });
         self.stats.delivered.fetch_add(1, Ordering::Relaxed);
         true
@@ -199,18 +210,34 @@ impl<T> Mailbox<T> {
 
     /// Arrival number of the oldest waiting message.
     pub fn oldest_arrival(&self) -> Option<u64> {
-        self.lock().front().map(|l| l.arrival)
+        self.lock().queue.front().map(|l| l.arrival)
+    }
+
+    /// The subscriber went down: its waiting and future messages stop counting as work.
+    pub fn park(&self) {
+        let mut letters = self.lock();
+        letters.parked = true;
+        letters.queue.iter_mut().for_each(|l| l.busy = None);
+    }
+
+    /// The subscriber is back: its waiting messages count as work again.
+    pub fn unpark(&self) {
+        let mut letters = self.lock();
+        letters.parked = false;
+        if let Some(activity) = &self.activity {
+            letters.queue.iter_mut().for_each(|l| l.busy = Some(activity.begin()));
+        }
     }
 
     /// Takes the oldest waiting message, with the token that keeps it counted as unfinished
     /// work until the caller drops it.
     pub fn take(&self) -> Option<(T, Option<Busy>)> {
-        self.lock().pop_front().map(|l| (l.message, l.busy))
+        self.lock().queue.pop_front().map(|l| (l.message, l.busy))
     }
 
     /// Messages waiting.
     pub fn len(&self) -> usize {
-        self.lock().len()
+        self.lock().queue.len()
     }
 
     /// True when nothing is waiting.
@@ -218,7 +245,7 @@ impl<T> Mailbox<T> {
         self.len() == 0
     }
 
-    fn lock(&self) -> MutexGuard<'_, VecDeque<Letter<T>>> {
+    fn lock(&self) -> MutexGuard<'_, Letters<T>> {
         // A panic while holding this lock cannot leave the deque inconsistent (every
         // operation on it is a single push or pop), so a poisoned lock is safe to reuse.
         self.letters.lock().unwrap_or_else(|e| e.into_inner())
@@ -271,6 +298,21 @@ mod tests {
         b.deliver(1);
         a.deliver(2);
         assert!(b.oldest_arrival() < a.oldest_arrival());
+    }
+
+    #[test]
+    fn a_parked_mailbox_holds_no_work_until_unparked() {
+        let (mb, activity) = mailbox(MailboxKind::Queue(8));
+        mb.deliver(1);
+        mb.park();
+        assert!(activity.is_idle(), "waiting messages of a downed actor are not work");
+        mb.deliver(2);
+        assert!(activity.is_idle());
+        mb.unpark();
+        assert_eq!(activity.outstanding(), 2, "both count again once the actor is back");
+        let taken: Vec<u32> = std::iter::from_fn(|| mb.take().map(|(v, _)| v)).collect();
+        assert_eq!(taken, [1, 2]);
+        assert!(activity.is_idle());
     }
 
     #[test]

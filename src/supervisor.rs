@@ -173,15 +173,19 @@ async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) 
                     tokio::spawn(run_timer(Arc::clone(&ctx.clock), timer, token.clone()));
                 }
                 let starting = ctx.activity.begin();
+                declared.inputs.iter().for_each(|port| port.unpark());
                 let outcome = tokio::spawn(run_incarnation(
                     actor,
-                    declared.inputs,
+                    declared.inputs.clone(),
                     Arc::clone(&prepared.doorbell),
                     actor_ctx,
                     starting,
                 ))
                 .await;
                 token.cancel();
+                // Until a restart, messages for this actor must not hold the lockstep clock, or
+                // the backoff could never elapse.
+                declared.inputs.iter().for_each(|port| port.park());
                 match outcome {
                     Ok(Ok(())) => return,
                     Ok(Err(e)) => e.to_string(),
@@ -225,7 +229,7 @@ async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) 
 /// One incarnation of an actor: start, handle inputs in arrival order, stop.
 async fn run_incarnation<A: Actor>(
     mut actor: A,
-    inputs: Vec<Box<dyn InputPort<A::Input>>>,
+    inputs: Vec<Arc<dyn InputPort<A::Input>>>,
     doorbell: Arc<Doorbell>,
     ctx: Context,
     starting: Busy,

@@ -76,7 +76,7 @@ impl Actor for Counter {
     }
 }
 
-/// Panics on its first tick after every start.
+/// Panics on its first tick after every start; takes `count` messages if routed.
 struct Panicker;
 
 impl Actor for Panicker {
@@ -85,6 +85,7 @@ impl Actor for Panicker {
 
     fn build(_: &toml::Table, setup: &mut impl Setup<Time>) -> Result<Self, ActorError> {
         setup.timer("tick", Duration::from_millis(10), |t| t);
+        setup.input("count", |c: Count| c.time);
         Ok(Panicker)
     }
 
@@ -280,4 +281,28 @@ fn an_actor_can_end_the_run() {
     // Ticks at 10–40 ms; at 50 ms the quitter's timer (registered first) wakes first and ends
     // the run before the ticker's fifth tick is handled.
     assert_eq!(published(&report, "count"), 4);
+}
+
+#[test]
+fn messages_for_a_failed_actor_do_not_freeze_the_lockstep_clock() {
+    // The flaky actor subscribes to the ticker: while it waits for its restart (and after it
+    // is given up), messages keep arriving for it. They must not hold simulated time back.
+    let text = r#"
+[actors.flaky]
+type = "panicker"
+restart = { max_restarts = 2, window_s = 60.0, backoff_initial_s = 0.1, backoff_max_s = 1.0 }
+inputs.count = { topic = "count", mailbox = "queue(16)" }
+
+[actors.steady]
+type = "ticker"
+params = { period_ms = 10 }
+"#;
+    let (done, result) = std::sync::mpsc::channel();
+    std::thread::spawn(move || done.send(run_text(text, 2.0).map(|r| (r.end_time, published(&r, "count")))));
+    let (end, count) = result
+        .recv_timeout(Duration::from_secs(60))
+        .expect("the run froze: a downed actor's mailbox held the lockstep clock")
+        .unwrap();
+    assert_eq!(end, Time::from_micros(2_000_000));
+    assert_eq!(count, 200);
 }
