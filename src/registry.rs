@@ -23,6 +23,7 @@ impl Registry {
     pub fn standard() -> Registry {
         Registry::new()
             .with::<kestrel_sim::SimActor>("sim")
+            .with::<kestrel_sim::CameraSimActor>("sim_camera")
             .with::<kestrel_estimator::EstimatorActor>("estimator")
             .with::<kestrel_avoider::AvoiderActor>("avoider")
             .with::<kestrel_vision::CameraActor>("camera")
@@ -31,6 +32,9 @@ impl Registry {
             .with::<kestrel_control::ControllerActor>("controller")
             .with::<kestrel_control::TruthNavActor>("truth_nav")
             .with::<kestrel_link::LinkActor>("link")
+            .with::<kestrel_sensors::BaroActor>("ms5611")
+            .with::<kestrel_sensors::ImuActor>("mpu9250")
+            .with::<kestrel_sensors::MotorActor>("pwm_motors")
     }
 
     /// Adds actor type `A` under `name`.

@@ -5,7 +5,8 @@
 //! world's obstacles and produces the sensor streams a real airframe would (IMU, GPS,
 //! barometer, magnetometer, battery) plus ground truth, each stamped with its *measurement*
 //! time and released after its configured lag. [`SimActor`] is the thin actor shell that feeds
-//! it actuator outputs and publishes what it releases.
+//! it actuator outputs and publishes what it releases. [`camera`] renders a stereo pair from
+//! the true pose by ray casting, and [`CameraSimActor`] publishes it as `stereo_frame`.
 //!
 //! Frames follow `kestrel-proto`: NED earth frame around home, FRD body frame, quaternions
 //! rotating FRD into NED. Configuration comes from two TOML files (a vehicle and a world); every
@@ -14,6 +15,8 @@
 
 mod actor;
 mod battery;
+pub mod camera;
+mod camera_actor;
 mod config_file;
 mod drag;
 mod error;
@@ -30,6 +33,7 @@ mod world;
 
 pub use actor::{SimActor, SimActorParams, SimInput};
 pub use battery::BatteryParams;
+pub use camera_actor::{CameraSimActor, CameraSimParams};
 pub use drag::DragParams;
 pub use error::{ConfigError, InvalidParam};
 pub use frame_layout::{FrameLayout, MotorGeometry, Spin};

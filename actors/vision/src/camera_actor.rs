@@ -6,13 +6,13 @@
 
 use std::time::Duration;
 
+use kestrel_proto::messages::StereoFrame;
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use opencv::core::MatTraitConst;
 use serde::Deserialize;
 
 use crate::camera_source::{FrameSource, SourceParams};
 use crate::error::VisionError;
-use crate::frame::StereoFrame;
 use crate::image::gray_bytes;
 
 /// Parameters of [`CameraActor`].
@@ -72,7 +72,7 @@ impl Actor for CameraActor {
             gray_bytes(&left).map_err(actor_error)?,
             gray_bytes(&right).map_err(actor_error)?,
         )
-        .map_err(actor_error)?;
+        .map_err(|e| actor_error(e.into()))?;
         self.sequence += 1;
         self.out.publish(frame);
         Ok(())

@@ -2,6 +2,8 @@
 
 use std::path::PathBuf;
 
+use kestrel_proto::messages::FrameSizeError;
+
 /// Why a vision step failed.
 #[derive(Debug, thiserror::Error)]
 pub enum VisionError {
@@ -28,6 +30,13 @@ pub enum VisionError {
     /// An input (frame, image pair, corner set) does not fit what the step needs.
     #[error("{0}")]
     Input(String),
+}
+
+impl From<FrameSizeError> for VisionError {
+    /// A frame whose images do not fit its size is a bad input.
+    fn from(e: FrameSizeError) -> VisionError {
+        VisionError::Input(e.to_string())
+    }
 }
 
 /// Adds the name of the failing step to an OpenCV result.

@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use kestrel_proto::messages::DepthGrid;
+use kestrel_proto::messages::{DepthGrid, StereoFrame};
 use opencv::core::{Mat, Size};
 use opencv::imgproc;
 use serde::{Deserialize, Serialize};
@@ -12,7 +12,6 @@ use crate::calibration::StereoCalibration;
 use crate::depth::{DepthMap, StereoGeometry};
 use crate::disparity_map::DisparityMap;
 use crate::error::{CvContext, VisionError};
-use crate::frame::StereoFrame;
 use crate::grid::{GridParams, depth_grid};
 use crate::image::gray_mat;
 use crate::matcher::{Matcher, MatcherParams};

@@ -7,13 +7,12 @@
 //! wants this on the blocking pool; that needs `tokio` as a dependency of this crate (for
 //! `spawn_blocking`), which the lead has not granted yet.
 
-use kestrel_proto::messages::DepthGrid;
+use kestrel_proto::messages::{DepthGrid, StereoFrame};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup};
 use serde::Deserialize;
 
 use crate::camera_actor::actor_error;
 use crate::error::VisionError;
-use crate::frame::StereoFrame;
 use crate::pipeline::{Geometry, PipelineParams, StereoPipeline};
 
 /// Parameters of [`StereoActor`].
@@ -52,8 +51,10 @@ impl Actor for StereoActor {
     /// means the next frame is the newest. A panic in the matcher comes back as an error, and
     /// the supervisor restarts this actor with a fresh pipeline.
     async fn handle(&mut self, _ctx: &Context, frame: StereoFrame) -> Result<(), ActorError> {
-        let mut pipeline =
-            self.pipeline.take().ok_or_else(|| ActorError::Failed("stereo pipeline lost by an earlier panic".into()))?;
+        let mut pipeline = self
+            .pipeline
+            .take()
+            .ok_or_else(|| ActorError::Failed("stereo pipeline lost by an earlier panic".into()))?;
         let (pipeline, frame, result) = tokio::task::spawn_blocking(move || {
             let result = pipeline.process(&frame);
             (pipeline, frame, result)

@@ -16,6 +16,7 @@ mod mission;
 mod nav_state;
 mod param_set;
 mod setpoint;
+mod stereo_frame;
 mod supervisor;
 mod vehicle_command;
 mod vehicle_status;
@@ -36,6 +37,7 @@ pub use mission::{AltitudeFrame, Mission, MissionItem, MissionPoint};
 pub use nav_state::{NavState, NavValidity};
 pub use param_set::ParamSet;
 pub use setpoint::{Setpoint, SetpointTarget, TrajectorySetpoint};
+pub use stereo_frame::{FrameSizeError, StereoFrame};
 pub use supervisor::{SupervisorEvent, SupervisorEventKind};
 pub use vehicle_command::{Command, VehicleCommand};
 pub use vehicle_status::{

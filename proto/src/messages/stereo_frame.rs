@@ -1,19 +1,19 @@
 //! A stereo camera frame: both 8-bit grey images and their capture time.
 //!
-//! Frames travel between actors as a [`Message`](kestrel_proto::Message) so a camera can feed
-//! the stereo actor through a `latest` mailbox, but their pixels are not serialised: the
-//! recorder logs every message as JSON, where a VGA pair would cost ~1 MB per frame (30 MB/s).
-//! A recorded frame holds its time, sequence number and size only; one read back from a log
-//! has no pixels ([`StereoFrame::has_pixels`] is false) and the stereo actor skips it.
+//! Frames travel between actors as a [`Message`](crate::Message) so a camera (real or
+//! simulated) can feed the stereo actor through a `latest` mailbox, but their pixels are not
+//! serialised: the recorder logs every message as JSON, where a VGA pair would cost ~1 MB per
+//! frame (30 MB/s). A recorded frame holds its time, sequence number and size only; one read
+//! back from a log has no pixels ([`StereoFrame::has_pixels`] is false) and the stereo actor
+//! skips it.
 
 use std::fmt;
 use std::sync::Arc;
 
-use kestrel_proto::Time;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::error::VisionError;
+use crate::time::Time;
 
 /// Both images of one stereo capture.
 #[derive(Clone, Debug, Serialize, Deserialize, JsonSchema)]
@@ -30,7 +30,23 @@ pub struct StereoFrame {
     #[serde(skip)]
     pixels: FramePixels,
 }
-kestrel_proto::impl_message!(StereoFrame);
+crate::impl_message!(StereoFrame);
+
+/// Images whose sizes do not match the frame's width and height.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("frame {sequence}: {width}×{height} needs {} bytes per image, got {left_len} and {right_len}", *width as usize * *height as usize)]
+pub struct FrameSizeError {
+    /// The frame's sequence number.
+    pub sequence: u64,
+    /// Claimed width (px).
+    pub width: u32,
+    /// Claimed height (px).
+    pub height: u32,
+    /// Bytes in the left image.
+    pub left_len: usize,
+    /// Bytes in the right image.
+    pub right_len: usize,
+}
 
 /// Left and right 8-bit grey images, row-major.
 #[derive(Clone, Default)]
@@ -46,7 +62,8 @@ impl fmt::Debug for FramePixels {
 }
 
 impl StereoFrame {
-    /// A frame of two `width`×`height` grey images (row-major, one byte per pixel).
+    /// A frame of two `width`×`height` grey images (row-major, one byte per pixel); both must
+    /// be non-empty and exactly that size.
     pub fn new(
         time: Time,
         sequence: u64,
@@ -54,14 +71,16 @@ impl StereoFrame {
         height: u32,
         left: Vec<u8>,
         right: Vec<u8>,
-    ) -> Result<StereoFrame, VisionError> {
+    ) -> Result<StereoFrame, FrameSizeError> {
         let expected = width as usize * height as usize;
         if width == 0 || height == 0 || left.len() != expected || right.len() != expected {
-            return Err(VisionError::Input(format!(
-                "frame {sequence}: {width}×{height} needs {expected} bytes per image, got {} and {}",
-                left.len(),
-                right.len()
-            )));
+            return Err(FrameSizeError {
+                sequence,
+                width,
+                height,
+                left_len: left.len(),
+                right_len: right.len(),
+            });
         }
         Ok(StereoFrame {
             time,

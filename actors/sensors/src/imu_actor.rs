@@ -1,0 +1,278 @@
+//! The IMU actor: an MPU-9250 on spidev, read at its 1 kHz output rate by a dedicated thread
+//! (a tokio timer cannot hold 1 ms), averaged to `imu` at 400 Hz, with each new AK8963
+//! measurement published on `mag` (100 Hz). A `health` timer checks the reader thread: if it
+//! stopped on an error, the actor fails with that error and the supervisor restarts it.
+//! Clipped samples are counted and logged at each health check, as `ImuSample` has no flag
+//! for them yet.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use kestrel_proto::messages::{ImuSample, MagSample};
+use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
+use serde::Deserialize;
+
+use crate::bus::SpiBus;
+use crate::imu_decimator::ImuDecimator;
+use crate::linux::LinuxSpi;
+use crate::mpu9250::{Mpu9250, Mpu9250Config};
+
+/// Consecutive failed reads after which the reader gives up.
+const MAX_CONSECUTIVE_ERRORS: u32 = 50;
+
+/// `[actors.imu.params]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ImuActorParams {
+    /// spidev node (Navio2: `/dev/spidev0.1`).
+    pub device: PathBuf,
+    /// SPI mode (the MPU-9250 accepts 0 and 3).
+    pub spi_mode: u8,
+    /// SPI clock (Hz); register writes need ≤ 1 MHz.
+    pub spi_speed_hz: u32,
+    /// Rate of the averaged `imu` output (Hz).
+    pub output_rate_hz: f64,
+    pub mpu9250: Mpu9250Config,
+}
+
+impl Default for ImuActorParams {
+    fn default() -> ImuActorParams {
+        ImuActorParams {
+            device: PathBuf::from("/dev/spidev0.1"),
+            spi_mode: 0,
+            spi_speed_hz: 1_000_000,
+            output_rate_hz: 400.0,
+            mpu9250: Mpu9250Config::default(),
+        }
+    }
+}
+
+/// What the IMU actor handles.
+#[derive(Debug)]
+pub enum ImuInput {
+    /// Timer `health`, every second.
+    Health(Time),
+}
+
+/// Counters the reader thread shares with the actor.
+#[derive(Debug, Default)]
+struct ReaderStats {
+    reads: AtomicU64,
+    errors: AtomicU64,
+    clipped: AtomicU64,
+}
+
+type Imu = Mpu9250<Box<dyn SpiBus + Send>>;
+
+/// The IMU actor. Outputs: `imu`, `mag`.
+pub struct ImuActor {
+    /// The configured chip until [`Actor::start`] hands it to the reader thread.
+    imu: Option<Imu>,
+    reader: Option<JoinHandle<Result<(), String>>>,
+    stats: Arc<ReaderStats>,
+    read_period: Duration,
+    output_period: Duration,
+    imu_out: Publisher<ImuSample>,
+    mag_out: Publisher<MagSample>,
+}
+
+impl ImuActor {
+    /// Builds the actor on an already opened bus (tests and benches pass a fake).
+    pub fn with_bus(
+        bus: Box<dyn SpiBus + Send>,
+        params: &ImuActorParams,
+        setup: &mut impl Setup<ImuInput>,
+    ) -> Result<ImuActor, ActorError> {
+        if !(params.output_rate_hz.is_finite() && params.output_rate_hz > 0.0) {
+            return Err(ActorError::Params(format!(
+                "output_rate_hz must be positive, got {}",
+                params.output_rate_hz
+            )));
+        }
+        let imu = Mpu9250::new(bus, params.mpu9250.clone(), &mut std::thread::sleep)
+            .map_err(|e| ActorError::Failed(e.to_string()))?;
+        let read_period = Duration::from_micros(1000 * (1 + u64::from(params.mpu9250.sample_rate_divider)));
+        setup.timer("health", Duration::from_secs(1), ImuInput::Health);
+        Ok(ImuActor {
+            imu: Some(imu),
+            reader: None,
+            stats: Arc::default(),
+            read_period,
+            output_period: Duration::from_secs_f64(1.0 / params.output_rate_hz),
+            imu_out: setup.output("imu"),
+            mag_out: setup.output("mag"),
+        })
+    }
+
+    /// Ends the reader thread's run and returns its outcome (`Ok` if none was running).
+    fn join_reader(&mut self) -> Result<(), ActorError> {
+        match self.reader.take().map(JoinHandle::join) {
+            None | Some(Ok(Ok(()))) => Ok(()),
+            Some(Ok(Err(e))) => Err(ActorError::Failed(e)),
+            Some(Err(_)) => Err(ActorError::Failed("the IMU reader thread panicked".into())),
+        }
+    }
+}
+
+/// The reader loop: read, publish the magnetometer, average, publish the IMU, until shutdown.
+struct Reader {
+    imu: Imu,
+    clock: Arc<dyn Clock>,
+    decimator: ImuDecimator,
+    stats: Arc<ReaderStats>,
+    period: Duration,
+    imu_out: Publisher<ImuSample>,
+    mag_out: Publisher<MagSample>,
+}
+
+impl Reader {
+    fn run(mut self, stop: impl Fn() -> bool) -> Result<(), String> {
+        let mut next = Instant::now();
+        let mut consecutive_errors = 0;
+        while !stop() {
+            let time = self.clock.now();
+            match self.imu.read(time) {
+                Ok(reading) => {
+                    consecutive_errors = 0;
+                    self.stats.reads.fetch_add(1, Ordering::Relaxed);
+                    if let Some(field_gauss) = reading.mag_frd_gauss {
+                        self.mag_out.publish(MagSample { time, field_gauss });
+                    }
+                    if let Some(out) = self.decimator.push(&reading) {
+                        if out.gyro_clipped.iter().chain(&out.accel_clipped).any(|&c| c) {
+                            self.stats.clipped.fetch_add(1, Ordering::Relaxed);
+                        }
+                        self.imu_out.publish(out.sample);
+                    }
+                }
+                Err(e) => {
+                    self.stats.errors.fetch_add(1, Ordering::Relaxed);
+                    consecutive_errors += 1;
+                    if consecutive_errors >= MAX_CONSECUTIVE_ERRORS {
+                        return Err(format!("{consecutive_errors} consecutive IMU reads failed, last: {e}"));
+                    }
+                }
+            }
+            next += self.period;
+            let now = Instant::now();
+            match next.checked_duration_since(now) {
+                Some(wait) => std::thread::sleep(wait),
+                None => next = now,
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Actor for ImuActor {
+    type Params = ImuActorParams;
+    type Input = ImuInput;
+
+    fn build(params: &ImuActorParams, setup: &mut impl Setup<ImuInput>) -> Result<ImuActor, ActorError> {
+        let bus = LinuxSpi::open(&params.device, params.spi_mode, params.spi_speed_hz).map_err(|e| {
+            ActorError::Io { what: format!("MPU-9250 IMU on {}", params.device.display()), source: e.source }
+        })?;
+        ImuActor::with_bus(Box::new(bus), params, setup)
+    }
+
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        let imu = self.imu.take().ok_or_else(|| ActorError::Failed("IMU reader already started".into()))?;
+        let reader = Reader {
+            imu,
+            clock: Arc::clone(ctx.clock()),
+            decimator: ImuDecimator::new(self.output_period),
+            stats: Arc::clone(&self.stats),
+            period: self.read_period,
+            imu_out: self.imu_out.clone(),
+            mag_out: self.mag_out.clone(),
+        };
+        let shutdown = ctx.shutdown().clone();
+        let handle = std::thread::Builder::new()
+            .name(format!("{}-reader", ctx.name()))
+            .spawn(move || reader.run(move || shutdown.is_cancelled()))
+            .map_err(|source| ActorError::Io { what: "cannot start the IMU reader thread".into(), source })?;
+        self.reader = Some(handle);
+        Ok(())
+    }
+
+    async fn handle(&mut self, _ctx: &Context, input: ImuInput) -> Result<(), ActorError> {
+        let ImuInput::Health(_) = input;
+        if self.reader.as_ref().is_some_and(JoinHandle::is_finished) {
+            self.join_reader()?;
+            return Err(ActorError::Failed("the IMU reader stopped".into()));
+        }
+        let clipped = self.stats.clipped.swap(0, Ordering::Relaxed);
+        if clipped > 0 {
+            tracing::warn!("{clipped} IMU samples clipped in the last second");
+        }
+        tracing::debug!(
+            reads = self.stats.reads.swap(0, Ordering::Relaxed),
+            errors = self.stats.errors.swap(0, Ordering::Relaxed),
+            "IMU reader health"
+        );
+        Ok(())
+    }
+
+    async fn stop(&mut self, _ctx: &Context) {
+        if let Err(e) = self.join_reader() {
+            tracing::error!("IMU reader: {e}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use kestrel_proto::testing::{TestSetup, ready};
+
+    use super::*;
+    use crate::mpu9250::FakeMpu9250;
+    use crate::mpu9250::scale::STANDARD_GRAVITY_M_S2;
+
+    #[test]
+    fn the_reader_publishes_averaged_imu_and_mag_until_shutdown() {
+        let mut fake = FakeMpu9250::new(0x71);
+        fake.set_motion([0, 0, 2048], 0, [0, 0, 0]);
+        fake.set_mag([100, 0, 0], false);
+        let mut setup = TestSetup::new("imu", ".");
+        let mut actor =
+            ImuActor::with_bus(Box::new(fake), &ImuActorParams::default(), &mut setup).expect("build");
+        let ctx = setup.context();
+        ready(actor.start(&ctx)).expect("start");
+        // Advance the graph clock until the reader has averaged a sample (bounded for slow machines).
+        for k in 1..=5_000u64 {
+            setup.manual_clock().set(Time::from_micros(1000 * k));
+            std::thread::sleep(Duration::from_millis(1));
+            if setup.count("imu") > 0 && setup.count("mag") > 0 {
+                break;
+            }
+        }
+        ctx.shutdown().cancel();
+        ready(actor.stop(&ctx));
+        let imu: Vec<ImuSample> = setup.published("imu");
+        assert!(!imu.is_empty());
+        assert!((imu[0].accel_m_s2[2] + STANDARD_GRAVITY_M_S2).abs() < 1e-9, "{:?}", imu[0]);
+        assert!(setup.count("mag") > 0);
+    }
+
+    #[test]
+    fn a_missing_device_or_chip_is_an_error_naming_it() {
+        let params =
+            ImuActorParams { device: PathBuf::from("/dev/spidev-kestrel-none"), ..ImuActorParams::default() };
+        let err = ImuActor::build(&params, &mut TestSetup::new("imu", ".")).err().expect("no device");
+        assert!(err.to_string().contains("/dev/spidev-kestrel-none"), "{err}");
+        let err = ImuActor::with_bus(
+            Box::new(FakeMpu9250::absent()),
+            &ImuActorParams::default(),
+            &mut TestSetup::new("imu", "."),
+        )
+        .err()
+        .expect("no chip");
+        assert!(
+            err.to_string().contains("/dev/spidev-fake") && err.to_string().contains("WHO_AM_I"),
+            "{err}"
+        );
+    }
+}

@@ -1,0 +1,17 @@
+//! The simulated stereo camera: a ZED-like rectified pair rendered by ray casting against the
+//! world (flat ground, boxes, cylinders, walls) from the vehicle's true pose, with procedural
+//! texture so block matching has something to match, and the true depth of every left pixel
+//! for scoring.
+//!
+//! [`StereoCameraParams`] configure the rig, [`Scene`] holds the world in renderer form and
+//! [`StereoCamera::render`] makes a [`StereoRender`]: left and right 8-bit grey images and a
+//! [`DepthImage`]. The core is pure; [`CameraSimActor`](crate::CameraSimActor) publishes it.
+
+mod params;
+mod render;
+mod scene;
+mod texture;
+
+pub use params::{Intrinsics, StereoCameraParams};
+pub use render::{DepthImage, StereoCamera, StereoRender};
+pub use scene::Scene;
