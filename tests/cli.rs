@@ -259,3 +259,38 @@ fn auto_mission_flies_on_the_full_stack_and_lands_home() {
     assert_eq!(report["control"]["overruns"], 0, "{report:#}");
     assert!(report["failsafes"].as_array().unwrap().is_empty(), "{report:#}");
 }
+
+#[test]
+fn perception_chain_turns_rendered_frames_into_grids_and_avoidance_commands() {
+    use kestrel_proto::messages::{AvoidanceCommand, DepthGrid};
+    let path = temp_path("perception.mcap");
+    let out = kestrel()
+        .args([
+            "run",
+            "--config",
+            "config/perception-sim.toml",
+            "--duration",
+            "2",
+            "--speedup",
+            "0",
+            "--quiet",
+        ])
+        .arg("--record")
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let log = LogReader::open(&path).unwrap();
+    let grids = read::<DepthGrid>(&log, "depth_grid");
+    let commands = read::<AvoidanceCommand>(&log, "avoidance_command");
+    let _ = std::fs::remove_file(&path);
+    assert!((28..=31).contains(&grids.len()), "15 Hz for 2 s, got {}", grids.len());
+    assert!(commands.len() >= grids.len(), "one command per grid (plus staleness checks)");
+    // At home on the ground, the nearest thing ahead is the tree 15 m north (0.6 m radius, so
+    // 14.4 m to its bark, about 2 px of disparity): nothing is within the 5 m threshold, and the
+    // centre region ranges the trunk.
+    let last = &grids.last().unwrap().message;
+    assert!(last.regions.iter().flatten().all(|r| r.near_share == 0.0), "{:?}", last.regions);
+    let trunk = last.regions[1][1].nearest_m.expect("the centre region sees the tree");
+    assert!((10.0..17.0).contains(&trunk), "tree ranged at {trunk} m");
+}
