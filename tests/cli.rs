@@ -14,6 +14,13 @@ fn kestrel() -> Command {
     cmd
 }
 
+/// Runs `cmd` and fails the test, showing its stderr, unless it exits 0.
+fn succeed(cmd: &mut Command) -> std::process::Output {
+    let out = cmd.output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    out
+}
+
 fn temp_path(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("kestrel-cli-{}-{name}", std::process::id()))
 }
@@ -36,12 +43,7 @@ fn lags_s<T: Message>(msgs: &[Recorded<T>]) -> Vec<f64> {
 #[test]
 fn ten_second_run_records_every_sensor_at_its_rate() {
     let path = temp_path("run10.mcap");
-    let out = kestrel()
-        .args(["run", "--duration", "10", "--speedup", "0", "--quiet", "--record"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    succeed(kestrel().args(["run", "--duration", "10", "--speedup", "0", "--quiet", "--record"]).arg(&path));
     let log = LogReader::open(&path).unwrap();
     let imu = read::<ImuSample>(&log, "imu");
     let gps = read::<GpsFix>(&log, "gps");
@@ -132,12 +134,8 @@ fn fuzzy_inputs(blocked: &[&str], speed: f64) -> Vec<String> {
 
 #[test]
 fn fuzzy_prints_one_line_per_output_and_steers_away() {
-    let out = kestrel()
-        .args(["fuzzy", "--rules", THESIS_RULES])
-        .args(fuzzy_inputs(&["D_c", "D_l"], 0.2))
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out =
+        succeed(kestrel().args(["fuzzy", "--rules", THESIS_RULES]).args(fuzzy_inputs(&["D_c", "D_l"], 0.2)));
     let stdout = String::from_utf8_lossy(&out.stdout);
     let values: Vec<(String, f64)> = stdout
         .lines()
@@ -187,20 +185,14 @@ fn replay_writes_our_estimate_beside_px4s_and_beside_ground_truth() {
     let ulog =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("actors/estimator/tests/data/px4_sitl_takeoff_land.ulg");
     let csv = temp_path("replay-ulog.csv");
-    let out = kestrel().args(["replay", "--log"]).arg(&ulog).arg("--out").arg(&csv).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    succeed(kestrel().args(["replay", "--log"]).arg(&ulog).arg("--out").arg(&csv));
     let rows = std::fs::read_to_string(&csv).unwrap();
     let _ = std::fs::remove_file(&csv);
     assert!(rows.starts_with("time_s,roll_deg,pitch_deg,yaw_deg,px4_roll_deg"), "{}", &rows[..80]);
     assert!(rows.lines().count() > 100, "one row per EKF2 attitude sample");
 
     let mcap = temp_path("replay.mcap");
-    let run = kestrel()
-        .args(["run", "--duration", "6", "--speedup", "0", "--quiet", "--record"])
-        .arg(&mcap)
-        .output()
-        .unwrap();
-    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    succeed(kestrel().args(["run", "--duration", "6", "--speedup", "0", "--quiet", "--record"]).arg(&mcap));
     let out = kestrel().args(["replay", "--log"]).arg(&mcap).arg("--out").arg(&csv).output().unwrap();
     let _ = std::fs::remove_file(&mcap);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
@@ -214,12 +206,7 @@ fn replay_writes_our_estimate_beside_px4s_and_beside_ground_truth() {
 #[test]
 fn report_scores_the_estimator_against_ground_truth() {
     let json = temp_path("report.json");
-    let out = kestrel()
-        .args(["run", "--duration", "8", "--speedup", "0", "--quiet", "--report"])
-        .arg(&json)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    succeed(kestrel().args(["run", "--duration", "8", "--speedup", "0", "--quiet", "--report"]).arg(&json));
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let _ = std::fs::remove_file(&json);
     for field in ["mission", "flight", "estimator", "control", "avoidance", "failsafes"] {
@@ -233,13 +220,12 @@ fn report_scores_the_estimator_against_ground_truth() {
 #[test]
 fn auto_mission_flies_on_the_full_stack_and_lands_home() {
     let json = temp_path("mission.json");
-    let out = kestrel()
-        .args(["run", "--speedup", "0", "--quiet", "--duration", "300", "--auto", "--exit-on-land"])
-        .args(["--mission", "config/missions/square.plan", "--report"])
-        .arg(&json)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    succeed(
+        kestrel()
+            .args(["run", "--speedup", "0", "--quiet", "--duration", "300", "--auto", "--exit-on-land"])
+            .args(["--mission", "config/missions/square.plan", "--report"])
+            .arg(&json),
+    );
     let report: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     let _ = std::fs::remove_file(&json);
     assert_eq!(report["mission"]["completed"], true, "{report:#}");
