@@ -1,18 +1,29 @@
 //! `ControllerActor`: the actor shell of the control loop.
 //!
 //! Ports — inputs `nav` (NavState, mailbox `latest`) and `setpoint` (Setpoint, `latest`);
-//! outputs `actuators` (ActuatorOutputs) and `loop_stats` (ControlLoopStats, about 1 Hz).
+//! timer `tick` at the loop rate (lockstep only); outputs `actuators` (ActuatorOutputs) and
+//! `loop_stats` (ControlLoopStats, about 1 Hz).
 //!
 //! Two ways to run, chosen by `loop_mode`:
 //! * `lockstep` (simulation): one loop iteration per NavState received, in the actor's handler,
 //!   like PX4's SITL lockstep: the simulator's next step waits for these outputs, so control
-//!   runs in step with simulated time and never sleeps on the clock.
+//!   runs in step with simulated time and never sleeps on the clock. The `tick` timer (graph
+//!   clock, so still deterministic) covers NavStates that stop: a tick with no NavState handled
+//!   since the previous one, and none fresh within `timing.nav_timeout_s`, runs the same
+//!   fallback as the thread — fly blind, or idle when the setpoint is disarmed — so the motors
+//!   never keep the last command forever. While NavStates arrive the ticks do nothing.
 //! * `thread` (hardware, `clock = "realtime"`): the loop runs on its own OS thread at
 //!   `control.timing.rate_hz` with SCHED_FIFO where permitted (logged either way); the handler
-//!   only drops each input into a lock-free triple buffer and returns.
+//!   only drops each input into a lock-free triple buffer and returns. The thread hands its
+//!   motor commands and statistics back the same way (publishing locks the topic's mailboxes
+//!   and the recorder allocates, which the loop must not), and a tokio task started with the
+//!   actor publishes the newest of each at the loop rate until `ctx.shutdown()` or the thread
+//!   ends: outputs reach subscribers at most about one loop period after they were computed.
+
+use std::time::Duration;
 
 use kestrel_proto::messages::{ActuatorOutputs, ControlLoopStats, NavState, Setpoint};
-use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup};
+use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
 use crate::flight_controller::FlightController;
@@ -56,6 +67,8 @@ impl Default for ControllerActorParams {
 pub enum ControllerInput {
     Nav(NavState),
     Setpoint(Setpoint),
+    /// The lockstep loop's timer, at the loop rate.
+    Tick(Time),
 }
 
 struct Outputs {
@@ -63,22 +76,63 @@ struct Outputs {
     stats: Publisher<ControlLoopStats>,
 }
 
-impl ThreadOutput for Outputs {
+/// The loop thread's side of its outputs: triple buffers, so it never locks or allocates.
+struct BufferedOutputs {
+    actuators: Writer<Option<ActuatorOutputs>>,
+    stats: Writer<Option<ControlLoopStats>>,
+}
+
+impl ThreadOutput for BufferedOutputs {
     fn actuators(&mut self, outputs: &ActuatorOutputs) {
-        self.actuators.publish(outputs.clone());
+        self.actuators.write(Some(outputs.clone()));
     }
 
     fn stats(&mut self, stats: ControlLoopStats) {
-        self.stats.publish(stats);
+        self.stats.write(Some(stats));
     }
 }
 
-/// Everything the loop thread owns, built with the actor and handed over at start.
+/// The publishing side: a tokio task reads the buffers every period and publishes what is new.
+struct Relay {
+    actuators: Reader<Option<ActuatorOutputs>>,
+    stats: Reader<Option<ControlLoopStats>>,
+    outputs: Outputs,
+    period: Duration,
+}
+
+impl Relay {
+    /// Publishes the newest outputs at the loop rate until `shutdown` or the thread is gone.
+    async fn run(mut self, shutdown: impl Future<Output = ()>) {
+        let mut shutdown = std::pin::pin!(shutdown);
+        let mut interval = tokio::time::interval(self.period);
+        interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        loop {
+            tokio::select! {
+                () = &mut shutdown => break,
+                _ = interval.tick() => {}
+            }
+            // Checked before reading, so what the thread wrote before it ended is still sent.
+            let gone = self.actuators.writer_gone();
+            if let (Some(out), true) = self.actuators.read() {
+                self.outputs.actuators.publish(out.clone());
+            }
+            if let (Some(stats), true) = self.stats.read() {
+                self.outputs.stats.publish(stats.clone());
+            }
+            if gone {
+                break;
+            }
+        }
+    }
+}
+
+/// Everything the loop thread and its relay own, built with the actor and handed over at start.
 struct Pending {
     ctl: Box<FlightController>,
     nav: Reader<Option<NavState>>,
     setpoint: Reader<Option<Setpoint>>,
-    outputs: Outputs,
+    outputs: BufferedOutputs,
+    relay: Relay,
 }
 
 enum Loop {
@@ -87,6 +141,10 @@ enum Loop {
         stats: LoopStats,
         outputs: Outputs,
         iterations: u64,
+        /// Time of the newest NavState handled.
+        last_nav: Option<Time>,
+        /// A NavState was handled since the previous tick.
+        nav_since_tick: bool,
     },
     Thread {
         nav: Writer<Option<NavState>>,
@@ -94,6 +152,7 @@ enum Loop {
         /// What the thread takes when it starts.
         pending: Option<Pending>,
         thread: Option<ControlThread>,
+        relay: Option<tokio::task::JoinHandle<()>>,
         priority: i32,
     },
 }
@@ -118,15 +177,22 @@ impl Actor for ControllerActor {
         let outputs = Outputs { actuators: setup.output("actuators"), stats: setup.output("loop_stats") };
         let period_us = (1e6 / params.control.timing.rate_hz).round() as u64;
         let inner = match params.loop_mode {
-            LoopMode::Lockstep => Loop::Lockstep {
-                ctl: Box::new(ctl),
-                stats: LoopStats::new(period_us),
-                outputs,
-                iterations: 0,
-            },
+            LoopMode::Lockstep => {
+                setup.timer("tick", Duration::from_micros(period_us), ControllerInput::Tick);
+                Loop::Lockstep {
+                    ctl: Box::new(ctl),
+                    stats: LoopStats::new(period_us),
+                    outputs,
+                    iterations: 0,
+                    last_nav: None,
+                    nav_since_tick: false,
+                }
+            }
             LoopMode::Thread => {
                 let (nav, nav_reader) = triple_buffer(None);
                 let (setpoint, setpoint_reader) = triple_buffer(None);
+                let (actuators, actuators_reader) = triple_buffer(None);
+                let (stats, stats_reader) = triple_buffer(None);
                 Loop::Thread {
                     nav,
                     setpoint,
@@ -134,9 +200,16 @@ impl Actor for ControllerActor {
                         ctl: Box::new(ctl),
                         nav: nav_reader,
                         setpoint: setpoint_reader,
-                        outputs,
+                        outputs: BufferedOutputs { actuators, stats },
+                        relay: Relay {
+                            actuators: actuators_reader,
+                            stats: stats_reader,
+                            outputs,
+                            period: Duration::from_micros(period_us),
+                        },
                     }),
                     thread: None,
+                    relay: None,
                     priority: params.priority,
                 }
             }
@@ -145,30 +218,45 @@ impl Actor for ControllerActor {
     }
 
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
-        if let Loop::Thread { pending, thread, priority, .. } = &mut self.inner
-            && let Some(Pending { ctl, nav, setpoint, outputs }) = pending.take()
+        if let Loop::Thread { pending, thread, relay, priority, .. } = &mut self.inner
+            && let Some(Pending { ctl, nav, setpoint, outputs, relay: publisher }) = pending.take()
         {
             let spawned =
                 ControlThread::spawn(*ctl, nav, setpoint, ctx.clock().clone(), outputs, *priority).map_err(
                     |source| ActorError::Io { what: "cannot start the control thread".into(), source },
                 )?;
             *thread = Some(spawned);
+            *relay = Some(tokio::spawn(publisher.run(ctx.shutdown().clone().cancelled_owned())));
         }
         Ok(())
     }
 
     async fn handle(&mut self, ctx: &Context, input: ControllerInput) -> Result<(), ActorError> {
         match (&mut self.inner, input) {
-            (Loop::Lockstep { ctl, stats, outputs, iterations }, ControllerInput::Nav(nav)) => {
+            (
+                Loop::Lockstep { ctl, stats, outputs, iterations, last_nav, nav_since_tick },
+                ControllerInput::Nav(nav),
+            ) => {
+                *last_nav = Some(nav.time);
+                *nav_since_tick = true;
                 let started = std::time::Instant::now();
                 let out = ctl.update(&nav);
-                let execution_us = u64::try_from(started.elapsed().as_micros()).unwrap_or(u64::MAX);
-                outputs.actuators.publish(out);
-                stats.record(nav.time.as_micros(), execution_us);
-                *iterations += 1;
-                let every = ctl.params().timing.rate_hz.round().max(1.0) as u64;
-                if iterations.is_multiple_of(every) {
-                    outputs.stats.publish(stats.message(ctx.now(), ctl.counters(), false, false));
+                lockstep_output(ctx, ctl, stats, outputs, iterations, nav.time, out, started);
+            }
+            (
+                Loop::Lockstep { ctl, stats, outputs, iterations, last_nav, nav_since_tick },
+                ControllerInput::Tick(now),
+            ) => {
+                // The NavState handler runs the loop while NavStates arrive; the tick only acts
+                // when they have stopped (the thread's rule: no fresh NavState → fly blind, which
+                // idles when the setpoint is disarmed).
+                let handled = std::mem::take(nav_since_tick);
+                let timeout_s = ctl.params().timing.nav_timeout_s;
+                let fresh = last_nav.is_some_and(|t| now.saturating_since(t).as_secs_f64() <= timeout_s);
+                if !handled && !fresh {
+                    let started = std::time::Instant::now();
+                    let out = ctl.fly_blind(now);
+                    lockstep_output(ctx, ctl, stats, outputs, iterations, now, out, started);
                 }
             }
             (Loop::Lockstep { ctl, .. }, ControllerInput::Setpoint(sp)) => {
@@ -178,13 +266,45 @@ impl Actor for ControllerActor {
             }
             (Loop::Thread { nav, .. }, ControllerInput::Nav(n)) => nav.write(Some(n)),
             (Loop::Thread { setpoint, .. }, ControllerInput::Setpoint(sp)) => setpoint.write(Some(sp)),
+            // The thread keeps its own schedule; no timer is declared in this mode.
+            (Loop::Thread { .. }, ControllerInput::Tick(_)) => {}
         }
         Ok(())
     }
 
     async fn stop(&mut self, _ctx: &Context) {
-        if let Loop::Thread { thread: Some(t), .. } = &mut self.inner {
-            t.stop();
+        if let Loop::Thread { thread, relay, .. } = &mut self.inner {
+            if let Some(t) = thread {
+                t.stop();
+            }
+            // With the thread gone the relay sends what is left and ends within a period.
+            if let Some(r) = relay.take()
+                && let Err(e) = r.await
+            {
+                tracing::error!(error = %e, "control output relay failed");
+            }
         }
+    }
+}
+
+/// Publishes one lockstep iteration's outputs and records its timing (statistics about 1 Hz).
+#[allow(clippy::too_many_arguments)]
+fn lockstep_output(
+    ctx: &Context,
+    ctl: &FlightController,
+    stats: &mut LoopStats,
+    outputs: &Outputs,
+    iterations: &mut u64,
+    at: Time,
+    out: ActuatorOutputs,
+    started: std::time::Instant,
+) {
+    let execution_us = u64::try_from(started.elapsed().as_micros()).unwrap_or(u64::MAX);
+    outputs.actuators.publish(out);
+    stats.record(at.as_micros(), execution_us);
+    *iterations += 1;
+    let every = ctl.params().timing.rate_hz.round().max(1.0) as u64;
+    if iterations.is_multiple_of(every) {
+        outputs.stats.publish(stats.message(ctx.now(), ctl.counters(), false, false));
     }
 }

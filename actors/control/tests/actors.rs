@@ -45,8 +45,15 @@ impl Clock for TestClock {
 
 struct Collect<T>(Mutex<Vec<T>>);
 
+/// Set when anything is published from the real-time loop thread, which must not lock.
+static PUBLISHED_ON_THE_LOOP_THREAD: std::sync::atomic::AtomicBool =
+    std::sync::atomic::AtomicBool::new(false);
+
 impl<T: Send> Sink<T> for Collect<T> {
     fn publish(&self, msg: T) {
+        if std::thread::current().name() == Some("kestrel-control") {
+            PUBLISHED_ON_THE_LOOP_THREAD.store(true, Ordering::Release);
+        }
         self.0.lock().expect("sink lock").push(msg);
     }
 }
@@ -184,12 +191,56 @@ fn lockstep_controller_answers_every_nav_state_and_reports_its_timing() {
 }
 
 #[test]
+fn lockstep_controller_ticks_apply_the_loop_failsafes_when_nav_states_stop() {
+    let clock = Arc::new(TestClock { now_us: AtomicU64::new(0), wall: None });
+    let mut setup = TestSetup::new(Arc::clone(&clock));
+    let mut actor = ControllerActor::build(&ControllerActorParams::default(), &mut setup).expect("builds");
+    let ctx = context(Arc::clone(&clock));
+    ready(actor.start(&ctx)).expect("starts");
+    let nav_in = setup.wrap::<NavState, ControllerInput>("nav");
+    let sp_in = setup.wrap::<Setpoint, ControllerInput>("setpoint");
+    let tick_in = setup.wrap::<Time, ControllerInput>("tick");
+    // NavStates arriving: the ticks between them add nothing (no double stepping).
+    for i in 0..400u64 {
+        let t = Time::from_micros(i * 2500);
+        clock.now_us.store(t.as_micros(), Ordering::Release);
+        ready(actor.handle(&ctx, tick_in(t))).expect("tick");
+        ready(actor.handle(&ctx, sp_in(hover_setpoint(t)))).expect("setpoint");
+        ready(actor.handle(&ctx, nav_in(nav(t, -10.0)))).expect("nav");
+    }
+    // One output per NavState, plus the idle one of the very first tick (no NavState yet).
+    let outs = setup.take::<ActuatorOutputs>("actuators");
+    assert_eq!(outs.len(), 401);
+    assert!(!outs[0].armed && outs[1..].iter().all(|o| o.armed));
+    // NavStates stop while flying: the loop flies blind (below hover) at the loop rate.
+    for i in 400..480u64 {
+        let t = Time::from_micros(i * 2500);
+        clock.now_us.store(t.as_micros(), Ordering::Release);
+        ready(actor.handle(&ctx, tick_in(t))).expect("tick");
+    }
+    let blind = setup.take::<ActuatorOutputs>("actuators");
+    assert!(blind.len() > 50, "{} outputs without NavStates", blind.len());
+    let last = blind.last().expect("blind output");
+    assert!(last.armed && last.motors[..4].iter().all(|m| *m < 0.33 && *m > 0.2), "{last:?}");
+    // A disarm setpoint without NavStates stops the motors.
+    let t = Time::from_micros(480 * 2500);
+    ready(actor.handle(&ctx, sp_in(Setpoint { armed: false, ..hover_setpoint(t) }))).expect("disarm");
+    ready(actor.handle(&ctx, tick_in(t))).expect("tick");
+    let last = setup.take::<ActuatorOutputs>("actuators").pop().expect("idle output");
+    assert!(!last.armed && last.motors.iter().all(|m| *m == 0.0), "{last:?}");
+}
+
+#[test]
 fn the_thread_loop_runs_at_its_rate_on_the_newest_inputs_and_stops() {
     let clock = Arc::new(TestClock { now_us: AtomicU64::new(0), wall: Some(std::time::Instant::now()) });
     let mut setup = TestSetup::new(Arc::clone(&clock));
     let params = ControllerActorParams { loop_mode: LoopMode::Thread, ..ControllerActorParams::default() };
     let mut actor = ControllerActor::build(&params, &mut setup).expect("builds");
     let ctx = context(Arc::clone(&clock));
+    // The outputs are published by a tokio task of the actor, as under the real runtime.
+    let runtime =
+        tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().expect("runtime");
+    let _entered = runtime.enter();
     ready(actor.start(&ctx)).expect("starts");
     let nav_in = setup.wrap::<NavState, ControllerInput>("nav");
     let sp_in = setup.wrap::<Setpoint, ControllerInput>("setpoint");
@@ -200,7 +251,7 @@ fn the_thread_loop_runs_at_its_rate_on_the_newest_inputs_and_stops() {
         ready(actor.handle(&ctx, nav_in(nav(now, -10.0)))).expect("nav");
         std::thread::sleep(Duration::from_micros(2500));
     }
-    ready(actor.stop(&ctx));
+    runtime.block_on(actor.stop(&ctx));
     let outs = setup.published::<ActuatorOutputs>("actuators");
     let stats = setup.published::<ControlLoopStats>("loop_stats");
     let s = stats.last().expect("a stats report after one second");
@@ -223,6 +274,10 @@ fn the_thread_loop_runs_at_its_rate_on_the_newest_inputs_and_stops() {
     let count = outs.len();
     std::thread::sleep(Duration::from_millis(20));
     assert_eq!(setup.published::<ActuatorOutputs>("actuators").len(), count, "thread still running");
+    assert!(
+        !PUBLISHED_ON_THE_LOOP_THREAD.load(Ordering::Acquire),
+        "the SCHED_FIFO loop published (mailbox locks, recorder allocations) itself"
+    );
 }
 
 #[test]

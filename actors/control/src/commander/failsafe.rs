@@ -16,7 +16,8 @@ const CAUSES: [FailsafeCause; 7] = [
 
 /// Causes that stay active once fired, for the rest of the flight: a battery does not
 /// recharge, and an estimator or flight-critical actor that failed is not trusted again until
-/// the next arming (the landing it started must not be undone by the mode change it caused).
+/// the flight ends (the landing it started must not be undone by the mode change it caused).
+/// Every cause is cleared on disarm, as PX4 does; the pre-arm checks judge the next flight.
 fn latches(cause: FailsafeCause) -> bool {
     matches!(
         cause,
@@ -62,7 +63,7 @@ impl FailsafeMonitor {
         }
     }
 
-    /// Clears every failsafe, latched ones included (on arming).
+    /// Clears every failsafe, latched ones included (on arming and on disarming).
     pub fn clear(&mut self) {
         self.active = Default::default();
     }

@@ -236,9 +236,14 @@ impl Commander {
             Command::Land => self.set_mode(now, FlightMode::Land),
             Command::ReturnToLaunch => self.set_mode(now, FlightMode::ReturnToLaunch),
             Command::MissionStart => {
+                let restart = self.mode == FlightMode::Auto;
                 let r = self.set_mode(now, FlightMode::Auto);
                 if r.is_ok() {
                     self.runner = self.mission.clone().map(MissionRunner::new);
+                    if restart {
+                        // MISSION_START in AUTO restarts the mission from its first item.
+                        self.enter(FlightMode::Auto);
+                    }
                 }
                 r
             }
@@ -285,6 +290,9 @@ impl Commander {
         self.armed = false;
         self.flip = None;
         self.landed = LandedState::OnGround;
+        // As PX4: failsafes belong to a flight. Latched causes (battery, estimator, critical
+        // actor) would otherwise refuse every later arming; the pre-arm checks judge afresh.
+        self.failsafes.clear();
     }
 
     fn set_mode(&mut self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
@@ -292,7 +300,11 @@ impl Commander {
         if mode == FlightMode::Auto && (self.runner.is_none() || self.mode != FlightMode::Auto) {
             self.runner = self.mission.clone().map(MissionRunner::new);
         }
-        self.enter(mode);
+        // The mode already active is accepted without re-entering it: RTL must not climb again
+        // from its landing phase, nor LAND restart the land detector.
+        if mode != self.mode {
+            self.enter(mode);
+        }
         Ok(())
     }
 
@@ -451,7 +463,9 @@ impl Commander {
         match worst.action {
             FailsafeAction::Warn => {}
             FailsafeAction::Disarm => self.disarm("failsafe"),
-            _ if on_ground => self.disarm("failsafe on the ground"),
+            FailsafeAction::ReturnToLaunch | FailsafeAction::Land if on_ground => {
+                self.disarm("failsafe on the ground")
+            }
             FailsafeAction::Hold => {
                 let mode = if position_ok { FlightMode::PosHold } else { FlightMode::AltHold };
                 self.enter(mode);
@@ -484,6 +498,7 @@ impl Commander {
             return;
         }
         let landing_mode = self.is_landing();
+        let fresh = self.fresh_nav(now).cloned();
         match self.landed {
             LandedState::OnGround if self.height_m(&nav) > AIRBORNE_HEIGHT_M => {
                 self.landed = LandedState::InAir
@@ -493,8 +508,15 @@ impl Commander {
                 self.land_detector.reset();
             }
             LandedState::Landing if !landing_mode => self.landed = LandedState::InAir,
+            LandedState::Landing if fresh.is_none() => {
+                // A frozen NavState's velocity says nothing about the ground: no detection, and
+                // the stillness timer starts over once NavStates are fresh again.
+                self.land_detector.reset();
+            }
             LandedState::Landing
-                if self.land_detector.update(now, &nav.velocity_ned_m_s, self.params.land_detect_s) =>
+                if fresh.is_some_and(|n| {
+                    self.land_detector.update(now, &n.velocity_ned_m_s, self.params.land_detect_s)
+                }) =>
             {
                 self.landed = LandedState::OnGround;
                 if let Some(runner) = &mut self.runner {

@@ -257,3 +257,126 @@ fn a_mission_ending_in_a_land_item_completes_on_touchdown() {
     assert!(!c.armed());
     assert!(progress.completed && progress.reached == 2, "{progress:?}");
 }
+
+/// Armed in POSHOLD and in the air 5 m above home at t = 2 ms.
+fn hovering() -> Commander {
+    let mut c = ready(true);
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arm");
+    c.on_nav(&nav(Time(2000), -5.0, true));
+    c.update(Time(2000));
+    assert_eq!(c.landed(), LandedState::InAir);
+    c
+}
+
+fn at(c: &mut Commander, t: u64, command: Command) -> Result<(), String> {
+    c.on_command(&VehicleCommand { time: Time(t), command }).map_err(|r| r.0)
+}
+
+#[test]
+fn a_stale_nav_state_never_lets_the_land_detector_disarm_in_the_air() {
+    let mut c = hovering();
+    // NavStates stop: the stale-nav failsafe lands, and the frozen (zero) velocity of the last
+    // NavState must not count as standing still on the ground.
+    let mut t = 2000;
+    while t < 5_000_000 {
+        t += 20_000;
+        c.update(Time(t));
+    }
+    assert_eq!(c.mode(), FlightMode::Land);
+    assert_eq!(c.landed(), LandedState::Landing);
+    assert!(c.armed(), "disarmed in the air on a stale NavState");
+    // Fresh NavStates on the ground again: detected after land_detect_s, not at once.
+    let resumed = t;
+    while c.armed() && t < resumed + 3_000_000 {
+        t += 2500;
+        c.on_nav(&nav(Time(t), 0.0, true));
+        c.update(Time(t));
+    }
+    assert!(!c.armed(), "fresh NavStates on the ground should disarm");
+    assert!(t - resumed >= 1_000_000, "detected {} µs after NavStates resumed", t - resumed);
+}
+
+#[test]
+fn latched_failsafes_are_cleared_on_disarm_so_the_vehicle_can_arm_again() {
+    let mut c = ready(true);
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arm");
+    // The estimator reports an unconverged attitude on the ground: EstimatorUnhealthy (latched,
+    // LAND) disarms on the ground.
+    let mut bad = nav(Time(2000), 0.0, true);
+    bad.valid.attitude = false;
+    c.on_nav(&bad);
+    c.update(Time(2000));
+    assert!(!c.armed());
+    // The estimator recovers: the pre-arm checks must not be blocked by the old latch.
+    c.on_nav(&nav(Time(3000), 0.0, true));
+    c.on_battery(&BatteryStatus {
+        time: Time(3000),
+        voltage_v: 16.4,
+        current_a: 1.0,
+        consumed_mah: 0.0,
+        remaining: 1.0,
+    });
+    c.update(Time(3000));
+    assert_eq!(at(&mut c, 3000, Command::Arm), Ok(()));
+}
+
+#[test]
+fn re_sending_the_active_mode_does_not_re_enter_it() {
+    let mut c = hovering();
+    at(&mut c, 2000, Command::Land).expect("land");
+    // Standing still (the ground holds it) for 0.6 s, then LAND again, then 0.5 s more: the
+    // land detector keeps its history and disarms at 1 s.
+    let mut t = 2000;
+    while t < 1_102_000 {
+        t += 2500;
+        c.on_nav(&nav(Time(t), 0.0, true));
+        c.update(Time(t));
+        if t == 602_000 {
+            assert_eq!(at(&mut c, t, Command::Land), Ok(()));
+        }
+    }
+    assert!(!c.armed(), "re-sending LAND restarted the land detector");
+    // RTL in its landing phase stays there when RTL is sent again.
+    let mut c = hovering();
+    at(&mut c, 2000, Command::ReturnToLaunch).expect("rtl");
+    c.rtl = super::RtlPhase::Land;
+    c.on_nav(&nav(Time(4500), -5.0, true));
+    c.update(Time(4500));
+    assert_eq!(c.landed(), LandedState::Landing);
+    assert_eq!(at(&mut c, 4500, Command::SetMode(FlightMode::ReturnToLaunch)), Ok(()));
+    c.on_nav(&nav(Time(7000), -5.0, true));
+    c.update(Time(7000));
+    assert_eq!(c.rtl, super::RtlPhase::Land, "RTL climbed again");
+    assert_eq!(c.landed(), LandedState::Landing);
+}
+
+#[test]
+fn a_hold_failsafe_on_the_ground_does_not_disarm() {
+    let params = CommanderParams {
+        failsafe: super::FailsafeParams {
+            link_action: kestrel_proto::messages::FailsafeAction::Hold,
+            ..super::FailsafeParams::default()
+        },
+        ..CommanderParams::default()
+    };
+    let mut c = Commander::new(params).expect("valid");
+    c.on_nav(&nav(Time(1000), 0.0, true));
+    c.on_battery(&BatteryStatus {
+        time: Time(1000),
+        voltage_v: 16.4,
+        current_a: 1.0,
+        consumed_mah: 0.0,
+        remaining: 1.0,
+    });
+    cmd(&mut c, Command::Heartbeat).expect("heartbeat");
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arm");
+    // The link is lost while armed on the ground: HOLD, which is weaker than RTL.
+    c.on_nav(&nav(Time(6_100_000), 0.0, true));
+    c.update(Time(6_100_000));
+    let status = c.status(Time(6_100_000));
+    assert_eq!(status.failsafe.map(|f| f.cause), Some(kestrel_proto::messages::FailsafeCause::DataLinkLost));
+    assert!(c.armed(), "a HOLD failsafe disarmed on the ground");
+}

@@ -19,6 +19,9 @@ use super::triple_buffer::Reader;
 use crate::flight_controller::FlightController;
 
 /// What the thread hands out: motor commands every iteration, statistics about once a second.
+/// Called on the real-time thread, so an implementation must not lock or allocate: the actor
+/// writes both into triple buffers and publishes them from a tokio task (at most about one
+/// period later).
 pub trait ThreadOutput: Send + 'static {
     fn actuators(&mut self, outputs: &ActuatorOutputs);
     fn stats(&mut self, stats: ControlLoopStats);
