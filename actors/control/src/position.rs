@@ -250,8 +250,7 @@ pub fn thrust_to_attitude(thrust: &Vector3<f64>, yaw_rad: f64) -> UnitQuaternion
 
 /// Heading of an attitude (rad, from north towards east).
 pub fn yaw_of(q: &UnitQuaternion<f64>) -> f64 {
-    let (w, x, y, z) = (q.w, q.i, q.j, q.k);
-    (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z))
+    kestrel_proto::attitude::euler_rad([q.w, q.i, q.j, q.k])[2]
 }
 
 #[cfg(test)]

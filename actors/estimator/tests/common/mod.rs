@@ -353,11 +353,8 @@ pub fn euler_errors(est: &[f64; 4], truth: &[f64; 4]) -> [f64; 3] {
     let q = |a: &[f64; 4]| UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(a[0], a[1], a[2], a[3]));
     let (re, pe, ye) = q(est).euler_angles();
     let (rt, pt, yt) = q(truth).euler_angles();
-    [wrap(re - rt), wrap(pe - pt), wrap(ye - yt)]
-}
-
-fn wrap(a: f64) -> f64 {
-    (a + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI
+    let d = kestrel_proto::attitude::angle_difference_rad;
+    [d(re, rt), d(pe, pt), d(ye, yt)]
 }
 
 /// RMS errors over samples with `tau` in `from..to`.
@@ -450,10 +447,7 @@ pub fn flown(samples: &[Sample]) -> (f64, f64, f64) {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
         hi - lo
     };
-    let yaw = |s: &Sample| {
-        let [w, x, y, z] = s.truth.attitude;
-        (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)).to_degrees()
-    };
+    let yaw = |s: &Sample| kestrel_proto::attitude::euler_rad(s.truth.attitude)[2].to_degrees();
     let north = range(&|s| s.truth.position_ned_m[0]);
     let east = range(&|s| s.truth.position_ned_m[1]);
     (north.hypot(east), range(&|s| s.truth.position_ned_m[2]), range(&yaw))

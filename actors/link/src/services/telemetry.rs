@@ -6,6 +6,7 @@
     reason = "legacy MAVLink (MISSION_ITEM, REQUEST_DATA_STREAM, SET_MODE, *_INT frames) is still spoken by ground stations and must be accepted"
 )]
 
+use kestrel_proto::attitude::euler_rad;
 use std::time::Duration;
 
 use kestrel_proto::Time;
@@ -163,7 +164,7 @@ impl Telemetry {
             SYS_STATUS_DATA::ID => MavMessage::SYS_STATUS(self.sys_status()),
             ATTITUDE_DATA::ID => {
                 let nav = snap.nav.as_ref()?;
-                let [roll, pitch, yaw] = euler(nav.attitude);
+                let [roll, pitch, yaw] = euler_rad(nav.attitude);
                 let [p, q, r] = nav.angular_velocity_rad_s;
                 MavMessage::ATTITUDE(ATTITUDE_DATA {
                     time_boot_ms: boot_ms,
@@ -356,17 +357,8 @@ fn deg_e7(deg: f64) -> i32 {
     (deg * 1e7).round() as i32
 }
 
-/// Roll, pitch, yaw (rad) of `[w, x, y, z]` (ZYX convention), for display.
-pub fn euler(q: [f64; 4]) -> [f64; 3] {
-    let [w, x, y, z] = q;
-    let roll = (2.0 * (w * x + y * z)).atan2(1.0 - 2.0 * (x * x + y * y));
-    let pitch = (2.0 * (w * y - z * x)).clamp(-1.0, 1.0).asin();
-    let yaw = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
-    [roll, pitch, yaw]
-}
-
 fn heading_cdeg(q: [f64; 4]) -> u16 {
-    let yaw_deg = euler(q)[2].to_degrees().rem_euclid(360.0);
+    let yaw_deg = euler_rad(q)[2].to_degrees().rem_euclid(360.0);
     ((yaw_deg * 100.0).round() as u16) % 36_000
 }
 
