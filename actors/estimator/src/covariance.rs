@@ -220,6 +220,9 @@ impl SparseRow {
 /// Why a fusion was skipped.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum FusionFault {
+    /// The innovation, or the correction it implies, was not finite.
+    #[error("innovation is not finite")]
+    BadInnovation,
     /// The innovation variance was not positive and finite.
     #[error("innovation variance is not positive")]
     BadInnovationVariance,
@@ -236,12 +239,20 @@ pub enum FusionFault {
 /// computed as a symmetric rank-one downdate, so it stays symmetric by construction; a
 /// downdate that would make any variance negative is refused (PX4 EKF2 does the same).
 pub fn fuse_scalar(p: &mut Covariance, h: &SparseRow, y: f64, r: f64) -> Result<ErrorVector, FusionFault> {
+    if !y.is_finite() {
+        return Err(FusionFault::BadInnovation);
+    }
     let pht = h.p_ht(p);
     let s = h.dot(&pht) + r;
     if !(s.is_finite() && s > 0.0) {
         return Err(FusionFault::BadInnovationVariance);
     }
     let inv_s = 1.0 / s;
+    // Checked before `p` is touched, so a refused update never leaves the filter more confident.
+    let correction = pht * (y * inv_s);
+    if !correction.iter().all(|c| c.is_finite()) {
+        return Err(FusionFault::BadInnovation);
+    }
     for i in 0..ERROR_STATES {
         if p[(i, i)] - pht[i] * pht[i] * inv_s < 0.0 {
             return Err(FusionFault::NegativeVariance);
@@ -255,7 +266,7 @@ pub fn fuse_scalar(p: &mut Covariance, h: &SparseRow, y: f64, r: f64) -> Result<
     }
     symmetrize(p);
     constrain(p);
-    Ok(pht * (y * inv_s))
+    Ok(correction)
 }
 
 /// Forgets every correlation of the states `start..start + len` and sets their variance to
@@ -267,5 +278,23 @@ pub fn reset_block(p: &mut Covariance, start: usize, len: usize, variance: f64) 
             p[(j, i)] = 0.0;
         }
         p[(i, i)] = variance;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_refused_update_leaves_the_covariance_untouched() {
+        let mut p = Covariance::identity();
+        let before = p;
+        let h = SparseRow::unit(3);
+        assert_eq!(fuse_scalar(&mut p, &h, f64::NAN, 1.0).unwrap_err(), FusionFault::BadInnovation);
+        assert_eq!(fuse_scalar(&mut p, &h, f64::INFINITY, 1.0).unwrap_err(), FusionFault::BadInnovation);
+        assert_eq!(fuse_scalar(&mut p, &h, 1.0, f64::NAN).unwrap_err(), FusionFault::BadInnovationVariance);
+        assert_eq!(p, before, "no fusion happened, so no confidence was gained");
+        let dx = fuse_scalar(&mut p, &h, 1.0, 1.0).unwrap();
+        assert!((p[(3, 3)] - 0.5).abs() < 1e-12 && (dx[3] - 0.5).abs() < 1e-12);
     }
 }
