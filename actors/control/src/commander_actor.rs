@@ -2,7 +2,9 @@
 //!
 //! Ports — inputs `nav` (NavState, `latest`), `battery` (BatteryStatus, `latest`), `manual`
 //! (ManualControl, `latest`), `command` (VehicleCommand, `queue`), `mission` (Mission,
-//! `queue`), `supervisor` (SupervisorEvent, `queue`); timer `tick` at `tick_rate_hz`;
+//! `queue`), `supervisor` (SupervisorEvent, `queue`), `avoidance` (AvoidanceCommand,
+//! `latest`; optional: routed only where the obstacle avoider runs, and from its first command
+//! on AUTO/GUIDED legs blend its correction in and hold when it goes stale); timer `tick` at `tick_rate_hz`;
 //! outputs `setpoint` (Setpoint) and `status` (VehicleStatus).
 //!
 //! The state machine runs on every NavState (so a flip's setpoints follow the vehicle at the
@@ -14,8 +16,8 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    BatteryStatus, Command, FlightMode, LandedState, ManualControl, Mission, NavState, Setpoint,
-    SupervisorEvent, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, Command, FlightMode, LandedState, ManualControl, Mission, NavState,
+    Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -64,6 +66,8 @@ pub enum CommanderInput {
     Command(VehicleCommand),
     Mission(Mission),
     Supervisor(SupervisorEvent),
+    /// Boxed: the avoider's command carries its rule activations and shares.
+    Avoidance(Box<AvoidanceCommand>),
     Tick(Time),
 }
 
@@ -112,6 +116,7 @@ impl Actor for CommanderActor {
         setup.input("command", CommanderInput::Command);
         setup.input("mission", CommanderInput::Mission);
         setup.input("supervisor", CommanderInput::Supervisor);
+        setup.input("avoidance", |cmd| CommanderInput::Avoidance(Box::new(cmd)));
         setup.timer("tick", tick_period, CommanderInput::Tick);
         Ok(CommanderActor {
             commander,
@@ -143,6 +148,7 @@ impl Actor for CommanderActor {
             CommanderInput::Battery(b) => self.commander.on_battery(&b),
             CommanderInput::Manual(m) => self.commander.on_manual(&m),
             CommanderInput::Supervisor(e) => self.commander.on_supervisor(&e),
+            CommanderInput::Avoidance(cmd) => self.commander.on_avoidance(&cmd),
             CommanderInput::Command(cmd) => {
                 // A refusal is reported in the status; it is not an actor failure.
                 let _ = self.commander.on_command(&cmd);

@@ -8,6 +8,7 @@
 //! conservative here). On the ground, a failsafe of RTL or stronger disarms.
 
 mod arming;
+mod avoidance;
 mod failsafe;
 mod land_detector;
 mod mission_runner;
@@ -17,13 +18,14 @@ mod params;
 use kestrel_proto::Time;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    BatteryStatus, Command, FailsafeAction, FailsafeCause, FlightMode, LandedState, ManualControl, Mission,
-    MissionProgress, NavState, Setpoint, SetpointTarget, SupervisorEvent, SupervisorEventKind,
-    VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, Command, FailsafeAction, FailsafeCause, FlightMode, LandedState,
+    ManualControl, Mission, MissionProgress, NavState, Setpoint, SetpointTarget, SupervisorEvent,
+    SupervisorEventKind, VehicleCommand, VehicleStatus,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
 pub use arming::{Refusal, needs_position, needs_sticks};
+pub use avoidance::frd_to_ned;
 pub use failsafe::{FailsafeMonitor, FailsafeRecord};
 pub use land_detector::LandDetector;
 pub use mission_runner::{MissionRunner, MissionStep};
@@ -67,6 +69,7 @@ pub struct Commander {
     critical_failure: bool,
     last_refusal: Option<String>,
     last_update: Option<Time>,
+    avoidance: avoidance::AvoidanceLoop,
 }
 
 impl Commander {
@@ -98,6 +101,7 @@ impl Commander {
             critical_failure: false,
             last_refusal: None,
             last_update: None,
+            avoidance: avoidance::AvoidanceLoop::default(),
         })
     }
 
@@ -176,6 +180,20 @@ impl Commander {
             });
             self.last_link = Some(m.time);
         }
+    }
+
+    /// A correction from the obstacle avoider: from the first one on, AUTO and GUIDED legs
+    /// blend it in and hold when the stream goes stale (see `avoidance`). Non-finite ones are
+    /// ignored.
+    pub fn on_avoidance(&mut self, cmd: &AvoidanceCommand) {
+        if !self.avoidance.on_command(cmd) {
+            tracing::warn!("non-finite avoidance command ignored");
+        }
+    }
+
+    /// Holding because the avoidance stream is stale.
+    pub fn avoidance_holding(&self) -> bool {
+        self.avoidance.active() && self.avoidance.state.is_some() && self.avoidance.holding
     }
 
     /// A failure report from the supervisor; a flight-critical actor's failure is a failsafe.
@@ -319,6 +337,7 @@ impl Commander {
         self.flip = None;
         self.guided = modes::GuidedTarget::Hold;
         self.land_detector.reset();
+        self.avoidance.reset();
     }
 
     fn start_flip(&mut self, now: Time) -> Result<(), Refusal> {

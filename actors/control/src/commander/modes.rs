@@ -6,6 +6,7 @@ use kestrel_proto::messages::{
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
+use super::avoidance::{Leg, Limits};
 use super::mission_runner::MissionStep;
 use super::{Commander, heading};
 use crate::airframe::GRAVITY_M_S2;
@@ -88,8 +89,8 @@ impl Commander {
             }
             FlightMode::AltHold => self.alt_hold(&nav, &sticks, dt_s),
             FlightMode::PosHold => self.pos_hold(&nav, &sticks, dt_s),
-            FlightMode::Guided => self.guided(&nav, on_ground),
-            FlightMode::Auto => self.auto(now, &nav),
+            FlightMode::Guided => self.guided(now, dt_s, &nav, on_ground),
+            FlightMode::Auto => self.auto(now, dt_s, &nav),
             FlightMode::Takeoff => {
                 let home = self.home_or(&nav);
                 let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
@@ -200,8 +201,21 @@ impl Commander {
         })
     }
 
-    fn guided(&mut self, nav: &NavState, on_ground: bool) -> SetpointTarget {
+    fn guided(&mut self, now: Time, dt_s: f64, nav: &NavState, on_ground: bool) -> SetpointTarget {
         let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        if self.avoidance.active() {
+            let leg = match self.guided {
+                GuidedTarget::Hold => None,
+                GuidedTarget::Position(p) => {
+                    Some(Leg::To { target: Vector3::from(p), speed_m_s: self.params.guided_speed_m_s })
+                }
+                GuidedTarget::Velocity(v) => Some(Leg::Velocity(Vector3::from(v))),
+            };
+            match leg {
+                Some(leg) => return self.avoiding(now, dt_s, nav, leg),
+                None => self.avoidance.reset(),
+            }
+        }
         match self.guided {
             GuidedTarget::Hold if on_ground => SetpointTarget::MotorsOff,
             GuidedTarget::Hold => {
@@ -213,13 +227,24 @@ impl Commander {
         }
     }
 
-    fn auto(&mut self, now: Time, nav: &NavState) -> SetpointTarget {
+    fn auto(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
         let (Some(frame), Some(runner)) = (self.frame, self.runner.as_mut()) else {
+            self.avoidance.reset();
             return self.hold_here(nav);
         };
         let pos = Vector3::from(nav.position_ned_m);
         let home = self.home_ned.unwrap_or(pos);
-        match runner.update(now, &pos, &frame, &home) {
+        let step = runner.update(now, &pos, &frame, &home);
+        if !matches!(step, MissionStep::Fly(_)) {
+            self.avoidance.reset();
+        }
+        match step {
+            MissionStep::Fly(sp @ TrajectorySetpoint { position_ned_m: [Some(n), Some(e), Some(d)], .. })
+                if self.avoidance.active() =>
+            {
+                let speed_m_s = sp.max_horizontal_speed_m_s.unwrap_or(self.params.guided_speed_m_s);
+                self.avoiding(now, dt_s, nav, Leg::To { target: Vector3::new(n, e, d), speed_m_s })
+            }
             MissionStep::Fly(mut sp) => {
                 sp.yaw_rad = Some(*self.hold.yaw_rad.get_or_insert(heading(nav)));
                 SetpointTarget::Trajectory(sp)
@@ -232,6 +257,28 @@ impl Commander {
             }
             MissionStep::Finished => self.hold_here(nav),
         }
+    }
+
+    /// A leg flown with the avoider in the loop (`avoidance` module); a stale stream holds and
+    /// says so once in the status (→ STATUSTEXT) and the log.
+    fn avoiding(&mut self, now: Time, dt_s: f64, nav: &NavState, leg: Leg) -> SetpointTarget {
+        let mut yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        let limits = Limits {
+            timeout_s: self.params.avoidance_timeout_s,
+            yaw_rate_rad_s: self.params.yaw_rate_deg_s.to_radians(),
+        };
+        let blend = self.avoidance.step(now, dt_s, nav, leg, &mut yaw, limits);
+        self.hold.yaw_rad = Some(yaw);
+        match blend.hold_changed {
+            Some(true) => {
+                let why = "avoidance stale: slowing and holding position";
+                tracing::warn!(mode = ?self.mode, "{why}");
+                self.last_refusal = Some(why.to_owned());
+            }
+            Some(false) => tracing::info!(mode = ?self.mode, "avoidance fresh again: flying the leg"),
+            None => {}
+        }
+        SetpointTarget::Trajectory(blend.setpoint)
     }
 
     fn hold_here(&mut self, nav: &NavState) -> SetpointTarget {

@@ -48,6 +48,11 @@ pub struct CommanderParams {
     pub setpoint_rate_hz: f64,
     /// `VehicleStatus` is published at least this often (Hz), and on every change.
     pub status_rate_hz: f64,
+    /// An `AvoidanceCommand` older than this is stale: AUTO/GUIDED legs slow and hold (s).
+    /// Used only once the `avoidance` port has delivered a command.
+    pub avoidance_timeout_s: f64,
+    /// GUIDED position targets are flown at this speed while the avoider is in the loop (m/s).
+    pub guided_speed_m_s: f64,
     /// Arming needs a battery report; false for benches without a power module.
     pub require_battery: bool,
     pub failsafe: FailsafeParams,
@@ -76,6 +81,8 @@ impl Default for CommanderParams {
             nav_timeout_s: 0.05,
             setpoint_rate_hz: 50.0,
             status_rate_hz: 5.0,
+            avoidance_timeout_s: 0.5,
+            guided_speed_m_s: 5.0,
             require_battery: true,
             failsafe: FailsafeParams::default(),
             geofence: GeofenceParams::default(),
@@ -157,6 +164,8 @@ impl CommanderParams {
             ("nav_timeout_s", self.nav_timeout_s),
             ("setpoint_rate_hz", self.setpoint_rate_hz),
             ("status_rate_hz", self.status_rate_hz),
+            ("avoidance_timeout_s", self.avoidance_timeout_s),
+            ("guided_speed_m_s", self.guided_speed_m_s),
             ("failsafe.link_timeout_s", self.failsafe.link_timeout_s),
             ("geofence.max_radius_m", self.geofence.max_radius_m),
             ("geofence.max_altitude_m", self.geofence.max_altitude_m),

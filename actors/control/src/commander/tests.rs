@@ -380,3 +380,168 @@ fn a_hold_failsafe_on_the_ground_does_not_disarm() {
     assert_eq!(status.failsafe.map(|f| f.cause), Some(kestrel_proto::messages::FailsafeCause::DataLinkLost));
     assert!(c.armed(), "a HOLD failsafe disarmed on the ground");
 }
+
+// The avoider in the loop (`avoidance` module).
+
+use kestrel_proto::messages::{AvoidanceCommand, AvoidanceHealth, TrajectorySetpoint};
+
+fn avoidance(t: u64, frd: [f64; 3], stale: bool) -> AvoidanceCommand {
+    AvoidanceCommand {
+        time: Time(t),
+        velocity_frd_m_s: frd,
+        health: AvoidanceHealth { stale, ..AvoidanceHealth::default() },
+        ..AvoidanceCommand::default()
+    }
+}
+
+/// `nav` at `down_m`, heading `yaw_rad`.
+fn nav_heading(t: u64, down_m: f64, yaw_rad: f64) -> NavState {
+    let (s, c) = (yaw_rad / 2.0).sin_cos();
+    NavState { attitude: [c, 0.0, 0.0, s], ..nav(Time(t), down_m, true) }
+}
+
+fn trajectory(target: SetpointTarget) -> TrajectorySetpoint {
+    match target {
+        SetpointTarget::Trajectory(sp) => sp,
+        other => panic!("not a trajectory: {other:?}"),
+    }
+}
+
+fn velocity(sp: &TrajectorySetpoint) -> [f64; 3] {
+    sp.velocity_ned_m_s.map(|v| v.expect("velocity demand"))
+}
+
+#[test]
+fn frd_rotates_into_ned_with_the_heading() {
+    let close = |a: nalgebra::Vector3<f64>, b: [f64; 3]| (a - nalgebra::Vector3::from(b)).norm() < 1e-12;
+    assert!(close(super::frd_to_ned([1.0, 2.0, 3.0], 0.0), [1.0, 2.0, 3.0]));
+    // Facing east: forward is east, right is south.
+    let east = std::f64::consts::FRAC_PI_2;
+    assert!(close(super::frd_to_ned([1.0, 0.0, 0.0], east), [0.0, 1.0, 0.0]));
+    assert!(close(super::frd_to_ned([0.0, 1.0, -0.5], east), [-1.0, 0.0, -0.5]));
+}
+
+#[test]
+fn guided_velocity_blends_the_rotated_correction_and_honours_the_climb() {
+    let mut c = hovering();
+    at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
+    at(&mut c, 2000, Command::VelocityNed { velocity_ned_m_s: [3.0, 0.0, 0.0] }).expect("velocity");
+    // Facing east; the avoider asks for 1 m/s to the right (south) and 0.5 m/s up.
+    let east = std::f64::consts::FRAC_PI_2;
+    let mut t = 2000;
+    let mut sp = TrajectorySetpoint::default();
+    while t < 4_000_000 {
+        t += 2500;
+        c.on_nav(&nav_heading(t, -5.0, east));
+        c.on_avoidance(&avoidance(t, [0.0, 1.0, -0.5], false));
+        let before = sp;
+        sp = trajectory(c.update(Time(t)).target);
+        // The demand changes at most at the acceleration limit.
+        if t > 4500 {
+            let dv = nalgebra::Vector3::from(velocity(&sp)) - nalgebra::Vector3::from(velocity(&before));
+            assert!(dv.norm() <= 2.5 * 0.0025 + 1e-9, "{dv:?}");
+        }
+    }
+    let v = velocity(&sp);
+    assert!((v[0] - 2.0).abs() < 1e-6 && v[1].abs() < 1e-6 && (v[2] + 0.5).abs() < 1e-6, "{v:?}");
+    // The position setpoint is the integrated demand, kept within the leash of the vehicle.
+    let p = sp.position_ned_m.map(|p| p.expect("position"));
+    let lead = nalgebra::Vector3::new(p[0], p[1], p[2] + 5.0);
+    assert!(lead.norm() <= 3.0 + 1e-9 && lead.x > 2.0 && lead.z < 0.0, "{p:?}");
+    // The nose turned towards the demanded direction (north).
+    assert!(sp.yaw_rad.expect("yaw").abs() < 1e-6, "{:?}", sp.yaw_rad);
+    assert_eq!(c.status(Time(t)).last_refusal, None);
+}
+
+/// Armed in AUTO at 10 m, flying towards a waypoint about 11 m north with the avoider in the
+/// loop; returns the commander and the time.
+fn auto_leg() -> (Commander, u64) {
+    let mut c = ready(true);
+    let home =
+        MissionPoint { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 10.0, frame: AltitudeFrame::RelativeHome };
+    let north = MissionPoint { lat_deg: 6.79720, ..home };
+    let items = vec![
+        MissionItem::Takeoff { point: home },
+        MissionItem::Waypoint { point: north, acceptance_radius_m: 1.0, hold_s: 0.0 },
+    ];
+    c.on_mission(Mission { time: Time::ZERO, items, cruise_speed_m_s: 4.0 }).expect("mission");
+    cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect("auto");
+    cmd(&mut c, Command::Arm).expect("arm");
+    (c, 1000)
+}
+
+#[test]
+fn auto_leg_flies_at_cruise_towards_the_waypoint_with_a_zero_correction() {
+    let (mut c, mut t) = auto_leg();
+    let mut sp = TrajectorySetpoint::default();
+    while t < 3_000_000 {
+        t += 2500;
+        c.on_nav(&nav_heading(t, -10.0, 0.0));
+        c.on_avoidance(&avoidance(t, [0.0; 3], false));
+        sp = trajectory(c.update(Time(t)).target);
+    }
+    let v = velocity(&sp);
+    assert!((v[0] - 4.0).abs() < 1e-6 && v[1].abs() < 1e-6 && v[2].abs() < 1e-6, "{v:?}");
+    assert!(sp.yaw_rad.expect("yaw").abs() < 1e-9, "{:?}", sp.yaw_rad);
+}
+
+#[test]
+fn a_stale_avoidance_stream_in_auto_slows_holds_and_says_why() {
+    for stale_by_flag in [true, false] {
+        let (mut c, mut t) = auto_leg();
+        let step = |c: &mut Commander, t: u64, send: Option<bool>| {
+            c.on_nav(&nav_heading(t, -10.0, 0.0));
+            if let Some(stale) = send {
+                c.on_avoidance(&avoidance(t, [0.0; 3], stale));
+            }
+            trajectory(c.update(Time(t)).target)
+        };
+        while t < 3_000_000 {
+            t += 2500;
+            step(&mut c, t, Some(false));
+        }
+        assert!(!c.avoidance_holding());
+        // The stream goes stale: flagged by the avoider, or silent past avoidance_timeout_s.
+        let send = if stale_by_flag { Some(true) } else { None };
+        let mut speeds = Vec::new();
+        let mut last = TrajectorySetpoint::default();
+        while t < 6_000_000 {
+            t += 2500;
+            last = step(&mut c, t, send);
+            let v = velocity(&last);
+            speeds.push(v[0].hypot(v[1]));
+        }
+        // Slows (never faster than the limit allows), then holds still.
+        assert!(speeds.windows(2).all(|w| w[1] <= w[0] + 1e-9), "speeds rise");
+        assert!(speeds[0] > 3.9, "slows down, does not stop dead: {}", speeds[0]);
+        assert_eq!(*speeds.last().unwrap(), 0.0);
+        assert!(c.avoidance_holding(), "stale by flag: {stale_by_flag}");
+        let why = c.status(Time(t)).last_refusal.expect("says why");
+        assert!(why.contains("avoidance stale"), "{why}");
+        let held = last.position_ned_m;
+        assert_eq!(step(&mut c, t + 2500, send).position_ned_m, held, "holds position");
+        assert_eq!(c.mode(), FlightMode::Auto);
+        // Fresh again: the leg resumes.
+        t += 2500;
+        while t < 8_000_000 {
+            t += 2500;
+            last = step(&mut c, t, Some(false));
+        }
+        assert!(!c.avoidance_holding());
+        assert!(velocity(&last)[0] > 3.9, "{:?}", velocity(&last));
+    }
+}
+
+#[test]
+fn without_avoidance_commands_auto_flies_point_to_point_as_before() {
+    let (mut c, mut t) = auto_leg();
+    let mut sp = TrajectorySetpoint::default();
+    while t < 1_000_000 {
+        t += 2500;
+        c.on_nav(&nav_heading(t, -10.0, 0.0));
+        sp = trajectory(c.update(Time(t)).target);
+    }
+    assert_eq!(sp.velocity_ned_m_s, [None; 3]);
+    assert_eq!(sp.max_horizontal_speed_m_s, Some(4.0));
+    assert!(sp.position_ned_m[0].expect("north") > 10.0);
+}
