@@ -55,17 +55,24 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// config/sim.toml with the link's params set to `link_params` (TOML lines of dotted keys) and
-/// the sim's relative paths made absolute.
+/// config/sim.toml with the link's params replaced by `link_params` (TOML lines of dotted keys)
+/// and the sim's relative paths made absolute.
 fn sim_config(link_params: &str) -> String {
     let text = std::fs::read_to_string(root().join("config/sim.toml")).expect("config/sim.toml");
     let config_dir = root().join("config");
     let mut out = String::new();
     let (mut section, mut inserted) = (String::new(), false);
+    // Brackets still open in a link `params…` statement being dropped.
+    let mut dropping = 0i32;
     for line in text.lines() {
         let trimmed = line.trim();
-        if trimmed.starts_with('[') {
+        if dropping == 0 && trimmed.starts_with('[') {
             section = trimmed.to_owned();
+        }
+        if section == "[actors.link]" && (dropping > 0 || trimmed.starts_with("params")) {
+            dropping +=
+                trimmed.matches(['[', '{']).count() as i32 - trimmed.matches([']', '}']).count() as i32;
+            continue;
         }
         let mut line = line.to_owned();
         if section == "[actors.sim]" && trimmed.starts_with("params") {
@@ -74,12 +81,6 @@ fn sim_config(link_params: &str) -> String {
                 assert!(line.contains(&relative), "config/sim.toml's sim has no {key}: {line}");
                 line = line.replace(&relative, &format!("{key} = \"{}/", config_dir.display()));
             }
-        }
-        if section == "[actors.link]" {
-            assert!(
-                !trimmed.starts_with("params"),
-                "config/sim.toml now sets the link's params: update tests/gcs.rs"
-            );
         }
         out.push_str(&line);
         out.push('\n');
@@ -252,6 +253,11 @@ fn a_ground_station_flies_the_square_mission_through_telemetry_alone() {
         assert!(result.contains(needed), "{needed} not in {result}");
     }
     assert!(flight.kestrel_log.contains("disarmed why=\"landed\""), "{}", tail(&flight.kestrel_log, 30));
+    // The client set RTL_ALT_M = 25 before the flight (the commander's default is 15 m): the
+    // return climbed to the new altitude, so the change was applied live.
+    let result: serde_json::Value = serde_json::from_str(result).expect("JSON result line");
+    let max_alt = result["results"]["flight"]["max_alt_m"].as_f64().expect("max_alt_m");
+    assert!((24.0..27.0).contains(&max_alt), "RTL climbed to {max_alt} m, not the 25 m set over MAVLink");
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -17,12 +17,12 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, Command, FlightMode, LandedState, ManualControl, Mission, NavState,
-    Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
+    ParamSet, Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
-use crate::commander::{Commander, CommanderParams};
+use crate::commander::{Commander, CommanderParams, ParamChange};
 use crate::plan::load_plan;
 
 /// How often `auto` retries arming while the pre-arm checks fail (s).
@@ -68,6 +68,8 @@ pub enum CommanderInput {
     Supervisor(SupervisorEvent),
     /// Boxed: the avoider's command carries its rule activations and shares.
     Avoidance(Box<AvoidanceCommand>),
+    /// A parameter changed by the ground station (port `param_set`).
+    Param(ParamSet),
     Tick(Time),
 }
 
@@ -117,6 +119,7 @@ impl Actor for CommanderActor {
         setup.input("mission", CommanderInput::Mission);
         setup.input("supervisor", CommanderInput::Supervisor);
         setup.input("avoidance", |cmd| CommanderInput::Avoidance(Box::new(cmd)));
+        setup.input("param_set", CommanderInput::Param);
         setup.timer("tick", tick_period, CommanderInput::Tick);
         Ok(CommanderActor {
             commander,
@@ -149,6 +152,15 @@ impl Actor for CommanderActor {
             CommanderInput::Manual(m) => self.commander.on_manual(&m),
             CommanderInput::Supervisor(e) => self.commander.on_supervisor(&e),
             CommanderInput::Avoidance(cmd) => self.commander.on_avoidance(&cmd),
+            CommanderInput::Param(p) => match self.commander.on_param(&p.name, p.value) {
+                Ok(ParamChange::Applied) => {
+                    tracing::info!(name = %p.name, value = p.value, "parameter applied")
+                }
+                Ok(ParamChange::NotMine) => {}
+                // The link already checked the range; a value the commander still refuses is
+                // reported and the old one kept, never applied half-way.
+                Err(e) => tracing::warn!(name = %p.name, value = p.value, "parameter refused: {e}"),
+            },
             CommanderInput::Command(cmd) => {
                 // A refusal is reported in the status; it is not an actor failure.
                 let _ = self.commander.on_command(&cmd);

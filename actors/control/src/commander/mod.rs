@@ -11,6 +11,7 @@ mod arming;
 mod avoidance;
 mod failsafe;
 mod land_detector;
+mod live_params;
 mod mission_runner;
 mod modes;
 mod params;
@@ -28,6 +29,7 @@ pub use arming::{Refusal, needs_position, needs_sticks};
 pub use avoidance::frd_to_ned;
 pub use failsafe::{FailsafeMonitor, FailsafeRecord};
 pub use land_detector::LandDetector;
+pub use live_params::ParamChange;
 pub use mission_runner::{MissionRunner, MissionStep};
 pub use params::{CommanderParams, FailsafeParams, GeofenceParams};
 
@@ -108,6 +110,12 @@ impl Commander {
     /// The parameters in use.
     pub fn params(&self) -> &CommanderParams {
         &self.params
+    }
+
+    /// A ground station changed parameter `name` (MAVLink name, see `live_params`): applied if
+    /// it is one of the commander's and the result validates, otherwise the old value stays.
+    pub fn on_param(&mut self, name: &str, value: f64) -> Result<ParamChange, InvalidParam> {
+        live_params::apply(&mut self.params, name, value)
     }
 
     pub fn armed(&self) -> bool {
