@@ -162,13 +162,19 @@ fn context(clock: Arc<TestClock>) -> Context {
     Context::new("test".into(), clock, CancellationToken::new())
 }
 
-#[test]
-fn lockstep_controller_answers_every_nav_state_and_reports_its_timing() {
+/// A started lockstep controller on a manual clock.
+fn lockstep_controller() -> (Arc<TestClock>, TestSetup, ControllerActor, Context) {
     let clock = Arc::new(TestClock { now_us: AtomicU64::new(0), wall: None });
     let mut setup = TestSetup::new(Arc::clone(&clock));
     let mut actor = ControllerActor::build(&ControllerActorParams::default(), &mut setup).expect("builds");
     let ctx = context(Arc::clone(&clock));
     ready(actor.start(&ctx)).expect("starts");
+    (clock, setup, actor, ctx)
+}
+
+#[test]
+fn lockstep_controller_answers_every_nav_state_and_reports_its_timing() {
+    let (clock, setup, mut actor, ctx) = lockstep_controller();
     let nav_in = setup.wrap::<NavState, ControllerInput>("nav");
     let sp_in = setup.wrap::<Setpoint, ControllerInput>("setpoint");
     for i in 0..800u64 {
@@ -192,11 +198,7 @@ fn lockstep_controller_answers_every_nav_state_and_reports_its_timing() {
 
 #[test]
 fn lockstep_controller_ticks_apply_the_loop_failsafes_when_nav_states_stop() {
-    let clock = Arc::new(TestClock { now_us: AtomicU64::new(0), wall: None });
-    let mut setup = TestSetup::new(Arc::clone(&clock));
-    let mut actor = ControllerActor::build(&ControllerActorParams::default(), &mut setup).expect("builds");
-    let ctx = context(Arc::clone(&clock));
-    ready(actor.start(&ctx)).expect("starts");
+    let (clock, setup, mut actor, ctx) = lockstep_controller();
     let nav_in = setup.wrap::<NavState, ControllerInput>("nav");
     let sp_in = setup.wrap::<Setpoint, ControllerInput>("setpoint");
     let tick_in = setup.wrap::<Time, ControllerInput>("tick");

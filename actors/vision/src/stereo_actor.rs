@@ -2,10 +2,9 @@
 //! `latest` mailbox so stale frames are skipped, never queued) and publishes its
 //! [`DepthGrid`] on `depth_grid`.
 //!
-//! The pipeline runs synchronously inside `handle` (~20–30 ms per VGA frame): the actor's
-//! task holds one tokio worker for that long, with at most one frame in flight. DESIGN.md
-//! wants this on the blocking pool; that needs `tokio` as a dependency of this crate (for
-//! `spawn_blocking`), which the lead has not granted yet.
+//! The pipeline (~20–30 ms per VGA frame) runs on tokio's blocking pool, one frame in flight;
+//! under lockstep the frame's work token is held until the grid is published, so runs stay
+//! deterministic.
 
 use kestrel_proto::messages::{DepthGrid, StereoFrame};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup};

@@ -57,14 +57,13 @@ fn mission() -> Mission {
 fn ready(position: bool) -> Commander {
     let mut c = Commander::new(CommanderParams::default()).expect("valid");
     c.on_nav(&nav(Time(1000), 0.0, position));
-    c.on_battery(&BatteryStatus {
-        time: Time(1000),
-        voltage_v: 16.4,
-        current_a: 1.0,
-        consumed_mah: 0.0,
-        remaining: 1.0,
-    });
+    c.on_battery(&full_battery(Time(1000)));
     c
+}
+
+/// A fresh battery, as the pre-arm checks want it.
+fn full_battery(time: Time) -> BatteryStatus {
+    BatteryStatus { time, voltage_v: 16.4, current_a: 1.0, consumed_mah: 0.0, remaining: 1.0 }
 }
 
 fn cmd(c: &mut Commander, command: Command) -> Result<(), String> {
@@ -211,13 +210,7 @@ fn leaving_the_polygon_fence_in_flight_triggers_its_failsafe() {
     };
     let mut c = Commander::new(params).expect("valid");
     c.on_nav(&nav(Time(1000), 0.0, true));
-    c.on_battery(&BatteryStatus {
-        time: Time(1000),
-        voltage_v: 16.4,
-        current_a: 1.0,
-        consumed_mah: 0.0,
-        remaining: 1.0,
-    });
+    c.on_battery(&full_battery(Time(1000)));
     cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
     cmd(&mut c, Command::Arm).expect("inside the fence");
     let mut outside = nav(Time(2000), -5.0, true);
@@ -311,13 +304,7 @@ fn latched_failsafes_are_cleared_on_disarm_so_the_vehicle_can_arm_again() {
     assert!(!c.armed());
     // The estimator recovers: the pre-arm checks must not be blocked by the old latch.
     c.on_nav(&nav(Time(3000), 0.0, true));
-    c.on_battery(&BatteryStatus {
-        time: Time(3000),
-        voltage_v: 16.4,
-        current_a: 1.0,
-        consumed_mah: 0.0,
-        remaining: 1.0,
-    });
+    c.on_battery(&full_battery(Time(3000)));
     c.update(Time(3000));
     assert_eq!(at(&mut c, 3000, Command::Arm), Ok(()));
 }
@@ -363,13 +350,7 @@ fn a_hold_failsafe_on_the_ground_does_not_disarm() {
     };
     let mut c = Commander::new(params).expect("valid");
     c.on_nav(&nav(Time(1000), 0.0, true));
-    c.on_battery(&BatteryStatus {
-        time: Time(1000),
-        voltage_v: 16.4,
-        current_a: 1.0,
-        consumed_mah: 0.0,
-        remaining: 1.0,
-    });
+    c.on_battery(&full_battery(Time(1000)));
     cmd(&mut c, Command::Heartbeat).expect("heartbeat");
     cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
     cmd(&mut c, Command::Arm).expect("arm");
