@@ -11,8 +11,8 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 # Debian packages: a C toolchain for crates with C parts (zstd), pkg-config, OpenCV 4.6 with
 # clang/libclang for the `opencv` crate's bindings (stereo vision), python3-venv for the test
-# references.
-packages=(build-essential pkg-config python3 python3-venv clang libclang-dev libopencv-dev)
+# references, socat for the serial-link tests (two joined pseudo-terminals).
+packages=(build-essential pkg-config python3 python3-venv clang libclang-dev libopencv-dev socat)
 
 missing=()
 for p in "${packages[@]}"; do

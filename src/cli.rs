@@ -33,6 +33,8 @@ pub enum Command {
     Calibrate(CalibrateArgs),
     /// Compute the disparity of a stereo pair; with ground truth, print its error figures.
     Disparity(DisparityArgs),
+    /// Run frame → depth grid on a stereo source; print grids and per-stage timings.
+    Stereo(StereoArgs),
     /// Plots (PNG) and an error summary of a recorded flight (`kestrel run --record`).
     Report(crate::cmd::report::ReportArgs),
 }
@@ -181,4 +183,67 @@ pub struct DisparityArgs {
     /// 0 = invalid, KITTI's convention).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
+    /// Also write the depth as a colour PNG (viridis on inverse depth: yellow near, dark
+    /// purple far, black = no depth). Needs the geometry: `--calib`, or `--focal-px` and
+    /// `--baseline-m` for an already rectified pair.
+    #[arg(long, value_name = "FILE.png")]
+    pub depth_out: Option<PathBuf>,
+
+    /// Depths the colour scale spans (m), `NEAR:FAR`; nearer is yellow, farther dark purple.
+    #[arg(long, default_value = "0.5:20", value_name = "NEAR:FAR")]
+    pub depth_range: String,
+
+    /// Focal length of the rectified pair (px), for `--depth-out` without `--calib`.
+    #[arg(long, value_name = "PX", requires = "baseline_m", conflicts_with = "calib")]
+    pub focal_px: Option<f64>,
+
+    /// Baseline of the rectified pair (m), for `--depth-out` without `--calib`.
+    #[arg(long, value_name = "M", requires = "focal_px")]
+    pub baseline_m: Option<f64>,
+
+    /// Right minus left principal point column (px; Middlebury's `doffs`), with `--focal-px`.
+    #[arg(long, value_name = "PX", default_value_t = 0.0, requires = "focal_px")]
+    pub doffs_px: f64,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct StereoArgs {
+    /// Where frames come from: a folder of image pairs (see --left, --right), two video files
+    /// `LEFT,RIGHT`, or a side-by-side V4L2 camera `/dev/videoN` (see --size, --fps).
+    #[arg(long, value_name = "SOURCE")]
+    pub source: String,
+
+    /// Stereo parameters: the stereo actor's `params` table (`geometry`, `pipeline`) as a TOML
+    /// file, or a graph config whose one `stereo` actor's params are used.
+    #[arg(long, value_name = "FILE.toml")]
+    pub config: PathBuf,
+
+    /// Left images in a folder source (`*`, `?` wildcards; pairs match in sorted name order).
+    #[arg(long, default_value = "left*", value_name = "GLOB")]
+    pub left: String,
+
+    /// Right images in a folder source.
+    #[arg(long, default_value = "right*", value_name = "GLOB")]
+    pub right: String,
+
+    /// Frame size of a side-by-side camera, both views together (the ZED's VGA mode is
+    /// 1344x376).
+    #[arg(long, default_value = "1344x376", value_name = "WIDTHxHEIGHT")]
+    pub size: String,
+
+    /// Frame rate asked of a side-by-side camera (Hz).
+    #[arg(long, default_value_t = 30.0, value_name = "HZ")]
+    pub fps: f64,
+
+    /// Stop after this many frames (otherwise when the source ends, or on Ctrl-C).
+    #[arg(long, value_name = "N")]
+    pub frames: Option<u64>,
+
+    /// Record the grids (`depth_grid`) and the stage timings (`stereo_timing`) to this MCAP file.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<PathBuf>,
+
+    /// Print only the timing summary, not every frame's grid.
+    #[arg(long)]
+    pub quiet: bool,
 }

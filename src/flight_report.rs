@@ -8,15 +8,18 @@
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
+use std::time::Instant;
 
 use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
-    ControlLoopStats, GroundTruth, NavState, Setpoint, SetpointTarget, VehicleStatus,
+    AvoidanceCommand, ControlLoopStats, GroundTruth, NavState, Setpoint, SetpointTarget, StereoFrame,
+    VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use serde::{Deserialize, Serialize};
 
+use crate::frame_latency::FrameLatency;
 use crate::serde_name::serde_name;
 
 /// `params` of the report actor.
@@ -29,12 +32,14 @@ pub struct FlightReportParams {
 
 /// The topics the report reads, with their message types, so the runtime can route the ones
 /// a graph has.
-pub const REPORT_INPUTS: [(&str, &str); 5] = [
+pub const REPORT_INPUTS: [(&str, &str); 7] = [
     ("ground_truth", <GroundTruth as kestrel_proto::Message>::TYPE_NAME),
     ("nav_state", <NavState as kestrel_proto::Message>::TYPE_NAME),
     ("vehicle_status", <VehicleStatus as kestrel_proto::Message>::TYPE_NAME),
     ("control_loop_stats", <ControlLoopStats as kestrel_proto::Message>::TYPE_NAME),
     ("setpoint", <Setpoint as kestrel_proto::Message>::TYPE_NAME),
+    ("stereo_frame", <StereoFrame as kestrel_proto::Message>::TYPE_NAME),
+    ("avoidance_command", <AvoidanceCommand as kestrel_proto::Message>::TYPE_NAME),
 ];
 
 /// What the report actor handles.
@@ -45,6 +50,8 @@ pub enum ReportInput {
     Status(VehicleStatus),
     Loop(ControlLoopStats),
     Setpoint(Setpoint),
+    Frame(StereoFrame),
+    Avoidance(AvoidanceCommand),
 }
 
 /// The report, in the field layout other tools rely on (docs/design.md).
@@ -107,8 +114,12 @@ pub struct ControlSection {
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct AvoidanceSection {
+    /// Stereo frame → first setpoint using its avoidance command, host wall clock
+    /// ([`crate::frame_latency`]).
     pub frame_to_setpoint_p50_ms: f64,
     pub frame_to_setpoint_p95_ms: f64,
+    /// Frames the latency was measured on.
+    pub samples: usize,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -184,6 +195,7 @@ pub struct FlightReportActor {
     status: Option<VehicleStatus>,
     loop_stats: Option<ControlLoopStats>,
     failsafes: Vec<FailsafeEntry>,
+    frame_latency: FrameLatency,
 }
 
 /// Ground truth kept for pairing: 1 s at the simulator's 50 Hz default.
@@ -287,7 +299,11 @@ impl FlightReportActor {
                 period_max_us: l.period_max_us,
                 overruns: l.overruns,
             }),
-            avoidance: None,
+            avoidance: self.frame_latency.percentiles_ms().map(|(p50, p95)| AvoidanceSection {
+                frame_to_setpoint_p50_ms: p50,
+                frame_to_setpoint_p95_ms: p95,
+                samples: self.frame_latency.samples(),
+            }),
             failsafes: self.failsafes.clone(),
         }
     }
@@ -303,6 +319,8 @@ impl Actor for FlightReportActor {
         setup.input("vehicle_status", ReportInput::Status);
         setup.input("control_loop_stats", ReportInput::Loop);
         setup.input("setpoint", ReportInput::Setpoint);
+        setup.input("stereo_frame", ReportInput::Frame);
+        setup.input("avoidance_command", ReportInput::Avoidance);
         Ok(FlightReportActor {
             out: params.out.clone(),
             first: None,
@@ -316,6 +334,7 @@ impl Actor for FlightReportActor {
             status: None,
             loop_stats: None,
             failsafes: Vec::new(),
+            frame_latency: FrameLatency::default(),
         })
     }
 
@@ -324,13 +343,18 @@ impl Actor for FlightReportActor {
             ReportInput::Truth(t) => self.on_truth(t),
             ReportInput::Nav(n) => self.on_nav(&n),
             ReportInput::Status(s) => self.on_status(s),
-            ReportInput::Setpoint(sp) => self.tracking.on_setpoint(match sp.target {
-                SetpointTarget::Trajectory(t) => match t.position_ned_m {
-                    [Some(n), Some(e), Some(d)] => Some([n, e, d]),
+            ReportInput::Frame(f) => self.frame_latency.on_frame(f.sequence, Instant::now()),
+            ReportInput::Avoidance(a) => self.frame_latency.on_command(a.frame_sequence),
+            ReportInput::Setpoint(sp) => {
+                self.frame_latency.on_setpoint(Instant::now());
+                self.tracking.on_setpoint(match sp.target {
+                    SetpointTarget::Trajectory(t) => match t.position_ned_m {
+                        [Some(n), Some(e), Some(d)] => Some([n, e, d]),
+                        _ => None,
+                    },
                     _ => None,
-                },
-                _ => None,
-            }),
+                })
+            }
             ReportInput::Loop(l) => {
                 self.seen(l.time);
                 self.loop_stats = Some(l);

@@ -6,6 +6,7 @@ pub mod clock;
 pub mod config;
 pub mod flight_plots;
 pub mod flight_report;
+pub mod frame_latency;
 pub mod graph;
 pub mod mailbox;
 pub mod recorder;

@@ -32,6 +32,7 @@ fn main() -> ExitCode {
         Command::Replay(args) => cmd::replay::run(args),
         Command::Calibrate(args) => cmd::calibrate::run(args),
         Command::Disparity(args) => cmd::disparity::run(args),
+        Command::Stereo(args) => cmd::stereo::run(args),
         Command::Report(args) => cmd::report::run(args),
     };
     match result {

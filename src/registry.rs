@@ -35,6 +35,9 @@ impl Registry {
             .with::<kestrel_sensors::BaroActor>("ms5611")
             .with::<kestrel_sensors::ImuActor>("mpu9250")
             .with::<kestrel_sensors::MotorActor>("pwm_motors")
+            .with::<kestrel_sensors::GpsActor>("ublox_gps")
+            .with::<kestrel_sensors::SbusActor>("sbus_rc")
+            .with::<kestrel_sensors::RcioActor>("navio2_rcio")
     }
 
     /// Adds actor type `A` under `name`.

@@ -226,7 +226,9 @@ async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) 
     }
 }
 
-/// One incarnation of an actor: start, handle inputs in arrival order, stop.
+/// One incarnation of an actor: start, handle inputs in arrival order, stop. When the run
+/// ends, what had already arrived is still handled before `stop`, so that the last messages of
+/// a run (the final status before `--exit-on-land` ends it) reach reports and logs.
 async fn run_incarnation<A: Actor>(
     mut actor: A,
     inputs: Vec<Arc<dyn InputPort<A::Input>>>,
@@ -245,9 +247,12 @@ async fn run_incarnation<A: Actor>(
                 drop(busy);
                 continue;
             }
+            if ctx.shutdown().is_cancelled() {
+                return Ok(());
+            }
             tokio::select! {
                 biased;
-                _ = ctx.shutdown().cancelled() => return Ok(()),
+                _ = ctx.shutdown().cancelled() => {}
                 _ = doorbell.rung() => {}
             }
         }

@@ -1,5 +1,7 @@
-//! Issue 7's acceptance against the real vehicle: a pymavlink ground station (from the venv made
-//! by `scripts/python-env.sh`) talks to `kestrel run` on the simulator over UDP loopback.
+//! Issue 7's acceptance against the real vehicle: independent ground stations (pymavlink and
+//! MAVProxy, from the venv made by `scripts/python-env.sh`) talk to `kestrel run` on the
+//! simulator over UDP loopback, and pymavlink flies it again over a serial link (two
+//! pseudo-terminals joined by `socat`, 57600 baud).
 //!
 //! Each test writes config/sim.toml's text to a temp dir with only the link's params changed:
 //! one `udp_out` endpoint to the port the client listens on (127.0.0.1, ephemeral, so parallel
@@ -41,7 +43,7 @@ fn python() -> PathBuf {
     let python = root().join(".venv/bin/python");
     assert!(
         python.exists(),
-        "no Python venv at {}: run scripts/python-env.sh (it installs pymavlink from scripts/requirements-test.txt)",
+        "no Python venv at {}: run scripts/python-env.sh (it installs pymavlink and MAVProxy from scripts/requirements-*.txt)",
         python.display()
     );
     python
@@ -128,10 +130,24 @@ fn tail(text: &str, lines: usize) -> String {
 
 /// Runs `script ARGS` against `kestrel run` with the config `link(port)` makes, in `dir`.
 fn fly(dir: &Path, label: &str, script: &str, args: &[&str], link: impl Fn(u16) -> String) -> Flight {
+    fly_with_env(dir, label, script, args, &[], link)
+}
+
+/// [`fly`] with extra environment variables for the client (`GCS_SERIAL`: talk over a serial
+/// device instead of UDP, announcing port 0).
+fn fly_with_env(
+    dir: &Path,
+    label: &str,
+    script: &str,
+    args: &[&str],
+    env: &[(&str, &str)],
+    link: impl Fn(u16) -> String,
+) -> Flight {
     let mut client = Proc(
         Command::new(python())
             .arg(root().join("tests/python").join(script))
             .args(args)
+            .envs(env.iter().copied())
             .env_remove("MAVLINK20")
             .env("PYTHONUNBUFFERED", "1")
             .env("PYTHONDONTWRITEBYTECODE", "1")
@@ -181,7 +197,7 @@ fn fly(dir: &Path, label: &str, script: &str, args: &[&str], link: impl Fn(u16) 
             .spawn()
             .expect("start kestrel run"),
     );
-    println!("── {label}: {script} {} against kestrel run (udp_out → 127.0.0.1:{port}) ──", args.join(" "));
+    println!("── {label}: {script} {} against kestrel run (client port {port}) ──", args.join(" "));
 
     let started = Instant::now();
     let mut transcript = Vec::new();
@@ -307,5 +323,88 @@ fn with_signing_on_only_a_client_holding_the_key_can_arm() {
         tail(&flight.kestrel_log, 20)
     );
     println!("kestrel counted {} refused frames", refused.unwrap_or(0));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn mavproxy_identifies_the_vehicle_fetches_parameters_and_flies_it() {
+    let dir = temp_dir("mavproxy");
+    let flight = fly(&dir, "mavproxy", "mavproxy_session.py", &[], |port| link_params(port, "", ""));
+    let printed = |needle: &str| flight.transcript.iter().any(|l| l.contains(&format!("mavproxy| {needle}")));
+    // The config's table plus whatever the actors declare: at least the config's.
+    let received = flight.transcript.iter().find_map(|l| {
+        l.split("mavproxy| Received ").nth(1)?.strip_suffix(" parameters")?.parse::<usize>().ok()
+    });
+    let listed = PARAM_TABLE.matches("name =").count();
+    assert!(
+        received.is_some_and(|n| n >= listed),
+        "MAVProxy received {received:?} parameters, not ≥ {listed}"
+    );
+    for needed in [
+        "Detected vehicle 1:1 on link 0",
+        "Mode STABILIZE",
+        "RTL_ALT_M = 21.0000000",
+        "Got COMMAND_ACK: COMPONENT_ARM_DISARM: ACCEPTED",
+        "ARMED",
+        "Got COMMAND_ACK: NAV_TAKEOFF: ACCEPTED",
+        "Mode RTL",
+        "DISARMED",
+    ] {
+        assert!(printed(needed), "MAVProxy never printed {needed:?}: {:#?}", flight.transcript);
+    }
+    assert!(flight.kestrel_log.contains("disarmed why=\"landed\""), "{}", tail(&flight.kestrel_log, 30));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Two pseudo-terminals joined by `socat`, as a pair of radios joins a vehicle and a ground
+/// station; the paths are symlinks socat makes in `dir`.
+fn socat_pair(dir: &Path) -> (Proc, PathBuf, PathBuf) {
+    let (vehicle, gcs) = (dir.join("vehicle-tty"), dir.join("gcs-tty"));
+    let socat = Command::new("socat")
+        .arg("-d")
+        .arg("-d")
+        .arg(format!("pty,raw,echo=0,link={}", vehicle.display()))
+        .arg(format!("pty,raw,echo=0,link={}", gcs.display()))
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start socat (Debian package socat; scripts/setup.sh installs it)");
+    let socat = Proc(socat);
+    let started = Instant::now();
+    while !(vehicle.exists() && gcs.exists()) {
+        assert!(started.elapsed() < Duration::from_secs(5), "socat made no pseudo-terminals");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    (socat, vehicle, gcs)
+}
+
+#[test]
+fn a_ground_station_flies_the_square_mission_over_a_57600_baud_serial_link() {
+    let dir = temp_dir("serial");
+    let (_socat, vehicle_tty, gcs_tty) = socat_pair(&dir);
+    let plan = root().join("config/missions/square.plan");
+    let gcs_tty = gcs_tty.to_str().expect("utf-8 path");
+    let env = [("GCS_SERIAL", gcs_tty), ("GCS_BAUD", "57600")];
+    let flight =
+        fly_with_env(&dir, "serial", "gcs_flight.py", &[plan.to_str().expect("utf-8 path")], &env, |_| {
+            format!(
+                "params.system_id = 1\n\
+                 params.endpoints = [ {{ type = \"serial\", device = \"{}\", baud = 57600 }} ]\n\
+                 params.params = {PARAM_TABLE}\n",
+                vehicle_tty.display()
+            )
+        });
+    let result = flight.transcript.last().expect("result");
+    for needed in ["\"downloaded_identical\": true", "\"RTL\"", "\"reached\": [1, 2, 3, 4, 5"] {
+        assert!(result.contains(needed), "{needed} not in {result}");
+    }
+    assert!(flight.kestrel_log.contains("disarmed why=\"landed\""), "{}", tail(&flight.kestrel_log, 30));
+    let serial_stats = flight
+        .kestrel_log
+        .lines()
+        .find(|l| l.contains("MAVLink link counters") && l.contains("link=serial "))
+        .unwrap_or("(closed before the counters were logged)");
+    println!("kestrel's serial link: {serial_stats}");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -16,6 +16,7 @@ pub mod clock;
 pub mod geo;
 pub mod message;
 pub mod messages;
+pub mod param_def;
 pub mod testing;
 pub mod time;
 

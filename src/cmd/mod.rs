@@ -6,3 +6,4 @@ pub mod fuzzy;
 pub mod replay;
 pub mod report;
 pub mod run;
+pub mod stereo;

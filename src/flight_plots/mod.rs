@@ -13,15 +13,23 @@
 //! | `height.png`, `climb_rate.png` | barometer vs EKF (Fig. 3.14, 3.15, 4.3, 4.4) |
 //! | `truth_position.png`, `truth_velocity.png` | EKF vs ground truth per axis (simulation only) |
 //! | `attitude_error.png` | roll, pitch, yaw error vs ground truth (simulation only) |
+//! | `path_top.png` | flown and commanded path over the obstacle map, one scale east and north, collisions marked (Fig. 3.41–3.42; logs with an `obstacle_map`) |
+//! | `path_side.png` | height along the distance flown, obstacles beside the path as bars (logs with an `obstacle_map`) |
+//! | `avoidance.png` | the avoider's region shares in and velocity corrections out (Fig. 3.41–3.42; logs with `avoidance_command`) |
 //!
 //! Text is drawn with an embedded DejaVu Sans ([`font`]), so plots look the same on a headless
 //! board without fonts.
 
 mod attitude;
+mod avoidance;
 mod chart;
 mod error;
+mod flown_path;
 mod font;
+mod footprint;
 mod height;
+mod map_view;
+mod path_map;
 mod position;
 mod series;
 mod summary;
@@ -33,10 +41,12 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::recorder::LogReader;
+use avoidance::AvoidanceLog;
+use flown_path::FlownPath;
 use series::FlightSeries;
 
 pub use error::PlotError;
-pub use summary::{BaroErrors, GpsErrors, ReportSummary, TruthErrors};
+pub use summary::{AvoidanceActivity, BaroErrors, GpsErrors, ObstacleEncounters, ReportSummary, TruthErrors};
 
 /// Width and height of every plot (pixels).
 pub const PLOT_SIZE_PX: (u32, u32) = (1280, 960);
@@ -59,10 +69,13 @@ pub struct PlotFile {
 /// missing) and returns the summary.
 ///
 /// The log needs the estimate (`kestrel.NavState`, with an origin), GPS fixes and barometer
-/// samples; ground truth is optional and adds the truth and attitude-error figures.
+/// samples; ground truth is optional and adds the truth and attitude-error figures; an
+/// obstacle map (with obstacles) adds the path figures and avoidance commands the avoider's.
 pub fn write_report(log: &Path, out_dir: &Path) -> Result<ReportSummary, PlotError> {
     let reader = LogReader::open(log)?;
     let series = FlightSeries::read(&reader)?;
+    let path = FlownPath::read(&reader, &series)?;
+    let avoidance = AvoidanceLog::read(&reader, &series)?;
     std::fs::create_dir_all(out_dir)
         .map_err(|source| PlotError::CreateDir { path: out_dir.to_owned(), source })?;
     font::register()?;
@@ -72,8 +85,14 @@ pub fn write_report(log: &Path, out_dir: &Path) -> Result<ReportSummary, PlotErr
         .chain(height::figures(&series))
         .chain(truth::figures(&series))
         .chain(attitude::figures(&series));
-    let plots = figures.map(|figure| chart::draw(out_dir, &figure)).collect::<Result<Vec<_>, _>>()?;
-    let summary = ReportSummary::new(log, &series, plots);
+    let mut plots = figures.map(|figure| chart::draw(out_dir, &figure)).collect::<Result<Vec<_>, _>>()?;
+    if let Some(path) = &path {
+        plots.extend(path_map::draw(out_dir, path)?);
+    }
+    if let Some(avoidance) = &avoidance {
+        plots.push(chart::draw(out_dir, &avoidance.figure())?);
+    }
+    let summary = ReportSummary::new(log, &series, path.as_ref(), avoidance.as_ref(), plots);
     summary.write(&out_dir.join(SUMMARY_FILE))?;
     Ok(summary)
 }

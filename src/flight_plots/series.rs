@@ -72,6 +72,9 @@ pub(crate) struct FlightSeries {
     pub baro_climb_m_s: Vec<Timed<f64>>,
     /// Simulator ground truth, when the log has it.
     pub truth: Option<Vec<StatePoint>>,
+    /// Turns a log time into the seconds every plot's time axis uses, for figures that read
+    /// further topics.
+    pub clock: LogClock,
 }
 
 impl FlightSeries {
@@ -137,6 +140,7 @@ impl FlightSeries {
             baro_offset_m: 0.0,
             baro_climb_m_s: Vec::new(),
             truth: truth_points,
+            clock,
         };
         series.add_baro(&baro, &clock);
         Ok(series)
@@ -220,7 +224,8 @@ fn nav_point(frame: &LocalFrame, nav: &NavState, t_s: f64) -> Option<StatePoint>
 }
 
 /// Seconds from the log's first message.
-struct LogClock {
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct LogClock {
     first: Time,
     last: Time,
 }
@@ -232,7 +237,7 @@ impl LogClock {
     }
 
     /// `t` in seconds from the first message.
-    fn secs(&self, t: Time) -> f64 {
+    pub fn secs(&self, t: Time) -> f64 {
         t.saturating_since(self.first).as_secs_f64()
     }
 }
@@ -243,7 +248,7 @@ fn times<T>(records: &[Recorded<T>]) -> impl Iterator<Item = Time> + '_ {
 }
 
 /// The topic carrying `T`: `preferred` if it does, else the first that does.
-fn topic_of<T: Message>(log: &LogReader, preferred: &str) -> Option<String> {
+pub(crate) fn topic_of<T: Message>(log: &LogReader, preferred: &str) -> Option<String> {
     let topics: Vec<String> =
         log.topics().into_iter().filter(|t| t.schema_name == T::TYPE_NAME).map(|t| t.topic).collect();
     topics.iter().find(|t| *t == preferred).or(topics.first()).cloned()

@@ -9,6 +9,8 @@ use kestrel_proto::attitude::angle_difference_rad;
 use kestrel_proto::geo::Geodetic;
 use serde::{Deserialize, Serialize};
 
+use super::avoidance::AvoidanceLog;
+use super::flown_path::FlownPath;
 use super::series::FlightSeries;
 use super::{PlotError, PlotFile};
 
@@ -31,8 +33,39 @@ pub struct ReportSummary {
     pub vs_baro: Option<BaroErrors>,
     /// The estimate against ground truth; `None` if the log has none (a real flight).
     pub vs_truth: Option<TruthErrors>,
+    /// The flight against the world's obstacles; `None` without an obstacle map with
+    /// obstacles (a real flight, or an empty world).
+    pub obstacles: Option<ObstacleEncounters>,
+    /// The avoider's corrections; `None` when the log has no avoidance commands.
+    pub avoidance: Option<AvoidanceActivity>,
     /// The PNG files written.
     pub plots: Vec<PlotFile>,
+}
+
+/// How close the true path came to the world's obstacles.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ObstacleEncounters {
+    /// Obstacles in the world's map.
+    pub obstacles: u64,
+    /// Collisions the simulator counted.
+    pub collisions: u32,
+    /// When each collision began (s from the log's start).
+    pub collision_times_s: Vec<f64>,
+    /// Smallest distance from the vehicle's centre to an obstacle surface (m).
+    pub min_clearance_m: Option<f64>,
+    /// Horizontal length of the true path (m).
+    pub path_length_m: f64,
+}
+
+/// What the avoider asked for over the flight.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AvoidanceActivity {
+    /// Avoidance commands in the log.
+    pub commands: u64,
+    /// Commands made without a fresh depth grid.
+    pub stale: u64,
+    /// Largest magnitude of the velocity correction along forward, right, down (m/s).
+    pub max_abs_correction_frd_m_s: [f64; 3],
 }
 
 /// RMS of the estimate minus GPS, at each fix's time of validity.
@@ -111,7 +144,13 @@ impl Rms {
 
 impl ReportSummary {
     /// Measures `series` (read from `log`) and lists `plots`.
-    pub(crate) fn new(log: &Path, series: &FlightSeries, plots: Vec<PlotFile>) -> ReportSummary {
+    pub(crate) fn new(
+        log: &Path,
+        series: &FlightSeries,
+        path: Option<&FlownPath>,
+        avoidance: Option<&AvoidanceLog>,
+        plots: Vec<PlotFile>,
+    ) -> ReportSummary {
         let latencies: Vec<f64> = series.gps.iter().map(|g| g.arrived_s - g.measured_s).collect();
         ReportSummary {
             log: log.to_owned(),
@@ -123,6 +162,8 @@ impl ReportSummary {
             vs_gps: gps_errors(series),
             vs_baro: baro_errors(series),
             vs_truth: truth_errors(series),
+            obstacles: path.map(encounters),
+            avoidance: avoidance.map(activity),
             plots,
         }
     }
@@ -132,6 +173,30 @@ impl ReportSummary {
         let json = serde_json::to_string_pretty(self).map_err(std::io::Error::other);
         json.and_then(|json| std::fs::write(path, json + "\n"))
             .map_err(|source| PlotError::WriteSummary { path: path.to_owned(), source })
+    }
+}
+
+fn encounters(path: &FlownPath) -> ObstacleEncounters {
+    ObstacleEncounters {
+        obstacles: path.map.obstacles.len() as u64,
+        collisions: path.collision_count,
+        collision_times_s: path.collisions.iter().map(|p| p.t_s).collect(),
+        min_clearance_m: path.min_clearance_m,
+        path_length_m: path.along_track_m().last().copied().unwrap_or(0.0),
+    }
+}
+
+fn activity(avoidance: &AvoidanceLog) -> AvoidanceActivity {
+    let mut max = [0.0f64; 3];
+    for (_, command) in &avoidance.commands {
+        for (m, v) in max.iter_mut().zip(command.velocity_frd_m_s) {
+            *m = m.max(v.abs());
+        }
+    }
+    AvoidanceActivity {
+        commands: avoidance.commands.len() as u64,
+        stale: avoidance.commands.iter().filter(|(_, c)| c.health.stale).count() as u64,
+        max_abs_correction_frd_m_s: max,
     }
 }
 
@@ -249,6 +314,24 @@ impl fmt::Display for ReportSummary {
                 t.rms_velocity_m_s,
                 optional(t.rms_roll_pitch_deg, "°", 2),
                 optional(t.rms_yaw_deg, "°", 2)
+            )?;
+        }
+        if let Some(o) = &self.obstacles {
+            writeln!(
+                f,
+                "  obstacles ({}): {} collision(s), min clearance {}, path {:.1} m",
+                o.obstacles,
+                o.collisions,
+                optional(o.min_clearance_m, "m", 2),
+                o.path_length_m
+            )?;
+        }
+        if let Some(a) = &self.avoidance {
+            let [forward, right, down] = a.max_abs_correction_frd_m_s;
+            writeln!(
+                f,
+                "  avoider ({} commands, {} stale): largest correction forward {forward:.2}, right {right:.2}, down {down:.2} m/s",
+                a.commands, a.stale
             )?;
         }
         let names: Vec<String> = self

@@ -1,7 +1,9 @@
 """A pymavlink ground station for the `kestrel run` integration tests (tests/gcs.rs).
 
 Listens on an ephemeral UDP port on 127.0.0.1 (as QGroundControl listens on 14550) and prints
-`PORT <n>` first so the test can point the vehicle's `udp_out` endpoint at it. Everything it
+`PORT <n>` first so the test can point the vehicle's `udp_out` endpoint at it; with `GCS_SERIAL`
+set to a serial device (and `GCS_BAUD`, default 57600) it talks over that instead, as a ground
+station on a radio does, and prints `PORT 0`. Everything it
 learns comes from telemetry; every key event is printed as one transcript line:
 
     <wall s since start>  t=<vehicle time_boot_ms as s>  <event>
@@ -12,6 +14,7 @@ and exit 1.
 
 import json
 import math
+import os
 import sys
 import time
 
@@ -38,9 +41,17 @@ class Gcs:
     """One ground station: a UDP socket, a 10 Hz heartbeat and the vehicle's state as seen."""
 
     def __init__(self, deadline_s=50.0, heartbeat_period_s=0.1):
-        self.conn = mavutil.mavlink_connection(
-            "udpin:127.0.0.1:0", source_system=255, source_component=190)
-        self.port = self.conn.port.getsockname()[1]
+        serial = os.environ.get("GCS_SERIAL")
+        if serial:
+            # A radio's end of a serial link (a socat pseudo-terminal in the tests): no UDP port.
+            baud = int(os.environ.get("GCS_BAUD", "57600"))
+            self.conn = mavutil.mavlink_connection(
+                serial, baud=baud, source_system=255, source_component=190)
+            self.port = 0
+        else:
+            self.conn = mavutil.mavlink_connection(
+                "udpin:127.0.0.1:0", source_system=255, source_component=190)
+            self.port = self.conn.port.getsockname()[1]
         print("PORT", self.port, flush=True)
         self.t0 = time.monotonic()
         self.deadline = self.t0 + deadline_s

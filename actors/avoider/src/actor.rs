@@ -5,18 +5,23 @@
 //! * input `setpoint` (`Setpoint`): the commander's demand, for the desired speed;
 //! * timer `check` (every `check_period_s`): publishes the stale command while no fresh grid
 //!   arrives;
-//! * output `avoidance_command` (`AvoidanceCommand`).
+//! * input `param_set` (`ParamSet`): changes to the live settings of
+//!   [`crate::avoidance::live_params`];
+//! * output `avoidance_command` (`AvoidanceCommand`);
+//! * output `param_decl` (`ParamDecl`): those settings, at start and after each `param_set`
+//!   naming one of them.
 //!
 //! Refused inputs are counted in the command's health and logged at the 1st, 2nd, 4th, 8th…
 //! refusal, so a broken camera cannot flood the log.
 
 use std::time::Duration;
 
-use kestrel_proto::messages::{AvoidanceCommand, DepthGrid, Setpoint};
+use kestrel_proto::messages::{AvoidanceCommand, DepthGrid, ParamDecl, ParamSet, Setpoint};
+use kestrel_proto::param_def::ParamChange;
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
-use crate::avoidance::Avoider;
 use crate::avoidance::params::AvoiderParams;
+use crate::avoidance::{Avoider, live_params};
 use crate::{rule_file, thesis_engine};
 
 /// What the avoider actor handles.
@@ -28,18 +33,42 @@ pub enum AvoiderInput {
     Setpoint(Setpoint),
     /// The staleness check (timer `check`), at its scheduled time.
     Check(Time),
+    /// A parameter change from the link (port `param_set`).
+    Param(ParamSet),
 }
 
 /// The obstacle avoider actor (thesis §3.3).
 pub struct AvoiderActor {
     avoider: Avoider,
     command: Publisher<AvoidanceCommand>,
+    param_decl: Publisher<ParamDecl>,
+    /// Our name in the config: the owner named in `param_decl`.
+    name: String,
 }
 
 impl AvoiderActor {
     /// The core, for inspection.
     pub fn avoider(&self) -> &Avoider {
         &self.avoider
+    }
+
+    /// Applies a `ParamSet` naming one of our settings; applied or refused, the link is told
+    /// the values in use.
+    fn on_param(&mut self, ctx: &Context, p: &ParamSet) {
+        let mut params = self.avoider.params().clone();
+        match live_params::apply(&mut params, &p.name, p.value) {
+            Ok(ParamChange::NotMine) => return,
+            Ok(ParamChange::Applied) => match self.avoider.retune(params) {
+                Ok(()) => {
+                    tracing::info!(actor = ctx.name(), name = %p.name, value = p.value, "avoider parameter applied")
+                }
+                Err(e) => {
+                    tracing::warn!(actor = ctx.name(), name = %p.name, "avoider parameter refused: {e}")
+                }
+            },
+            Err(e) => tracing::warn!(actor = ctx.name(), name = %p.name, "avoider parameter refused: {e}"),
+        }
+        self.param_decl.publish(live_params::decl(self.avoider.params(), &self.name, false, ctx.now()));
     }
 }
 
@@ -61,8 +90,19 @@ impl Actor for AvoiderActor {
             .map_err(|e| ActorError::Params(format!("check_period_s = {}: {e}", params.check_period_s)))?;
         setup.input("depth_grid", AvoiderInput::DepthGrid);
         setup.input("setpoint", AvoiderInput::Setpoint);
+        setup.input("param_set", AvoiderInput::Param);
         setup.timer("check", period, AvoiderInput::Check);
-        Ok(AvoiderActor { avoider, command: setup.output("avoidance_command") })
+        Ok(AvoiderActor {
+            avoider,
+            command: setup.output("avoidance_command"),
+            param_decl: setup.output("param_decl"),
+            name: setup.name().to_owned(),
+        })
+    }
+
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        self.param_decl.publish(live_params::decl(self.avoider.params(), &self.name, true, ctx.now()));
+        Ok(())
     }
 
     async fn handle(&mut self, ctx: &Context, input: AvoiderInput) -> Result<(), ActorError> {
@@ -85,6 +125,7 @@ impl Actor for AvoiderActor {
                     self.command.publish(command);
                 }
             }
+            AvoiderInput::Param(p) => self.on_param(ctx, &p),
         }
         Ok(())
     }

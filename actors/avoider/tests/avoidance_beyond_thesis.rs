@@ -1,6 +1,7 @@
 //! What the avoider adds around table 3.1: climbing when every region is blocked (thesis §6),
-//! slowing for an unknown centre (the textureless wall, §4.2.3), stopping for a blocked centre
-//! the table has no row for, and the low-pass on the output (§3.3.9).
+//! stopping for an unknown view ahead (the textureless wall, §4.2.3), stopping and sidestepping
+//! for a blocked centre the table has no row for, capping the forward speed by the nearest
+//! depth ahead, and the low-pass on the output (§3.3.9).
 
 mod scenes;
 
@@ -50,39 +51,80 @@ fn unknown_side_regions_leave_no_way_out_but_an_unknown_view_is_no_wall() {
     let command = avoider.update(at(0.0), &grid(0.0, blocked(&[(1, 1)]), invalid)).expect("valid");
     assert!(command.health.climbing, "{:?}", command.health);
 
-    // Nothing measurable anywhere (darkness, fog, open sky): slow down, do not climb blind.
+    // Nothing measurable anywhere (darkness, fog): stop, do not climb blind.
     let mut avoider = unfiltered(3.0);
     let command = avoider.update(at(0.0), &grid(0.0, [[0.0; 3]; 3], [[0.95; 3]; 3])).expect("valid");
     assert!(!command.health.climbing && command.health.unknown_centre_slowdown, "{:?}", command.health);
-    assert!((command.velocity_frd_m_s[0] + 0.7 * 3.0).abs() < 1e-9, "{:?}", command.velocity_frd_m_s);
+    assert!((command.velocity_frd_m_s[0] + 3.0).abs() < 1e-9, "{:?}", command.velocity_frd_m_s);
 }
 
 #[test]
-fn a_textureless_centre_slows_the_vehicle_and_is_reported() {
+fn a_textureless_wall_ahead_stops_the_vehicle_but_sky_in_the_centre_does_not() {
     let speed = 4.0;
     let mut invalid = [[0.05; 3]; 3];
     let textured = unfiltered(speed).update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid");
-    assert!(textured.velocity_frd_m_s[0].abs() < 5e-3, "a textured empty view: no correction");
+    assert!(!textured.health.unknown_centre_slowdown);
 
-    // The wall of thesis §4.2.3: no disparity in the centre, so no near pixel either.
-    invalid[1][1] = 0.95;
+    // Level flight in the open: the upper half of the centre is sky (no disparity), the ground
+    // below the path is textured. Not a wall: no slow-down.
+    invalid[0] = [0.99; 3];
+    invalid[1][1] = 0.9;
+    invalid[2][1] = 0.3;
+    let sky = unfiltered(speed).update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid");
+    assert!(!sky.health.unknown_centre_slowdown, "{:?}", sky.health);
+    assert!(sky.health.unknown_regions[1][1]);
+    let sky_cap = sky.health.forward_cap_m_s.expect("the ground ahead has depth");
+    assert!((sky.velocity_frd_m_s[0] - (sky_cap - speed).min(0.0)).abs() < 5e-3, "{sky:?}");
+
+    // The wall of thesis §4.2.3: no disparity in the centre, and the ground below the path is
+    // hidden behind it too.
+    invalid[2][1] = 0.95;
     let wall = unfiltered(speed).update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid");
     assert!(wall.health.unknown_centre_slowdown);
-    assert_eq!(wall.health.unknown_regions, [[false; 3], [false, true, false], [false; 3]]);
-    let kept = speed + wall.velocity_frd_m_s[0];
-    assert!((kept - 0.3 * speed).abs() < 1e-9, "keeps 30% of {speed} m/s, got {kept} m/s");
+    assert!(wall.health.unknown_regions[1][1] && wall.health.unknown_regions[2][1]);
+    assert!((wall.velocity_frd_m_s[0] + speed).abs() < 1e-9, "stops: {:?}", wall.velocity_frd_m_s);
     assert!(wall.velocity_frd_m_s[1].abs() < 5e-3 && wall.velocity_frd_m_s[2].abs() < 5e-3);
 
-    // An unknown side region is reported but does not slow the vehicle.
-    invalid[1][1] = 0.05;
-    invalid[1][0] = 0.95;
-    let side = unfiltered(speed).update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid");
-    assert!(side.health.unknown_regions[1][0] && !side.health.unknown_centre_slowdown);
-    assert!(side.velocity_frd_m_s[0].abs() < 5e-3);
+    // A configured share of the speed is kept instead, if asked for.
+    let mut keep = Avoider::thesis(AvoiderParams {
+        filter_time_constant_s: 0.0,
+        unknown_speed_share: 0.3,
+        ..AvoiderParams::default()
+    })
+    .expect("builds");
+    keep.set_setpoint(&flying_north(0.0, speed)).expect("valid setpoint");
+    let slow = keep.update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid");
+    assert!((speed + slow.velocity_frd_m_s[0] - 0.3 * speed).abs() < 1e-9, "{:?}", slow.velocity_frd_m_s);
 }
 
 #[test]
-fn a_blocked_centre_alone_stops_forward_progress() {
+fn the_forward_speed_is_capped_to_stop_short_of_the_nearest_depth_ahead() {
+    // Few near pixels, but a depth 4.5 m ahead in the centre: with the defaults (stop 2 m
+    // short, 2 m/s², 0.3 s) v = −0.6 + √(0.36 + 2·2·2.5) = 2.622 m/s.
+    let speed = 4.0;
+    let mut near = [[0.0; 3]; 3];
+    near[1][1] = 0.1;
+    let command = unfiltered(speed).update(at(0.0), &clear_grid(0.0, near)).expect("valid");
+    let cap = command.health.forward_cap_m_s.expect("capped");
+    let expected = -0.6 + (0.36f64 + 10.0).sqrt();
+    assert!((cap - expected).abs() < 1e-9, "{cap} vs {expected}");
+    assert!((speed + command.velocity_frd_m_s[0] - expected).abs() < 1e-9, "{:?}", command.velocity_frd_m_s);
+    assert!(!command.health.centre_blocked, "4.5 m is beyond the 4 m sidestep distance");
+
+    // Flying slower than the cap: no correction.
+    let slow = unfiltered(2.0).update(at(0.0), &clear_grid(0.0, near)).expect("valid");
+    assert!(slow.velocity_frd_m_s[0].abs() < 5e-3, "{:?}", slow.velocity_frd_m_s);
+
+    // Inside the stop distance: stop.
+    let mut close = clear_grid(0.0, near);
+    close.regions[1][1].nearest_m = Some(1.5);
+    let stop = unfiltered(speed).update(at(0.0), &close).expect("valid");
+    assert_eq!(stop.health.forward_cap_m_s, Some(0.0));
+    assert!((stop.velocity_frd_m_s[0] + speed).abs() < 1e-9);
+}
+
+#[test]
+fn a_blocked_centre_alone_stops_forward_progress_and_sidesteps_to_the_freer_side() {
     // Table 3.1 has no row for a pole straight ahead with a clear view around it; every rule
     // fires at e^-8 and the rule base alone would barely brake.
     let mut avoider = unfiltered(5.0);
@@ -90,7 +132,58 @@ fn a_blocked_centre_alone_stops_forward_progress() {
     assert!(command.fuzzy.vy_forward > -0.1, "the rule base alone: {:?}", command.fuzzy);
     assert!(command.health.centre_blocked && !command.health.climbing);
     assert_eq!(command.velocity_frd_m_s[0], -5.0);
-    assert!(command.velocity_frd_m_s[1].abs() < 5e-3 && command.velocity_frd_m_s[2].abs() < 5e-3);
+    // A full tie between the sides: right, by convention, at the sidestep speed.
+    assert_eq!(command.health.sidestep_m_s, 1.5);
+    assert!((command.velocity_frd_m_s[1] - 1.5).abs() < 1e-9 && command.velocity_frd_m_s[2].abs() < 5e-3);
+
+    // A few near pixels on the right: left (the rule base already leans that way).
+    let mut near = blocked(&[(1, 1)]);
+    near[0][2] = 0.1;
+    near[1][2] = 0.1;
+    let left = unfiltered(5.0).update(at(0.0), &clear_grid(0.0, near)).expect("valid");
+    assert!(left.velocity_frd_m_s[1] < -1.4, "{:?}", left.velocity_frd_m_s);
+
+    // Equal loads, but the left side's nearest depth is closer: right.
+    let mut tie = clear_grid(0.0, blocked(&[(1, 1)]));
+    tie.regions[1][0].nearest_m = Some(6.0);
+    let right = unfiltered(5.0).update(at(0.0), &tie).expect("valid");
+    assert!((right.velocity_frd_m_s[1] - 1.5).abs() < 1e-9, "{:?}", right.velocity_frd_m_s);
+
+    // Once under way the side is kept while the path stays blocked, even if the other side now
+    // looks a little freer (the obstacle slides across the view); it ends when the path clears.
+    let mut avoider = unfiltered(5.0);
+    avoider.update(at(0.0), &clear_grid(0.0, blocked(&[(1, 1)]))).expect("valid");
+    let mut right_nearer = clear_grid(0.1, blocked(&[(1, 1)]));
+    right_nearer.regions[1][2].nearest_m = Some(6.0);
+    let kept = avoider.update(at(0.1), &right_nearer).expect("valid");
+    assert!((kept.velocity_frd_m_s[1] - 1.5).abs() < 1e-9, "kept right: {:?}", kept.velocity_frd_m_s);
+    let clear = avoider.update(at(0.2), &clear_grid(0.2, [[0.0; 3]; 3])).expect("valid");
+    assert_eq!(clear.health.sidestep_m_s, 0.0);
+    assert!(clear.velocity_frd_m_s[1].abs() < 5e-3);
+}
+
+#[test]
+fn a_thin_trunk_within_the_sidestep_distance_blocks_the_path() {
+    // A few near pixels only (a thin trunk), but 3 m ahead: stop and sidestep.
+    let mut near = [[0.0; 3]; 3];
+    near[1][1] = 0.2;
+    let mut trunk = clear_grid(0.0, near);
+    trunk.regions[1][1].nearest_m = Some(3.0);
+    let command = unfiltered(3.0).update(at(0.0), &trunk).expect("valid");
+    assert!(command.health.centre_blocked, "{:?}", command.health);
+    assert_eq!(command.velocity_frd_m_s[0], -3.0);
+    assert_eq!(command.health.sidestep_m_s, 1.5);
+}
+
+#[test]
+fn a_whole_blocked_centre_column_sidesteps_instead_of_climbing_or_diving() {
+    // A tall trunk straight ahead fills up, centre and down: the rule base's vertical answer
+    // (rows 5 and 6 of table 3.1 fire against each other) is no way over or under.
+    let command =
+        unfiltered(3.0).update(at(0.0), &clear_grid(0.0, blocked(&[(0, 1), (1, 1), (2, 1)]))).expect("valid");
+    assert!(!command.health.climbing);
+    assert_eq!(command.velocity_frd_m_s[2], 0.0, "{:?}", command.velocity_frd_m_s);
+    assert!((command.velocity_frd_m_s[1].abs() - 1.5).abs() < 1e-9, "{:?}", command.velocity_frd_m_s);
 }
 
 #[test]
@@ -98,8 +191,14 @@ fn the_low_pass_step_response_follows_its_time_constant() {
     let tau = 0.5;
     let dt = 0.05;
     let mut avoider =
-        Avoider::thesis(AvoiderParams { filter_time_constant_s: tau, ..AvoiderParams::default() })
-            .expect("builds");
+        // The forward-speed cap acts after the filter; braking this hard it never binds here.
+        Avoider::thesis(AvoiderParams {
+            filter_time_constant_s: tau,
+            stop_distance_m: 0.0,
+            brake_decel_m_s2: 1e6,
+            ..AvoiderParams::default()
+        })
+        .expect("builds");
     avoider.set_setpoint(&flying_north(0.0, 5.0)).expect("valid setpoint");
     let first = avoider.update(at(0.0), &clear_grid(0.0, [[0.0; 3]; 3])).expect("valid");
     assert!(first.velocity_frd_m_s.iter().all(|v| v.abs() < 5e-3), "seeded at the first target");

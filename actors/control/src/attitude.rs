@@ -24,7 +24,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{InvalidParam, positive};
 
 /// `[attitude]` gains and limits. Defaults are tuned for quad_x.toml inside the default rate loop.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AttitudeGains {
     /// Rate setpoint per radian of error about forward, right, down (1/s).
@@ -87,6 +87,11 @@ pub struct AttitudeController {
 impl AttitudeController {
     pub fn new(gains: AttitudeGains) -> AttitudeController {
         AttitudeController { gains }
+    }
+
+    /// Takes new (validated) gains from the next step on.
+    pub fn set_gains(&mut self, gains: AttitudeGains) {
+        self.gains = gains;
     }
 
     /// Body-rate setpoint (FRD, rad/s) to bring attitude `q` to `q_d`, plus a heading-rate

@@ -5,7 +5,9 @@
 //! `queue`), `supervisor` (SupervisorEvent, `queue`), `avoidance` (AvoidanceCommand,
 //! `latest`; optional: routed only where the obstacle avoider runs, and from its first command
 //! on AUTO/GUIDED legs blend its correction in and hold when it goes stale); timer `tick` at `tick_rate_hz`;
-//! outputs `setpoint` (Setpoint) and `status` (VehicleStatus).
+//! input `param_set` (ParamSet, `queue`); outputs `setpoint` (Setpoint), `status`
+//! (VehicleStatus) and `param_decl` (ParamDecl: the live parameters, at start and after every
+//! `param_set` naming one of them, so the link serves the value really in use).
 //!
 //! The state machine runs on every NavState (so a flip's setpoints follow the vehicle at the
 //! estimator's rate) and on the tick when NavStates stop (so a silent estimator is noticed).
@@ -17,7 +19,7 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, Command, FlightMode, LandedState, ManualControl, Mission, NavState,
-    ParamSet, Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
+    ParamDecl, ParamSet, Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -78,6 +80,9 @@ pub struct CommanderActor {
     commander: Commander,
     setpoint: Publisher<Setpoint>,
     status: Publisher<VehicleStatus>,
+    param_decl: Publisher<ParamDecl>,
+    /// Our name in the config: the owner named in `param_decl`.
+    name: String,
     auto: bool,
     auto_started: bool,
     exit_on_land: bool,
@@ -125,6 +130,8 @@ impl Actor for CommanderActor {
             commander,
             setpoint: setup.output("setpoint"),
             status: setup.output("status"),
+            param_decl: setup.output("param_decl"),
+            name: setup.name().to_owned(),
             auto: params.auto,
             auto_started: false,
             exit_on_land: params.exit_on_land,
@@ -135,6 +142,11 @@ impl Actor for CommanderActor {
             last_step: None,
             tick_period,
         })
+    }
+
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        self.param_decl.publish(self.commander.param_decl(&self.name, true, ctx.now()));
+        Ok(())
     }
 
     async fn handle(&mut self, ctx: &Context, input: CommanderInput) -> Result<(), ActorError> {
@@ -152,15 +164,19 @@ impl Actor for CommanderActor {
             CommanderInput::Manual(m) => self.commander.on_manual(&m),
             CommanderInput::Supervisor(e) => self.commander.on_supervisor(&e),
             CommanderInput::Avoidance(cmd) => self.commander.on_avoidance(&cmd),
-            CommanderInput::Param(p) => match self.commander.on_param(&p.name, p.value) {
-                Ok(ParamChange::Applied) => {
-                    tracing::info!(name = %p.name, value = p.value, "parameter applied")
+            CommanderInput::Param(p) => {
+                match self.commander.on_param(&p.name, p.value) {
+                    Ok(ParamChange::Applied) => {
+                        tracing::info!(name = %p.name, value = p.value, "parameter applied")
+                    }
+                    Ok(ParamChange::NotMine) => return Ok(()),
+                    // The link already checked the range; a value the commander still refuses
+                    // is reported and the old one kept, never applied half-way.
+                    Err(e) => tracing::warn!(name = %p.name, value = p.value, "parameter refused: {e}"),
                 }
-                Ok(ParamChange::NotMine) => {}
-                // The link already checked the range; a value the commander still refuses is
-                // reported and the old one kept, never applied half-way.
-                Err(e) => tracing::warn!(name = %p.name, value = p.value, "parameter refused: {e}"),
-            },
+                // Applied or refused, the link learns the value now in use.
+                self.param_decl.publish(self.commander.param_decl(&self.name, false, ctx.now()));
+            }
             CommanderInput::Command(cmd) => {
                 // A refusal is reported in the status; it is not an actor failure.
                 let _ = self.commander.on_command(&cmd);

@@ -1,8 +1,10 @@
 //! `ControllerActor`: the actor shell of the control loop.
 //!
-//! Ports — inputs `nav` (NavState, mailbox `latest`) and `setpoint` (Setpoint, `latest`);
-//! timer `tick` at the loop rate (lockstep only); outputs `actuators` (ActuatorOutputs) and
-//! `loop_stats` (ControlLoopStats, about 1 Hz).
+//! Ports — inputs `nav` (NavState, mailbox `latest`), `setpoint` (Setpoint, `latest`) and
+//! `param_set` (ParamSet, `queue`); timer `tick` at the loop rate (lockstep only); outputs
+//! `actuators` (ActuatorOutputs), `loop_stats` (ControlLoopStats, about 1 Hz) and `param_decl`
+//! (ParamDecl: the live gains of [`crate::tuning`], at start and after each `param_set` naming
+//! one of them).
 //!
 //! Two ways to run, chosen by `loop_mode`:
 //! * `lockstep` (simulation): one loop iteration per NavState received, in the actor's handler,
@@ -19,16 +21,20 @@
 //!   and the recorder allocates, which the loop must not), and a tokio task started with the
 //!   actor publishes the newest of each at the loop rate until `ctx.shutdown()` or the thread
 //!   ends: outputs reach subscribers at most about one loop period after they were computed.
+//!   New gains go the other way through a third triple buffer, validated here first: the
+//!   thread copies them in before its next iteration.
 
 use std::time::Duration;
 
-use kestrel_proto::messages::{ActuatorOutputs, ControlLoopStats, NavState, Setpoint};
+use kestrel_proto::messages::{ActuatorOutputs, ControlLoopStats, NavState, ParamDecl, ParamSet, Setpoint};
+use kestrel_proto::param_def::ParamChange;
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
 use crate::flight_controller::FlightController;
 use crate::params::ControlParams;
-use crate::rt::{ControlThread, LoopStats, Reader, ThreadOutput, Writer, triple_buffer};
+use crate::rt::{ControlThread, LoopStats, Reader, ThreadInputs, ThreadOutput, Writer, triple_buffer};
+use crate::tuning::{Gains, Tuning};
 
 /// How the loop is clocked.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -67,6 +73,8 @@ impl Default for ControllerActorParams {
 pub enum ControllerInput {
     Nav(NavState),
     Setpoint(Setpoint),
+    /// A parameter change from the link (applied when it names one of our gains).
+    Param(ParamSet),
     /// The lockstep loop's timer, at the loop rate.
     Tick(Time),
 }
@@ -131,6 +139,7 @@ struct Pending {
     ctl: Box<FlightController>,
     nav: Reader<Option<NavState>>,
     setpoint: Reader<Option<Setpoint>>,
+    gains: Reader<Option<Gains>>,
     outputs: BufferedOutputs,
     relay: Relay,
 }
@@ -149,6 +158,7 @@ enum Loop {
     Thread {
         nav: Writer<Option<NavState>>,
         setpoint: Writer<Option<Setpoint>>,
+        gains: Writer<Option<Gains>>,
         /// What the thread takes when it starts.
         pending: Option<Pending>,
         thread: Option<ControlThread>,
@@ -160,6 +170,11 @@ enum Loop {
 /// The control loop actor.
 pub struct ControllerActor {
     inner: Loop,
+    /// The live gains, changed here and handed to the loop.
+    tuning: Tuning,
+    param_decl: Publisher<ParamDecl>,
+    /// Our name in the config: the owner named in `param_decl`.
+    name: String,
 }
 
 impl Actor for ControllerActor {
@@ -174,6 +189,8 @@ impl Actor for ControllerActor {
             FlightController::new(params.control.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
         setup.input("nav", ControllerInput::Nav);
         setup.input("setpoint", ControllerInput::Setpoint);
+        setup.input("param_set", ControllerInput::Param);
+        let param_decl = setup.output("param_decl");
         let outputs = Outputs { actuators: setup.output("actuators"), stats: setup.output("loop_stats") };
         let period_us = (1e6 / params.control.timing.rate_hz).round() as u64;
         let inner = match params.loop_mode {
@@ -191,15 +208,18 @@ impl Actor for ControllerActor {
             LoopMode::Thread => {
                 let (nav, nav_reader) = triple_buffer(None);
                 let (setpoint, setpoint_reader) = triple_buffer(None);
+                let (gains, gains_reader) = triple_buffer(None);
                 let (actuators, actuators_reader) = triple_buffer(None);
                 let (stats, stats_reader) = triple_buffer(None);
                 Loop::Thread {
                     nav,
                     setpoint,
+                    gains,
                     pending: Some(Pending {
                         ctl: Box::new(ctl),
                         nav: nav_reader,
                         setpoint: setpoint_reader,
+                        gains: gains_reader,
                         outputs: BufferedOutputs { actuators, stats },
                         relay: Relay {
                             actuators: actuators_reader,
@@ -214,15 +234,22 @@ impl Actor for ControllerActor {
                 }
             }
         };
-        Ok(ControllerActor { inner })
+        Ok(ControllerActor {
+            inner,
+            tuning: Tuning::new(params.control.clone()),
+            param_decl,
+            name: setup.name().to_owned(),
+        })
     }
 
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        self.param_decl.publish(self.tuning.decl(&self.name, true, ctx.now()));
         if let Loop::Thread { pending, thread, relay, priority, .. } = &mut self.inner
-            && let Some(Pending { ctl, nav, setpoint, outputs, relay: publisher }) = pending.take()
+            && let Some(Pending { ctl, nav, setpoint, gains, outputs, relay: publisher }) = pending.take()
         {
+            let inputs = ThreadInputs { nav, setpoint, gains };
             let spawned =
-                ControlThread::spawn(*ctl, nav, setpoint, ctx.clock().clone(), outputs, *priority).map_err(
+                ControlThread::spawn(*ctl, inputs, ctx.clock().clone(), outputs, *priority).map_err(
                     |source| ActorError::Io { what: "cannot start the control thread".into(), source },
                 )?;
             *thread = Some(spawned);
@@ -232,6 +259,10 @@ impl Actor for ControllerActor {
     }
 
     async fn handle(&mut self, ctx: &Context, input: ControllerInput) -> Result<(), ActorError> {
+        if let ControllerInput::Param(p) = input {
+            self.on_param(ctx, &p);
+            return Ok(());
+        }
         match (&mut self.inner, input) {
             (
                 Loop::Lockstep { ctl, stats, outputs, iterations, last_nav, nav_since_tick },
@@ -268,6 +299,8 @@ impl Actor for ControllerActor {
             (Loop::Thread { setpoint, .. }, ControllerInput::Setpoint(sp)) => setpoint.write(Some(sp)),
             // The thread keeps its own schedule; no timer is declared in this mode.
             (Loop::Thread { .. }, ControllerInput::Tick(_)) => {}
+            // Handled above.
+            (_, ControllerInput::Param(_)) => {}
         }
         Ok(())
     }
@@ -284,6 +317,27 @@ impl Actor for ControllerActor {
                 tracing::error!(error = %e, "control output relay failed");
             }
         }
+    }
+}
+
+impl ControllerActor {
+    /// Applies a `ParamSet` naming one of our gains: checked and validated here, then handed to
+    /// the loop (directly in lockstep, through the triple buffer to the thread). Applied or
+    /// refused, the link is told the values in use.
+    fn on_param(&mut self, ctx: &Context, p: &ParamSet) {
+        match self.tuning.apply(&p.name, p.value) {
+            Ok(ParamChange::NotMine) => return,
+            Ok(ParamChange::Applied) => {
+                tracing::info!(name = %p.name, value = p.value, "gain applied");
+                let gains = self.tuning.gains();
+                match &mut self.inner {
+                    Loop::Lockstep { ctl, .. } => ctl.retune(&gains),
+                    Loop::Thread { gains: to_thread, .. } => to_thread.write(Some(gains)),
+                }
+            }
+            Err(e) => tracing::warn!(name = %p.name, value = p.value, "gain refused: {e}"),
+        }
+        self.param_decl.publish(self.tuning.decl(&self.name, false, ctx.now()));
     }
 }
 

@@ -17,6 +17,7 @@ use crate::mixer::{Mixer, Saturation};
 use crate::params::ControlParams;
 use crate::position::{PositionController, yaw_of};
 use crate::rate::RateController;
+use crate::tuning::Gains;
 
 /// Largest step the integrators accept (s): a longer gap (a paused simulation, a stall) is
 /// treated as this long.
@@ -86,9 +87,9 @@ impl FlightController {
         let hover_thrust = params.hover_thrust();
         Ok(FlightController {
             mixer: Mixer::new(&params.airframe),
-            attitude: AttitudeController::new(params.attitude.clone()),
-            rate: RateController::new(params.rate.clone(), params.airframe.inertia_frd_kg_m2),
-            position: PositionController::new(params.position.clone(), hover_thrust),
+            attitude: AttitudeController::new(params.attitude),
+            rate: RateController::new(params.rate, params.airframe.inertia_frd_kg_m2),
+            position: PositionController::new(params.position, hover_thrust),
             hover_thrust,
             params,
             setpoint: None,
@@ -102,6 +103,17 @@ impl FlightController {
     /// The parameters in use.
     pub fn params(&self) -> &ControlParams {
         &self.params
+    }
+
+    /// Takes new gains and limits from the next iteration on (integrators kept). Copies only:
+    /// the real-time thread calls this between iterations.
+    pub fn retune(&mut self, gains: &Gains) {
+        self.params.attitude = gains.attitude;
+        self.params.rate = gains.rate;
+        self.params.position = gains.position;
+        self.attitude.set_gains(gains.attitude);
+        self.rate.set_gains(gains.rate);
+        self.position.set_gains(gains.position);
     }
 
     /// What the loop counted.

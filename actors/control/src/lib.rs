@@ -35,6 +35,7 @@ pub mod position;
 pub mod rate;
 pub mod rt;
 pub mod truth_nav;
+pub mod tuning;
 
 pub use airframe::{AirframeParams, Frame};
 pub use attitude::{AttitudeController, AttitudeGains, attitude_error};
@@ -50,3 +51,4 @@ pub use plan::{load_plan, parse_plan};
 pub use position::{AttitudeThrust, PositionController, PositionGains};
 pub use rate::{RateController, RateGains};
 pub use truth_nav::{TruthNavActor, TruthNavInput, TruthNavParams};
+pub use tuning::{Gains, Tuning};

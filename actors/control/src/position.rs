@@ -21,7 +21,7 @@ use crate::airframe::GRAVITY_M_S2;
 use crate::error::{InvalidParam, non_negative, positive, within};
 
 /// `[position]` gains and limits. Defaults are PX4's multicopter defaults, checked on quad_x.toml.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PositionGains {
     /// Velocity per metre of position error, north/east/down (1/s).
@@ -112,6 +112,12 @@ impl PositionController {
     pub fn new(gains: PositionGains, hover_thrust: f64) -> PositionController {
         let hover_thrust = gains.hover_thrust.unwrap_or(hover_thrust);
         PositionController { gains, hover_thrust, integral: Vector3::zeros() }
+    }
+
+    /// Takes new (validated) gains from the next step on, keeping the integral and the hover
+    /// thrust chosen at construction.
+    pub fn set_gains(&mut self, gains: PositionGains) {
+        self.gains = gains;
     }
 
     /// Forgets the integral (on the ground).

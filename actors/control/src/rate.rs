@@ -13,7 +13,7 @@ use crate::error::{InvalidParam, non_negative, positive};
 use crate::mixer::Saturation;
 
 /// `[rate]` gains and limits (per axis: forward, right, down). Defaults tuned for quad_x.toml.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RateGains {
     /// Angular acceleration per rad/s of rate error (1/s).
@@ -74,6 +74,12 @@ impl RateController {
             last_rate: None,
             accel_filtered: Vector3::zeros(),
         }
+    }
+
+    /// Takes new (validated) gains from the next step on; the integral is kept (and bounded by
+    /// the new limit on that step), so a retune in flight causes no thrust step.
+    pub fn set_gains(&mut self, gains: RateGains) {
+        self.gains = gains;
     }
 
     /// Forgets the integral and derivative history (on the ground, on mode changes to idle).

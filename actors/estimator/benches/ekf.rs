@@ -45,7 +45,7 @@ fn dense_predict(p: &mut Covariance, t: &Transition) {
         p[(9 + i, 9 + i)] += (NOISE.gyro_bias_rad_s2 * t.dt_s).powi(2);
         p[(12 + i, 12 + i)] += (NOISE.accel_bias_m_s3 * t.dt_s).powi(2);
     }
-    constrain(p);
+    constrain(p).expect("finite covariance");
 }
 
 /// The textbook update `K = P Hᵀ / S`, `P = (I − K H) P`, symmetrised, with dense matrices.
@@ -55,7 +55,7 @@ fn dense_fuse(p: &mut Covariance, h: &SparseRow, r: f64) {
     let k = *p * h.transpose() / s;
     *p = (Covariance::identity() - k * h) * *p;
     *p = (*p + p.transpose()) * 0.5;
-    constrain(p);
+    constrain(p).expect("finite covariance");
 }
 
 fn gps_rows() -> [SparseRow; 5] {

@@ -1,16 +1,23 @@
 //! The estimator actor: feeds the [`Ekf`] from its mailbox and publishes what it estimates.
 //!
 //! Ports: inputs `imu` ([`ImuSample`]), `gps` ([`GpsFix`]), `baro` ([`BaroSample`]), `mag`
-//! ([`MagSample`]) — route them with *queue* mailboxes, every sample matters; outputs
-//! `nav_state` ([`NavState`], one per IMU sample once aligned) and `estimator_status`
-//! ([`EstimatorStatus`], every 100 ms of IMU time). Parameters: [`EkfParams`]. The actor never
-//! reads the clock: all timing comes from the samples' own stamps, so it replays exactly.
+//! ([`MagSample`]) — route them with *queue* mailboxes, every sample matters — and `param_set`
+//! ([`ParamSet`], queue); outputs `nav_state` ([`NavState`], one per IMU sample once aligned),
+//! `estimator_status` ([`EstimatorStatus`], every 100 ms of IMU time) and `param_decl`
+//! ([`ParamDecl`]: the live noises and gates of [`crate::live_params`], at start and after each
+//! `param_set` naming one of them). Parameters: [`EkfParams`]. The actor never
+//! reads the clock for its estimate (only to stamp the parameter declaration it publishes at
+//! start): all timing comes from the samples' own stamps, so it replays exactly.
 
-use kestrel_proto::messages::{BaroSample, EstimatorStatus, GpsFix, ImuSample, MagSample, NavState};
+use kestrel_proto::messages::{
+    BaroSample, EstimatorStatus, GpsFix, ImuSample, MagSample, NavState, ParamDecl, ParamSet,
+};
+use kestrel_proto::param_def::ParamChange;
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
 use crate::ekf::Ekf;
 use crate::error::InputError;
+use crate::live_params;
 use crate::params::EkfParams;
 
 /// Interval of `estimator_status` in IMU time (µs).
@@ -23,6 +30,8 @@ pub enum EstimatorInput {
     Gps(GpsFix),
     Baro(BaroSample),
     Mag(MagSample),
+    /// A parameter change from the link (applied when it names one of our noises or gates).
+    Param(ParamSet),
 }
 
 /// The estimator in the actor graph.
@@ -30,6 +39,9 @@ pub struct EstimatorActor {
     ekf: Ekf,
     nav_state: Publisher<NavState>,
     status: Publisher<EstimatorStatus>,
+    param_decl: Publisher<ParamDecl>,
+    /// Our name in the config: the owner named in `param_decl`.
+    name: String,
     last_status: Option<Time>,
     rejected_inputs: u64,
 }
@@ -54,7 +66,26 @@ impl EstimatorActor {
             EstimatorInput::Gps(fix) => self.ekf.push_gps(&fix),
             EstimatorInput::Baro(sample) => self.ekf.push_baro(&sample),
             EstimatorInput::Mag(sample) => self.ekf.push_mag(&sample),
+            EstimatorInput::Param(p) => {
+                self.on_param(&p);
+                Ok(())
+            }
         }
+    }
+
+    /// Applies a `ParamSet` naming one of our noises or gates; applied or refused, the link is
+    /// told the values in use (stamped with the change's own time: the actor reads no clock).
+    fn on_param(&mut self, p: &ParamSet) {
+        let mut params = self.ekf.params().clone();
+        match live_params::apply(&mut params, &p.name, p.value) {
+            Ok(ParamChange::NotMine) => return,
+            Ok(ParamChange::Applied) => match self.ekf.retune(params) {
+                Ok(()) => tracing::info!(name = %p.name, value = p.value, "estimator parameter applied"),
+                Err(e) => tracing::warn!(name = %p.name, value = p.value, "estimator parameter refused: {e}"),
+            },
+            Err(e) => tracing::warn!(name = %p.name, value = p.value, "estimator parameter refused: {e}"),
+        }
+        self.param_decl.publish(live_params::decl(self.ekf.params(), &self.name, false, p.time));
     }
 }
 
@@ -71,13 +102,21 @@ impl Actor for EstimatorActor {
         setup.input("gps", EstimatorInput::Gps);
         setup.input("baro", EstimatorInput::Baro);
         setup.input("mag", EstimatorInput::Mag);
+        setup.input("param_set", EstimatorInput::Param);
         Ok(EstimatorActor {
             ekf,
             nav_state: setup.output("nav_state"),
             status: setup.output("estimator_status"),
+            param_decl: setup.output("param_decl"),
+            name: setup.name().to_owned(),
             last_status: None,
             rejected_inputs: 0,
         })
+    }
+
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        self.param_decl.publish(live_params::decl(self.ekf.params(), &self.name, true, ctx.now()));
+        Ok(())
     }
 
     async fn handle(&mut self, ctx: &Context, input: EstimatorInput) -> Result<(), ActorError> {

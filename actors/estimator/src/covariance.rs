@@ -87,12 +87,13 @@ impl Transition {
         -g
     }
 
-    /// `P ← F P Fᵀ + G N Gᵀ + Q_bias`, then limited.
-    pub fn predict(&self, p: &mut Covariance, noise: &ProcessNoise) {
+    /// `P ← F P Fᵀ + G N Gᵀ + Q_bias`, then limited; an error when `P` is no longer finite
+    /// (the caller must reset it).
+    pub fn predict(&self, p: &mut Covariance, noise: &ProcessNoise) -> Result<(), NotFinite> {
         let fp = self.left_mul(p);
         *p = self.left_mul(&fp.transpose());
         self.add_process_noise(p, noise);
-        constrain(p);
+        constrain(p)
     }
 
     /// Adds `G N Gᵀ` in closed form (`A Aᵀ ≈ C Cᵀ = dt² I` because `R` is a rotation) and the bias
@@ -130,13 +131,34 @@ impl Transition {
     }
 }
 
+/// A covariance element that is NaN or infinite: no limit can repair it (a NaN off-diagonal
+/// would spread into every gain), so the filter must reset the covariance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("covariance element ({row}, {col}) is not finite")]
+pub struct NotFinite {
+    pub row: usize,
+    pub col: usize,
+}
+
+/// The first non-finite element of `p`, if any.
+pub fn check_finite(p: &Covariance) -> Result<(), NotFinite> {
+    match p.iter().position(|x| !x.is_finite()) {
+        // nalgebra stores columns one after the other.
+        Some(i) => Err(NotFinite { row: i % ERROR_STATES, col: i / ERROR_STATES }),
+        None => Ok(()),
+    }
+}
+
 /// Keeps every variance within its block's floor and cap. A variance above its cap scales its
-/// row and column down, which keeps the matrix positive semi-definite.
-pub fn constrain(p: &mut Covariance) {
+/// row and column down, which keeps the matrix positive semi-definite. A `p` with any
+/// non-finite element is refused untouched: clamping its diagonal would hide the fault while
+/// a NaN correlation still poisons every later gain.
+pub fn constrain(p: &mut Covariance) -> Result<(), NotFinite> {
+    check_finite(p)?;
     for (start, floor, cap) in LIMITS {
         for i in start..start + 3 {
             let v = p[(i, i)];
-            if v.is_nan() || v < floor {
+            if v < floor {
                 p[(i, i)] = floor;
             } else if v > cap {
                 let s = (cap / v).sqrt();
@@ -147,6 +169,7 @@ pub fn constrain(p: &mut Covariance) {
             }
         }
     }
+    Ok(())
 }
 
 /// Makes `p` exactly symmetric.
@@ -230,6 +253,9 @@ pub enum FusionFault {
     /// definiteness to rounding).
     #[error("update would make a variance negative")]
     NegativeVariance,
+    /// The covariance was not finite (before or after the update); it must be reset.
+    #[error(transparent)]
+    Covariance(#[from] NotFinite),
 }
 
 /// Scalar Kalman update of `p` for observation row `h`, innovation `y` and observation variance
@@ -242,6 +268,7 @@ pub fn fuse_scalar(p: &mut Covariance, h: &SparseRow, y: f64, r: f64) -> Result<
     if !y.is_finite() {
         return Err(FusionFault::BadInnovation);
     }
+    check_finite(p)?;
     let pht = h.p_ht(p);
     let s = h.dot(&pht) + r;
     if !(s.is_finite() && s > 0.0) {
@@ -265,7 +292,7 @@ pub fn fuse_scalar(p: &mut Covariance, h: &SparseRow, y: f64, r: f64) -> Result<
         }
     }
     symmetrize(p);
-    constrain(p);
+    constrain(p)?;
     Ok(correction)
 }
 
@@ -296,5 +323,30 @@ mod tests {
         assert_eq!(p, before, "no fusion happened, so no confidence was gained");
         let dx = fuse_scalar(&mut p, &h, 1.0, 1.0).unwrap();
         assert!((p[(3, 3)] - 0.5).abs() < 1e-12 && (dx[3] - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_nan_correlation_is_refused_not_clamped() {
+        let mut p = Covariance::identity();
+        p[(7, 2)] = f64::NAN;
+        p[(2, 7)] = f64::NAN;
+        let before = p;
+        assert_eq!(constrain(&mut p), Err(NotFinite { row: 7, col: 2 }));
+        let h = SparseRow::unit(2);
+        assert_eq!(
+            fuse_scalar(&mut p, &h, 0.1, 1.0),
+            Err(FusionFault::Covariance(NotFinite { row: 7, col: 2 }))
+        );
+        let t =
+            Transition { a: Matrix3::identity(), b: Matrix3::zeros(), c: Matrix3::identity(), dt_s: 0.01 };
+        let noise =
+            ProcessNoise { gyro_rad_s: 0.01, accel_m_s2: 0.1, gyro_bias_rad_s2: 1e-4, accel_bias_m_s3: 1e-3 };
+        // The refused calls left `p` as it was (the NaN included), for the filter to reset.
+        assert_eq!(p.map(f64::is_nan), before.map(f64::is_nan));
+        assert_eq!(p[(1, 1)], before[(1, 1)]);
+        assert!(t.predict(&mut p, &noise).is_err());
+        let mut inf = Covariance::identity();
+        inf[(0, 0)] = f64::INFINITY;
+        assert_eq!(constrain(&mut inf), Err(NotFinite { row: 0, col: 0 }));
     }
 }

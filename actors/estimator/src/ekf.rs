@@ -17,6 +17,7 @@ use nalgebra::Vector3;
 use crate::aiding::baro::{BaroControl, ClimbRate, ClimbRateFit};
 use crate::aiding::gps::GpsControl;
 use crate::aiding::mag::MagControl;
+use crate::arrivals::Arrivals;
 use crate::covariance::{ProcessNoise, SparseRow};
 use crate::delay_buffer::DelayBuffer;
 use crate::error::{InputError, ParamError};
@@ -65,18 +66,22 @@ pub struct Ekf {
     newest_imu: Option<Time>,
     newest_gyro_rad_s: Vector3<f64>,
     imu_rejected: u64,
+    arrivals: DroppedSamples<Arrivals>,
+}
+
+/// Per aiding sensor: lagged samples refused on arrival (see [`crate::arrivals`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DroppedSamples<T = u64> {
+    pub gps: T,
+    pub baro: T,
+    pub mag: T,
 }
 
 impl Ekf {
     /// A filter waiting for a still vehicle to align.
     pub fn new(params: EkfParams) -> Result<Ekf, ParamError> {
         params.validate()?;
-        let noise = ProcessNoise {
-            gyro_rad_s: params.gyro_noise_rad_s,
-            accel_m_s2: params.accel_noise_m_s2,
-            gyro_bias_rad_s2: params.gyro_bias_noise_rad_s2,
-            accel_bias_m_s3: params.accel_bias_noise_m_s3,
-        };
+        let noise = process_noise(&params);
         Ok(Ekf {
             horizon_us: (params.fusion_horizon_s() * 1e6).round() as u64,
             noise,
@@ -95,8 +100,23 @@ impl Ekf {
             newest_imu: None,
             newest_gyro_rad_s: Vector3::zeros(),
             imu_rejected: 0,
+            arrivals: DroppedSamples::default(),
             params,
         })
+    }
+
+    /// Takes new noises and gates from the next step on (the state and covariance are kept).
+    /// Refused, with nothing changed, when `params` do not validate or would change what sizes
+    /// the delay buffers (the lags, lag compensation): those need a new filter.
+    pub fn retune(&mut self, params: EkfParams) -> Result<(), ParamError> {
+        params.validate()?;
+        let lags = |p: &EkfParams| (p.gps_lag_s, p.baro_lag_s, p.mag_lag_s, p.lag_compensation);
+        if lags(&params) != lags(&self.params) {
+            return Err(ParamError::new("gps_lag_s", "sensor lags cannot change while the filter runs"));
+        }
+        self.noise = process_noise(&params);
+        self.params = params;
+        Ok(())
     }
 
     /// The parameters in use.
@@ -117,6 +137,19 @@ impl Ekf {
     /// The error-state covariance at the delayed fusion horizon.
     pub fn covariance(&self) -> Option<&Covariance> {
         self.running.as_ref().map(|r| &r.filter.cov)
+    }
+
+    /// The pressure altitude of zero height (m above mean sea level), once aligned with a
+    /// barometer: the mean over the still window.
+    pub fn baro_datum_m(&self) -> Option<f64> {
+        self.baro.datum_m()
+    }
+
+    /// Lagged samples refused on arrival, per sensor: out of order, behind the delayed fusion
+    /// horizon or stamped in the future (see [`crate::arrivals`]).
+    pub fn dropped_samples(&self) -> DroppedSamples {
+        let a = &self.arrivals;
+        DroppedSamples { gps: a.gps.dropped, baro: a.baro.dropped, mag: a.mag.dropped }
     }
 
     /// The local NED frame, once the first good GPS fix has set it.
@@ -141,6 +174,9 @@ impl Ekf {
                     OutputPredictor::new(&state, HISTORY_CAPACITY, horizon_s, self.params.output_tau_s);
                 if let Some(field) = aligned.mag_earth_ned_gauss {
                     self.mag.set_earth_field(field);
+                }
+                if let Some(altitude_m) = aligned.baro_altitude_m {
+                    self.baro.set_datum(altitude_m);
                 }
                 let filter = Filter::aligned(state, aligned.mag_earth_ned_gauss.is_some());
                 tracing::info!(time = %aligned.time, "estimator aligned");
@@ -168,9 +204,8 @@ impl Ekf {
         if !finite {
             return Err(InputError::NotFinite { sensor: "gps", time: fix.time });
         }
-        if self.running.is_some() {
-            let fix = GpsFix { time: self.fusion_time(fix.time), ..fix.clone() };
-            self.gps_buffer.push(fix);
+        if let Some(time) = self.admit(|a| &mut a.gps, "gps", fix.time)? {
+            self.gps_buffer.push(GpsFix { time, ..fix.clone() });
         }
         Ok(())
     }
@@ -180,14 +215,16 @@ impl Ekf {
         if !sample.altitude_m.is_finite() {
             return Err(InputError::NotFinite { sensor: "baro", time: sample.time });
         }
-        if self.running.is_some() {
-            let sample = BaroSample { time: self.fusion_time(sample.time), ..sample.clone() };
+        if let Some(time) = self.admit(|a| &mut a.baro, "baro", sample.time)? {
+            let sample = BaroSample { time, ..sample.clone() };
             if self.params.fuse_baro_climb_rate
                 && let Some(climb) = self.climb_fit.push(&sample)
             {
                 self.climb_buffer.push(climb);
             }
             self.baro_buffer.push(sample);
+        } else if !self.is_aligned() {
+            self.alignment.push_baro(sample);
         }
         Ok(())
     }
@@ -197,12 +234,28 @@ impl Ekf {
         if !sample.field_gauss.iter().all(|x| x.is_finite()) {
             return Err(InputError::NotFinite { sensor: "mag", time: sample.time });
         }
-        if self.running.is_some() {
-            self.mag_buffer.push(MagSample { time: self.fusion_time(sample.time), ..sample.clone() });
-        } else {
+        if let Some(time) = self.admit(|a| &mut a.mag, "mag", sample.time)? {
+            self.mag_buffer.push(MagSample { time, ..sample.clone() });
+        } else if !self.is_aligned() {
             self.alignment.push_mag(sample);
         }
         Ok(())
+    }
+
+    /// Once aligned: the time a lagged sample measured at `measured` is fused at, or the
+    /// refusal (counted in `sensor`'s arrivals) when it cannot be used. `None` before alignment.
+    fn admit(
+        &mut self,
+        sensor: impl FnOnce(&mut DroppedSamples<Arrivals>) -> &mut Arrivals,
+        name: &'static str,
+        measured: Time,
+    ) -> Result<Option<Time>, InputError> {
+        let (Some(running), Some(newest_imu)) = (self.running.as_ref(), self.newest_imu) else {
+            return Ok(None);
+        };
+        let horizon = self.params.lag_compensation.then_some(running.filter.state.time);
+        sensor(&mut self.arrivals).admit(name, measured, horizon, newest_imu)?;
+        Ok(Some(self.fusion_time(measured)))
     }
 
     /// The time an observation is fused at: its own with lag compensation, else its arrival
@@ -319,10 +372,24 @@ impl Ekf {
                 baro_fusing: self.baro.height_aiding(t, params),
                 mag_fusing: self.mag.fusing(t, params),
                 dead_reckoning: aligned && !self.gps.position_aiding(t, params),
-                numerical_faults: self.running.as_ref().map_or(0, |r| r.filter.numerical_faults),
+                // Refused fusions plus covariance resets (each also logged as it happens).
+                numerical_faults: self
+                    .running
+                    .as_ref()
+                    .map_or(0, |r| r.filter.numerical_faults + r.filter.covariance_resets),
                 imu_rejected: self.imu_rejected,
             },
             fusion_horizon_s: self.newest_imu.map_or(0.0, |n| (n - t).as_secs_f64()),
         }
+    }
+}
+
+/// The process noise of `params` (white noises and bias random walks).
+fn process_noise(params: &EkfParams) -> ProcessNoise {
+    ProcessNoise {
+        gyro_rad_s: params.gyro_noise_rad_s,
+        accel_m_s2: params.accel_noise_m_s2,
+        gyro_bias_rad_s2: params.gyro_bias_noise_rad_s2,
+        accel_bias_m_s3: params.accel_bias_noise_m_s3,
     }
 }

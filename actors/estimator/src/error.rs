@@ -21,6 +21,10 @@ pub enum InputError {
     NotFinite { sensor: &'static str, time: kestrel_proto::Time },
     #[error("{sensor} sample at {time} is not newer than the last one at {newest}")]
     OutOfOrder { sensor: &'static str, time: kestrel_proto::Time, newest: kestrel_proto::Time },
+    #[error("{sensor} sample at {time} is older than the delayed fusion horizon at {horizon}")]
+    BehindHorizon { sensor: &'static str, time: kestrel_proto::Time, horizon: kestrel_proto::Time },
+    #[error("{sensor} sample at {time} is stamped too far after the newest IMU sample at {newest_imu}")]
+    FromFuture { sensor: &'static str, time: kestrel_proto::Time, newest_imu: kestrel_proto::Time },
     #[error("IMU sample at {time} has an unusable interval of {dt_s} s")]
     BadInterval { time: kestrel_proto::Time, dt_s: f64 },
 }

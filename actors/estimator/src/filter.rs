@@ -3,7 +3,9 @@
 
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use crate::covariance::{ProcessNoise, SparseRow, Transition, fuse_scalar, reset_block};
+use crate::covariance::{
+    FusionFault, NotFinite, ProcessNoise, SparseRow, Transition, check_finite, fuse_scalar, reset_block,
+};
 use crate::state::{
     ACCEL_BIAS, ATT, Covariance, ERROR_STATES, GRAVITY_M_S2, GYRO_BIAS, ImuDelta, POS, State, VEL,
 };
@@ -21,6 +23,8 @@ const INIT_ACCEL_BIAS_M_S2: f64 = 0.2;
 pub struct ResetDelta {
     pub pos_ned_m: Vector3<f64>,
     pub vel_ned_m_s: Vector3<f64>,
+    /// Rotation of the attitude about NED down (rad), applied on the NED side.
+    pub yaw_rad: f64,
 }
 
 /// State and covariance at the fusion horizon.
@@ -30,6 +34,8 @@ pub struct Filter {
     pub cov: Covariance,
     /// Fusions refused for numerical reasons.
     pub numerical_faults: u32,
+    /// Times the covariance was found not finite and reset to the initial uncertainty.
+    pub covariance_resets: u32,
     /// Resets since the output predictor last took them.
     pending_reset: ResetDelta,
 }
@@ -60,28 +66,32 @@ impl Filter {
     /// A filter just aligned at rest with `attitude`; `yaw_known` says whether a compass set the
     /// heading.
     pub fn aligned(state: State, yaw_known: bool) -> Filter {
-        let mut cov = Covariance::zeros();
         let yaw_sd = if yaw_known { INIT_YAW_RAD } else { 1.0 };
-        let sds = [
-            (ATT, [INIT_TILT_RAD, INIT_TILT_RAD, yaw_sd]),
-            (VEL, [INIT_VEL_M_S; 3]),
-            (POS, [INIT_POS_M; 3]),
-            (GYRO_BIAS, [INIT_GYRO_BIAS_RAD_S; 3]),
-            (ACCEL_BIAS, [INIT_ACCEL_BIAS_M_S2; 3]),
-        ];
-        for (start, sd) in sds {
-            for (i, s) in sd.iter().enumerate() {
-                cov[(start + i, start + i)] = s * s;
-            }
+        Filter {
+            state,
+            cov: initial_covariance(yaw_sd),
+            numerical_faults: 0,
+            covariance_resets: 0,
+            pending_reset: ResetDelta::default(),
         }
-        Filter { state, cov, numerical_faults: 0, pending_reset: ResetDelta::default() }
     }
 
     /// The prediction step: state and covariance over one IMU interval.
     pub fn predict(&mut self, imu: &ImuDelta, noise: &ProcessNoise) {
         let (next, transition) = propagate(&self.state, imu);
         self.state = next;
-        transition.predict(&mut self.cov, noise);
+        if let Err(fault) = transition.predict(&mut self.cov, noise) {
+            self.reset_covariance(fault);
+        }
+    }
+
+    /// Replaces a covariance that is no longer finite by the initial uncertainty (yaw as after a
+    /// compass alignment), keeping the state: a NaN anywhere would otherwise reach every gain.
+    /// Counted and logged.
+    fn reset_covariance(&mut self, fault: NotFinite) {
+        tracing::warn!(time = %self.state.time, %fault, "covariance reset to the initial uncertainty");
+        self.cov = initial_covariance(INIT_YAW_RAD);
+        self.covariance_resets += 1;
     }
 
     /// Innovation variance of row `h` with observation variance `r`.
@@ -103,9 +113,18 @@ impl Filter {
                     false
                 }
             }
+            Err(FusionFault::Covariance(fault)) => {
+                self.numerical_faults += 1;
+                self.reset_covariance(fault);
+                false
+            }
             Err(fault) => {
                 tracing::debug!(%fault, "fusion refused");
                 self.numerical_faults += 1;
+                // A refusal that did not look at the covariance may leave a bad one in place.
+                if let Err(fault) = check_finite(&self.cov) {
+                    self.reset_covariance(fault);
+                }
                 false
             }
         }
@@ -125,6 +144,23 @@ impl Filter {
         self.state.vel_ned_m_s = vel_ned_m_s;
         self.pending_reset.vel_ned_m_s += delta;
         reset_block(&mut self.cov, VEL, 3, variance);
+    }
+
+    /// Turns the attitude by `yaw_change_rad` about NED down and sets the yaw variance to
+    /// `variance_rad2`, uncorrelated with every other state (a yaw reset to the magnetometer).
+    ///
+    /// The attitude error is a rotation vector in NED, so turning the nominal attitude turns the
+    /// tilt error with it: `δθ' = R_z δθ` (`R_z` the reset's rotation), i.e. the attitude rows
+    /// and columns of `P` are rotated. Then the down component, which the measurement replaced,
+    /// forgets its correlations. Velocity and position are in NED and do not move.
+    pub fn reset_yaw(&mut self, yaw_change_rad: f64, variance_rad2: f64) {
+        let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), yaw_change_rad);
+        self.state.attitude = turn * self.state.attitude;
+        let mut t = Covariance::identity();
+        t.fixed_view_mut::<3, 3>(ATT, ATT).copy_from(turn.to_rotation_matrix().matrix());
+        self.cov = t * self.cov * t.transpose();
+        reset_block(&mut self.cov, ATT + 2, 1, variance_rad2);
+        self.pending_reset.yaw_rad += yaw_change_rad;
     }
 
     /// Takes the resets made since the last call.
@@ -152,5 +188,74 @@ impl Filter {
             out[i + 1] = self.cov[(i, i)];
         }
         out
+    }
+}
+
+/// The covariance just after alignment, with yaw standard deviation `yaw_sd` (rad).
+fn initial_covariance(yaw_sd: f64) -> Covariance {
+    let mut cov = Covariance::zeros();
+    let sds = [
+        (ATT, [INIT_TILT_RAD, INIT_TILT_RAD, yaw_sd]),
+        (VEL, [INIT_VEL_M_S; 3]),
+        (POS, [INIT_POS_M; 3]),
+        (GYRO_BIAS, [INIT_GYRO_BIAS_RAD_S; 3]),
+        (ACCEL_BIAS, [INIT_ACCEL_BIAS_M_S2; 3]),
+    ];
+    for (start, sd) in sds {
+        for (i, s) in sd.iter().enumerate() {
+            cov[(start + i, start + i)] = s * s;
+        }
+    }
+    cov
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kestrel_proto::Time;
+
+    fn filter() -> Filter {
+        Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true)
+    }
+
+    fn still(time_us: u64) -> ImuDelta {
+        ImuDelta::from_rates(Time::from_micros(time_us), [0.0; 3], [0.0, 0.0, -GRAVITY_M_S2], 0.0025)
+    }
+
+    const NOISE: ProcessNoise =
+        ProcessNoise { gyro_rad_s: 0.015, accel_m_s2: 0.25, gyro_bias_rad_s2: 1e-3, accel_bias_m_s3: 3e-3 };
+
+    #[test]
+    fn a_poisoned_covariance_is_reset_and_counted() {
+        let mut f = filter();
+        f.cov[(4, 10)] = f64::NAN;
+        f.cov[(10, 4)] = f64::NAN;
+        f.predict(&still(2500), &NOISE);
+        assert_eq!(f.covariance_resets, 1);
+        assert!(f.cov.iter().all(|x| x.is_finite()));
+        assert!(f.fuse(&SparseRow::unit(VEL), 0.1, 0.25), "fusion works again after the reset");
+
+        f.cov[(0, 1)] = f64::NAN;
+        assert!(!f.fuse(&SparseRow::unit(POS), 0.1, 0.25), "a poisoned covariance is not fused with");
+        assert_eq!((f.covariance_resets, f.numerical_faults), (2, 1));
+        assert!(f.cov.iter().all(|x| x.is_finite()));
+        assert!(f.state.is_finite());
+    }
+
+    #[test]
+    fn a_yaw_reset_turns_the_tilt_errors_and_forgets_the_yaw_correlations() {
+        let mut f = filter();
+        f.cov[(ATT, ATT)] = 0.01;
+        f.cov[(ATT + 1, ATT + 1)] = 0.04;
+        f.cov[(ATT + 2, VEL)] = 0.003;
+        f.cov[(VEL, ATT + 2)] = 0.003;
+        f.reset_yaw(std::f64::consts::FRAC_PI_2, 0.02);
+        let (_, _, yaw) = f.state.attitude.euler_angles();
+        assert!((yaw - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        // A quarter turn about down carries the east tilt error to north and north to west.
+        assert!((f.cov[(ATT, ATT)] - 0.04).abs() < 1e-12 && (f.cov[(ATT + 1, ATT + 1)] - 0.01).abs() < 1e-12);
+        assert_eq!(f.cov[(ATT + 2, ATT + 2)], 0.02);
+        assert!((0..ERROR_STATES).filter(|&j| j != ATT + 2).all(|j| f.cov[(ATT + 2, j)] == 0.0));
+        assert_eq!(f.take_reset().map(|r| r.yaw_rad), Some(std::f64::consts::FRAC_PI_2));
     }
 }

@@ -1,10 +1,13 @@
-//! Alignment of a still vehicle: roll and pitch from the mean specific force, yaw from the
-//! magnetometer (plus declination), and the Earth field for magnetometer fusion from the first
-//! reading rotated into NED (thesis §3.1.2 after eq. 3.28). The NED origin comes later, from the
-//! first good 3D GPS fix (see `aiding::gps`).
+//! Alignment of a still vehicle: roll and pitch from the mean specific force, yaw from the mean
+//! magnetometer reading (plus declination), the Earth field for magnetometer fusion from that
+//! mean rotated into NED (thesis §3.1.2 after eq. 3.28), and the barometric height datum from the
+//! mean pressure altitude. Every reference is an average over the still window, not one sample:
+//! a single sample's noise would otherwise stay in the yaw, the reference field (and so in
+//! every later magnetometer innovation) and every height the filter reports. The NED origin
+//! comes later, from the first good 3D GPS fix (see `aiding::gps`).
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{ImuSample, MagSample};
+use kestrel_proto::messages::{BaroSample, ImuSample, MagSample};
 use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::params::EkfParams;
@@ -18,6 +21,27 @@ pub struct Aligned {
     pub attitude: UnitQuaternion<f64>,
     /// The Earth's field in NED (gauss), when a magnetometer sample was available.
     pub mag_earth_ned_gauss: Option<Vector3<f64>>,
+    /// Mean pressure altitude over the window (m above mean sea level): the height datum, when
+    /// a barometer sample was available.
+    pub baro_altitude_m: Option<f64>,
+}
+
+/// A running sum and count, for a mean over the still window.
+#[derive(Clone, Copy, Debug, Default)]
+struct Mean<T> {
+    sum: T,
+    count: u32,
+}
+
+impl<T: Copy + std::ops::AddAssign + std::ops::Div<f64, Output = T>> Mean<T> {
+    fn add(&mut self, value: T) {
+        self.sum += value;
+        self.count += 1;
+    }
+
+    fn get(&self) -> Option<T> {
+        (self.count > 0).then(|| self.sum / f64::from(self.count))
+    }
 }
 
 /// Collects IMU samples until they have been still for the alignment window.
@@ -28,13 +52,28 @@ pub struct Alignment {
     accel_sum_m_s2: Vector3<f64>,
     accel_norm_min_m_s2: f64,
     accel_norm_max_m_s2: f64,
+    /// Body-frame field measured within the still window (gauss).
+    mag_body_gauss: Mean<Vector3<f64>>,
+    /// Pressure altitudes measured within the still window (m).
+    baro_altitude_m: Mean<f64>,
+    /// The newest magnetometer sample, for a magnetometer slower than the window.
     latest_mag: Option<MagSample>,
 }
 
 impl Alignment {
-    /// Remembers the newest magnetometer sample for the yaw.
+    /// Adds a magnetometer sample measured within the still window to the yaw's mean.
     pub fn push_mag(&mut self, sample: &MagSample) {
+        if self.start.is_some_and(|start| sample.time >= start) {
+            self.mag_body_gauss.add(Vector3::from(sample.field_gauss));
+        }
         self.latest_mag = Some(sample.clone());
+    }
+
+    /// Adds a barometer sample measured within the still window to the height datum's mean.
+    pub fn push_baro(&mut self, sample: &BaroSample) {
+        if self.start.is_some_and(|start| sample.time >= start) {
+            self.baro_altitude_m.add(sample.altitude_m);
+        }
     }
 
     /// Adds an IMU sample (finite, checked by the caller); returns the alignment once the vehicle
@@ -66,9 +105,9 @@ impl Alignment {
         let roll = (-mean.y).atan2(-mean.z);
         let pitch = mean.x.atan2(mean.y.hypot(mean.z));
         let tilt = UnitQuaternion::from_euler_angles(roll, pitch, 0.0);
-        let (attitude, mag_earth_ned_gauss) = match &self.latest_mag {
-            Some(mag) => {
-                let body = Vector3::from(mag.field_gauss);
+        let mag_body = self.mag_body_gauss.get().or(self.latest_mag.as_ref().map(|m| m.field_gauss.into()));
+        let (attitude, mag_earth_ned_gauss) = match mag_body {
+            Some(body) => {
                 let level = tilt * body;
                 let yaw = params.mag_declination_deg.to_radians() - level.y.atan2(level.x);
                 let attitude = UnitQuaternion::from_euler_angles(roll, pitch, yaw);
@@ -76,7 +115,8 @@ impl Alignment {
             }
             None => (tilt, None),
         };
-        Some(Aligned { time: sample.time, attitude, mag_earth_ned_gauss })
+        let baro_altitude_m = self.baro_altitude_m.get();
+        Some(Aligned { time: sample.time, attitude, mag_earth_ned_gauss, baro_altitude_m })
     }
 
     fn restart(&mut self, time: Time, accel: Vector3<f64>) {
@@ -86,6 +126,8 @@ impl Alignment {
         self.accel_sum_m_s2 = accel;
         self.accel_norm_min_m_s2 = norm;
         self.accel_norm_max_m_s2 = norm;
+        self.mag_body_gauss = Mean::default();
+        self.baro_altitude_m = Mean::default();
     }
 }
 
@@ -109,6 +151,33 @@ mod tests {
             }
         }
         panic!("never aligned");
+    }
+
+    /// Alternating noise on the magnetometer and barometer: the references are the window's
+    /// means, exactly; samples from before the window are left out.
+    #[test]
+    fn references_are_the_means_over_the_still_window() {
+        let params = EkfParams::default();
+        let field = Vector3::new(0.4, 0.0, 0.1);
+        let mut a = Alignment::default();
+        a.push_baro(&BaroSample { time: Time::ZERO, pressure_pa: 0.0, altitude_m: 99.0, temperature_c: 0.0 });
+        let mut aligned = None;
+        for i in 0..1000u64 {
+            let time = Time::from_micros(2500 * i);
+            let s = ImuSample { time, gyro_rad_s: [0.0; 3], accel_m_s2: [0.0, 0.0, -9.80665], dt_s: 0.0025 };
+            if i % 4 == 1 {
+                let sign = if i % 8 == 1 { 1.0 } else { -1.0 };
+                let noisy = field + Vector3::new(0.0, 0.05 * sign, 0.0);
+                a.push_mag(&MagSample { time, field_gauss: noisy.into() });
+                let altitude_m = 20.0 + 2.0 * sign;
+                a.push_baro(&BaroSample { time, pressure_pa: 0.0, altitude_m, temperature_c: 0.0 });
+            }
+            aligned = aligned.or(a.push_imu(&s, &params));
+        }
+        let aligned = aligned.expect("aligned");
+        assert!((aligned.baro_altitude_m.unwrap() - 20.0).abs() < 1e-9, "{aligned:?}");
+        assert!(aligned.attitude.angle_to(&UnitQuaternion::identity()) < 1e-9, "{aligned:?}");
+        assert!((aligned.mag_earth_ned_gauss.unwrap() - field).norm() < 1e-9, "{aligned:?}");
     }
 
     #[test]

@@ -8,18 +8,21 @@
 //! * [`replay`] runs the core over a PX4 ULog and compares with the log's own EKF2.
 //!
 //! Layout (after EKF2): `state` (what is estimated), `filter` (prediction, correction
-//! primitives), `covariance` (sparse `F P Fᵀ + G N Gᵀ`, scalar fusion, limits),
-//! `delay_buffer`, `output_predictor`, `init` (alignment), `aiding::{gps, baro, mag}` (when to
-//! fuse each sensor and the maths of its observation), `params`.
+//! primitives, resets), `covariance` (sparse `F P Fᵀ + G N Gᵀ`, scalar fusion, limits),
+//! `delay_buffer`, `arrivals` (which lagged samples may enter it), `output_predictor`, `init`
+//! (alignment), `aiding::{gps, baro, mag, mag_yaw_reset}` (when to fuse each sensor and the
+//! maths of its observation), `params`.
 
 pub mod actor;
 pub mod aiding;
+pub mod arrivals;
 pub mod covariance;
 pub mod delay_buffer;
 pub mod ekf;
 pub mod error;
 pub mod filter;
 pub mod init;
+pub mod live_params;
 pub mod output_predictor;
 pub mod params;
 pub mod replay;

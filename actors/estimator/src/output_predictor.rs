@@ -113,9 +113,17 @@ impl OutputPredictor {
         self.shift(&vel_correction, &pos_correction);
     }
 
-    /// Copies a reset of the filter state into the present and the history.
+    /// Copies a reset of the filter state into the present and the history (a yaw reset turns
+    /// every stored attitude about NED down, so the comparison with the filter sees no jump).
     pub fn apply_reset(&mut self, reset: &ResetDelta) {
         self.shift(&reset.vel_ned_m_s, &reset.pos_ned_m);
+        if reset.yaw_rad != 0.0 {
+            let turn = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), reset.yaw_rad);
+            for o in self.history.iter_mut() {
+                o.attitude = turn * o.attitude;
+            }
+            self.current.attitude = turn * self.current.attitude;
+        }
         if reset.pos_ned_m != Vector3::zeros() {
             self.pos_error_integral = Vector3::zeros();
         }

@@ -53,6 +53,13 @@ pub struct EkfParams {
     /// Relative deviation of the field strength from the aligned one beyond which a magnetometer
     /// sample counts as disturbed and is not fused (0.3 = ±30 %).
     pub mag_strength_tolerance: f64,
+    /// Realign yaw and the reference field from the magnetometer once in flight, above
+    /// `mag_yaw_reset_height_m` (PX4 EKF2's in-flight yaw alignment): the field on the ground is
+    /// often disturbed (steel, the launch pad), and the alignment took it as the Earth's.
+    pub in_flight_yaw_reset: bool,
+    /// Height above the take-off point (the alignment's height datum) at which the in-flight
+    /// yaw realignment happens (m); PX4 realigns at 1.5 m.
+    pub mag_yaw_reset_height_m: f64,
     /// GPS rejected continuously for this long resets position and velocity to GPS (s).
     pub gps_reset_timeout_s: f64,
     /// Without horizontal aiding for this long the position is flagged invalid (s).
@@ -95,6 +102,8 @@ impl Default for EkfParams {
             lag_compensation: true,
             mag_declination_deg: 0.0,
             mag_strength_tolerance: 0.3,
+            in_flight_yaw_reset: true,
+            mag_yaw_reset_height_m: 1.5,
             gps_reset_timeout_s: 5.0,
             horizontal_position_timeout_s: 5.0,
             no_aiding_position_noise_m: 10.0,
@@ -125,6 +134,7 @@ impl EkfParams {
             ("baro_gate_sigma", self.baro_gate_sigma),
             ("mag_gate_sigma", self.mag_gate_sigma),
             ("mag_strength_tolerance", self.mag_strength_tolerance),
+            ("mag_yaw_reset_height_m", self.mag_yaw_reset_height_m),
             ("gps_reset_timeout_s", self.gps_reset_timeout_s),
             ("horizontal_position_timeout_s", self.horizontal_position_timeout_s),
             ("no_aiding_position_noise_m", self.no_aiding_position_noise_m),

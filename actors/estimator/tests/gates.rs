@@ -1,6 +1,7 @@
 //! Each innovation gate rejects a 10σ outlier and leaves the state alone.
 
-use kestrel_estimator::{Ekf, EkfParams};
+use kestrel_estimator::ekf::DroppedSamples;
+use kestrel_estimator::{Ekf, EkfParams, InputError};
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{BaroSample, GpsFix, GpsFixType, ImuSample, MagSample};
@@ -71,7 +72,8 @@ fn gps_gate_rejects_a_ten_sigma_position_outlier() {
     let mut bench = settled(EkfParams::default());
     let sigma = bench.ekf.status().gps_position_ne[0].variance.sqrt();
     let before = *bench.ekf.delayed_state().unwrap();
-    let fix = bench.gps([10.0 * sigma, 0.0, 0.0]);
+    // Stamped just after the regular fix of the same instant (a repeated stamp is refused).
+    let fix = GpsFix { time: Time::from_micros(bench.t_us + 1), ..bench.gps([10.0 * sigma, 0.0, 0.0]) };
     bench.ekf.push_gps(&fix).unwrap();
     bench.run(0.3);
     let status = bench.ekf.status();
@@ -86,7 +88,7 @@ fn baro_gate_rejects_a_ten_sigma_height_outlier() {
     let mut bench = settled(EkfParams { fuse_baro_climb_rate: false, ..EkfParams::default() });
     let sigma = bench.ekf.status().baro_height.variance.sqrt();
     let before = *bench.ekf.delayed_state().unwrap();
-    let time = Time::from_micros(bench.t_us);
+    let time = Time::from_micros(bench.t_us + 1);
     let outlier =
         BaroSample { time, pressure_pa: 100_000.0, altitude_m: 20.0 + 10.0 * sigma, temperature_c: 25.0 };
     bench.ekf.push_baro(&outlier).unwrap();
@@ -127,4 +129,45 @@ fn bad_samples_are_refused_with_a_typed_error() {
     assert!(ekf.push_imu(&imu).is_err());
     assert_eq!(ekf.status().health.imu_rejected, 2);
     assert!(Ekf::new(EkfParams { gps_gate_sigma: 0.0, ..EkfParams::default() }).is_err());
+}
+
+/// For each sensor: a sample older than the delayed fusion horizon, one whose stamp goes back
+/// behind the last accepted one, and one stamped a second ahead are each refused with their own
+/// error and counted, and fusion goes on at every sensor's full rate afterwards (a future sample
+/// let in would hold its buffer for a second).
+#[test]
+fn stale_backwards_and_future_samples_are_counted_and_do_not_block_fusion() {
+    let mut bench = settled(EkfParams::default());
+    let before = bench.ekf.status();
+    let now = bench.t_us;
+    let horizon = bench.ekf.delayed_state().unwrap().time;
+    assert_eq!(horizon, Time::from_micros(now - 220_000));
+    let at = |us: u64| Time::from_micros(us);
+    let stale = at(now - 500_000);
+    let backwards = at(now - 100_000);
+    let future = at(now + 1_000_000);
+    for time in [stale, backwards, future] {
+        let fix = GpsFix { time, ..bench.gps([0.0; 3]) };
+        let baro = BaroSample { time, pressure_pa: 101_000.0, altitude_m: 20.0, temperature_c: 25.0 };
+        let mag = MagSample { time, field_gauss: FIELD_NED };
+        let errors = [bench.ekf.push_gps(&fix), bench.ekf.push_baro(&baro), bench.ekf.push_mag(&mag)];
+        for e in errors {
+            let e = e.unwrap_err();
+            let expected = match time {
+                t if t == stale => matches!(e, InputError::BehindHorizon { .. }),
+                t if t == backwards => matches!(e, InputError::OutOfOrder { .. }),
+                _ => matches!(e, InputError::FromFuture { .. }),
+            };
+            assert!(expected, "{time}: {e}");
+        }
+    }
+    assert_eq!(bench.ekf.dropped_samples(), DroppedSamples { gps: 3, baro: 3, mag: 3 });
+    bench.run(1.0);
+    let after = bench.ekf.status();
+    // One second of fusion at 5, 10 and 100 Hz.
+    assert_eq!(after.gps.fused - before.gps.fused, 5, "{after:?}");
+    assert!(after.baro.fused - before.baro.fused >= 10, "{after:?}");
+    assert_eq!(after.mag.fused - before.mag.fused, 100, "{after:?}");
+    assert!((after.fusion_horizon_s - 0.22).abs() < 1e-9, "{after:?}");
+    assert_eq!(bench.ekf.dropped_samples(), DroppedSamples { gps: 3, baro: 3, mag: 3 });
 }

@@ -96,7 +96,7 @@ proptest! {
             let accel = [rates[1], rates[2], -9.8 + rates[0]];
             let (next, t) = propagate(&x, &imu(rates, accel));
             x = next;
-            t.predict(&mut p, &noise);
+            t.predict(&mut p, &noise).expect("finite covariance");
             if step % observe_every == 0 {
                 let row = match step % 4 {
                     0 => SparseRow::unit(6 + step % 3),

@@ -7,16 +7,16 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    BatteryStatus, DepthGrid, GpsFix, ManualControl, Mission, NavState, ParamSet, VehicleCommand,
-    VehicleStatus,
+    AvoidanceCommand, BatteryStatus, DepthGrid, GpsFix, ManualControl, Mission, NavState, ParamDecl,
+    ParamSet, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
 use crate::config::LinkParams;
 use crate::hub::Hub;
 use crate::services::ToGraph;
-use crate::services::params::{ParamTable, parse_param_file};
-use crate::transport::{GraphSink, OpenEndpoint, Shared, open_all};
+use crate::services::params::{ParamTable, parse_param_file, render_param_file};
+use crate::transport::{GraphSink, OpenEndpoint, ParamWriter, Shared, open_all};
 use crate::vehicle::Vehicle;
 
 /// Period of the scheduler that sends telemetry and checks timeouts (50 Hz: the fastest stream
@@ -31,6 +31,10 @@ pub enum LinkInput {
     Battery(BatteryStatus),
     Status(VehicleStatus),
     Depth(DepthGrid),
+    /// The obstacle avoider's newest correction (port `avoidance`), sent as DEBUG_VECT.
+    Avoidance(AvoidanceCommand),
+    /// An actor's live parameters (port `param_decl`).
+    ParamDecl(ParamDecl),
     Heartbeat(Time),
     Tick(Time),
 }
@@ -66,6 +70,8 @@ pub struct LinkActor {
     outputs: LinkOutputs,
     clock: Arc<dyn Clock>,
     endpoints: Vec<OpenEndpoint>,
+    /// Persists parameter changes on its own thread; finished (pending text written) in `stop`.
+    param_writer: Option<Arc<ParamWriter>>,
 }
 
 impl LinkActor {
@@ -79,7 +85,8 @@ impl LinkActor {
     }
 }
 
-/// Builds the parameter table from the config and the persisted file (if any).
+/// Builds the parameter table from the config's own entries and the persisted file (if any);
+/// the graph's actors add theirs as their declarations arrive.
 pub fn load_params(params: &LinkParams, config_dir: &std::path::Path) -> Result<ParamTable, ActorError> {
     let mut table = ParamTable::new(params.params.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
     if let Some(file) = &params.param_file {
@@ -123,6 +130,8 @@ impl Actor for LinkActor {
         setup.input("battery", LinkInput::Battery);
         setup.input("vehicle_status", LinkInput::Status);
         setup.input("depth_grid", LinkInput::Depth);
+        setup.input("avoidance", LinkInput::Avoidance);
+        setup.input("param_decl", LinkInput::ParamDecl);
         setup.timer("heartbeat", Duration::from_secs(1), LinkInput::Heartbeat);
         setup.timer("tick", TICK_PERIOD, LinkInput::Tick);
         let outputs = LinkOutputs {
@@ -139,6 +148,7 @@ impl Actor for LinkActor {
             outputs,
             clock: setup.clock(),
             endpoints: Vec::new(),
+            param_writer: None,
         })
     }
 
@@ -146,12 +156,20 @@ impl Actor for LinkActor {
         let outputs = self.outputs.clone();
         let clock = Arc::clone(&self.clock);
         let graph: GraphSink = Arc::new(move |out| outputs.publish(out, clock.now()));
+        if let Some(file) = &self.params.param_file {
+            let path = self.config_dir.join(file);
+            let writer = ParamWriter::to_file(path.clone()).map_err(|source| ActorError::Io {
+                what: format!("parameter writer thread for {}", path.display()),
+                source,
+            })?;
+            self.param_writer = Some(Arc::new(writer));
+        }
         let shared = Shared {
             hub: Arc::clone(&self.hub),
             clock: Arc::clone(&self.clock),
             shutdown: ctx.shutdown().clone(),
             graph,
-            param_file: self.params.param_file.as_ref().map(|p| self.config_dir.join(p)),
+            param_writer: self.param_writer.clone(),
         };
         self.endpoints = open_all(&self.params.endpoints, &self.config_dir, &shared)
             .await
@@ -182,8 +200,21 @@ impl Actor for LinkActor {
                     hub.vehicle().on_depth(d);
                     Vec::new()
                 }
+                LinkInput::Avoidance(a) => {
+                    hub.vehicle().on_avoidance(a);
+                    Vec::new()
+                }
                 LinkInput::Status(s) => {
                     let out = hub.vehicle().on_status(s);
+                    hub.dispatch(out)
+                }
+                LinkInput::ParamDecl(d) => {
+                    let out = hub.vehicle().on_param_decl(&d, d.time);
+                    if hub.vehicle().take_params_changed()
+                        && let Some(writer) = &self.param_writer
+                    {
+                        writer.submit(render_param_file(hub.vehicle().params()));
+                    }
                     hub.dispatch(out)
                 }
                 LinkInput::Heartbeat(_) => {
@@ -200,6 +231,17 @@ impl Actor for LinkActor {
     }
 
     async fn stop(&mut self, _ctx: &Context) {
+        if let Some(writer) = self.param_writer.take() {
+            let finished = tokio::task::spawn_blocking(move || {
+                writer.finish();
+                writer.stats()
+            })
+            .await;
+            match finished {
+                Ok(stats) => tracing::info!(?stats, "parameter file writer finished"),
+                Err(e) => tracing::error!(error = %e, "parameter file writer did not finish"),
+            }
+        }
         let hub = self.hub();
         for (name, stats) in hub.link_stats() {
             tracing::info!(link = %name, ?stats, "MAVLink link counters");

@@ -8,7 +8,7 @@
 //! params.param_file = "link_params.txt"   # NAME=VALUE lines, rewritten atomically on PARAM_SET
 //! params.endpoints = [
 //!   { type = "udp_out", address = "127.0.0.1:14550" },   # to QGroundControl / MAVProxy
-//!   { type = "udp_in", bind = "0.0.0.0:14540" },         # MAVSDK, scripts: answers whoever talks
+//!   { type = "udp_in", bind = "0.0.0.0:14540", max_peers = 8 },  # MAVSDK, scripts: answers whoever talks
 //!   { type = "tcp_in", bind = "0.0.0.0:5760" },
 //!   { type = "serial", device = "/dev/ttyUSB0", baud = 57600, flow_control = false,
 //!     signing_key_file = "radio.key" },
@@ -35,7 +35,9 @@ pub struct LinkParams {
     /// Where MAVLink goes in and out; several at once are routed between each other.
     #[serde(default = "default_endpoints")]
     pub endpoints: Vec<EndpointConfig>,
-    /// The vehicle's parameters as the ground station sees them.
+    /// Parameters the link serves itself, for benches without their owners (a "link only"
+    /// graph). The graph's actors declare their own on the `param_decl` port; a declaration
+    /// replaces a listed parameter of the same name.
     #[serde(default)]
     pub params: Vec<ParamSpec>,
     /// Where changed parameter values persist (`NAME=VALUE` lines, replaced atomically);
@@ -75,7 +77,10 @@ fn default_endpoints() -> Vec<EndpointConfig> {
             signing_key_file: None,
         },
         EndpointConfig {
-            kind: EndpointKind::UdpIn { bind: SocketAddr::from(([0, 0, 0, 0], 14540)) },
+            kind: EndpointKind::UdpIn {
+                bind: SocketAddr::from(([0, 0, 0, 0], 14540)),
+                max_peers: default_max_peers(),
+            },
             signing_key_file: None,
         },
     ]
@@ -98,8 +103,14 @@ pub struct EndpointConfig {
 pub enum EndpointKind {
     /// UDP client: sends to `address` from an ephemeral port and hears replies on it.
     UdpOut { address: SocketAddr },
-    /// UDP server: listens on `bind` and answers every peer that has talked to it.
-    UdpIn { bind: SocketAddr },
+    /// UDP server: listens on `bind` and answers every peer that has sent it a valid MAVLink
+    /// frame, at most `max_peers` at once (a newcomer to a full table replaces a peer silent
+    /// for 3 s, or is refused and counted).
+    UdpIn {
+        bind: SocketAddr,
+        #[serde(default = "default_max_peers")]
+        max_peers: usize,
+    },
     /// TCP server: every accepted connection is a link of its own.
     TcpIn { bind: SocketAddr },
     /// Serial port, e.g. a 433 MHz SiK radio.
@@ -111,6 +122,10 @@ pub enum EndpointKind {
         #[serde(default)]
         flow_control: bool,
     },
+}
+
+fn default_max_peers() -> usize {
+    8
 }
 
 fn default_baud() -> u32 {

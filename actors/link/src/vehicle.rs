@@ -8,12 +8,14 @@
 use std::time::Duration;
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{BatteryStatus, Command, DepthGrid, GpsFix, NavState, VehicleStatus};
-use mavlink::Message;
-use mavlink::dialects::ardupilotmega::{
-    AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, MISSION_ITEM_REACHED_DATA, MavCmd,
-    MavMessage, MavProtocolCapability, MavResult, MavSeverity, MavType,
+use kestrel_proto::messages::{
+    AvoidanceCommand, BatteryStatus, Command, DepthGrid, GpsFix, NavState, ParamDecl, VehicleStatus,
 };
+use mavlink::dialects::ardupilotmega::{
+    AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
+    MISSION_ITEM_REACHED_DATA, MavCmd, MavMessage, MavProtocolCapability, MavResult, MavSeverity, MavType,
+};
+use mavlink::{Message, MessageData};
 
 use crate::services::command::{CommandRequest, CommandService, ack};
 use crate::services::events::{status_changes, statustext};
@@ -90,7 +92,15 @@ impl Vehicle {
         &self.params
     }
 
-    /// True once after each accepted PARAM_SET.
+    /// An actor declared its live parameters (topic `param_decl`): they join the table, and
+    /// values set earlier go back to the owner as `ParamSet`.
+    pub fn on_param_decl(&mut self, decl: &ParamDecl, now: Time) -> Outputs {
+        let done = self.params.declare(decl, now);
+        self.params_changed |= done.persist_changed;
+        done.out
+    }
+
+    /// True once after each change the parameter file must follow.
     pub fn take_params_changed(&mut self) -> bool {
         std::mem::take(&mut self.params_changed)
     }
@@ -170,6 +180,13 @@ impl Vehicle {
             }
             MavMessage::MISSION_REQUEST(m) => self.missions.on_request(from, m.seq, m.mission_type, true),
             MavMessage::MISSION_CLEAR_ALL(m) => self.missions.clear(from, m.mission_type, now),
+            MavMessage::MISSION_SET_CURRENT(m) => {
+                let mut out = self.missions.set_current(m.seq);
+                if let Some(index) = self.missions.commander_index(m.seq) {
+                    out.mav.extend(self.mission_current_if_shown(index));
+                }
+                out
+            }
             MavMessage::MISSION_ACK(_) => {
                 self.missions.on_ack(from);
                 Outputs::none()
@@ -212,7 +229,7 @@ impl Vehicle {
             },
             MavCmd::MAV_CMD_REQUEST_MESSAGE => {
                 let id = p[0];
-                let msg = if id == f64::from(<AUTOPILOT_VERSION_DATA as mavlink::MessageData>::ID) {
+                let msg = if id == f64::from(AUTOPILOT_VERSION_DATA::ID) {
                     Some(self.autopilot_version())
                 } else if id == 0.0 {
                     Some(self.heartbeat())
@@ -229,6 +246,21 @@ impl Vehicle {
                     None => Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)),
                 }
             }
+            MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT => {
+                // -1 keeps the item and only resets jump counters, which we do not keep.
+                if p[0] == -1.0 {
+                    return Outputs::send(ack(&request, MavResult::MAV_RESULT_ACCEPTED));
+                }
+                let seq =
+                    (p[0].fract() == 0.0 && (0.0..=f64::from(u16::MAX)).contains(&p[0])).then(|| p[0] as u16);
+                // Out of range (no mission included) is FAILED, as the command's definition says.
+                let Some(index) = seq.and_then(|s| self.missions.commander_index(s)) else {
+                    return Outputs::send(ack(&request, MavResult::MAV_RESULT_FAILED));
+                };
+                let mut out = self.commands.mission_current(request, index, now);
+                out.mav.extend(self.mission_current_if_shown(index));
+                out
+            }
             _ => match self.commands.handle(request, now) {
                 Some(out) => out,
                 None => Outputs::send(ack(&request, MavResult::MAV_RESULT_UNSUPPORTED)),
@@ -244,19 +276,41 @@ impl Vehicle {
         Outputs { mav, graph: Vec::new() }
     }
 
-    /// The commander's new status.
+    /// MISSION_CURRENT now, when the commander already shows item `index` current: the spec
+    /// wants one after every set-current request, changed or not (a change sends its own from
+    /// `on_status`).
+    fn mission_current_if_shown(&self, index: u32) -> Option<MavMessage> {
+        let shown = self.telemetry.snapshot.status.as_ref().is_some_and(|s| s.mission.current == index);
+        shown.then(|| self.telemetry.build(MISSION_CURRENT_DATA::ID, Time::ZERO)).flatten()
+    }
+
+    /// The commander's new status: STATUSTEXTs and ACKs for what changed, MISSION_ITEM_REACHED
+    /// for every item reached, and HOME_POSITION / MISSION_CURRENT at once when home or the
+    /// current item moved (a ground station should not wait for the stream).
     pub fn on_status(&mut self, status: VehicleStatus) -> Outputs {
         let old = self.telemetry.snapshot.status.take();
         let mut mav = status_changes(old.as_ref(), &status);
         mav.extend(self.commands.on_status(&status));
-        let reached_before = old.map_or(0, |o| o.mission.reached);
-        for reached in reached_before + 1..=status.mission.reached {
-            // The commander's item `reached - 1` is our item `reached` (item 0 is home).
-            mav.push(MavMessage::MISSION_ITEM_REACHED(MISSION_ITEM_REACHED_DATA {
-                seq: u16::try_from(reached).unwrap_or(u16::MAX),
-            }));
+        let reached_before = old.as_ref().map_or(0, |o| o.mission.reached);
+        let newly = status.mission.reached.saturating_sub(reached_before);
+        if let Some(last) = status.mission.last_reached.filter(|_| newly > 0) {
+            // Items reached since the last status run up to `last_reached`; the commander's item
+            // i is our item i + 1 (item 0 is home).
+            for index in (last + 1).saturating_sub(newly)..=last {
+                mav.push(MavMessage::MISSION_ITEM_REACHED(MISSION_ITEM_REACHED_DATA {
+                    seq: u16::try_from(index + 1).unwrap_or(u16::MAX),
+                }));
+            }
         }
+        let home_moved = old.as_ref().is_some_and(|o| o.home != status.home);
+        let item_moved = old.as_ref().is_some_and(|o| o.mission.current != status.mission.current);
         self.telemetry.snapshot.status = Some(status);
+        let now = self.telemetry.snapshot.status.as_ref().map_or(Time::ZERO, |s| s.time);
+        for (moved, id) in [(home_moved, HOME_POSITION_DATA::ID), (item_moved, MISSION_CURRENT_DATA::ID)] {
+            if moved {
+                mav.extend(self.telemetry.build(id, now));
+            }
+        }
         Outputs { mav, graph: Vec::new() }
     }
 
@@ -280,6 +334,11 @@ impl Vehicle {
         self.telemetry.snapshot.depth = Some(depth);
     }
 
+    /// The avoider's latest correction (for DEBUG_VECT "AVOID").
+    pub fn on_avoidance(&mut self, avoidance: AvoidanceCommand) {
+        self.telemetry.snapshot.avoidance = Some(avoidance);
+    }
+
     /// Periodic work: command and mission timeouts, GCS loss; returns replies and the telemetry
     /// due now (kept apart so radio links can thin telemetry only).
     pub fn on_tick(&mut self, now: Time) -> (Outputs, Vec<MavMessage>) {
@@ -299,6 +358,7 @@ fn command_long(from: Sender, c: &COMMAND_LONG_DATA) -> CommandRequest {
     CommandRequest {
         command: c.command,
         params: [c.param1, c.param2, c.param3, c.param4, c.param5, c.param6, c.param7].map(f64::from),
+        frame: None,
         sender: from,
     }
 }
@@ -315,6 +375,7 @@ fn command_int(from: Sender, c: &COMMAND_INT_DATA) -> CommandRequest {
             f64::from(c.y),
             f64::from(c.z),
         ],
+        frame: Some(c.frame),
         sender: from,
     }
 }
@@ -350,8 +411,16 @@ mod tests {
             mode: FlightMode::Auto,
             landed: LandedState::InAir,
             failsafe: None,
-            mission: MissionProgress { current: reached, reached, total: 5, completed: false },
+            mission: MissionProgress {
+                current: reached,
+                reached,
+                last_reached: reached.checked_sub(1),
+                total: 5,
+                completed: false,
+            },
             last_refusal: None,
+            home: None,
+            geofence_enabled: true,
         }
     }
 
@@ -421,6 +490,117 @@ mod tests {
             .collect();
         assert_eq!(seqs, [1, 2]);
         assert!(v.on_status(status(2)).mav.is_empty());
+    }
+
+    /// Uploads home plus `n` waypoints through the mission protocol.
+    fn with_mission(v: &mut Vehicle, n: u16) {
+        use mavlink::dialects::ardupilotmega::{
+            MISSION_COUNT_DATA, MISSION_ITEM_INT_DATA, MavFrame, MavMissionResult, MavMissionType,
+        };
+        let count =
+            MISSION_COUNT_DATA { count: n + 1, target_system: 7, target_component: 1, ..Default::default() };
+        v.on_message(GCS, &MavMessage::MISSION_COUNT(count), Time::ZERO);
+        let mut last = Outputs::none();
+        for seq in 0..=n {
+            let item = MISSION_ITEM_INT_DATA {
+                seq,
+                command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+                frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                x: 67_971_000 + i32::from(seq) * 100,
+                y: 799_017_000,
+                z: 10.0,
+                target_system: 7,
+                target_component: 1,
+                mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+                ..Default::default()
+            };
+            last = v.on_message(GCS, &MavMessage::MISSION_ITEM_INT(item), Time::ZERO);
+        }
+        assert!(last.mav.iter().any(
+            |m| matches!(m, MavMessage::MISSION_ACK(a) if a.mavtype == MavMissionResult::MAV_MISSION_ACCEPTED)
+        ));
+    }
+
+    fn set_current_command(seq: f32) -> MavMessage {
+        long(MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT, seq, 7)
+    }
+
+    #[test]
+    fn set_mission_current_by_command_and_message_reaches_the_commander_or_is_refused() {
+        use mavlink::dialects::ardupilotmega::MISSION_SET_CURRENT_DATA;
+        let mut v = vehicle(0);
+        let out = v.on_message(GCS, &set_current_command(1.0), Time::ZERO);
+        assert_eq!(ack_result(&out), Some(MavResult::MAV_RESULT_FAILED), "no mission");
+        with_mission(&mut v, 3);
+        v.on_tick(Time::ZERO);
+        v.on_status(status(0));
+        let out = v.on_message(GCS, &set_current_command(3.0), Time::ZERO);
+        assert_eq!(out.graph, vec![ToGraph::Command(Command::SetMissionCurrent { index: 2 })]);
+        assert_eq!(ack_result(&out), None, "acknowledged once the status shows it");
+        for bad in [4.0, 1.5, -3.0, f32::NAN] {
+            let out = v.on_message(GCS, &set_current_command(bad), Time::ZERO);
+            assert_eq!(ack_result(&out), Some(MavResult::MAV_RESULT_FAILED), "{bad}");
+            assert!(out.graph.is_empty());
+        }
+        // The commander moves to item 2: ACCEPTED, and MISSION_CURRENT at once with our seq 3.
+        let mut moved = status(0);
+        moved.mission.current = 2;
+        let out = v.on_status(moved);
+        assert_eq!(ack_result(&out), Some(MavResult::MAV_RESULT_ACCEPTED));
+        assert!(out.mav.iter().any(|m| matches!(m, MavMessage::MISSION_CURRENT(c) if c.seq == 3)));
+        // The message: the same item again is answered with MISSION_CURRENT though nothing
+        // changes; an item we do not have gets a STATUSTEXT.
+        let set = |seq| {
+            MavMessage::MISSION_SET_CURRENT(MISSION_SET_CURRENT_DATA {
+                seq,
+                target_system: 7,
+                target_component: 1,
+            })
+        };
+        let out = v.on_message(GCS, &set(3), Time::ZERO);
+        assert_eq!(out.graph, vec![ToGraph::Command(Command::SetMissionCurrent { index: 2 })]);
+        assert!(matches!(out.mav[..], [MavMessage::MISSION_CURRENT(_)]));
+        let out = v.on_message(GCS, &set(9), Time::ZERO);
+        assert!(out.graph.is_empty());
+        assert!(matches!(out.mav[..], [MavMessage::STATUSTEXT(_)]));
+    }
+
+    #[test]
+    fn after_a_jump_reached_items_carry_their_own_numbers_and_home_moves_are_sent_at_once() {
+        use kestrel_proto::geo::Geodetic;
+        use kestrel_proto::messages::{Home, NavState, NavValidity};
+        let mut v = vehicle(0);
+        v.on_status(status(0));
+        let mut jumped = status(0);
+        jumped.mission =
+            MissionProgress { current: 3, reached: 1, last_reached: Some(2), total: 5, completed: false };
+        let seqs: Vec<u16> = v
+            .on_status(jumped.clone())
+            .mav
+            .iter()
+            .filter_map(|m| match m {
+                MavMessage::MISSION_ITEM_REACHED(r) => Some(r.seq),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(seqs, [3], "the commander's item 2 is our item 3");
+        v.on_nav(NavState {
+            time: Time::ZERO,
+            attitude: [1.0, 0.0, 0.0, 0.0],
+            angular_velocity_rad_s: [0.0; 3],
+            velocity_ned_m_s: [0.0; 3],
+            position_ned_m: [0.0; 3],
+            gyro_bias_rad_s: [0.0; 3],
+            accel_bias_m_s2: [0.0; 3],
+            covariance_diagonal: [0.0; 16],
+            origin: Some(Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
+            valid: NavValidity::default(),
+        });
+        let homed =
+            VehicleStatus { home: Some(Home { position_ned_m: [5.0, 0.0, 0.0], revision: 3 }), ..jumped };
+        let out = v.on_status(homed.clone());
+        assert!(out.mav.iter().any(|m| matches!(m, MavMessage::HOME_POSITION(h) if h.x == 5.0)));
+        assert!(!v.on_status(homed).mav.iter().any(|m| matches!(m, MavMessage::HOME_POSITION(_))));
     }
 
     #[test]

@@ -11,7 +11,8 @@ use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_link::LinkActor;
 use kestrel_proto::geo::Geodetic;
 use kestrel_proto::messages::{
-    Command, FlightMode, LandedState, MissionProgress, NavState, NavValidity, VehicleCommand, VehicleStatus,
+    Command, FlightMode, Home, LandedState, MissionProgress, NavState, NavValidity, VehicleCommand,
+    VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
@@ -47,6 +48,8 @@ impl Actor for StandInCommander {
                 failsafe: None,
                 mission: MissionProgress::default(),
                 last_refusal: None,
+                home: None,
+                geofence_enabled: true,
             },
             status_out: setup.output("vehicle_status"),
             nav_out: setup.output("nav_state"),
@@ -64,6 +67,16 @@ impl Actor for StandInCommander {
                     Command::MissionStart => self.status.mode = FlightMode::Auto,
                     Command::Land => self.status.mode = FlightMode::Land,
                     Command::ReturnToLaunch => self.status.mode = FlightMode::ReturnToLaunch,
+                    Command::SetGeofence { enabled } => self.status.geofence_enabled = enabled,
+                    Command::SetMissionCurrent { index } => self.status.mission.current = index,
+                    Command::SetHome { point } => {
+                        // Only what the link reads back: a new revision at the point, on the origin's
+                        // meridian as the client sends it.
+                        let revision = self.status.home.map_or(1, |h| h.revision + 1);
+                        let [north_m, down_m] = point
+                            .map_or([0.0; 2], |p| [(p.lat_deg - 6.79710) * 110_574.0, -(p.alt_m - 20.0)]);
+                        self.status.home = Some(Home { position_ned_m: [north_m, 0.0, down_m], revision });
+                    }
                     _ => return Ok(()),
                 }
                 self.status.time = now;

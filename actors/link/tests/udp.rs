@@ -28,7 +28,7 @@ fn udp_out(to: SocketAddr) -> EndpointConfig {
 }
 
 fn udp_in() -> EndpointConfig {
-    EndpointConfig { kind: EndpointKind::UdpIn { bind: loopback0() }, signing_key_file: None }
+    EndpointConfig { kind: EndpointKind::UdpIn { bind: loopback0(), max_peers: 8 }, signing_key_file: None }
 }
 
 fn gcs_heartbeat() -> MavMessage {
@@ -104,7 +104,11 @@ async fn ground_station_on_the_client_address_sees_the_vehicle_and_fetches_param
     gcs.send(vehicle, &MavMessage::PARAM_SET(set)).await;
     let (value, _) = gcs
         .recv_until(WAIT, |_, m| match m {
-            MavMessage::PARAM_VALUE(p) if p.param_index == 4 => Some(p.param_value),
+            MavMessage::PARAM_VALUE(p)
+                if p.param_id.to_str().is_ok_and(|id| id.trim_end_matches('\0') == "TEST_P4") =>
+            {
+                Some(p.param_value)
+            }
             _ => None,
         })
         .await
@@ -124,8 +128,7 @@ async fn commands_are_acknowledged_and_unknown_ones_unsupported_at_once() {
     let link = Harness::start(&[udp_out(gcs.addr())], 0, std::path::Path::new(".")).await;
     let vehicle = vehicle_address(&gcs).await;
 
-    gcs.send(vehicle, &command_long(MavCmd::MAV_CMD_DO_FENCE_ENABLE, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]))
-        .await;
+    gcs.send(vehicle, &command_long(MavCmd::MAV_CMD_DO_PARACHUTE, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])).await;
     let started = Instant::now();
     let ack = |cmd: MavCmd| {
         move |_: &mavlink::MavHeader, m: &MavMessage| match m {
@@ -133,7 +136,7 @@ async fn commands_are_acknowledged_and_unknown_ones_unsupported_at_once() {
             _ => None,
         }
     };
-    let (r, _) = gcs.recv_until(WAIT, ack(MavCmd::MAV_CMD_DO_FENCE_ENABLE)).await.expect("ack");
+    let (r, _) = gcs.recv_until(WAIT, ack(MavCmd::MAV_CMD_DO_PARACHUTE)).await.expect("ack");
     assert_eq!(r, MavResult::MAV_RESULT_UNSUPPORTED);
     assert!(started.elapsed() < Duration::from_millis(500));
 
@@ -159,6 +162,62 @@ async fn commands_are_acknowledged_and_unknown_ones_unsupported_at_once() {
     assert!(caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT));
     assert!(caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2));
     assert!(!caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+#[allow(deprecated, reason = "MISSION_SET_CURRENT is superseded but still sent by ground stations")]
+async fn home_fence_and_mission_current_commands_reach_the_commander_or_are_refused_at_once() {
+    let mut gcs = Peer::bind(255).await;
+    let link = Harness::start(&[udp_out(gcs.addr())], 0, std::path::Path::new(".")).await;
+    let vehicle = vehicle_address(&gcs).await;
+    let ack = |cmd: MavCmd| {
+        move |_: &mavlink::MavHeader, m: &MavMessage| match m {
+            MavMessage::COMMAND_ACK(a) if a.command == cmd => Some(a.result),
+            _ => None,
+        }
+    };
+    // Refused by the link itself, each at once with the result the spec gives it.
+    let refused = [
+        (
+            MavCmd::MAV_CMD_DO_FENCE_ENABLE,
+            [2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            MavResult::MAV_RESULT_UNSUPPORTED,
+        ),
+        (MavCmd::MAV_CMD_DO_SET_HOME, [0.0, 0.0, 0.0, 0.0, 91.0, 79.9, 20.0], MavResult::MAV_RESULT_DENIED),
+        (
+            MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT,
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            MavResult::MAV_RESULT_FAILED,
+        ),
+    ];
+    for (cmd, params, want) in refused {
+        let started = Instant::now();
+        gcs.send(vehicle, &command_long(cmd, params)).await;
+        let (r, _) = gcs.recv_until(WAIT, ack(cmd)).await.expect("ack");
+        assert_eq!(r, want, "{cmd:?}");
+        assert!(started.elapsed() < Duration::from_millis(500), "{cmd:?} took {:?}", started.elapsed());
+    }
+    // MISSION_SET_CURRENT without a mission: a STATUSTEXT says why.
+    let set = MISSION_SET_CURRENT_DATA { seq: 1, target_system: 1, target_component: 1 };
+    gcs.send(vehicle, &MavMessage::MISSION_SET_CURRENT(set)).await;
+    let (text, _) = gcs
+        .recv_until(WAIT, |_, m| match m {
+            MavMessage::STATUSTEXT(t) => {
+                Some(t.text.to_str().unwrap_or_default().trim_end_matches('\0').to_owned())
+            }
+            _ => None,
+        })
+        .await
+        .expect("STATUSTEXT");
+    assert!(text.contains("Mission item 1 refused"), "{text}");
+    // Valid ones go to the commander (here none answers: DENIED after the timeout).
+    gcs.send(vehicle, &command_long(MavCmd::MAV_CMD_DO_FENCE_ENABLE, [0.0; 7])).await;
+    gcs.send(vehicle, &command_long(MavCmd::MAV_CMD_DO_SET_HOME, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])).await;
+    let (r, _) = gcs.recv_until(WAIT, ack(MavCmd::MAV_CMD_DO_SET_HOME)).await.expect("ack");
+    assert_eq!(r, MavResult::MAV_RESULT_DENIED);
+    let graph = link.graph.lock().expect("graph").clone();
+    assert!(graph.contains(&ToGraph::Command(Command::SetGeofence { enabled: false })), "{graph:?}");
+    assert!(graph.contains(&ToGraph::Command(Command::SetHome { point: None })), "{graph:?}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -298,7 +357,7 @@ async fn with_signing_on_unsigned_commands_are_refused_and_signed_ones_served() 
     let link = Harness::start(&[endpoint], 0, &dir).await;
     let vehicle = vehicle_address(&gcs).await;
 
-    let long = command_long(MavCmd::MAV_CMD_DO_FENCE_ENABLE, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let long = command_long(MavCmd::MAV_CMD_DO_PARACHUTE, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
     gcs.send(vehicle, &long).await;
     let ack = |_: &mavlink::MavHeader, m: &MavMessage| matches!(m, MavMessage::COMMAND_ACK(_)).then_some(());
     assert!(gcs.recv_until(Duration::from_millis(500), ack).await.is_none(), "unsigned command ignored");
@@ -358,4 +417,61 @@ async fn a_5000_msg_per_second_flood_does_not_stall_the_link() {
         sent / 2
     );
     assert!(worst < Duration::from_millis(250), "{worst:?}");
+}
+
+fn udp_in_capped(max_peers: usize) -> EndpointConfig {
+    EndpointConfig { kind: EndpointKind::UdpIn { bind: loopback0(), max_peers }, signing_key_file: None }
+}
+
+/// The server's peer counters as they stand.
+fn peer_stats(link: &Harness) -> kestrel_link::transport::PeerStats {
+    *link.endpoints[0].peer_stats.as_ref().expect("a UDP server has peer counters").lock().expect("stats")
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_udp_server_answers_only_peers_that_sent_a_valid_frame() {
+    let link = Harness::start(&[udp_in_capped(8)], 0, std::path::Path::new(".")).await;
+    let server = link.endpoints[0].local_addr.expect("the UDP server's address");
+    let stranger = Peer::bind(200).await;
+    // Garbage, and a heartbeat with its checksum broken: neither makes a peer.
+    let mut bad = Vec::new();
+    let header = mavlink::MavHeader { system_id: 200, component_id: 190, sequence: 0 };
+    mavlink::write_versioned_msg(&mut bad, MavlinkVersion::V2, header, &gcs_heartbeat()).expect("serialise");
+    let last = bad.len() - 1;
+    bad[last] ^= 0xff;
+    stranger.socket.send_to(b"\xfd\x09 not mavlink at all", server).await.expect("send");
+    stranger.socket.send_to(&bad, server).await.expect("send");
+    let heard = stranger.recv_until(Duration::from_millis(1500), |_, _| Some(())).await;
+    assert!(heard.is_none(), "the vehicle sent telemetry to an address that never sent a valid frame");
+    let stats = peer_stats(&link);
+    assert_eq!((stats.admitted, stats.unverified_datagrams), (0, 2), "{stats:?}");
+
+    let mut gcs = Peer::bind(255).await;
+    gcs.send(server, &gcs_heartbeat()).await;
+    assert_eq!(vehicle_address(&gcs).await, server, "a valid heartbeat makes a peer that gets telemetry");
+    assert_eq!(peer_stats(&link).admitted, 1);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_full_udp_server_refuses_newcomers_while_its_peers_are_live() {
+    let link = Harness::start(&[udp_in_capped(1)], 0, std::path::Path::new(".")).await;
+    let server = link.endpoints[0].local_addr.expect("the UDP server's address");
+    let mut gcs = Peer::bind(255).await;
+    gcs.send(server, &gcs_heartbeat()).await;
+    vehicle_address(&gcs).await;
+
+    let mut newcomer = Peer::bind(254).await;
+    let started = Instant::now();
+    while started.elapsed() < Duration::from_millis(1500) {
+        newcomer.send(server, &gcs_heartbeat()).await;
+        gcs.send(server, &gcs_heartbeat()).await;
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+    let heard = newcomer.recv_until(Duration::from_millis(100), |_, _| Some(())).await;
+    assert!(heard.is_none(), "a newcomer to a full table got frames");
+    let stats = peer_stats(&link);
+    assert_eq!(stats.admitted, 1, "{stats:?}");
+    assert!(stats.refused_full >= 10, "{stats:?}");
+    assert_eq!(stats.evicted, 0, "a live peer is never pushed out: {stats:?}");
+    assert!(gcs.recv_until(WAIT, |h, _| (h.system_id == 1).then_some(())).await.is_some());
 }

@@ -1,14 +1,15 @@
 //! The barometer actor: an MS5611 on an I2C adapter, sampled without blocking by a timer at
-//! twice the output rate, publishing `baro`.
+//! twice the output rate, publishing `baro`, with a `health` report every second.
 
 use std::path::PathBuf;
 use std::time::Duration;
 
-use kestrel_proto::messages::BaroSample;
+use kestrel_proto::messages::{BaroSample, SensorHealth};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
 use crate::bus::I2cBus;
+use crate::health::{Counters, HealthWindow};
 use crate::linux::LinuxI2c;
 use crate::ms5611::{Ms5611, Ms5611Sampler, Oversampling};
 
@@ -41,6 +42,8 @@ impl Default for BaroActorParams {
 pub enum BaroInput {
     /// Timer `poll`, at twice `rate_hz`.
     Poll(Time),
+    /// Timer `health`, every second.
+    Health(Time),
 }
 
 /// The barometer actor. Output: `baro`.
@@ -48,6 +51,12 @@ pub struct BaroActor {
     baro: Ms5611<Box<dyn I2cBus + Send>>,
     sampler: Ms5611Sampler,
     out: Publisher<BaroSample>,
+    published: u64,
+    /// The I2C adapter, for health reports.
+    device: String,
+    /// Opened in [`Actor::start`], on the running graph's clock.
+    window: Option<HealthWindow>,
+    health_out: Publisher<SensorHealth>,
 }
 
 impl BaroActor {
@@ -58,10 +67,20 @@ impl BaroActor {
         setup: &mut impl Setup<BaroInput>,
     ) -> Result<BaroActor, ActorError> {
         let poll = poll_period(params)?;
+        let device = bus.path().display().to_string();
         let baro = Ms5611::new(bus, params.oversampling, &mut std::thread::sleep)
             .map_err(|e| ActorError::Failed(e.to_string()))?;
         setup.timer("poll", poll, BaroInput::Poll);
-        Ok(BaroActor { baro, sampler: Ms5611Sampler::new(), out: setup.output("baro") })
+        setup.timer("health", Duration::from_secs(1), BaroInput::Health);
+        Ok(BaroActor {
+            baro,
+            sampler: Ms5611Sampler::new(),
+            out: setup.output("baro"),
+            published: 0,
+            device,
+            window: None,
+            health_out: setup.output("health"),
+        })
     }
 }
 
@@ -95,12 +114,27 @@ impl Actor for BaroActor {
         BaroActor::with_bus(Box::new(bus), params, setup)
     }
 
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        self.window = Some(HealthWindow::new(ctx.name(), &self.device, ctx.now()));
+        Ok(())
+    }
+
     async fn handle(&mut self, _ctx: &Context, input: BaroInput) -> Result<(), ActorError> {
-        let BaroInput::Poll(time) = input;
-        match self.sampler.tick(&mut self.baro, time) {
-            Ok(Some(sample)) => self.out.publish(sample),
-            Ok(None) => {}
-            Err(e) => return Err(ActorError::Failed(e.to_string())),
+        match input {
+            BaroInput::Poll(time) => match self.sampler.tick(&mut self.baro, time) {
+                Ok(Some(sample)) => {
+                    self.published += 1;
+                    self.out.publish(sample);
+                }
+                Ok(None) => {}
+                Err(e) => return Err(ActorError::Failed(e.to_string())),
+            },
+            BaroInput::Health(now) => {
+                let totals = Counters { published: self.published, errors: 0, clipped: 0 };
+                if let Some(window) = &mut self.window {
+                    self.health_out.publish(window.report(now, totals));
+                }
+            }
         }
         Ok(())
     }
@@ -120,8 +154,9 @@ mod tests {
         let fake = FakeMs5611::new(datasheet_prom_words(), 9_085_466, 8_569_150);
         let mut actor =
             BaroActor::with_bus(Box::new(fake), &BaroActorParams::default(), &mut setup).expect("build");
-        assert_eq!(setup.timers(), [("poll", Duration::from_millis(50))]);
+        assert_eq!(setup.timers(), [("poll", Duration::from_millis(50)), ("health", Duration::from_secs(1))]);
         let ctx = setup.context();
+        ready(actor.start(&ctx)).expect("start");
         for k in 0..5u64 {
             ready(actor.handle(&ctx, setup.tick("poll", Time::from_micros(50_000 * k)))).expect("tick");
         }
@@ -129,6 +164,9 @@ mod tests {
         assert_eq!(samples.len(), 2);
         assert_eq!(samples[0].pressure_pa, 100_009.0);
         assert_eq!(samples[1].time, Time::from_micros(150_000 + 9_040));
+        ready(actor.handle(&ctx, setup.tick("health", Time::from_micros(1_000_000)))).expect("health");
+        let health: Vec<SensorHealth> = setup.published("health");
+        assert_eq!((health[0].rate_hz, health[0].device.as_str()), (2.0, "/dev/i2c-fake"));
     }
 
     #[test]

@@ -1,9 +1,10 @@
 //! The IMU actor: an MPU-9250 on spidev, read at its 1 kHz output rate by a dedicated thread
 //! (a tokio timer cannot hold 1 ms), averaged to `imu` at 400 Hz, with each new AK8963
 //! measurement published on `mag` (100 Hz). A `health` timer checks the reader thread: if it
-//! stopped on an error, the actor fails with that error and the supervisor restarts it.
-//! Clipped samples are counted and logged at each health check, as `ImuSample` has no flag
-//! for them yet.
+//! stopped on an error, the actor fails with that error and the supervisor restarts it;
+//! otherwise it publishes the output rate, failed reads and clipped samples on `health`.
+//! `ImuSample` carries no clipping flag of its own: a clipped average is counted in the health
+//! report and logged.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -11,11 +12,12 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use kestrel_proto::messages::{ImuSample, MagSample};
+use kestrel_proto::messages::{ImuSample, MagSample, SensorHealth};
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
 use crate::bus::SpiBus;
+use crate::health::{Counters, HealthWindow};
 use crate::imu_decimator::ImuDecimator;
 use crate::linux::LinuxSpi;
 use crate::mpu9250::{Mpu9250, Mpu9250Config};
@@ -61,6 +63,8 @@ pub enum ImuInput {
 #[derive(Debug, Default)]
 struct ReaderStats {
     reads: AtomicU64,
+    /// Averaged samples published on `imu`.
+    published: AtomicU64,
     errors: AtomicU64,
     clipped: AtomicU64,
 }
@@ -77,6 +81,11 @@ pub struct ImuActor {
     output_period: Duration,
     imu_out: Publisher<ImuSample>,
     mag_out: Publisher<MagSample>,
+    /// The spidev node, for health reports.
+    device: String,
+    /// Opened in [`Actor::start`], on the running graph's clock.
+    window: Option<HealthWindow>,
+    health_out: Publisher<SensorHealth>,
 }
 
 impl ImuActor {
@@ -92,6 +101,7 @@ impl ImuActor {
                 params.output_rate_hz
             )));
         }
+        let bus_path = bus.path().display().to_string();
         let imu = Mpu9250::new(bus, params.mpu9250.clone(), &mut std::thread::sleep)
             .map_err(|e| ActorError::Failed(e.to_string()))?;
         let read_period = Duration::from_micros(1000 * (1 + u64::from(params.mpu9250.sample_rate_divider)));
@@ -104,6 +114,9 @@ impl ImuActor {
             output_period: Duration::from_secs_f64(1.0 / params.output_rate_hz),
             imu_out: setup.output("imu"),
             mag_out: setup.output("mag"),
+            device: bus_path,
+            window: None,
+            health_out: setup.output("health"),
         })
     }
 
@@ -145,6 +158,7 @@ impl Reader {
                         if out.gyro_clipped.iter().chain(&out.accel_clipped).any(|&c| c) {
                             self.stats.clipped.fetch_add(1, Ordering::Relaxed);
                         }
+                        self.stats.published.fetch_add(1, Ordering::Relaxed);
                         self.imu_out.publish(out.sample);
                     }
                 }
@@ -195,24 +209,29 @@ impl Actor for ImuActor {
             .spawn(move || reader.run(move || shutdown.is_cancelled()))
             .map_err(|source| ActorError::Io { what: "cannot start the IMU reader thread".into(), source })?;
         self.reader = Some(handle);
+        self.window = Some(HealthWindow::new(ctx.name(), &self.device, ctx.now()));
         Ok(())
     }
 
     async fn handle(&mut self, _ctx: &Context, input: ImuInput) -> Result<(), ActorError> {
-        let ImuInput::Health(_) = input;
+        let ImuInput::Health(now) = input;
         if self.reader.as_ref().is_some_and(JoinHandle::is_finished) {
             self.join_reader()?;
             return Err(ActorError::Failed("the IMU reader stopped".into()));
         }
-        let clipped = self.stats.clipped.swap(0, Ordering::Relaxed);
-        if clipped > 0 {
-            tracing::warn!("{clipped} IMU samples clipped in the last second");
+        let totals = Counters {
+            published: self.stats.published.load(Ordering::Relaxed),
+            errors: self.stats.errors.load(Ordering::Relaxed),
+            clipped: self.stats.clipped.load(Ordering::Relaxed),
+        };
+        if let Some(window) = &mut self.window {
+            let health = window.report(now, totals);
+            if health.clipped > 0 {
+                tracing::warn!("{} IMU samples clipped in the last second", health.clipped);
+            }
+            tracing::debug!(reads = self.stats.reads.load(Ordering::Relaxed), "IMU reader health");
+            self.health_out.publish(health);
         }
-        tracing::debug!(
-            reads = self.stats.reads.swap(0, Ordering::Relaxed),
-            errors = self.stats.errors.swap(0, Ordering::Relaxed),
-            "IMU reader health"
-        );
         Ok(())
     }
 
@@ -231,11 +250,9 @@ mod tests {
     use crate::mpu9250::FakeMpu9250;
     use crate::mpu9250::scale::STANDARD_GRAVITY_M_S2;
 
-    #[test]
-    fn the_reader_publishes_averaged_imu_and_mag_until_shutdown() {
-        let mut fake = FakeMpu9250::new(0x71);
-        fake.set_motion([0, 0, 2048], 0, [0, 0, 0]);
-        fake.set_mag([100, 0, 0], false);
+    /// Runs the reader on `fake` until it has published an IMU and a mag sample, then takes a
+    /// health report and stops.
+    fn run_until_published(fake: FakeMpu9250) -> TestSetup<ImuInput> {
         let mut setup = TestSetup::new("imu", ".");
         let mut actor =
             ImuActor::with_bus(Box::new(fake), &ImuActorParams::default(), &mut setup).expect("build");
@@ -249,12 +266,42 @@ mod tests {
                 break;
             }
         }
+        let now = setup.manual_clock().now();
+        ready(actor.handle(&ctx, setup.tick("health", now))).expect("reader healthy");
         ctx.shutdown().cancel();
         ready(actor.stop(&ctx));
+        setup
+    }
+
+    #[test]
+    fn the_reader_publishes_averaged_imu_mag_and_health_until_shutdown() {
+        let mut fake = FakeMpu9250::new(0x71);
+        fake.set_motion([0, 0, 2048], 0, [0, 0, 0]);
+        fake.set_mag([100, 0, 0], false);
+        let setup = run_until_published(fake);
         let imu: Vec<ImuSample> = setup.published("imu");
         assert!(!imu.is_empty());
         assert!((imu[0].accel_m_s2[2] + STANDARD_GRAVITY_M_S2).abs() < 1e-9, "{:?}", imu[0]);
         assert!(setup.count("mag") > 0);
+        let health: Vec<SensorHealth> = setup.published("health");
+        assert_eq!(health.len(), 1);
+        assert_eq!(
+            (health[0].device.as_str(), health[0].errors, health[0].clipped),
+            ("/dev/spidev-fake", 0, 0)
+        );
+        assert!(health[0].rate_hz > 0.0, "{:?}", health[0]);
+    }
+
+    #[test]
+    fn clipped_samples_are_reported_in_health() {
+        let mut fake = FakeMpu9250::new(0x71);
+        fake.set_motion([0, 0, i16::MAX], 0, [i16::MIN, 0, 0]);
+        fake.set_mag([100, 0, 0], false);
+        let setup = run_until_published(fake);
+        let health: Vec<SensorHealth> = setup.published("health");
+        // Every average saw a clipped axis (the reader may publish more after the report).
+        assert!(health[0].clipped >= 1, "{:?}", health[0]);
+        assert!(health[0].clipped <= setup.count("imu") as u64, "{:?}", health[0]);
     }
 
     #[test]

@@ -5,11 +5,13 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample,
+    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, MapObstacle,
+    ObstacleMap,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
+use crate::obstacles::Obstacle;
 use crate::rigid_body::RigidBodyState;
 use crate::sensors::schedule::period_us;
 use crate::simulator::{InitialState, SimOptions, SimOutput, Simulator};
@@ -60,7 +62,8 @@ pub enum SimInput {
     Step(Time),
 }
 
-/// The simulator actor. Outputs: `imu`, `gps`, `baro`, `mag`, `ground_truth`, `battery`.
+/// The simulator actor. Outputs: `imu`, `gps`, `baro`, `mag`, `ground_truth`, `battery`, and
+/// `obstacle_map` once, on the first step.
 pub struct SimActor {
     sim: Simulator,
     imu: Publisher<ImuSample>,
@@ -69,6 +72,11 @@ pub struct SimActor {
     mag: Publisher<MagSample>,
     ground_truth: Publisher<GroundTruth>,
     battery: Publisher<BatteryStatus>,
+    obstacle_map: Publisher<ObstacleMap>,
+    /// Whether the map has gone out. It waits for the first step rather than going out from
+    /// `build`, because the recorder and subscribers are attached only after every actor is
+    /// built, and a log must carry it.
+    map_published: bool,
 }
 
 impl SimActor {
@@ -114,6 +122,8 @@ impl Actor for SimActor {
             mag: setup.output("mag"),
             ground_truth: setup.output("ground_truth"),
             battery: setup.output("battery"),
+            obstacle_map: setup.output("obstacle_map"),
+            map_published: false,
         })
     }
 
@@ -121,6 +131,10 @@ impl Actor for SimActor {
         match input {
             SimInput::Actuators(outputs) => self.sim.set_actuators(&outputs),
             SimInput::Step(time) => {
+                if !self.map_published {
+                    self.obstacle_map.publish(obstacle_map(self.sim.world(), self.sim.time()));
+                    self.map_published = true;
+                }
                 self.sim.advance_to(time);
                 for output in self.sim.drain() {
                     match output {
@@ -135,5 +149,64 @@ impl Actor for SimActor {
             }
         }
         Ok(())
+    }
+}
+
+/// The world's obstacles as loaded (generated ones included) in the log's message form, stamped
+/// `time`.
+fn obstacle_map(world: &World, time: Time) -> ObstacleMap {
+    let obstacles = world
+        .obstacles
+        .iter()
+        .map(|obstacle| match *obstacle {
+            Obstacle::Box { center_ned_m, size_m, yaw_deg } => {
+                MapObstacle::Box { center_ned_m, size_m, yaw_deg }
+            }
+            Obstacle::Cylinder { base_ne_m, radius_m, height_m } => {
+                MapObstacle::Cylinder { base_ne_m, radius_m, height_m }
+            }
+            Obstacle::Wall { from_ne_m, to_ne_m, height_m, thickness_m, textured } => {
+                MapObstacle::Wall { from_ne_m, to_ne_m, height_m, thickness_m, textured }
+            }
+        })
+        .collect();
+    ObstacleMap { time, home: world.home.geodetic(), obstacles }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_map_carries_every_obstacle_and_home() {
+        let world = World {
+            obstacles: vec![
+                Obstacle::Cylinder { base_ne_m: [15.0, -3.0], radius_m: 0.6, height_m: 8.0 },
+                Obstacle::Wall {
+                    from_ne_m: [50.0, -10.0],
+                    to_ne_m: [50.0, 10.0],
+                    height_m: 6.0,
+                    thickness_m: 0.3,
+                    textured: false,
+                },
+            ],
+            ..World::default()
+        };
+        let map = obstacle_map(&world, Time::from_micros(2500));
+        assert_eq!(map.time, Time::from_micros(2500));
+        assert_eq!(map.home, world.home.geodetic());
+        assert_eq!(
+            map.obstacles,
+            [
+                MapObstacle::Cylinder { base_ne_m: [15.0, -3.0], radius_m: 0.6, height_m: 8.0 },
+                MapObstacle::Wall {
+                    from_ne_m: [50.0, -10.0],
+                    to_ne_m: [50.0, 10.0],
+                    height_m: 6.0,
+                    thickness_m: 0.3,
+                    textured: false,
+                },
+            ]
+        );
     }
 }

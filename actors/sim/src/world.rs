@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config_file;
 use crate::error::{ConfigError, InvalidParam, finite, positive};
+use crate::forest::Forest;
 use crate::obstacles::Obstacle;
 use crate::wind::WindParams;
 
@@ -23,6 +24,8 @@ pub struct World {
     pub wind: WindParams,
     /// `[[obstacles]]`: boxes, cylinders and walls; none by default.
     pub obstacles: Vec<Obstacle>,
+    /// `[forest]`: random trees from a seed, added to `obstacles` when the file is loaded.
+    pub forest: Option<Forest>,
 }
 
 /// The origin of the local NED frame; the ground is flat at its altitude.
@@ -81,9 +84,17 @@ impl MagneticField {
 }
 
 impl World {
-    /// Loads and checks a world file.
+    /// Loads and checks a world file; a `[forest]` is planted into `obstacles` here, so the
+    /// simulator and the camera see the same trees.
     pub fn load(path: &Path) -> Result<World, ConfigError> {
-        config_file::load(path, World::validate)
+        let mut world: World = config_file::load(path, World::validate)?;
+        if let Some(forest) = &world.forest {
+            let trees = forest
+                .plant()
+                .map_err(|e| ConfigError::Invalid { path: path.to_path_buf(), source: e.within("forest") })?;
+            world.obstacles.extend(trees);
+        }
+        Ok(world)
     }
 
     /// Checks every field; the error names the offending one.
@@ -102,6 +113,9 @@ impl World {
         self.wind.validate().map_err(|e| e.within("wind"))?;
         for (i, obstacle) in self.obstacles.iter().enumerate() {
             obstacle.validate().map_err(|e| e.within(&format!("obstacles[{i}]")))?;
+        }
+        if let Some(forest) = &self.forest {
+            forest.validate().map_err(|e| e.within("forest"))?;
         }
         Ok(())
     }

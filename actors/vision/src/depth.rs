@@ -79,6 +79,13 @@ impl StereoGeometry {
         }
     }
 
+    /// The same camera for images whose rows were merged `factor` to one (only the row
+    /// coordinate scales: the focal length, the baseline and disparities act along rows).
+    pub fn rows_downscaled(&self, factor: u32) -> StereoGeometry {
+        let f = f64::from(factor.max(1));
+        StereoGeometry { cy_px: (self.cy_px + 0.5) / f - 0.5, ..*self }
+    }
+
     /// Depth along the optical axis (m) of a pixel with disparity `d_px`; `None` for no
     /// disparity or one at or beyond infinity.
     pub fn depth_m(&self, d_px: f32) -> Option<f32> {

@@ -43,6 +43,23 @@ impl DisparityMap {
         (!d.is_nan()).then_some(d)
     }
 
+    /// The disparity of the `width`×`height` image this map was computed on after shrinking it
+    /// `factor_x` times along rows and `factor_y` times across them: each pixel spreads over the
+    /// block it stood for, its disparity multiplied by `factor_x` (px of the larger image).
+    /// For scoring a shrunken match against full-size ground truth.
+    pub fn upscaled(&self, factor_x: usize, factor_y: usize, width: usize, height: usize) -> DisparityMap {
+        let (fx, fy) = (factor_x.max(1), factor_y.max(1));
+        let mut values = Vec::with_capacity(width * height);
+        for y in 0..height {
+            let sy = (y / fy).min(self.height.saturating_sub(1));
+            for x in 0..width {
+                let sx = (x / fx).min(self.width.saturating_sub(1));
+                values.push(self.values.get(sy * self.width + sx).map_or(f32::NAN, |&d| d * fx as f32));
+            }
+        }
+        DisparityMap { width, height, values }
+    }
+
     /// Share of pixels with a disparity, 0..1.
     pub fn density(&self) -> f64 {
         let valid = self.values.iter().filter(|d| !d.is_nan()).count();

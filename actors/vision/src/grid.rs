@@ -1,6 +1,7 @@
 //! The depth grid (thesis §3.3.1–3.3.3 with DESIGN.md's correction): the depth image split
 //! into 3×3 regions, each summarised by its share of near pixels, its share of pixels without
-//! a depth and its nearest depth; and the same depth as `OBSTACLE_DISTANCE` sectors.
+//! a depth and its nearest depth (a low percentile, so one speckle cannot define it); and the
+//! same depth as `OBSTACLE_DISTANCE` sectors.
 //!
 //! The camera is assumed to look along the body's forward axis, image right = body right,
 //! image down = body down (FRD); a mounting rotation is not modelled.
@@ -28,13 +29,19 @@ pub struct GridParams {
     pub row_edges: [f32; 2],
     /// Nearest distance the sectors report (cm).
     pub min_distance_cm: u16,
-    /// Farthest distance the sectors report (cm); beyond it a sector reads "free".
+    /// Farthest distance the sectors report (cm); beyond it a sector reads "free". Also the
+    /// top of the centimetre histogram behind each region's nearest depth.
     pub max_distance_cm: u16,
+    /// A region's nearest depth is this percentile (%) of its valid depths, 0..=50: a blob of
+    /// wrong disparities smaller than this share of the region cannot pull it in. 0 gives the
+    /// raw minimum.
+    pub nearest_percentile: f32,
 }
 
 impl Default for GridParams {
     /// Thirds of the image (thesis Figure 3.29), 5 m threshold, sectors 0.3–20 m (the ZED's
-    /// range).
+    /// range), nearest depth at the 2nd percentile (~700 px of a VGA region, several times
+    /// the largest speckle the default SGBM speckle filter lets through, 100 px).
     fn default() -> Self {
         GridParams {
             threshold_m: 5.0,
@@ -42,6 +49,7 @@ impl Default for GridParams {
             row_edges: [1.0 / 3.0, 2.0 / 3.0],
             min_distance_cm: 30,
             max_distance_cm: 2000,
+            nearest_percentile: 2.0,
         }
     }
 }
@@ -68,20 +76,26 @@ impl GridParams {
                 self.min_distance_cm, self.max_distance_cm
             )));
         }
+        if !(0.0..=50.0).contains(&self.nearest_percentile) {
+            return Err(VisionError::Params(format!(
+                "nearest_percentile {} must be in 0..=50",
+                self.nearest_percentile
+            )));
+        }
         Ok(())
     }
 }
 
 /// Which of the three bands each of `n` pixels falls in, given the two edge fractions.
-fn bands(n: usize, edges: [f32; 2]) -> Vec<usize> {
+fn bands(n: usize, edges: [f32; 2], out: &mut Vec<u8>) {
     let cut = |f: f32| (f * n as f32).round() as usize;
     let (a, b) = (cut(edges[0]), cut(edges[1]));
-    (0..n).map(|i| usize::from(i >= a) + usize::from(i >= b)).collect()
+    out.clear();
+    out.extend((0..n).map(|i| u8::from(i >= a) + u8::from(i >= b)));
 }
 
-/// The grid of `depth` (captured at `time`, frame `frame_sequence`), whose pixels follow
-/// `geometry`. The sectors take the nearest horizontal range of the centre row band (the
-/// vehicle's own level), so the ground and the sky above do not read as obstacles.
+/// The grid of one depth map, built with a fresh [`DepthGridder`]. Per-frame callers keep a
+/// gridder instead, which allocates nothing but the message.
 pub fn depth_grid(
     depth: &DepthMap,
     geometry: &StereoGeometry,
@@ -89,91 +103,179 @@ pub fn depth_grid(
     time: Time,
     frame_sequence: u64,
 ) -> DepthGrid {
-    let (cols, rows) = (bands(depth.width, params.column_edges), bands(depth.height, params.row_edges));
-    // Per image column: its sector and the factor turning depth Z into horizontal range.
-    let columns: Vec<(usize, f32)> = (0..depth.width)
-        .map(|u| {
-            let tan = (u as f64 - geometry.cx_px) / geometry.focal_px;
-            let azimuth_deg = tan.atan().to_degrees() as f32;
-            let sector = (azimuth_deg / SECTOR_DEG).round().rem_euclid(OBSTACLE_SECTORS as f32) as usize;
-            (sector % OBSTACLE_SECTORS, (1.0 + tan * tan).sqrt() as f32)
-        })
-        .collect();
+    DepthGridder::new(params, geometry).grid(depth, time, frame_sequence)
+}
 
-    let mut counts = [[RegionCount::default(); 3]; 3];
-    let mut in_view = [false; OBSTACLE_SECTORS];
-    let mut seen = [false; OBSTACLE_SECTORS];
-    let mut nearest_range = [f32::INFINITY; OBSTACLE_SECTORS];
-    for &(sector, _) in &columns {
-        in_view[sector] = true;
-    }
-    for (y, row) in depth.values.chunks_exact(depth.width.max(1)).enumerate() {
-        let band = rows[y];
-        let cells = &mut counts[band];
-        for (x, &z) in row.iter().enumerate() {
-            let cell = &mut cells[cols[x]];
-            cell.total += 1;
-            if z.is_nan() {
-                cell.invalid += 1;
-                continue;
-            }
-            cell.near += u32::from(z < params.threshold_m);
-            cell.nearest = cell.nearest.min(z);
-            if band == 1 {
-                let (sector, range_factor) = columns[x];
-                seen[sector] = true;
-                nearest_range[sector] = nearest_range[sector].min(z * range_factor);
-            }
+/// Summarises depth maps into [`DepthGrid`]s. Keeps its per-column lookup tables (rebuilt only
+/// when the image size changes) and its histograms across frames.
+///
+/// A region's nearest depth comes from a histogram of its valid depths in 1 cm bins from 0 to
+/// `max_distance_cm` (so it is exact to ±0.5 cm); when the percentile falls beyond that range
+/// it is the nearest depth beyond it, exact.
+///
+/// The sectors take the nearest horizontal range of the centre row band (the vehicle's own
+/// level), so the ground and the sky above do not read as obstacles; they are raw minima per
+/// sector.
+pub struct DepthGridder {
+    params: GridParams,
+    geometry: StereoGeometry,
+    /// Image size the lookup tables were built for, `(width, height)` (px).
+    size: (usize, usize),
+    /// Column band (0 left, 1 centre, 2 right) of each image column.
+    column_band: Vec<u8>,
+    /// Row band (0 up, 1 centre, 2 down) of each image row.
+    row_band: Vec<u8>,
+    /// Per image column: its sector and the factor turning depth Z into horizontal range.
+    columns: Vec<(usize, f32)>,
+    in_view: [bool; OBSTACLE_SECTORS],
+    /// Nine histograms of valid depths (region-major, `bins` each), counts per centimetre.
+    histograms: Vec<u32>,
+    bins: usize,
+}
+
+impl DepthGridder {
+    /// A gridder for depth maps with `geometry`; `params` should have passed
+    /// [`GridParams::check`] (out-of-range values give meaningless grids, never a panic).
+    pub fn new(params: &GridParams, geometry: &StereoGeometry) -> DepthGridder {
+        let bins = usize::from(params.max_distance_cm) + 1;
+        DepthGridder {
+            params: params.clone(),
+            geometry: *geometry,
+            size: (0, 0),
+            column_band: Vec::new(),
+            row_band: Vec::new(),
+            columns: Vec::new(),
+            in_view: [false; OBSTACLE_SECTORS],
+            histograms: vec![0; 9 * bins],
+            bins,
         }
     }
 
-    let regions = counts.map(|row| row.map(RegionCount::region));
-    let max_cm = params.max_distance_cm;
-    let distances_cm = (0..OBSTACLE_SECTORS)
-        .map(|s| match (in_view[s], seen[s]) {
-            (true, true) => {
-                let cm = (nearest_range[s] * 100.0).round();
-                if cm > f32::from(max_cm) { max_cm + 1 } else { cm.max(0.0) as u16 }
+    fn layout(&mut self, width: usize, height: usize) {
+        if self.size == (width, height) {
+            return;
+        }
+        bands(width, self.params.column_edges, &mut self.column_band);
+        bands(height, self.params.row_edges, &mut self.row_band);
+        let g = &self.geometry;
+        self.columns.clear();
+        self.columns.extend((0..width).map(|u| {
+            let tan = (u as f64 - g.cx_px) / g.focal_px;
+            let azimuth_deg = tan.atan().to_degrees() as f32;
+            let sector = (azimuth_deg / SECTOR_DEG).round().rem_euclid(OBSTACLE_SECTORS as f32) as usize;
+            (sector % OBSTACLE_SECTORS, (1.0 + tan * tan).sqrt() as f32)
+        }));
+        self.in_view = [false; OBSTACLE_SECTORS];
+        for &(sector, _) in &self.columns {
+            self.in_view[sector] = true;
+        }
+        self.size = (width, height);
+    }
+
+    /// The grid of `depth` (captured at `time`, frame `frame_sequence`).
+    pub fn grid(&mut self, depth: &DepthMap, time: Time, frame_sequence: u64) -> DepthGrid {
+        self.layout(depth.width, depth.height);
+        self.histograms.fill(0);
+        let (bins, threshold_m) = (self.bins, self.params.threshold_m);
+        let mut counts = [[RegionCount::default(); 3]; 3];
+        let mut seen = [false; OBSTACLE_SECTORS];
+        let mut nearest_range = [f32::INFINITY; OBSTACLE_SECTORS];
+        let rows = depth.values.chunks_exact(depth.width.max(1)).take(self.row_band.len());
+        for (y, row) in rows.enumerate() {
+            let band = usize::from(self.row_band[y]);
+            for (x, &z) in row.iter().enumerate() {
+                let column = usize::from(self.column_band[x]);
+                let cell = &mut counts[band][column];
+                cell.total += 1;
+                if z.is_nan() {
+                    cell.invalid += 1;
+                    continue;
+                }
+                cell.near += u32::from(z < threshold_m);
+                let cm = (z * 100.0).round();
+                if cm < bins as f32 {
+                    self.histograms[(band * 3 + column) * bins + cm.max(0.0) as usize] += 1;
+                } else {
+                    cell.beyond += 1;
+                    cell.nearest_beyond = cell.nearest_beyond.min(z);
+                }
+                if band == 1 {
+                    let (sector, range_factor) = self.columns[x];
+                    seen[sector] = true;
+                    nearest_range[sector] = nearest_range[sector].min(z * range_factor);
+                }
             }
-            _ => SECTOR_UNKNOWN,
-        })
-        .collect();
-    DepthGrid {
-        time,
-        frame_sequence,
-        threshold_m: params.threshold_m,
-        regions,
-        sectors: ObstacleSectors {
-            distances_cm,
-            increment_deg: SECTOR_DEG,
-            angle_offset_deg: 0.0,
-            min_distance_cm: params.min_distance_cm,
-            max_distance_cm: max_cm,
-        },
+        }
+
+        let mut regions = [[GridRegion::default(); 3]; 3];
+        for (band, row) in regions.iter_mut().enumerate() {
+            for (column, region) in row.iter_mut().enumerate() {
+                let histogram = &self.histograms[(band * 3 + column) * bins..][..bins];
+                *region = counts[band][column].region(histogram, self.params.nearest_percentile);
+            }
+        }
+        let max_cm = self.params.max_distance_cm;
+        let distances_cm = (0..OBSTACLE_SECTORS)
+            .map(|s| match (self.in_view[s], seen[s]) {
+                (true, true) => {
+                    let cm = (nearest_range[s] * 100.0).round();
+                    if cm > f32::from(max_cm) { max_cm + 1 } else { cm.max(0.0) as u16 }
+                }
+                _ => SECTOR_UNKNOWN,
+            })
+            .collect();
+        DepthGrid {
+            time,
+            frame_sequence,
+            threshold_m,
+            regions,
+            sectors: ObstacleSectors {
+                distances_cm,
+                increment_deg: SECTOR_DEG,
+                angle_offset_deg: 0.0,
+                min_distance_cm: self.params.min_distance_cm,
+                max_distance_cm: max_cm,
+            },
+        }
     }
 }
 
+/// One region's pixel counts; its valid depths within range sit in a histogram beside it.
 #[derive(Clone, Copy)]
 struct RegionCount {
     total: u32,
     invalid: u32,
     near: u32,
-    nearest: f32,
+    /// Valid pixels beyond the histogram's range, and the nearest of them (m).
+    beyond: u32,
+    nearest_beyond: f32,
 }
 
 impl Default for RegionCount {
     fn default() -> Self {
-        RegionCount { total: 0, invalid: 0, near: 0, nearest: f32::INFINITY }
+        RegionCount { total: 0, invalid: 0, near: 0, beyond: 0, nearest_beyond: f32::INFINITY }
     }
 }
 
 impl RegionCount {
-    fn region(self) -> GridRegion {
+    /// The region, its nearest depth being the `percentile` (%) of its valid depths:
+    /// the k-th smallest with k = max(1, ⌈percentile/100 · valid⌉).
+    fn region(self, histogram: &[u32], percentile: f32) -> GridRegion {
         let valid = self.total - self.invalid;
+        let rank = ((f64::from(percentile) / 100.0 * f64::from(valid)).ceil() as u32).max(1);
+        let mut below = 0;
+        let in_range = histogram.iter().position(|&n| {
+            below += n;
+            below >= rank
+        });
+        let nearest_m = match in_range {
+            Some(cm) => Some(cm as f32 / 100.0),
+            None => (self.beyond > 0).then_some(self.nearest_beyond),
+        };
         GridRegion {
             near_share: if valid > 0 { self.near as f32 / valid as f32 } else { 0.0 },
             invalid_share: if self.total > 0 { self.invalid as f32 / self.total as f32 } else { 1.0 },
-            nearest_m: self.nearest.is_finite().then_some(self.nearest),
+            nearest_m,
         }
     }
 }

@@ -1,10 +1,15 @@
 //! Frame → depth grid: rectify, optionally shrink, match, convert to depth, summarise. The
 //! pure core the stereo actor, the benchmarks and the CLI drive.
+//!
+//! It times its own stages (monotonic clock, for `kestrel stereo`'s report); the timings
+//! never influence the results.
 
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
+use kestrel_proto::Time;
 use kestrel_proto::messages::{DepthGrid, StereoFrame};
-use opencv::core::{Mat, Size};
+use opencv::core::{Mat, MatTraitConst, Size};
 use opencv::imgproc;
 use serde::{Deserialize, Serialize};
 
@@ -12,7 +17,7 @@ use crate::calibration::StereoCalibration;
 use crate::depth::{DepthMap, StereoGeometry};
 use crate::disparity_map::DisparityMap;
 use crate::error::{CvContext, VisionError};
-use crate::grid::{GridParams, depth_grid};
+use crate::grid::{DepthGridder, GridParams};
 use crate::image::gray_mat;
 use crate::matcher::{Matcher, MatcherParams};
 use crate::rectify::Rectifier;
@@ -27,6 +32,10 @@ pub struct PipelineParams {
     /// the disparity range shrinks with them (rounded up to a multiple of 16). 2 makes SGBM
     /// ~6× faster at half the depth resolution, enough for the avoider's 3×3 grid.
     pub downscale: u32,
+    /// Then also merge this many rows into one (averaging them) before matching, 1..=4.
+    /// Disparity runs along rows, so depth resolution is untouched while matching costs 1/n;
+    /// the grid sees n-times fewer, vertically averaged, pixels.
+    pub row_downscale: u32,
     /// Pixels without texture lose their disparity.
     pub texture: TextureParams,
     pub grid: GridParams,
@@ -37,6 +46,7 @@ impl Default for PipelineParams {
         PipelineParams {
             matcher: MatcherParams::default(),
             downscale: 1,
+            row_downscale: 1,
             texture: TextureParams::default(),
             grid: GridParams::default(),
         }
@@ -54,15 +64,30 @@ pub enum Geometry {
     Rectified(StereoGeometry),
 }
 
+/// How long each stage of the last frame took.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StageTimes {
+    /// Undistortion and rectification (`remap`), and any downscale.
+    pub rectify: Duration,
+    /// Disparity search and the texture check.
+    pub matching: Duration,
+    /// Disparity → depth.
+    pub depth: Duration,
+    /// Depth → grid regions and sectors.
+    pub grid: Duration,
+}
+
 /// The working state of frame → grid; reuse it across frames.
 pub struct StereoPipeline {
     rectifier: Option<Rectifier>,
     /// Geometry of the images the matcher sees (after any downscale).
     geometry: StereoGeometry,
     downscale: u32,
+    row_downscale: u32,
     matcher: Matcher,
     texture: Option<TextureFilter>,
-    grid: GridParams,
+    gridder: DepthGridder,
+    times: StageTimes,
     rectified: (Mat, Mat),
     small: (Mat, Mat),
 }
@@ -105,16 +130,25 @@ impl StereoPipeline {
         if !(1..=8).contains(&params.downscale) {
             return Err(VisionError::Params(format!("downscale {} must be in 1..=8", params.downscale)));
         }
+        if !(1..=4).contains(&params.row_downscale) {
+            return Err(VisionError::Params(format!(
+                "row_downscale {} must be in 1..=4",
+                params.row_downscale
+            )));
+        }
         let range = params.matcher.num_disparities();
         let small_range = (range + 16 * params.downscale as i32 - 1) / (16 * params.downscale as i32) * 16;
         let matcher = Matcher::new(&params.matcher.with_num_disparities(small_range.max(16)))?;
+        let geometry = geometry.downscaled(params.downscale).rows_downscaled(params.row_downscale);
         Ok(StereoPipeline {
             rectifier,
-            geometry: geometry.downscaled(params.downscale),
+            geometry,
             downscale: params.downscale,
+            row_downscale: params.row_downscale,
             matcher,
             texture: TextureFilter::new(&params.texture)?,
-            grid: params.grid.clone(),
+            gridder: DepthGridder::new(&params.grid, &geometry),
+            times: StageTimes::default(),
             rectified: (Mat::default(), Mat::default()),
             small: (Mat::default(), Mat::default()),
         })
@@ -123,6 +157,11 @@ impl StereoPipeline {
     /// Geometry of the disparity and depth images this pipeline produces.
     pub fn geometry(&self) -> &StereoGeometry {
         &self.geometry
+    }
+
+    /// How long each stage of the last frame took.
+    pub fn times(&self) -> StageTimes {
+        self.times
     }
 
     /// The depth grid of `frame`.
@@ -135,37 +174,68 @@ impl StereoPipeline {
         }
         let left = gray_mat(frame.left(), frame.width, frame.height)?;
         let right = gray_mat(frame.right(), frame.width, frame.height)?;
-        let depth = self.depth(&left, &right)?;
-        Ok(depth_grid(&depth, &self.geometry, &self.grid, frame.time, frame.sequence))
+        self.grid(&left, &right, frame.time, frame.sequence)
+    }
+
+    /// The depth grid of a raw grey pair captured at `time`, frame `sequence` at its source.
+    pub fn grid(
+        &mut self,
+        left: &Mat,
+        right: &Mat,
+        time: Time,
+        sequence: u64,
+    ) -> Result<DepthGrid, VisionError> {
+        let depth = self.depth(left, right)?;
+        let start = Instant::now();
+        let grid = self.gridder.grid(&depth, time, sequence);
+        self.times.grid = start.elapsed();
+        Ok(grid)
     }
 
     /// Depth of a raw grey pair (m).
     pub fn depth(&mut self, left: &Mat, right: &Mat) -> Result<DepthMap, VisionError> {
         let disparity = self.disparity(left, right)?;
-        Ok(DepthMap::from_disparity(&disparity, &self.geometry))
+        let start = Instant::now();
+        let depth = DepthMap::from_disparity(&disparity, &self.geometry);
+        self.times.depth = start.elapsed();
+        Ok(depth)
+    }
+
+    /// Disparity of a raw grey pair at the pair's own size (px), each matched pixel spread
+    /// over the block it stands for: for scoring the pipeline against full-size ground truth.
+    pub fn full_size_disparity(&mut self, left: &Mat, right: &Mat) -> Result<DisparityMap, VisionError> {
+        let size = left.size().cv("left size")?;
+        let disparity = self.disparity(left, right)?;
+        let (fx, fy) = (self.downscale as usize, (self.downscale * self.row_downscale) as usize);
+        Ok(disparity.upscaled(fx, fy, size.width as usize, size.height as usize))
     }
 
     /// Disparity of a raw grey pair (px, at the downscaled size).
     pub fn disparity(&mut self, left: &Mat, right: &Mat) -> Result<DisparityMap, VisionError> {
+        let start = Instant::now();
         let (mut left, mut right) = (left, right);
         if let Some(rectifier) = &self.rectifier {
             let (l, r) = &mut self.rectified;
             rectifier.rectify_into(left, right, l, r)?;
             (left, right) = (&self.rectified.0, &self.rectified.1);
         }
-        if self.downscale > 1 {
-            let f = 1.0 / f64::from(self.downscale);
+        if self.downscale > 1 || self.row_downscale > 1 {
+            let fx = 1.0 / f64::from(self.downscale);
+            let fy = fx / f64::from(self.row_downscale);
             let (l, r) = &mut self.small;
-            imgproc::resize(left, l, Size::default(), f, f, imgproc::INTER_AREA)
+            imgproc::resize(left, l, Size::default(), fx, fy, imgproc::INTER_AREA)
                 .cv("shrinking the left image")?;
-            imgproc::resize(right, r, Size::default(), f, f, imgproc::INTER_AREA)
+            imgproc::resize(right, r, Size::default(), fx, fy, imgproc::INTER_AREA)
                 .cv("shrinking the right image")?;
             (left, right) = (&self.small.0, &self.small.1);
         }
+        let matching = Instant::now();
+        self.times.rectify = matching - start;
         let mut disparity = self.matcher.compute(left, right)?;
         if let Some(texture) = &mut self.texture {
             texture.apply(left, &mut disparity)?;
         }
+        self.times.matching = matching.elapsed();
         Ok(disparity)
     }
 }

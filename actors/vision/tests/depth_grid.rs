@@ -128,23 +128,30 @@ fn render(camera_x_m: f64, flat: Option<[usize; 4]>) -> Vec<u8> {
     image
 }
 
-fn rendered_grid(flat: Option<[usize; 4]>) -> DepthGrid {
+fn rendered_grid(flat: Option<[usize; 4]>, params: &PipelineParams) -> DepthGrid {
     let frame =
         StereoFrame::new(Time(1), 0, W as u32, H as u32, render(0.0, flat), render(0.12, flat)).unwrap();
-    let mut pipeline = StereoPipeline::new(
-        &Geometry::Rectified(geometry()),
-        &PipelineParams::default(),
-        std::path::Path::new("."),
-    )
-    .unwrap();
+    let mut pipeline =
+        StereoPipeline::new(&Geometry::Rectified(geometry()), params, std::path::Path::new(".")).unwrap();
     let grid = pipeline.process(&frame).unwrap();
     print(&grid);
     grid
 }
 
+/// The stock pipeline and the one matching every second row (same depths, half the rows).
+fn pipelines() -> [PipelineParams; 2] {
+    [PipelineParams::default(), PipelineParams { row_downscale: 2, ..PipelineParams::default() }]
+}
+
 #[test]
 fn rendered_plane_at_three_metres_reads_near_in_the_centre_only() {
-    let grid = rendered_grid(None);
+    for params in pipelines() {
+        rendered_plane_in_the_centre(&params);
+    }
+}
+
+fn rendered_plane_in_the_centre(params: &PipelineParams) {
+    let grid = rendered_grid(None, params);
     let centre = grid.regions[1][1];
     assert!(centre.near_share > 0.97, "{centre:?}");
     let nearest = centre.nearest_m.unwrap();
@@ -158,31 +165,99 @@ fn rendered_plane_at_three_metres_reads_near_in_the_centre_only() {
 #[test]
 fn textureless_wall_reads_invalid_not_free() {
     // The whole up-right region (and a margin) is a uniform wall on the background.
-    let grid = rendered_grid(Some([2 * W / 3 - 20, W, 0, H / 3 + 20]));
-    let wall = grid.regions[0][2];
-    assert!(wall.invalid_share > 0.9, "{wall:?}");
-    assert!(grid.regions[1][1].near_share > 0.97);
+    for params in pipelines() {
+        let grid = rendered_grid(Some([2 * W / 3 - 20, W, 0, H / 3 + 20]), &params);
+        let wall = grid.regions[0][2];
+        assert!(wall.invalid_share > 0.9, "{wall:?}");
+        assert!(grid.regions[1][1].near_share > 0.97);
+    }
+}
+
+#[test]
+fn a_speckle_does_not_define_the_nearest_depth() {
+    // Every region at 10 m, with a 7×7 speckle of 0.5 m in the centre region (49 of its
+    // 34 240 pixels, 0.14 %).
+    let mut values = vec![10.0f32; W * H];
+    for y in 230..237 {
+        for x in 300..307 {
+            values[y * W + x] = 0.5;
+        }
+    }
+    let depth = DepthMap { width: W, height: H, values };
+    let robust = depth_grid(&depth, &geometry(), &GridParams::default(), Time(0), 0);
+    assert_eq!(robust.regions[1][1].nearest_m, Some(10.0), "{:?}", robust.regions[1][1]);
+    assert!((robust.regions[1][1].near_share - 49.0 / 34_240.0).abs() < 1e-6, "the share still counts it");
+    let raw = GridParams { nearest_percentile: 0.0, ..GridParams::default() };
+    let grid = depth_grid(&depth, &geometry(), &raw, Time(0), 0);
+    assert_eq!(grid.regions[1][1].nearest_m, Some(0.5), "percentile 0 is the raw minimum");
+    assert_eq!(grid.regions[0][0].nearest_m, Some(10.0));
+    // A real obstacle covering 5 % of the region defines it at the 2nd percentile.
+    let mut values = vec![10.0f32; W * H];
+    for y in 160..320 {
+        for x in 213..224 {
+            values[y * W + x] = 2.0;
+        }
+    }
+    let depth = DepthMap { width: W, height: H, values };
+    let grid = depth_grid(&depth, &geometry(), &GridParams::default(), Time(0), 0);
+    assert_eq!(grid.regions[1][1].nearest_m, Some(2.0));
+    // Beyond the histogram's 20 m the nearest depth is exact.
+    let depth = DepthMap { width: W, height: H, values: vec![31.25; W * H] };
+    let grid = depth_grid(&depth, &geometry(), &GridParams::default(), Time(0), 0);
+    assert_eq!(grid.regions[2][2].nearest_m, Some(31.25));
+}
+
+#[test]
+fn nearest_percentile_out_of_range_is_refused() {
+    for p in [-1.0, 50.5, f32::NAN] {
+        let params = GridParams { nearest_percentile: p, ..GridParams::default() };
+        let err = params.check().unwrap_err();
+        assert!(err.to_string().contains("nearest_percentile"), "{err}");
+    }
+}
+
+/// The k-th smallest valid depth of region (`band`, `column`), k = max(1, ⌈p·n⌉), by sorting:
+/// the reference the gridder's histogram must match to the centimetre.
+fn sorted_percentile(depth: &DepthMap, band: usize, column: usize, percentile: f32) -> Option<f32> {
+    let third = |i: usize, n: usize| {
+        usize::from(i >= (n as f32 / 3.0).round() as usize)
+            + usize::from(i >= (2.0 * n as f32 / 3.0).round() as usize)
+    };
+    let mut valid: Vec<f32> = (0..depth.height)
+        .flat_map(|y| (0..depth.width).map(move |x| (x, y)))
+        .filter(|&(x, y)| third(y, depth.height) == band && third(x, depth.width) == column)
+        .filter_map(|(x, y)| depth.get(x, y))
+        .collect();
+    valid.sort_by(f32::total_cmp);
+    let rank = ((f64::from(percentile) / 100.0 * valid.len() as f64).ceil() as usize).max(1);
+    valid.get(rank - 1).copied()
 }
 
 proptest::proptest! {
     /// Any depth map, however sparse, gives shares in 0..1, a nearest depth only where some
-    /// pixel is valid, and 72 sectors within MAVLink's value range.
+    /// pixel is valid and equal (±0.5 cm within the 20 m histogram) to the sorted percentile,
+    /// and 72 sectors within MAVLink's value range.
     #[test]
     fn grid_invariants_hold_for_any_depth_map(
-        values in proptest::collection::vec(proptest::option::of(0.05f32..100.0), 48 * 36),
+        values in proptest::collection::vec(proptest::option::of(0.05f32..30.0), 48 * 36),
+        percentile in 0.0f32..50.0,
     ) {
         let values: Vec<f32> = values.into_iter().map(|v| v.unwrap_or(f32::NAN)).collect();
         let depth = DepthMap { width: 48, height: 36, values };
         let small = StereoGeometry { focal_px: 40.0, cx_px: 23.5, cy_px: 17.5, ..geometry() };
-        let params = GridParams::default();
+        let params = GridParams { nearest_percentile: percentile, ..GridParams::default() };
         let grid = depth_grid(&depth, &small, &params, Time(0), 0);
-        for region in grid.regions.iter().flatten() {
-            proptest::prop_assert!((0.0..=1.0).contains(&region.near_share));
-            proptest::prop_assert!((0.0..=1.0).contains(&region.invalid_share));
-            proptest::prop_assert_eq!(region.nearest_m.is_none(), region.invalid_share == 1.0);
-            if let Some(z) = region.nearest_m {
-                proptest::prop_assert!(z > 0.0 && z.is_finite());
-                proptest::prop_assert_eq!(region.near_share > 0.0, z < params.threshold_m);
+        for (band, row) in grid.regions.iter().enumerate() {
+            for (column, region) in row.iter().enumerate() {
+                proptest::prop_assert!((0.0..=1.0).contains(&region.near_share));
+                proptest::prop_assert!((0.0..=1.0).contains(&region.invalid_share));
+                proptest::prop_assert_eq!(region.nearest_m.is_none(), region.invalid_share == 1.0);
+                let reference = sorted_percentile(&depth, band, column, percentile);
+                match (region.nearest_m, reference) {
+                    (Some(z), Some(r)) if (r * 100.0).round() <= 2000.0 => proptest::prop_assert!((z - r).abs() <= 0.005 + 1e-6, "{} vs {}", z, r),
+                    (Some(z), Some(r)) => proptest::prop_assert!(z > 20.0 && z <= r, "{} vs {}", z, r),
+                    (z, r) => proptest::prop_assert_eq!(z, r),
+                }
             }
         }
         proptest::prop_assert_eq!(grid.sectors.distances_cm.len(), 72);

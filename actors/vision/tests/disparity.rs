@@ -230,3 +230,70 @@ fn disparity_files_and_scores_from_the_cli_entry_point() {
     let bad = MatcherParams::Sgbm(SgbmParams { num_disparities: 30, ..SgbmParams::default() });
     assert!(matches!(disparity(&left, &teddy, None, None, &bad, &pfm), Err(VisionError::Params(_))));
 }
+
+/// Bad-2 (%) of the pipeline with `params` on `s`, at full size, over all ground truth.
+fn pipeline_bad2(s: &Scene, params: &PipelineParams) -> f64 {
+    let geometry = StereoGeometry {
+        focal_px: 1000.0,
+        cx_px: 0.0,
+        cy_px: 0.0,
+        baseline_m: 0.1,
+        doffs_px: 0.0,
+        depth_scale: 1.0,
+    };
+    let params =
+        PipelineParams { matcher: params.matcher.with_num_disparities(s.num_disparities), ..params.clone() };
+    let mut pipeline = StereoPipeline::new(&Geometry::Rectified(geometry), &params, Path::new(".")).unwrap();
+    let d = pipeline.full_size_disparity(&s.left, &s.right).unwrap();
+    assert_eq!((d.width, d.height), (s.truth.width, s.truth.height));
+    score(&d, &s.truth, s.num_disparities as usize).unwrap().bad2_pct
+}
+
+#[test]
+fn shrunken_matching_costs_little_accuracy() {
+    // Measured: rows merged in pairs lose ≤ 0.6 points of bad-2 against OpenCV's SGBM, a
+    // half-size match up to 3.1 points (reindeer's fine fur); the margins below leave room.
+    let rows2 = PipelineParams { row_downscale: 2, ..PipelineParams::default() };
+    let half = PipelineParams { downscale: 2, ..PipelineParams::default() };
+    for s in scenes() {
+        let reference = score(&opencv_reference(&s), &s.truth, s.num_disparities as usize).unwrap().bad2_pct;
+        let (r, h) = (pipeline_bad2(&s, &rows2), pipeline_bad2(&s, &half));
+        println!(
+            "{:18} bad-2 opencv {reference:5.2} % | rows merged in pairs {r:5.2} % | half size {h:5.2} %",
+            s.name
+        );
+        assert!(r <= reference + 1.0, "{}: rows2 {r} vs {reference}", s.name);
+        assert!(h <= reference + 4.0, "{}: half size {h} vs {reference}", s.name);
+    }
+    for row_downscale in [0, 5] {
+        let bad = PipelineParams { row_downscale, ..PipelineParams::default() };
+        let geometry = StereoGeometry {
+            focal_px: 1.0,
+            cx_px: 0.0,
+            cy_px: 0.0,
+            baseline_m: 0.1,
+            doffs_px: 0.0,
+            depth_scale: 1.0,
+        };
+        let built = StereoPipeline::new(&Geometry::Rectified(geometry), &bad, Path::new("."));
+        assert!(matches!(built, Err(VisionError::Params(m)) if m.contains("row_downscale")));
+    }
+}
+
+#[test]
+fn upscaling_spreads_each_pixel_over_its_block() {
+    let small = DisparityMap { width: 2, height: 2, values: vec![1.0, f32::NAN, 3.0, 4.5] };
+    let wide = small.upscaled(2, 1, 4, 2);
+    let expect = [2.0, 2.0, f32::NAN, f32::NAN, 6.0, 6.0, 9.0, 9.0];
+    for (a, b) in wide.values.iter().zip(expect) {
+        assert!(*a == b || (a.is_nan() && b.is_nan()), "{:?}", wide.values);
+    }
+    let tall = small.upscaled(1, 2, 2, 5);
+    assert_eq!((tall.width, tall.height), (2, 5));
+    assert_eq!(
+        (tall.get(0, 0), tall.get(0, 1), tall.get(0, 2), tall.get(0, 3)),
+        (Some(1.0), Some(1.0), Some(3.0), Some(3.0))
+    );
+    assert_eq!(tall.get(1, 4), Some(4.5), "a leftover row takes the last");
+    assert_eq!(tall.get(1, 1), None);
+}

@@ -49,12 +49,19 @@ pub struct AvoidanceHealth {
     /// Regions whose pixels were mostly invalid (no disparity), `[row][column]` as in
     /// [`DepthGrid::regions`](super::DepthGrid::regions). All false when `stale`.
     pub unknown_regions: [[bool; 3]; 3],
-    /// The centre region was unknown, so the avoider slowed the vehicle (the textureless wall
-    /// of thesis §4.2.3).
+    /// The view ahead (the centre region and the one below it) was unknown, so the avoider
+    /// slowed or stopped the vehicle (the textureless wall of thesis §4.2.3).
     pub unknown_centre_slowdown: bool,
-    /// The centre region (the flight path) was blocked, so the avoider stopped forward
-    /// progress whatever the rule base said.
+    /// The centre region (the flight path) was blocked, by near pixels or by a depth within
+    /// the sidestep distance, so the avoider stopped forward progress whatever the rule base
+    /// said.
     pub centre_blocked: bool,
+    /// Lateral speed of the sidestep under way (m/s, + right, 0 = none): the path was blocked
+    /// and the rule base gave no way around.
+    pub sidestep_m_s: f64,
+    /// Forward speed the vehicle was held below so that it can stop short of the nearest depth
+    /// ahead (m/s); `None` when the centre had no valid depth.
+    pub forward_cap_m_s: Option<f64>,
     /// Every region was blocked: the avoider climbs until the centre clears (thesis §6).
     pub climbing: bool,
     /// Depth grids refused since start (non-finite or out-of-range shares, out of order, older

@@ -14,7 +14,10 @@ mod mag;
 mod manual_control;
 mod mission;
 mod nav_state;
+mod obstacle_map;
+mod param_decl;
 mod param_set;
+mod sensor_health;
 mod setpoint;
 mod stereo_frame;
 mod supervisor;
@@ -35,11 +38,14 @@ pub use mag::MagSample;
 pub use manual_control::ManualControl;
 pub use mission::{AltitudeFrame, Mission, MissionItem, MissionPoint};
 pub use nav_state::{NavState, NavValidity};
+pub use obstacle_map::{MapObstacle, ObstacleMap};
+pub use param_decl::{ParamDecl, ParamInfo};
 pub use param_set::ParamSet;
+pub use sensor_health::SensorHealth;
 pub use setpoint::{Setpoint, SetpointTarget, TrajectorySetpoint};
 pub use stereo_frame::{FrameSizeError, StereoFrame};
 pub use supervisor::{SupervisorEvent, SupervisorEventKind};
 pub use vehicle_command::{Command, VehicleCommand};
 pub use vehicle_status::{
-    Failsafe, FailsafeAction, FailsafeCause, FlightMode, LandedState, MissionProgress, VehicleStatus,
+    Failsafe, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState, MissionProgress, VehicleStatus,
 };

@@ -1,4 +1,5 @@
-//! A parameter changed from the ground station (MAVLink `PARAM_SET`), for the actor that owns it.
+//! A parameter changed from the ground station (MAVLink `PARAM_SET`, or the link restoring a
+//! persisted value at start), for the actor that owns it (topic `param_set`).
 
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};

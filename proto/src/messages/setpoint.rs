@@ -24,6 +24,12 @@ pub struct TrajectorySetpoint {
     pub yaw_rate_rad_s: f64,
     /// Horizontal speed limit for this setpoint (m/s); `None` uses the controller's limit.
     pub max_horizontal_speed_m_s: Option<f64>,
+    /// Horizontal speed the flight plan asks for before the obstacle avoider's correction
+    /// (m/s): the avoider's `V_in`. The velocity above already carries the correction, so
+    /// reading the desire from it would feed the avoider's own braking back as a lower desire.
+    /// `None` when no leg is being flown with the avoider: the velocity's norm is the desire.
+    #[serde(default)]
+    pub desired_speed_m_s: Option<f64>,
 }
 
 /// What the loop should track.

@@ -3,6 +3,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use super::mission::MissionPoint;
 use super::vehicle_status::FlightMode;
 use crate::time::Time;
 
@@ -30,6 +31,16 @@ pub enum Command {
     GotoNed { position_ned_m: [f64; 3] },
     /// In GUIDED: fly at this NED velocity (m/s).
     VelocityNed { velocity_ned_m_s: [f64; 3] },
+    /// Move home, where RTL returns and what the geofence and mission-relative altitudes are
+    /// measured from (MAV_CMD_DO_SET_HOME): to the vehicle's position (`None`) or to `point`.
+    /// Accepted in flight, as PX4 and ArduPilot do; a home set this way survives later armings.
+    SetHome { point: Option<MissionPoint> },
+    /// Switch the geofence failsafe on or off (MAV_CMD_DO_FENCE_ENABLE).
+    SetGeofence { enabled: bool },
+    /// Make mission item `index` current (MISSION_SET_CURRENT, MAV_CMD_DO_SET_MISSION_CURRENT):
+    /// a running mission flies there next, otherwise the next AUTO starts there. `index` counts
+    /// the commander's items, so the ground station's item 0 (home) is not one of them.
+    SetMissionCurrent { index: u32 },
     /// The ground station is alive. Heartbeats and sticks (not other commands, which scripts
     /// send too) establish and refresh the data link whose loss is a failsafe.
     Heartbeat,

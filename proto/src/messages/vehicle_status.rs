@@ -92,8 +92,23 @@ pub struct MissionProgress {
     pub current: u32,
     /// Items reached so far.
     pub reached: u32,
+    /// Index of the item reached last: after a jump (`SetMissionCurrent`) it is no longer
+    /// `reached - 1`.
+    #[serde(default)]
+    pub last_reached: Option<u32>,
     pub total: u32,
+    /// Every item from the current one on is done.
     pub completed: bool,
+}
+
+/// Where home is.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct Home {
+    /// NED from the estimator's origin (m).
+    pub position_ned_m: [f64; 3],
+    /// Counts every move of home (arming, MAV_CMD_DO_SET_HOME), so that a command is seen to
+    /// take effect even when it moves home to where it already was.
+    pub revision: u32,
 }
 
 /// Published by the commander at its status rate and on every change.
@@ -108,5 +123,16 @@ pub struct VehicleStatus {
     pub mission: MissionProgress,
     /// Why the last refused command or mode change was refused (for STATUSTEXT).
     pub last_refusal: Option<String>,
+    /// Home, once the vehicle armed or a ground station set it.
+    #[serde(default)]
+    pub home: Option<Home>,
+    /// Whether a geofence breach triggers its failsafe (MAV_CMD_DO_FENCE_ENABLE).
+    #[serde(default = "fence_on")]
+    pub geofence_enabled: bool,
+}
+
+/// The geofence is on unless a ground station switched it off (older logs did not say).
+fn fence_on() -> bool {
+    true
 }
 crate::impl_message!(VehicleStatus);

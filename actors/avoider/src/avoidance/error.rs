@@ -53,4 +53,6 @@ pub enum GridError {
 pub enum SetpointError {
     #[error("setpoint velocity {axis} = {value} is not finite")]
     NotFinite { axis: &'static str, value: f64 },
+    #[error("setpoint desired speed {value} m/s is not a finite speed ≥ 0")]
+    BadDesiredSpeed { value: f64 },
 }

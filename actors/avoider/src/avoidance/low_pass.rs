@@ -19,6 +19,11 @@ impl LowPass {
         LowPass { time_constant_s, state: None }
     }
 
+    /// Changes the time constant (s, ≥ 0) from the next update on, keeping the output.
+    pub fn set_time_constant(&mut self, time_constant_s: f64) {
+        self.time_constant_s = time_constant_s;
+    }
+
     /// Advances the filter to `time` towards `target` and returns its output. A `time` before
     /// the last update counts as no time passed.
     pub fn update(&mut self, time: Time, target: [f64; 3]) -> [f64; 3] {

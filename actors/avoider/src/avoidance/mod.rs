@@ -10,11 +10,21 @@
 //!    * centre blocked (near share ≥ `blocked_share`): forward progress stops whatever the rule
 //!      base says — table 3.1 only answers when exactly one off-centre region is blocked too, so
 //!      a pole straight ahead with a clear view around it would otherwise get no correction;
-//!    * centre unknown (the textureless wall of §4.2.3): the vehicle keeps at most
-//!      `unknown_speed_share` of its desired speed;
+//!    * path blocked with no way given by the rule base (nothing else blocked, or the whole
+//!      centre column blocked so there is no way over or under): a sidestep at
+//!      `sidestep_speed_m_s` towards the freer side ([`View::freer_side`]), latched until the
+//!      path clears so that the vehicle does not dither between sides; the path also counts as
+//!      blocked when the centre's nearest depth is within `sidestep_distance_m` (a thin trunk
+//!      fills little of the region);
+//!    * view ahead unknown (the textureless wall of §4.2.3, [`View::unknown_ahead`]): the
+//!      vehicle keeps at most `unknown_speed_share` of its desired speed (0 by default: stop);
 //!    * every region blocked: forward progress stops and the vehicle climbs at
 //!      `climb_speed_m_s` until the centre's near share falls below `climb_exit_share` (§6);
-//! 4. low-pass filters the result (§3.3.9).
+//! 4. low-pass filters the result (§3.3.9);
+//! 5. caps the forward speed so that the vehicle can stop `stop_distance_m` short of the
+//!    centre's nearest depth, braking at `brake_decel_m_s2` after `reaction_time_s` (PX4's
+//!    collision prevention does the same with its `CP_DIST`). The cap comes after the filter:
+//!    a safety limit must not lag behind the view.
 //!
 //! [`Avoider::check`] runs on a timer: once the newest grid is older than `max_grid_age_s` the
 //! view is unknown, so the grid is ignored and the correction, through the same filter, brakes
@@ -27,6 +37,7 @@
 
 mod desired_speed;
 pub mod error;
+pub mod live_params;
 mod low_pass;
 pub mod params;
 pub mod region_inputs;
@@ -38,8 +49,12 @@ use kestrel_proto::messages::{
 };
 
 use crate::engine::{Engine, Workspace};
+
+/// A lateral or vertical correction of the rule base at least this large (m/s) is a way around
+/// the obstacle, and no sidestep is added.
+const WAY_M_S: f64 = 0.3;
 pub use desired_speed::desired_speed_m_s;
-use error::{AvoiderError, GridError, SetpointError};
+use error::{AvoiderError, GridError, ParamsError, SetpointError};
 pub use low_pass::LowPass;
 use params::AvoiderParams;
 use region_inputs::InputMap;
@@ -59,6 +74,8 @@ pub struct Avoider {
     last_grid: Option<(Time, u64)>,
     /// Climbing because every region was blocked, until the centre clears.
     climbing: bool,
+    /// Side of the sidestep under way (+1 right, −1 left), kept until the path clears.
+    sidestep: Option<f64>,
     grids_rejected: u64,
     setpoints_rejected: u64,
 }
@@ -86,6 +103,7 @@ impl Avoider {
             desired_speed_m_s: 0.0,
             last_grid: None,
             climbing: false,
+            sidestep: None,
             grids_rejected: 0,
             setpoints_rejected: 0,
         })
@@ -99,6 +117,15 @@ impl Avoider {
     /// The parameters it runs with.
     pub fn params(&self) -> &AvoiderParams {
         &self.params
+    }
+
+    /// Runs with `params` from the next grid on (the rule base and the filter's output are
+    /// kept); refused, with nothing changed, when they do not validate.
+    pub fn retune(&mut self, params: AvoiderParams) -> Result<(), ParamsError> {
+        params.validate()?;
+        self.filter.set_time_constant(params.filter_time_constant_s);
+        self.params = params;
+        Ok(())
     }
 
     /// Depth grids refused since start.
@@ -144,6 +171,7 @@ impl Avoider {
             return None;
         }
         self.climbing = false;
+        self.sidestep = None;
         let brake = [-self.desired_speed_m_s, 0.0, 0.0];
         let velocity_frd_m_s = self.filter.update(now, brake);
         Some(AvoidanceCommand {
@@ -185,27 +213,61 @@ impl Avoider {
         self.last_grid = Some((grid.time, grid.frame_sequence));
 
         let p = &self.params;
+        let region_nearest = |row: usize, col: usize| {
+            grid.regions[row][col].nearest_m.map(f64::from).filter(|d| d.is_finite())
+        };
+        let nearest_ahead = region_nearest(1, 1);
         self.climbing = if self.climbing {
             view.centre_near() >= p.climb_exit_share
         } else {
             view.all_blocked(p.blocked_share)
         };
-        let centre_blocked = view.centre_near() >= p.blocked_share;
-        let centre_unknown = view.centre_unknown();
+        let centre_blocked =
+            view.centre_near() >= p.blocked_share || nearest_ahead.is_some_and(|d| d < p.sidestep_distance_m);
+        let unknown_ahead = view.unknown_ahead();
         let desired = self.desired_speed_m_s;
         let target = if self.climbing {
+            self.sidestep = None;
             [-desired, 0.0, -p.climb_speed_m_s]
         } else {
             let mut target = fuzzy.to_frd().map(|v| v * p.max_speed_m_s);
             if centre_blocked {
                 target[0] = target[0].min(-desired);
+                let column_blocked = view.centre_column_blocked(p.blocked_share);
+                let rule_base_gives_way =
+                    target[1].abs() >= WAY_M_S || (target[2].abs() >= WAY_M_S && !column_blocked);
+                if rule_base_gives_way {
+                    self.sidestep = None;
+                } else {
+                    let sides_nearest = [region_nearest(1, 0), region_nearest(1, 2)];
+                    let mut side = *self.sidestep.get_or_insert_with(|| view.freer_side(sides_nearest));
+                    // Never slide into something close on the side under way: turn to the
+                    // other side if that one is not close too.
+                    let close = |d: Option<f64>| d.is_some_and(|d| d < p.sidestep_distance_m);
+                    let [left, right] = sides_nearest.map(close);
+                    let (ahead, other) = if side > 0.0 { (right, left) } else { (left, right) };
+                    if ahead && !other {
+                        side = -side;
+                        self.sidestep = Some(side);
+                    }
+                    target[1] = side * p.sidestep_speed_m_s;
+                    if column_blocked {
+                        target[2] = 0.0;
+                    }
+                }
+            } else {
+                self.sidestep = None;
             }
-            if centre_unknown {
+            if unknown_ahead {
                 target[0] = target[0].min(-(1.0 - p.unknown_speed_share) * desired);
             }
             target
         };
-        let velocity_frd_m_s = self.filter.update(now, target);
+        let mut velocity_frd_m_s = self.filter.update(now, target);
+        let forward_cap_m_s = nearest_ahead.map(|d| self.forward_speed_cap_m_s(d));
+        if let Some(cap) = forward_cap_m_s {
+            velocity_frd_m_s[0] = velocity_frd_m_s[0].min(cap - desired);
+        }
         Ok(AvoidanceCommand {
             time: grid.time,
             grid_time: Some(grid.time),
@@ -219,12 +281,24 @@ impl Avoider {
             health: AvoidanceHealth {
                 grid_age_s: Some(age_s),
                 unknown_regions: view.unknown,
-                unknown_centre_slowdown: centre_unknown,
+                unknown_centre_slowdown: unknown_ahead,
                 centre_blocked,
+                sidestep_m_s: self.sidestep.map_or(0.0, |side| side * p.sidestep_speed_m_s),
+                forward_cap_m_s,
                 climbing: self.climbing,
                 ..self.counters()
             },
         })
+    }
+
+    /// The forward speed (m/s) from which the vehicle can still stop `stop_distance_m` short of
+    /// a depth `distance_m` ahead: it covers `v·t_r` before braking and `v²/2a` while braking,
+    /// so `v = −a·t_r + √((a·t_r)² + 2a·(d − d_stop))`, and 0 inside the stop distance.
+    fn forward_speed_cap_m_s(&self, distance_m: f64) -> f64 {
+        let p = &self.params;
+        let room = (distance_m - p.stop_distance_m).max(0.0);
+        let a_tr = p.brake_decel_m_s2 * p.reaction_time_s;
+        (a_tr * a_tr + 2.0 * p.brake_decel_m_s2 * room).sqrt() - a_tr
     }
 
     /// `V_in`: the desired speed as a share of the maximum, 0..1.

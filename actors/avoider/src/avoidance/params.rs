@@ -34,10 +34,32 @@ pub struct AvoiderParams {
     pub climb_speed_m_s: f64,
     /// Share of invalid (no disparity) pixels above which a region is unknown, 0..1.
     pub unknown_invalid_share: f64,
-    /// Share of the desired speed the vehicle keeps while the centre region is unknown, 0..1:
-    /// slow enough to stop short of a textureless wall, not a full stop, since open sky beyond
-    /// the disparity range is invalid too.
+    /// Share of the desired speed the vehicle keeps while the view ahead is unknown, 0..1.
+    /// 0 stops: no data ahead is no way ahead, as PX4's collision prevention treats a sector
+    /// without data by default (`CP_GO_NO_DATA = 0`). "Unknown ahead" needs the centre *and*
+    /// the region below it to be mostly invalid (see [`View::unknown_ahead`]), so open sky
+    /// above the horizon does not stop the vehicle.
+    ///
+    /// [`View::unknown_ahead`]: crate::avoidance::View::unknown_ahead
     pub unknown_speed_share: f64,
+    /// The vehicle stops this far short of the nearest depth in the centre region (m). Beyond
+    /// the thesis, which only slows through the rule base: like PX4's collision prevention
+    /// (`CP_DIST`), the forward speed is capped so that the vehicle can still brake in time.
+    pub stop_distance_m: f64,
+    /// Deceleration the forward-speed cap assumes (m/s²); below the commander's 2.5 m/s² limit
+    /// on changes of the velocity demand, so the cap is always reachable.
+    pub brake_decel_m_s2: f64,
+    /// Delay the cap allows for between a frame and the vehicle starting to brake (s): grid
+    /// latency plus the position loop's response.
+    pub reaction_time_s: f64,
+    /// Lateral speed of a sidestep (m/s): with the path blocked and no way given by the rule
+    /// base (table 3.1 has no row for an obstacle only straight ahead, and none for a whole
+    /// blocked centre column), the vehicle slides towards the freer side until the path clears.
+    /// 0 turns the sidestep off (the thesis's behaviour: stop in front of the obstacle).
+    pub sidestep_speed_m_s: f64,
+    /// A depth nearer than this in the centre region (m) blocks the path even when its near
+    /// share is small (a thin trunk), so the vehicle sidesteps rather than waits in front of it.
+    pub sidestep_distance_m: f64,
     /// Depth grids older than this are ignored and the view counts as unknown (s): a few frames
     /// at 15 Hz plus the stereo engine's latency.
     pub max_grid_age_s: f64,
@@ -55,7 +77,12 @@ impl Default for AvoiderParams {
             climb_exit_share: 0.3,
             climb_speed_m_s: 1.5,
             unknown_invalid_share: 0.7,
-            unknown_speed_share: 0.3,
+            unknown_speed_share: 0.0,
+            stop_distance_m: 2.0,
+            brake_decel_m_s2: 2.0,
+            reaction_time_s: 0.3,
+            sidestep_speed_m_s: 1.5,
+            sidestep_distance_m: 4.0,
             max_grid_age_s: 0.5,
             check_period_s: 0.1,
         }
@@ -68,6 +95,7 @@ impl AvoiderParams {
         let positive = [
             ("max_speed_m_s", self.max_speed_m_s),
             ("climb_speed_m_s", self.climb_speed_m_s),
+            ("brake_decel_m_s2", self.brake_decel_m_s2),
             ("max_grid_age_s", self.max_grid_age_s),
             ("check_period_s", self.check_period_s),
         ];
@@ -76,12 +104,17 @@ impl AvoiderParams {
                 return Err(ParamsError { field, value, expected: "a finite value > 0" });
             }
         }
-        if !(self.filter_time_constant_s.is_finite() && self.filter_time_constant_s >= 0.0) {
-            return Err(ParamsError {
-                field: "filter_time_constant_s",
-                value: self.filter_time_constant_s,
-                expected: "a finite value ≥ 0",
-            });
+        let non_negative = [
+            ("filter_time_constant_s", self.filter_time_constant_s),
+            ("stop_distance_m", self.stop_distance_m),
+            ("reaction_time_s", self.reaction_time_s),
+            ("sidestep_distance_m", self.sidestep_distance_m),
+            ("sidestep_speed_m_s", self.sidestep_speed_m_s),
+        ];
+        for (field, value) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ParamsError { field, value, expected: "a finite value ≥ 0" });
+            }
         }
         let shares = [
             ("blocked_share", self.blocked_share),

@@ -18,8 +18,7 @@ pub fn grid(seconds: f64, near: [[f32; 3]; 3], invalid: [[f32; 3]; 3]) -> DepthG
         for (col, region) in cells.iter_mut().enumerate() {
             region.near_share = near[row][col];
             region.invalid_share = invalid[row][col];
-            region.nearest_m =
-                (invalid[row][col] < 1.0).then_some(if near[row][col] > 0.0 { 2.0 } else { 9.0 });
+            region.nearest_m = (invalid[row][col] < 1.0).then_some(nearest_m(near[row][col]));
         }
     }
     DepthGrid {
@@ -34,6 +33,19 @@ pub fn grid(seconds: f64, near: [[f32; 3]; 3], invalid: [[f32; 3]; 3]) -> DepthG
             min_distance_cm: 30,
             max_distance_cm: 2000,
         },
+    }
+}
+
+/// The nearest depth of a region with this near share (m): 2 m when mostly near (blocked),
+/// 4.5 m when a few pixels are inside the 5 m threshold, 20 m (the far end of the stereo
+/// range) when none is.
+pub fn nearest_m(near_share: f32) -> f32 {
+    if near_share >= 0.5 {
+        2.0
+    } else if near_share > 0.0 {
+        4.5
+    } else {
+        20.0
     }
 }
 

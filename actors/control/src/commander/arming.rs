@@ -104,7 +104,7 @@ impl Commander {
         if let Some(f) = self.failsafes.worst() {
             return refuse(format!("arming refused: failsafe {:?} active", f.cause));
         }
-        if self.outside_geofence(nav, &self.home_or(nav)) {
+        if self.geofence_enabled && self.outside_geofence(nav, &self.home_or(nav)) {
             return refuse("arming refused: outside the geofence");
         }
         Ok(())

@@ -15,7 +15,7 @@
 //! 3. if the stream is stale the demand is zero: the vehicle slows at `AVOID_ACCEL_M_S2` and
 //!    holds where it stopped, and says so in `VehicleStatus.last_refusal` (→ STATUSTEXT);
 //! 4. the demand is rate-limited at `AVOID_ACCEL_M_S2` and integrated into a position
-//!    setpoint kept within `LEASH_M` of the vehicle; the trajectory setpoint carries that
+//!    setpoint kept on a leash that shortens with the demand ([`LEASH_MIN_M`]); the trajectory setpoint carries that
 //!    position with the velocity as feed-forward. The nose turns towards the leg's direction
 //!    (at the yaw stick rate) so that the forward camera looks where the vehicle goes.
 
@@ -32,8 +32,12 @@ const VERTICAL_GAIN: f64 = 1.0;
 const LEG_VERTICAL_SPEED_M_S: f64 = 2.0;
 /// Largest change of the velocity demand (m/s²): the slow-down of a stale hold.
 pub(crate) const AVOID_ACCEL_M_S2: f64 = 2.5;
-/// The integrated position setpoint stays within this of the vehicle (m).
-const LEASH_M: f64 = 3.0;
+/// The integrated position setpoint stays within `LEASH_MIN_M + LEASH_TIME_S · |v|` of the
+/// vehicle (m), `v` the velocity demand: a setpoint left metres ahead while the demand drops to
+/// zero would keep pulling the vehicle on towards the obstacle it is braking for.
+const LEASH_MIN_M: f64 = 0.3;
+/// See [`LEASH_MIN_M`] (s): about the position loop's lag behind a velocity demand.
+const LEASH_TIME_S: f64 = 0.5;
 /// A vertical correction above this (m/s) takes the altitude over from the leg.
 const VERTICAL_TAKEOVER_M_S: f64 = 0.1;
 /// The nose turns towards the leg only while the leg asks for at least this speed (m/s).
@@ -161,8 +165,9 @@ impl AvoidanceLoop {
         v_cmd += if change.norm() > max_change { change * (max_change / change.norm()) } else { change };
         p_sp += v_cmd * dt_s;
         let lead = p_sp - pos;
-        if lead.norm() > LEASH_M {
-            p_sp = pos + lead * (LEASH_M / lead.norm());
+        let leash = LEASH_MIN_M + LEASH_TIME_S * v_cmd.norm();
+        if lead.norm() > leash {
+            p_sp = pos + lead * (leash / lead.norm());
         }
         self.state = Some((p_sp, v_cmd));
         // Nose along the leg, at the yaw rate.
@@ -178,6 +183,7 @@ impl AvoidanceLoop {
             velocity_ned_m_s: [Some(v_cmd.x), Some(v_cmd.y), Some(v_cmd.z)],
             yaw_rad: Some(*yaw_rad),
             max_horizontal_speed_m_s: Some(horizontal_speed + 1.0),
+            desired_speed_m_s: Some(leg_horizontal.norm()),
             ..TrajectorySetpoint::default()
         };
         Blend { setpoint, hold_changed }

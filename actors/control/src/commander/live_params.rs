@@ -1,66 +1,197 @@
-//! Parameters a ground station may change in flight (MAVLink `PARAM_SET`, through the link's
-//! `param_set` topic), mapped onto [`CommanderParams`] fields. Names follow ArduPilot's where one
-//! exists, with the unit spelled out, so QGroundControl and MAVProxy users recognise them. The
-//! link checks each value against the range in its parameter table; the commander checks it
-//! again against its own field validation, and a change that would make the parameters invalid
-//! is refused and the old value kept.
+//! The commander's live parameters: every tunable field of [`CommanderParams`] a ground station
+//! may change in flight, declared once here with its MAVLink name, range and unit. The actor
+//! publishes this table to the link (`param_decl`) and applies `ParamSet`s against it. Names
+//! follow ArduPilot's where one exists, with the unit spelled out (`RTL_ALT_M`, `FENCE_RADIUS_M`),
+//! so QGroundControl and MAVProxy users recognise them. Ranges are what a small multirotor can
+//! sensibly fly; the whole struct is validated again after each change (e.g. the critical
+//! battery share must stay below the low one), and a refused change keeps the old value.
+
+use kestrel_proto::param_def::{self, ParamChange, ParamDef, ParamRefused};
 
 use super::params::CommanderParams;
-use crate::error::InvalidParam;
 
-/// A named field of [`CommanderParams`] that can change live.
-struct LiveParam {
-    name: &'static str,
-    field: fn(&mut CommanderParams) -> &mut f64,
-}
-
-/// Every live parameter, by MAVLink name.
-const LIVE_PARAMS: [LiveParam; 8] = [
-    LiveParam { name: "RTL_ALT_M", field: |p| &mut p.rtl_altitude_m },
-    LiveParam { name: "RTL_SPEED_M_S", field: |p| &mut p.rtl_speed_m_s },
-    LiveParam { name: "TKOFF_ALT_M", field: |p| &mut p.takeoff_altitude_m },
-    LiveParam { name: "WPNAV_SPEED_M_S", field: |p| &mut p.guided_speed_m_s },
-    LiveParam { name: "FS_GCS_TIMEOUT_S", field: |p| &mut p.failsafe.link_timeout_s },
-    LiveParam { name: "BATT_LOW_FRAC", field: |p| &mut p.failsafe.battery_low },
-    LiveParam { name: "FENCE_RADIUS_M", field: |p| &mut p.geofence.max_radius_m },
-    LiveParam { name: "FENCE_ALT_MAX_M", field: |p| &mut p.geofence.max_altitude_m },
+/// Every live commander parameter.
+pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
+    ParamDef {
+        name: "RTL_ALT_M",
+        unit: "m",
+        min: 2.0,
+        max: 120.0,
+        description: "RTL climbs to at least this height above home",
+        get: |p| p.rtl_altitude_m,
+        set: |p, v| p.rtl_altitude_m = v,
+    },
+    ParamDef {
+        name: "RTL_SPEED_M_S",
+        unit: "m/s",
+        min: 0.5,
+        max: 15.0,
+        description: "RTL horizontal return speed",
+        get: |p| p.rtl_speed_m_s,
+        set: |p, v| p.rtl_speed_m_s = v,
+    },
+    ParamDef {
+        name: "RTL_LOIT_TIME_S",
+        unit: "s",
+        min: 0.0,
+        max: 600.0,
+        description: "RTL loiter above home before landing",
+        get: |p| p.rtl_loiter_s,
+        set: |p, v| p.rtl_loiter_s = v,
+    },
+    ParamDef {
+        name: "TKOFF_ALT_M",
+        unit: "m",
+        min: 1.0,
+        max: 120.0,
+        description: "Take-off height above home",
+        get: |p| p.takeoff_altitude_m,
+        set: |p, v| p.takeoff_altitude_m = v,
+    },
+    ParamDef {
+        name: "WPNAV_SPEED_M_S",
+        unit: "m/s",
+        min: 0.5,
+        max: 15.0,
+        description: "GUIDED target speed while the avoider is in the loop",
+        get: |p| p.guided_speed_m_s,
+        set: |p, v| p.guided_speed_m_s = v,
+    },
+    ParamDef {
+        name: "LAND_SPEED_M_S",
+        unit: "m/s",
+        min: 0.1,
+        max: 5.0,
+        description: "Landing descent rate near the ground",
+        get: |p| p.land_slow_m_s,
+        set: |p, v| p.land_slow_m_s = v,
+    },
+    ParamDef {
+        name: "LAND_SPD_HI_M_S",
+        unit: "m/s",
+        min: 0.2,
+        max: 5.0,
+        description: "Landing descent rate above LAND_SLOW_ALT_M",
+        get: |p| p.land_fast_m_s,
+        set: |p, v| p.land_fast_m_s = v,
+    },
+    ParamDef {
+        name: "LAND_SLOW_ALT_M",
+        unit: "m",
+        min: 0.5,
+        max: 50.0,
+        description: "Height above home below which the landing slows",
+        get: |p| p.land_slow_height_m,
+        set: |p, v| p.land_slow_height_m = v,
+    },
+    ParamDef {
+        name: "ANGLE_MAX_DEG",
+        unit: "deg",
+        min: 5.0,
+        max: 60.0,
+        description: "Tilt at full stick in STABILIZE/ALT_HOLD",
+        get: |p| p.max_tilt_deg,
+        set: |p, v| p.max_tilt_deg = v,
+    },
+    ParamDef {
+        name: "PILOT_SPEED_M_S",
+        unit: "m/s",
+        min: 0.5,
+        max: 15.0,
+        description: "Horizontal speed at full stick in POSHOLD",
+        get: |p| p.stick_speed_m_s,
+        set: |p, v| p.stick_speed_m_s = v,
+    },
+    ParamDef {
+        name: "PILOT_SPD_UP_M_S",
+        unit: "m/s",
+        min: 0.2,
+        max: 8.0,
+        description: "Climb rate at full throttle in ALT_HOLD/POSHOLD",
+        get: |p| p.stick_climb_m_s,
+        set: |p, v| p.stick_climb_m_s = v,
+    },
+    ParamDef {
+        name: "FS_GCS_TIMEOUT_S",
+        unit: "s",
+        min: 1.0,
+        max: 60.0,
+        description: "Data link lost after this long without a GCS heartbeat or sticks",
+        get: |p| p.failsafe.link_timeout_s,
+        set: |p, v| p.failsafe.link_timeout_s = v,
+    },
+    ParamDef {
+        name: "BATT_LOW_FRAC",
+        unit: "",
+        min: 0.1,
+        max: 0.9,
+        description: "Battery share below which the low-battery failsafe acts",
+        get: |p| p.failsafe.battery_low,
+        set: |p, v| p.failsafe.battery_low = v,
+    },
+    ParamDef {
+        name: "BATT_CRT_FRAC",
+        unit: "",
+        min: 0.0,
+        max: 0.8,
+        description: "Battery share below which the critical-battery failsafe acts",
+        get: |p| p.failsafe.battery_critical,
+        set: |p, v| p.failsafe.battery_critical = v,
+    },
+    ParamDef {
+        name: "FENCE_RADIUS_M",
+        unit: "m",
+        min: 10.0,
+        max: 10000.0,
+        description: "Geofence: largest horizontal distance from home",
+        get: |p| p.geofence.max_radius_m,
+        set: |p, v| p.geofence.max_radius_m = v,
+    },
+    ParamDef {
+        name: "FENCE_ALT_MAX_M",
+        unit: "m",
+        min: 5.0,
+        max: 500.0,
+        description: "Geofence: largest height above home",
+        get: |p| p.geofence.max_altitude_m,
+        set: |p, v| p.geofence.max_altitude_m = v,
+    },
 ];
 
-/// What a `PARAM_SET` did.
-#[derive(Debug, PartialEq)]
-pub enum ParamChange {
-    /// The field now holds the value.
-    Applied,
-    /// Not a commander parameter (another actor may own it).
-    NotMine,
-}
-
-/// Sets the live parameter `name` to `value` in `params`, keeping the old value when the result
-/// would not validate.
-pub fn apply(params: &mut CommanderParams, name: &str, value: f64) -> Result<ParamChange, InvalidParam> {
-    let Some(live) = LIVE_PARAMS.iter().find(|p| p.name == name) else {
-        return Ok(ParamChange::NotMine);
-    };
-    let mut changed = params.clone();
-    *(live.field)(&mut changed) = value;
-    changed.validate()?;
-    *params = changed;
-    Ok(ParamChange::Applied)
+/// Sets the live parameter `name` to `value` in `params`, keeping the old value when it is out
+/// of range or the result would not validate.
+pub fn apply(params: &mut CommanderParams, name: &str, value: f64) -> Result<ParamChange, ParamRefused> {
+    param_def::apply(LIVE_PARAMS, params, name, value, CommanderParams::validate)
 }
 
 #[cfg(test)]
 mod tests {
+    use kestrel_proto::Time;
+
     use super::*;
+
+    #[test]
+    fn the_defaults_declare_a_valid_table() {
+        param_def::declare(LIVE_PARAMS, &CommanderParams::default(), "commander", true, Time::ZERO)
+            .check()
+            .expect("every default inside its range, names unique and short");
+    }
 
     #[test]
     fn a_live_change_applies_and_an_invalid_one_keeps_the_old_value() {
         let mut params = CommanderParams::default();
         assert_eq!(apply(&mut params, "RTL_ALT_M", 25.0), Ok(ParamChange::Applied));
         assert_eq!(params.rtl_altitude_m, 25.0);
+        assert_eq!(apply(&mut params, "LAND_SPEED_M_S", 0.4), Ok(ParamChange::Applied));
+        assert_eq!(params.land_slow_m_s, 0.4);
         assert_eq!(apply(&mut params, "SYSID_THISMAV", 3.0), Ok(ParamChange::NotMine));
         let before = params.clone();
         assert!(apply(&mut params, "RTL_ALT_M", f64::NAN).is_err());
         assert!(apply(&mut params, "BATT_LOW_FRAC", 7.0).is_err(), "a share above 1 is refused");
+        assert!(
+            matches!(apply(&mut params, "BATT_CRT_FRAC", 0.5), Err(ParamRefused::Invalid { .. })),
+            "critical above low (0.25) fails the commander's own validation"
+        );
         assert_eq!(params, before);
     }
 }

@@ -39,23 +39,45 @@ pub struct MissionRunner {
     cruise_m_s: f64,
     current: usize,
     reached: u32,
+    last_reached: Option<usize>,
     phase: Option<Phase>,
 }
 
 impl MissionRunner {
     pub fn new(mission: Mission) -> MissionRunner {
-        MissionRunner { cruise_m_s: mission.cruise_speed_m_s, mission, current: 0, reached: 0, phase: None }
+        MissionRunner {
+            cruise_m_s: mission.cruise_speed_m_s,
+            mission,
+            current: 0,
+            reached: 0,
+            last_reached: None,
+            phase: None,
+        }
+    }
+
+    /// Makes item `index` current: flown next, from wherever the vehicle is (the items between
+    /// are skipped, as MAVLink's MISSION_SET_CURRENT asks). `false`, and nothing changed, when
+    /// there is no such item.
+    pub fn set_current(&mut self, index: usize) -> bool {
+        if index >= self.mission.items.len() {
+            return false;
+        }
+        self.current = index;
+        self.phase = None;
+        true
     }
 
     /// Progress for `VehicleStatus`. A return-to-launch item counts as reached when RTL takes
-    /// over; a land item when the vehicle has landed.
+    /// over; a land item when the vehicle has landed. Completed once the last item is done,
+    /// whether or not a jump skipped some before it.
     pub fn progress(&self) -> MissionProgress {
-        let total = u32::try_from(self.mission.items.len()).unwrap_or(u32::MAX);
+        let index = |i: usize| u32::try_from(i).unwrap_or(u32::MAX);
         MissionProgress {
-            current: u32::try_from(self.current).unwrap_or(u32::MAX),
+            current: index(self.current),
             reached: self.reached,
-            total,
-            completed: self.reached >= total,
+            last_reached: self.last_reached.map(index),
+            total: index(self.mission.items.len()),
+            completed: self.current >= self.mission.items.len(),
         }
     }
 
@@ -153,6 +175,7 @@ impl MissionRunner {
     }
 
     fn advance(&mut self) {
+        self.last_reached = Some(self.current);
         self.current += 1;
         self.reached += 1;
         self.phase = None;

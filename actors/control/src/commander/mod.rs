@@ -1,7 +1,8 @@
 //! The commander: arming, flight modes, missions and failsafes — a pure state machine fed
 //! with messages and asked, at its own pace, for the setpoint to fly and the status to report.
 //!
-//! Home is the NED position where the vehicle armed. Failsafes follow PX4's precedence
+//! Home is the NED position where the vehicle armed, unless a ground station set it
+//! (MAV_CMD_DO_SET_HOME, see `home`): then it stays where it was put. Failsafes follow PX4's precedence
 //! (warn < hold < RTL < land < disarm): the active cause with the strongest action decides,
 //! its cause is reported in `VehicleStatus`, and while an RTL-or-stronger failsafe is active
 //! the pilot may only switch to LAND (PX4 lets the pilot take over in some cases; we are
@@ -10,8 +11,10 @@
 mod arming;
 mod avoidance;
 mod failsafe;
+mod home;
 mod land_detector;
 mod live_params;
+mod mission_current;
 mod mission_runner;
 mod modes;
 mod params;
@@ -19,8 +22,8 @@ mod params;
 use kestrel_proto::Time;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, Command, FailsafeAction, FailsafeCause, FlightMode, LandedState,
-    ManualControl, Mission, MissionProgress, NavState, Setpoint, SetpointTarget, SupervisorEvent,
+    AvoidanceCommand, BatteryStatus, Command, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState,
+    ManualControl, Mission, MissionProgress, NavState, ParamDecl, Setpoint, SetpointTarget, SupervisorEvent,
     SupervisorEventKind, VehicleCommand, VehicleStatus,
 };
 use nalgebra::{UnitQuaternion, Vector3};
@@ -28,8 +31,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 pub use arming::{Refusal, needs_position, needs_sticks};
 pub use avoidance::frd_to_ned;
 pub use failsafe::{FailsafeMonitor, FailsafeRecord};
+pub use kestrel_proto::param_def::{ParamChange, ParamRefused};
 pub use land_detector::LandDetector;
-pub use live_params::ParamChange;
 pub use mission_runner::{MissionRunner, MissionStep};
 pub use params::{CommanderParams, FailsafeParams, GeofenceParams};
 
@@ -54,11 +57,20 @@ pub struct Commander {
     /// Polygon fence vertices, north/east (m), once the NED origin is known.
     fence_ned: Vec<[f64; 2]>,
     home_ned: Option<Vector3<f64>>,
+    /// Home was set by a ground station: arming no longer moves it (ArduPilot's locked home).
+    home_locked: bool,
+    /// Moves of home so far (`Home::revision`).
+    home_revision: u32,
+    /// A geofence breach triggers its failsafe (MAV_CMD_DO_FENCE_ENABLE switches it).
+    geofence_enabled: bool,
     battery: Option<BatteryStatus>,
     manual: Option<ManualControl>,
     last_link: Option<Time>,
     mission: Option<Mission>,
     runner: Option<MissionRunner>,
+    /// The item a ground station made current while no mission was being flown: the next run
+    /// of the mission starts there (cleared once it does, or by a new mission).
+    mission_start: Option<usize>,
     last_progress: MissionProgress,
     hold: Hold,
     rtl: RtlPhase,
@@ -87,11 +99,15 @@ impl Commander {
             frame: None,
             fence_ned: Vec::new(),
             home_ned: None,
+            home_locked: false,
+            home_revision: 0,
+            geofence_enabled: true,
             battery: None,
             manual: None,
             last_link: None,
             mission: None,
             runner: None,
+            mission_start: None,
             last_progress: MissionProgress::default(),
             hold: Hold::default(),
             rtl: RtlPhase::Climb,
@@ -114,8 +130,14 @@ impl Commander {
 
     /// A ground station changed parameter `name` (MAVLink name, see `live_params`): applied if
     /// it is one of the commander's and the result validates, otherwise the old value stays.
-    pub fn on_param(&mut self, name: &str, value: f64) -> Result<ParamChange, InvalidParam> {
+    pub fn on_param(&mut self, name: &str, value: f64) -> Result<ParamChange, ParamRefused> {
         live_params::apply(&mut self.params, name, value)
+    }
+
+    /// The commander's live parameters with their current values, for the link (`param_decl`;
+    /// `start` when the actor has just started).
+    pub fn param_decl(&self, owner: &str, start: bool, now: Time) -> ParamDecl {
+        kestrel_proto::param_def::declare(live_params::LIVE_PARAMS, &self.params, owner, start, now)
     }
 
     pub fn armed(&self) -> bool {
@@ -130,7 +152,7 @@ impl Commander {
         self.landed
     }
 
-    /// Home, NED from the estimator's origin (m); set at arming.
+    /// Home, NED from the estimator's origin (m); set at arming or by a ground station.
     pub fn home_ned(&self) -> Option<Vector3<f64>> {
         self.home_ned
     }
@@ -225,6 +247,7 @@ impl Commander {
         self.last_progress = MissionRunner::new(mission.clone()).progress();
         self.mission = Some(mission);
         self.runner = None;
+        self.mission_start = None;
         Ok(())
     }
 
@@ -261,18 +284,19 @@ impl Commander {
             }
             Command::Land => self.set_mode(now, FlightMode::Land),
             Command::ReturnToLaunch => self.set_mode(now, FlightMode::ReturnToLaunch),
-            Command::MissionStart => {
+            Command::MissionStart => self.mode_allowed(now, FlightMode::Auto).and_then(|()| {
+                // MISSION_START in AUTO restarts the mission from its first item (or the one a
+                // ground station made current since): a fresh run replaces the one flying.
                 let restart = self.mode == FlightMode::Auto;
+                if restart {
+                    self.runner = None;
+                }
                 let r = self.set_mode(now, FlightMode::Auto);
-                if r.is_ok() {
-                    self.runner = self.mission.clone().map(MissionRunner::new);
-                    if restart {
-                        // MISSION_START in AUTO restarts the mission from its first item.
-                        self.enter(FlightMode::Auto);
-                    }
+                if restart {
+                    self.enter(FlightMode::Auto);
                 }
                 r
-            }
+            }),
             Command::Flip => self.start_flip(now),
             Command::GotoNed { position_ned_m } => {
                 self.guided_command(modes::GuidedTarget::Position(position_ned_m))
@@ -280,6 +304,18 @@ impl Commander {
             Command::VelocityNed { velocity_ned_m_s } => {
                 self.guided_command(modes::GuidedTarget::Velocity(velocity_ned_m_s))
             }
+            Command::SetHome { point } => self.set_home(now, point),
+            Command::SetGeofence { enabled } => {
+                // Accepted in flight, as ArduPilot does: switching it off clears a breach's
+                // failsafe cause but not the RTL it started; switching it on while outside
+                // breaches at once.
+                if enabled != self.geofence_enabled {
+                    tracing::info!(enabled, "geofence");
+                }
+                self.geofence_enabled = enabled;
+                Ok(())
+            }
+            Command::SetMissionCurrent { index } => self.set_mission_current(index),
         };
         self.refused(result)
     }
@@ -296,14 +332,17 @@ impl Commander {
         self.prearm(now)?;
         let nav = self.fresh_nav(now).cloned();
         self.armed = true;
-        self.home_ned = nav.map(|n| Vector3::from(n.position_ned_m));
+        if !self.home_locked {
+            self.home_ned = nav.map(|n| Vector3::from(n.position_ned_m));
+            self.home_revision += 1;
+        }
         self.landed = LandedState::OnGround;
         self.failsafes.clear();
         self.applied_action = None;
         self.critical_failure = false;
         self.enter(self.mode);
         if self.mode == FlightMode::Auto {
-            self.runner = self.mission.clone().map(MissionRunner::new);
+            self.runner = self.new_runner();
         }
         tracing::info!(mode = ?self.mode, "armed");
         Ok(())
@@ -324,7 +363,7 @@ impl Commander {
     fn set_mode(&mut self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
         self.mode_allowed(now, mode)?;
         if mode == FlightMode::Auto && (self.runner.is_none() || self.mode != FlightMode::Auto) {
-            self.runner = self.mission.clone().map(MissionRunner::new);
+            self.runner = self.new_runner();
         }
         // The mode already active is accepted without re-entering it: RTL must not climb again
         // from its landing phase, nor LAND restart the land detector.
@@ -418,6 +457,10 @@ impl Commander {
         self.track_landed(now);
         self.check_failsafes(now);
         let target = if self.armed { self.fly(now, dt_s) } else { SetpointTarget::MotorsOff };
+        if self.armed && self.mode == FlightMode::Auto && self.runner.is_some() {
+            // The run has started from the item a ground station chose; later runs start over.
+            self.mission_start = None;
+        }
         let landing = self.armed && self.landed == LandedState::Landing;
         Setpoint { time: now, armed: self.armed, target, landing }
     }
@@ -432,6 +475,10 @@ impl Commander {
             failsafe: self.failsafes.worst(),
             mission: self.runner.as_ref().map_or(self.last_progress, MissionRunner::progress),
             last_refusal: self.last_refusal.clone(),
+            home: self
+                .home_ned
+                .map(|h| Home { position_ned_m: [h.x, h.y, h.z], revision: self.home_revision }),
+            geofence_enabled: self.geofence_enabled,
         }
     }
 
@@ -446,10 +493,11 @@ impl Commander {
         let unhealthy = nav.as_ref().is_some_and(|n| {
             fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
         });
-        let fence = nav.as_ref().is_some_and(|n| {
-            let home = self.home_or(n);
-            self.outside_geofence(n, &home)
-        });
+        let fence = self.geofence_enabled
+            && nav.as_ref().is_some_and(|n| {
+                let home = self.home_or(n);
+                self.outside_geofence(n, &home)
+            });
         let m = &mut self.failsafes;
         m.set(now, FailsafeCause::DataLinkLost, armed && link_lost, fs.link_action);
         m.set(

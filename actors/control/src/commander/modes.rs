@@ -174,6 +174,7 @@ impl Commander {
             yaw_rad: Some(yaw),
             yaw_rate_rad_s: yaw_rate,
             max_horizontal_speed_m_s: None,
+            desired_speed_m_s: None,
         })
     }
 

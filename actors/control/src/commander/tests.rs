@@ -425,10 +425,12 @@ fn guided_velocity_blends_the_rotated_correction_and_honours_the_climb() {
     }
     let v = velocity(&sp);
     assert!((v[0] - 2.0).abs() < 1e-6 && v[1].abs() < 1e-6 && (v[2] + 0.5).abs() < 1e-6, "{v:?}");
-    // The position setpoint is the integrated demand, kept within the leash of the vehicle.
+    // The position setpoint is the integrated demand, kept on a leash of 0.3 m + 0.5 s of the
+    // demand ahead of the vehicle (here 0.3 + 0.5·|(2, 0, −0.5)| = 1.33 m).
     let p = sp.position_ned_m.map(|p| p.expect("position"));
     let lead = nalgebra::Vector3::new(p[0], p[1], p[2] + 5.0);
-    assert!(lead.norm() <= 3.0 + 1e-9 && lead.x > 2.0 && lead.z < 0.0, "{p:?}");
+    let leash = 0.3 + 0.5 * nalgebra::Vector3::from(v).norm();
+    assert!(lead.norm() <= leash + 1e-9 && lead.x > 1.0 && lead.z < 0.0, "{p:?}");
     // The nose turned towards the demanded direction (north).
     assert!(sp.yaw_rad.expect("yaw").abs() < 1e-6, "{:?}", sp.yaw_rad);
     assert_eq!(c.status(Time(t)).last_refusal, None);
@@ -525,4 +527,159 @@ fn without_avoidance_commands_auto_flies_point_to_point_as_before() {
     assert_eq!(sp.velocity_ned_m_s, [None; 3]);
     assert_eq!(sp.max_horizontal_speed_m_s, Some(4.0));
     assert!(sp.position_ned_m[0].expect("north") > 10.0);
+}
+
+// Ground-station commands that move the commander's references: home, the geofence switch and
+// the current mission item.
+
+use kestrel_proto::messages::FailsafeCause;
+
+/// A point `north_m` north of the origin (about 110.6 km per degree here), `alt_m` in `frame`.
+fn point_north(north_m: f64, alt_m: f64, frame: AltitudeFrame) -> MissionPoint {
+    MissionPoint { lat_deg: 6.79710 + north_m / 110_600.0, lon_deg: 79.90170, alt_m, frame }
+}
+
+fn hover_at(c: &mut Commander, t: u64, position_ned_m: [f64; 3]) -> SetpointTarget {
+    c.on_nav(&NavState { position_ned_m, ..nav(Time(t), position_ned_m[2], true) });
+    c.update(Time(t)).target
+}
+
+#[test]
+fn set_home_here_in_flight_moves_home_and_rtl_returns_there() {
+    let mut c = hovering();
+    let armed_home = c.status(Time(2000)).home.expect("home set at arming");
+    assert_eq!(armed_home.position_ned_m, [0.0, 0.0, 0.0]);
+    hover_at(&mut c, 3000, [20.0, 10.0, -5.0]);
+    assert_eq!(at(&mut c, 3000, Command::SetHome { point: None }), Ok(()));
+    let home = c.status(Time(3000)).home.expect("home");
+    assert_eq!(home.position_ned_m, [20.0, 10.0, -5.0]);
+    assert!(home.revision > armed_home.revision);
+    // RTL from 50 m north of the new home climbs to 15 m above it, then heads for it.
+    hover_at(&mut c, 4000, [70.0, 10.0, -5.0]);
+    at(&mut c, 4000, Command::ReturnToLaunch).expect("rtl");
+    hover_at(&mut c, 5000, [70.0, 10.0, -20.0]);
+    let sp = trajectory(hover_at(&mut c, 6000, [70.0, 10.0, -20.0]));
+    assert_eq!(sp.position_ned_m, [Some(20.0), Some(10.0), Some(-20.0)]);
+}
+
+#[test]
+fn set_home_to_a_point_places_the_geofence_around_it_and_survives_arming() {
+    let mut c = ready(true);
+    let far = point_north(400.0, 20.0, AltitudeFrame::Amsl);
+    assert_eq!(cmd(&mut c, Command::SetHome { point: Some(far) }), Ok(()));
+    let home = c.home_ned().expect("home");
+    assert!((home.x - 400.0).abs() < 1.0 && home.y.abs() < 0.01 && home.z.abs() < 1e-6, "{home:?}");
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    // The 300 m fence is around the new home: the vehicle, 400 m from it, is outside.
+    let why = cmd(&mut c, Command::Arm).expect_err("outside the fence");
+    assert!(why.contains("geofence"), "{why}");
+    // Closer in, arming does not move the home the ground station set.
+    let near = point_north(100.0, 20.0, AltitudeFrame::Amsl);
+    cmd(&mut c, Command::SetHome { point: Some(near) }).expect("near home");
+    let home = c.home_ned().expect("home");
+    cmd(&mut c, Command::Arm).expect("arm");
+    assert_eq!(c.home_ned(), Some(home));
+    // An altitude relative to home is measured from the home now set.
+    let above = point_north(100.0, 30.0, AltitudeFrame::RelativeHome);
+    assert_eq!(cmd(&mut c, Command::SetHome { point: Some(above) }), Ok(()));
+    assert!((c.home_ned().expect("home").z + 30.0).abs() < 1e-6);
+}
+
+#[test]
+fn set_home_refuses_what_it_cannot_place_and_says_why() {
+    let relative = point_north(0.0, 5.0, AltitudeFrame::RelativeHome);
+    let mut no_origin = ready(false);
+    let why = cmd(&mut no_origin, Command::SetHome { point: None }).expect_err("no origin");
+    assert!(why.contains("origin"), "{why}");
+    let mut c = ready(true);
+    let cases = [
+        (Some(MissionPoint { lat_deg: 95.0, ..relative }), "not a position"),
+        (Some(MissionPoint { alt_m: f64::NAN, ..relative }), "not a position"),
+        (Some(point_north(60_000.0, 20.0, AltitudeFrame::Amsl)), "from the origin"),
+        (Some(relative), "not yet set"),
+    ];
+    for (point, reason) in cases {
+        let why = cmd(&mut c, Command::SetHome { point }).expect_err(reason);
+        assert!(why.contains(reason), "{point:?}: {why}");
+        assert_eq!(c.status(Time(1000)).last_refusal.as_deref(), Some(why.as_str()));
+        assert_eq!(c.home_ned(), None);
+    }
+    // "Here" needs a fresh position.
+    let stale =
+        c.on_command(&VehicleCommand { time: Time(1_000_000), command: Command::SetHome { point: None } });
+    assert!(stale.expect_err("stale").0.contains("position estimate"));
+}
+
+#[test]
+fn the_geofence_switch_is_honoured_in_flight() {
+    let mut c = hovering();
+    assert!(c.status(Time(2000)).geofence_enabled);
+    at(&mut c, 2000, Command::SetGeofence { enabled: false }).expect("fence off");
+    hover_at(&mut c, 3000, [400.0, 0.0, -5.0]);
+    let status = c.status(Time(3000));
+    assert!(!status.geofence_enabled);
+    assert_eq!(status.failsafe, None, "a disabled fence is not breached");
+    assert_eq!(c.mode(), FlightMode::PosHold);
+    // Switched on again outside it: the breach fires at once.
+    at(&mut c, 3000, Command::SetGeofence { enabled: true }).expect("fence on");
+    hover_at(&mut c, 4000, [400.0, 0.0, -5.0]);
+    assert_eq!(c.status(Time(4000)).failsafe.map(|f| f.cause), Some(FailsafeCause::GeofenceBreach));
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
+}
+
+/// Three waypoints 20, 40 and 60 m north of home at 10 m.
+fn three_waypoints() -> Mission {
+    let wp = |north_m| MissionItem::Waypoint {
+        point: point_north(north_m, 10.0, AltitudeFrame::RelativeHome),
+        acceptance_radius_m: 1.0,
+        hold_s: 0.0,
+    };
+    Mission { time: Time::ZERO, items: vec![wp(20.0), wp(40.0), wp(60.0)], cruise_speed_m_s: 5.0 }
+}
+
+fn north_target(target: SetpointTarget) -> f64 {
+    trajectory(target).position_ned_m[0].expect("north target")
+}
+
+#[test]
+fn a_running_mission_jumps_to_the_current_item_and_completes_from_there() {
+    let mut c = ready(true);
+    c.on_mission(three_waypoints()).expect("mission");
+    cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect("auto");
+    cmd(&mut c, Command::Arm).expect("arm");
+    let first = north_target(hover_at(&mut c, 2000, [0.0, 0.0, -10.0]));
+    assert!((first - 20.0).abs() < 0.5, "{first}");
+    at(&mut c, 2000, Command::SetMissionCurrent { index: 2 }).expect("jump");
+    assert_eq!(c.mode(), FlightMode::Auto);
+    let jumped = north_target(hover_at(&mut c, 3000, [0.0, 0.0, -10.0]));
+    assert!((jumped - 60.0).abs() < 0.5, "{jumped}");
+    assert_eq!(c.status(Time(3000)).mission.current, 2);
+    // Reaching the last item completes the mission although two were skipped.
+    hover_at(&mut c, 4000, [jumped, 0.0, -10.0]);
+    let progress = c.status(Time(4000)).mission;
+    assert!(progress.completed, "{progress:?}");
+    assert_eq!((progress.reached, progress.last_reached), (1, Some(2)));
+}
+
+#[test]
+fn outside_auto_the_current_item_is_where_the_next_run_starts() {
+    let mut c = ready(true);
+    assert!(cmd(&mut c, Command::SetMissionCurrent { index: 0 }).expect_err("none").contains("no mission"));
+    c.on_mission(three_waypoints()).expect("mission");
+    let why = cmd(&mut c, Command::SetMissionCurrent { index: 3 }).expect_err("out of range");
+    assert!(why.contains("past the last"), "{why}");
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::SetMissionCurrent { index: 1 }).expect("current");
+    assert_eq!(c.mode(), FlightMode::PosHold, "setting the item must not start the mission");
+    assert_eq!(c.status(Time(1000)).mission.current, 1);
+    // AUTO then arming (what `--auto` does) both start a run: it still begins at item 1.
+    cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect("auto");
+    cmd(&mut c, Command::Arm).expect("arm");
+    let target = north_target(hover_at(&mut c, 2000, [0.0, 0.0, -10.0]));
+    assert!((target - 40.0).abs() < 0.5, "{target}");
+    // Once that run has started, a later one starts over from the first item.
+    at(&mut c, 2000, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    at(&mut c, 2000, Command::SetMode(FlightMode::Auto)).expect("auto again");
+    let target = north_target(hover_at(&mut c, 3000, [0.0, 0.0, -10.0]));
+    assert!((target - 20.0).abs() < 0.5, "{target}");
 }

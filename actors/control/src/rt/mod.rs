@@ -8,5 +8,5 @@ mod triple_buffer;
 
 pub use loop_stats::{Histogram, LoopStats};
 pub use priority::{RealtimePriority, set_realtime_priority};
-pub use thread::{ControlThread, ThreadOutput};
+pub use thread::{ControlThread, ThreadInputs, ThreadOutput};
 pub use triple_buffer::{Reader, Writer, triple_buffer};

@@ -1,5 +1,5 @@
 //! The control loop on its own OS thread (hardware, realtime clock): every period it takes the
-//! newest setpoint and NavState from triple buffers, runs one [`FlightController`] iteration
+//! newest gains, setpoint and NavState from triple buffers, runs one [`FlightController`] iteration
 //! when a new NavState arrived (flies blind when the newest is older than the timeout), hands
 //! the motor commands to `output`, and records its period and execution time. It never waits on
 //! tokio or a lock, and allocates nothing per iteration; it ends when told to or when the
@@ -17,6 +17,7 @@ use super::loop_stats::LoopStats;
 use super::priority::{RealtimePriority, set_realtime_priority};
 use super::triple_buffer::Reader;
 use crate::flight_controller::FlightController;
+use crate::tuning::Gains;
 
 /// What the thread hands out: motor commands every iteration, statistics about once a second.
 /// Called on the real-time thread, so an implementation must not lock or allocate: the actor
@@ -25,6 +26,14 @@ use crate::flight_controller::FlightController;
 pub trait ThreadOutput: Send + 'static {
     fn actuators(&mut self, outputs: &ActuatorOutputs);
     fn stats(&mut self, stats: ControlLoopStats);
+}
+
+/// The triple buffers the thread reads each period.
+pub struct ThreadInputs {
+    pub nav: Reader<Option<NavState>>,
+    pub setpoint: Reader<Option<Setpoint>>,
+    /// New gains, already validated by the actor (see [`crate::tuning`]).
+    pub gains: Reader<Option<Gains>>,
 }
 
 /// A running control thread; stopped and joined on drop.
@@ -38,8 +47,7 @@ impl ControlThread {
     /// Starts the loop at `ctl.params().timing.rate_hz` with SCHED_FIFO `priority` if permitted.
     pub fn spawn(
         mut ctl: FlightController,
-        mut nav: Reader<Option<NavState>>,
-        mut setpoint: Reader<Option<Setpoint>>,
+        inputs: ThreadInputs,
         clock: Arc<dyn Clock>,
         mut output: impl ThreadOutput,
         priority: i32,
@@ -47,6 +55,7 @@ impl ControlThread {
         let stop = Arc::new(AtomicBool::new(false));
         let realtime = Arc::new(AtomicBool::new(false));
         let (stop_flag, realtime_flag) = (Arc::clone(&stop), Arc::clone(&realtime));
+        let ThreadInputs { mut nav, mut setpoint, mut gains } = inputs;
         let handle = std::thread::Builder::new().name("kestrel-control".into()).spawn(move || {
             let got_fifo = match set_realtime_priority(priority) {
                 RealtimePriority::Fifo(p) => {
@@ -75,6 +84,9 @@ impl ControlThread {
                 }
                 let started = Instant::now();
                 let now = clock.now();
+                if let (Some(g), true) = gains.read() {
+                    ctl.retune(g);
+                }
                 if let (Some(sp), true) = setpoint.read() {
                     // A refused setpoint is counted by the controller and the last good one kept.
                     let _ = ctl.set_setpoint(sp);

@@ -1,7 +1,9 @@
 //! Barometer: height and climb rate (thesis eq. 3.21).
 //!
-//! When: the first sample after alignment fixes the offset between pressure altitude and the
-//! filter's height, so the barometer observes height changes, not the altitude above sea level.
+//! When: the alignment's mean pressure altitude (over the still window) fixes the offset between
+//! pressure altitude and the filter's height, so the barometer observes height changes, not the
+//! altitude above sea level; without a barometer during alignment, the first sample after it
+//! does.
 //! Height and climb rate are each gated at `baro_gate_sigma`.
 //!
 //! Maths: height observes `−p_d`, climb rate observes `−v_d`; both are unit rows. The climb rate
@@ -77,6 +79,16 @@ pub struct BaroControl {
 }
 
 impl BaroControl {
+    /// Sets the pressure altitude of zero height (m), from the alignment's mean.
+    pub fn set_datum(&mut self, altitude_m: f64) {
+        self.offset_m = Some(altitude_m);
+    }
+
+    /// The pressure altitude of zero height (m), once set.
+    pub fn datum_m(&self) -> Option<f64> {
+        self.offset_m
+    }
+
     /// Whether height was fused within `horizontal_position_timeout_s` of `now`.
     pub fn height_aiding(&self, now: Time, params: &EkfParams) -> bool {
         self.last_fused.is_some_and(|t| (now - t).as_secs_f64() < params.horizontal_position_timeout_s)

@@ -1,7 +1,8 @@
 //! Magnetometer: the 3-axis field against the predicted body field `Rᵀ m_earth` (thesis eq.
 //! 3.28–3.34).
 //!
-//! When: once aligned (the Earth field comes from the alignment), for samples whose strength is
+//! When: once aligned (the Earth field comes from the alignment, and once in flight from the
+//! in-flight yaw realignment of [`crate::aiding::mag_yaw_reset`]), for samples whose strength is
 //! within `mag_strength_tolerance` of the aligned field (a stronger or weaker field is a local
 //! disturbance: motors, steel, power lines). The three axes are gated together at
 //! `mag_gate_sigma`.
@@ -15,6 +16,7 @@ use kestrel_proto::Time;
 use kestrel_proto::messages::{AidingCounters, Innovation, MagSample};
 use nalgebra::Vector3;
 
+use crate::aiding::mag_yaw_reset::InFlightYawAlignment;
 use crate::aiding::{innovation, passes};
 use crate::covariance::SparseRow;
 use crate::filter::Filter;
@@ -30,6 +32,7 @@ pub struct MagControl {
     /// The Earth's field in NED from the alignment (gauss).
     earth_ned_gauss: Option<Vector3<f64>>,
     last_fused: Option<Time>,
+    in_flight_alignment: InFlightYawAlignment,
     pub counters: AidingCounters,
     pub field: [Innovation; 3],
 }
@@ -53,8 +56,20 @@ impl MagControl {
 
     /// Fuses `sample` into `filter` (at the sample's time).
     pub fn fuse(&mut self, filter: &mut Filter, sample: &MagSample, params: &EkfParams) {
-        let Some(earth) = self.earth_ned_gauss else { return };
         let measured = Vector3::from(sample.field_gauss);
+        if measured.iter().all(|x| x.is_finite())
+            && let Some(r) = self.in_flight_alignment.push(filter, sample, params)
+        {
+            tracing::info!(
+                time = %sample.time,
+                yaw_change_deg = r.yaw_change_rad.to_degrees(),
+                "in-flight yaw realignment from the magnetometer"
+            );
+            filter.reset_yaw(r.yaw_change_rad, r.variance_rad2);
+            self.earth_ned_gauss = Some(r.earth_ned_gauss);
+            self.counters.resets += 1;
+        }
+        let Some(earth) = self.earth_ned_gauss else { return };
         if !measured.iter().all(|x| x.is_finite())
             || (measured.norm() / earth.norm() - 1.0).abs() > params.mag_strength_tolerance
         {

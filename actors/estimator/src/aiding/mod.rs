@@ -4,6 +4,7 @@
 pub mod baro;
 pub mod gps;
 pub mod mag;
+pub mod mag_yaw_reset;
 
 use kestrel_proto::messages::Innovation;
 

@@ -2,7 +2,7 @@
 //! synchronously, its motors driven by a small geometric controller on ground truth, its sensor
 //! streams fed to the EKF, and the estimate scored against ground truth.
 
-use kestrel_estimator::{Ekf, EkfParams};
+use kestrel_estimator::{Ekf, EkfParams, InputError};
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{ActuatorOutputs, GpsFix, GroundTruth, MagSample, NavState};
@@ -108,7 +108,13 @@ pub struct Faults {
     pub gps_loss: Option<(f64, f64)>,
     /// Magnetometer samples in this flight-time window are rotated 60° about body down.
     pub mag_disturbance: Option<(f64, f64)>,
+    /// A field fixed in NED (gauss) added to the magnetometer while the vehicle is below
+    /// [`GROUND_DISTURBANCE_HEIGHT_M`]: steel in the floor or the launch pad.
+    pub ground_mag_disturbance: Option<[f64; 3]>,
 }
+
+/// Height above home (m) below which [`Faults::ground_mag_disturbance`] acts.
+pub const GROUND_DISTURBANCE_HEIGHT_M: f64 = 1.0;
 
 /// One scored instant.
 #[derive(Clone, Debug)]
@@ -119,7 +125,7 @@ pub struct Sample {
     pub nav: NavState,
     /// Estimated position in the simulator's home frame (m).
     pub est_pos_home_m: Vector3<f64>,
-    /// [`FlightLog::baro_datum_m`] (zero until the filter has taken its first barometer sample).
+    /// [`FlightLog::baro_datum_m`] (zero until the filter has set its barometric datum).
     pub baro_datum_m: f64,
 }
 
@@ -141,8 +147,9 @@ pub struct FlightLog {
     /// sample (see [`Nees`]).
     pub nees: Vec<Nees>,
     /// Altitude of the filter's barometric datum above the simulator's home (m): the pressure
-    /// altitude of the first barometer sample the filter took, less home's altitude. The filter
-    /// measures height from there, so the truth is carried there before it is compared.
+    /// altitude the filter took as zero height (its mean over the alignment), less home's
+    /// altitude. The filter measures height from there, so the truth is carried there before
+    /// it is compared.
     pub baro_datum_m: Option<f64>,
     pub ekf: Ekf,
 }
@@ -231,22 +238,24 @@ pub fn fly_with_sensors(
                         pos_home_m: Vector3::from(pos),
                         vel_ned_m_s: Vector3::from(fix.vel_ned_m_s),
                     });
-                    ekf.push_gps(&fix).expect("finite fix");
+                    offer(ekf.push_gps(&fix));
                 }
-                SimOutput::Baro(b) => {
-                    // The first sample after alignment sets the filter's height offset, with the
-                    // vehicle still at rest (filter height zero).
-                    if ekf.is_aligned() && baro_datum_m.is_none() {
-                        baro_datum_m = Some(b.altitude_m - home_alt_m);
-                    }
-                    ekf.push_baro(&b).expect("finite baro");
-                }
+                SimOutput::Baro(b) => offer(ekf.push_baro(&b)),
                 SimOutput::Mag(m) => {
                     let m =
                         if in_window(faults.mag_disturbance, flight_time(m.time)) { rotated(&m) } else { m };
-                    ekf.push_mag(&m).expect("finite mag");
+                    let state = sim.state();
+                    let m = match faults.ground_mag_disturbance {
+                        Some(d) if -state.position_ned_m.z < GROUND_DISTURBANCE_HEIGHT_M => {
+                            let extra = state.attitude.inverse() * Vector3::from(d);
+                            MagSample { field_gauss: (Vector3::from(m.field_gauss) + extra).into(), ..m }
+                        }
+                        _ => m,
+                    };
+                    offer(ekf.push_mag(&m));
                 }
                 SimOutput::GroundTruth(truth) => {
+                    baro_datum_m = baro_datum_m.or(ekf.baro_datum_m().map(|d| d - home_alt_m));
                     truths.insert(truth.time.as_micros(), truth.clone());
                     if let Some(v) = baro_datum_m.and_then(|d| delayed_nees(&ekf, &truths, &home, d)) {
                         nees.push(v);
@@ -270,6 +279,14 @@ pub fn fly_with_sensors(
         }
     }
     FlightLog { samples, track, gps, nees, baro_datum_m, ekf }
+}
+
+/// Passes a sample's outcome: every simulated sample is fine, except one measured before the
+/// filter aligned, which lies behind its fusion horizon and is dropped.
+fn offer(result: Result<(), InputError>) {
+    if let Err(e) = result {
+        assert!(matches!(e, InputError::BehindHorizon { .. }), "{e}");
+    }
 }
 
 /// Normalised estimation error squared `eᵀ P⁻¹ e` of the delayed state against the truth at its
@@ -364,8 +381,8 @@ pub struct Rms {
     /// Height error in the filter's barometric datum ([`FlightLog::baro_datum_m`]), as the
     /// horizontal error is in its GPS origin: what the filter estimates.
     pub vertical_m: f64,
-    /// Height error against the simulator's home, which adds the barometer's noise at alignment
-    /// (the filter takes one sample as its datum).
+    /// Height error against the simulator's home, which adds the error of the filter's datum
+    /// (the barometer's noise averaged over the alignment window, and any pressure offset).
     pub vertical_vs_home_m: f64,
     pub velocity_m_s: f64,
     pub roll_deg: f64,

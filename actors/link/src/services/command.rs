@@ -1,15 +1,21 @@
-//! COMMAND_LONG / COMMAND_INT for flight: arm/disarm, mode, takeoff, land, RTL, mission start.
+//! COMMAND_LONG / COMMAND_INT for flight: arm/disarm, mode, takeoff, land, RTL, mission start,
+//! home (DO_SET_HOME), the geofence switch (DO_FENCE_ENABLE) and the current mission item
+//! (DO_SET_MISSION_CURRENT, range-checked against the stored plan by the caller).
 //!
 //! The commander decides; we learn its answer from the next `VehicleStatus`. So a command is
 //! published, remembered as pending, and acknowledged ACCEPTED once the status shows its effect,
 //! DENIED when the commander reports a new refusal or nothing changes within
 //! [`ACK_TIMEOUT`]. Commands we do not implement are UNSUPPORTED at once.
+#![allow(
+    deprecated,
+    reason = "legacy MAVLink (MISSION_ITEM, REQUEST_DATA_STREAM, SET_MODE, *_INT frames) is still spoken by ground stations and must be accepted"
+)]
 
 use std::time::Duration;
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{Command, FlightMode, LandedState, VehicleStatus};
-use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavCmd, MavMessage, MavResult};
+use kestrel_proto::messages::{AltitudeFrame, Command, FlightMode, LandedState, MissionPoint, VehicleStatus};
+use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavCmd, MavFrame, MavMessage, MavResult};
 
 use super::{Outputs, Sender, ToGraph};
 use crate::modes::flight_mode;
@@ -26,6 +32,8 @@ pub struct CommandRequest {
     pub command: MavCmd,
     /// param1..param7 (COMMAND_INT's x and y as plain numbers, z as param7).
     pub params: [f64; 7],
+    /// COMMAND_INT's frame (its x/y are then degE7 for global frames); `None` for COMMAND_LONG.
+    pub frame: Option<MavFrame>,
     pub sender: Sender,
 }
 
@@ -35,6 +43,12 @@ enum Effect {
     Armed(bool),
     Mode(FlightMode),
     TakingOff,
+    /// Home moved after the revision it had when the command came.
+    HomeMoved {
+        after: u32,
+    },
+    Geofence(bool),
+    MissionCurrent(u32),
 }
 
 impl Effect {
@@ -43,6 +57,9 @@ impl Effect {
             Effect::Armed(a) => s.armed == a,
             Effect::Mode(m) => s.mode == m,
             Effect::TakingOff => s.armed && (s.mode == FlightMode::Takeoff || s.landed == LandedState::InAir),
+            Effect::HomeMoved { after } => s.home.is_some_and(|h| h.revision > after),
+            Effect::Geofence(enabled) => s.geofence_enabled == enabled,
+            Effect::MissionCurrent(index) => s.mission.current == index,
         }
     }
 }
@@ -108,9 +125,27 @@ impl CommandService {
                 (Command::ReturnToLaunch, Effect::Mode(FlightMode::ReturnToLaunch))
             }
             MavCmd::MAV_CMD_MISSION_START => (Command::MissionStart, Effect::Mode(FlightMode::Auto)),
+            MavCmd::MAV_CMD_DO_SET_HOME => match home_target(&request) {
+                Ok(point) => {
+                    let after = self.status.as_ref().and_then(|s| s.home).map_or(0, |h| h.revision);
+                    (Command::SetHome { point }, Effect::HomeMoved { after })
+                }
+                Err(result) => return Some(Outputs::send(ack(&request, result))),
+            },
+            MavCmd::MAV_CMD_DO_FENCE_ENABLE => match fence_switch(p[0]) {
+                Ok(enabled) => (Command::SetGeofence { enabled }, Effect::Geofence(enabled)),
+                Err(result) => return Some(Outputs::send(ack(&request, result))),
+            },
             _ => return None,
         };
         Some(self.submit(request, command, effect, now))
+    }
+
+    /// MAV_CMD_DO_SET_MISSION_CURRENT for the commander's item `index`, once the caller has
+    /// checked it against the stored plan.
+    pub fn mission_current(&mut self, request: CommandRequest, index: u32, now: Time) -> Outputs {
+        let command = Command::SetMissionCurrent { index };
+        self.submit(request, command, Effect::MissionCurrent(index), now)
     }
 
     /// Handles SET_MODE (the legacy message); custom mode only.
@@ -118,6 +153,7 @@ impl CommandService {
         let request = CommandRequest {
             command: MavCmd::MAV_CMD_DO_SET_MODE,
             params: [f64::from(base_mode), f64::from(custom_mode), 0.0, 0.0, 0.0, 0.0, 0.0],
+            frame: None,
             sender,
         };
         self.handle(request, now).unwrap_or_default()
@@ -168,6 +204,48 @@ impl CommandService {
     }
 }
 
+/// MAV_CMD_DO_SET_HOME's target: `None` for the vehicle's position (param1 = 1, or latitude and
+/// longitude both 0 as ArduPilot reads them), else the point in params 5-7. COMMAND_LONG carries
+/// degrees and metres above mean sea level; COMMAND_INT degE7 in x/y, and its frame says what z
+/// is measured from. What is not a position is DENIED here; whether it can be home (an origin,
+/// its distance) the commander decides.
+fn home_target(request: &CommandRequest) -> Result<Option<MissionPoint>, MavResult> {
+    let p = request.params;
+    if p[0] > 0.5 {
+        return Ok(None);
+    }
+    let (frame, deg) = match request.frame {
+        None => (AltitudeFrame::Amsl, 1.0),
+        Some(MavFrame::MAV_FRAME_GLOBAL | MavFrame::MAV_FRAME_GLOBAL_INT) => (AltitudeFrame::Amsl, 1e-7),
+        Some(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT) => {
+            (AltitudeFrame::RelativeHome, 1e-7)
+        }
+        Some(_) => return Err(MavResult::MAV_RESULT_DENIED),
+    };
+    let (lat_deg, lon_deg, alt_m) = (p[4] * deg, p[5] * deg, p[6]);
+    if lat_deg == 0.0 && lon_deg == 0.0 {
+        return Ok(None);
+    }
+    if !(lat_deg.abs() <= 90.0 && lon_deg.abs() <= 180.0 && alt_m.is_finite()) {
+        return Err(MavResult::MAV_RESULT_DENIED);
+    }
+    Ok(Some(MissionPoint { lat_deg, lon_deg, alt_m, frame }))
+}
+
+/// MAV_CMD_DO_FENCE_ENABLE's param1: 0 off, 1 on. 2 (ArduPilot: disable the floor only) is
+/// UNSUPPORTED, as our fence has no floor (minimum altitude) to disable; anything else DENIED.
+fn fence_switch(param1: f64) -> Result<bool, MavResult> {
+    if param1 == 0.0 {
+        Ok(false)
+    } else if param1 == 1.0 {
+        Ok(true)
+    } else if param1 == 2.0 {
+        Err(MavResult::MAV_RESULT_UNSUPPORTED)
+    } else {
+        Err(MavResult::MAV_RESULT_DENIED)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use kestrel_proto::messages::MissionProgress;
@@ -177,7 +255,7 @@ mod tests {
     const GCS: Sender = Sender { system_id: 255, component_id: 190 };
 
     fn request(command: MavCmd, params: [f64; 7]) -> CommandRequest {
-        CommandRequest { command, params, sender: GCS }
+        CommandRequest { command, params, frame: None, sender: GCS }
     }
 
     fn status(time: f64, armed: bool, mode: FlightMode, refusal: Option<&str>) -> VehicleStatus {
@@ -189,6 +267,8 @@ mod tests {
             failsafe: None,
             mission: MissionProgress::default(),
             last_refusal: refusal.map(str::to_owned),
+            home: None,
+            geofence_enabled: true,
         }
     }
 
@@ -261,6 +341,79 @@ mod tests {
             .unwrap();
         assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED);
         assert!(out.graph.is_empty());
-        assert!(s.handle(request(MavCmd::MAV_CMD_DO_FENCE_ENABLE, [0.0; 7]), Time::ZERO).is_none());
+        assert!(s.handle(request(MavCmd::MAV_CMD_DO_PARACHUTE, [0.0; 7]), Time::ZERO).is_none());
+    }
+
+    fn graph(out: &Outputs) -> Option<Command> {
+        out.graph.iter().find_map(|g| match g {
+            ToGraph::Command(c) => Some(*c),
+            _ => None,
+        })
+    }
+
+    #[test]
+    fn set_home_reads_long_and_int_forms_and_denies_what_is_not_a_position() {
+        let mut s = CommandService::new();
+        let here =
+            s.handle(request(MavCmd::MAV_CMD_DO_SET_HOME, [1.0, 0.0, 0.0, 0.0, 6.8, 79.9, 30.0]), Time::ZERO);
+        assert_eq!(graph(&here.expect("handled")), Some(Command::SetHome { point: None }));
+        let long =
+            s.handle(request(MavCmd::MAV_CMD_DO_SET_HOME, [0.0, 0.0, 0.0, 0.0, 6.8, 79.9, 30.0]), Time::ZERO);
+        let Some(Command::SetHome { point: Some(p) }) = graph(&long.expect("handled")) else {
+            panic!("no point")
+        };
+        assert_eq!((p.lat_deg, p.lon_deg, p.alt_m, p.frame), (6.8, 79.9, 30.0, AltitudeFrame::Amsl));
+        let int = CommandRequest {
+            frame: Some(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT),
+            ..request(MavCmd::MAV_CMD_DO_SET_HOME, [0.0, 0.0, 0.0, 0.0, 67_971_000.0, 799_017_000.0, 5.0])
+        };
+        let Some(Command::SetHome { point: Some(p) }) = graph(&s.handle(int, Time::ZERO).expect("handled"))
+        else {
+            panic!("no point")
+        };
+        assert!((p.lat_deg - 6.7971).abs() < 1e-9 && (p.lon_deg - 79.9017).abs() < 1e-9, "{p:?}");
+        assert_eq!(p.frame, AltitudeFrame::RelativeHome);
+        for (params, frame) in [
+            ([0.0, 0.0, 0.0, 0.0, 95.0, 79.9, 30.0], None),
+            ([0.0, 0.0, 0.0, 0.0, 6.8, 79.9, f64::NAN], None),
+            ([0.0, 0.0, 0.0, 0.0, 68e6, 799e6, 5.0], Some(MavFrame::MAV_FRAME_LOCAL_NED)),
+        ] {
+            let bad = CommandRequest { frame, ..request(MavCmd::MAV_CMD_DO_SET_HOME, params) };
+            let out = s.handle(bad, Time::ZERO).expect("handled");
+            assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{params:?}");
+            assert!(out.graph.is_empty());
+        }
+    }
+
+    #[test]
+    fn set_home_is_accepted_when_home_moves_even_to_the_same_place() {
+        let mut s = CommandService::new();
+        let mut st = status(0.0, true, FlightMode::PosHold, None);
+        st.home = Some(kestrel_proto::messages::Home { position_ned_m: [0.0; 3], revision: 1 });
+        s.on_status(&st);
+        let out =
+            s.handle(request(MavCmd::MAV_CMD_DO_SET_HOME, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), Time::ZERO);
+        assert!(out.expect("handled").mav.is_empty(), "not yet: the status has not moved home");
+        st.home = Some(kestrel_proto::messages::Home { position_ned_m: [0.0; 3], revision: 2 });
+        let acks = s.on_status(&st);
+        assert_eq!(result(&acks[0]), (MavCmd::MAV_CMD_DO_SET_HOME, MavResult::MAV_RESULT_ACCEPTED, 255));
+    }
+
+    #[test]
+    fn fence_enable_switches_and_refuses_the_floor_and_nonsense() {
+        let mut s = CommandService::new();
+        s.on_status(&status(0.0, false, FlightMode::Stabilize, None));
+        let off = s.handle(request(MavCmd::MAV_CMD_DO_FENCE_ENABLE, [0.0; 7]), Time::ZERO).expect("handled");
+        assert_eq!(graph(&off), Some(Command::SetGeofence { enabled: false }));
+        let mut st = status(0.1, false, FlightMode::Stabilize, None);
+        st.geofence_enabled = false;
+        assert_eq!(result(&s.on_status(&st)[0]).1, MavResult::MAV_RESULT_ACCEPTED);
+        for (param1, want) in [(2.0, MavResult::MAV_RESULT_UNSUPPORTED), (7.0, MavResult::MAV_RESULT_DENIED)]
+        {
+            let p = [param1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            let out = s.handle(request(MavCmd::MAV_CMD_DO_FENCE_ENABLE, p), Time::ZERO).expect("handled");
+            assert_eq!(result(&out.mav[0]).1, want);
+            assert!(out.graph.is_empty());
+        }
     }
 }

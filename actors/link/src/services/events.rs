@@ -1,4 +1,5 @@
-//! STATUSTEXT for what the commander does: arming, mode changes, failsafes and refusals.
+//! STATUSTEXT for what the commander does: arming, mode changes, the geofence switch,
+//! failsafes and refusals.
 
 use kestrel_proto::messages::{FailsafeCause, VehicleStatus};
 use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity, STATUSTEXT_DATA};
@@ -40,6 +41,12 @@ pub fn status_changes(old: Option<&VehicleStatus>, new: &VehicleStatus) -> Vec<M
     }
     if old.map(|o| o.mode) != Some(new.mode) && old.is_some() {
         out.push(statustext(MavSeverity::MAV_SEVERITY_INFO, &format!("Mode {}", mode_name(new.mode))));
+    }
+    if let Some(o) = old
+        && o.geofence_enabled != new.geofence_enabled
+    {
+        let text = if new.geofence_enabled { "Geofence enabled" } else { "Geofence disabled" };
+        out.push(statustext(MavSeverity::MAV_SEVERITY_NOTICE, text));
     }
     let old_failsafe = old.and_then(|o| o.failsafe);
     match (old_failsafe, new.failsafe) {
@@ -88,6 +95,8 @@ mod tests {
             failsafe: None,
             mission: MissionProgress::default(),
             last_refusal: None,
+            home: None,
+            geofence_enabled: true,
         };
         assert!(status_changes(None, &a).is_empty());
         let b = VehicleStatus {
@@ -107,6 +116,11 @@ mod tests {
             ["Armed", "Mode RTL", "Failsafe: GCS link lost, ReturnToLaunch", "Arm: no GPS fix"]
         );
         assert!(status_changes(Some(&b), &b).is_empty());
+        let fence_off = VehicleStatus { geofence_enabled: false, ..b.clone() };
+        let texts: Vec<String> = status_changes(Some(&b), &fence_off).iter().map(text).collect();
+        assert_eq!(texts, ["Geofence disabled"]);
+        let texts: Vec<String> = status_changes(Some(&fence_off), &b).iter().map(text).collect();
+        assert_eq!(texts, ["Geofence enabled"]);
     }
 
     #[test]

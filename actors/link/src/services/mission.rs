@@ -1,7 +1,7 @@
 //! The mission protocol (mavlink.io "Mission Protocol"): upload with MISSION_COUNT →
 //! MISSION_REQUEST_INT / MISSION_ITEM_INT → MISSION_ACK, download with MISSION_REQUEST_LIST →
-//! MISSION_COUNT → MISSION_REQUEST_INT → MISSION_ITEM_INT, and MISSION_CLEAR_ALL; missions,
-//! geofences and rally points kept apart by `mission_type`.
+//! MISSION_COUNT → MISSION_REQUEST_INT → MISSION_ITEM_INT, MISSION_CLEAR_ALL and
+//! MISSION_SET_CURRENT; missions, geofences and rally points kept apart by `mission_type`.
 //!
 //! ArduPilot convention (we announce ArduPilot): item 0 of a flight mission is the home
 //! position, stored and sent back but not flown. An upload that fails keeps the previous plan.
@@ -15,12 +15,13 @@
 use std::time::Duration;
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{AltitudeFrame, Mission, MissionItem, MissionPoint};
+use kestrel_proto::messages::{AltitudeFrame, Command, Mission, MissionItem, MissionPoint};
 use mavlink::dialects::ardupilotmega::{
     MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
-    MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType,
+    MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType, MavSeverity,
 };
 
+use super::events::statustext;
 use super::{Outputs, Sender, ToGraph};
 
 /// Most items a plan of any type may hold; larger uploads are refused with NO_SPACE.
@@ -92,6 +93,29 @@ impl MissionService {
             target_component: up.partner.component_id,
             mission_type: up.mission_type,
         })
+    }
+
+    /// The commander's index of stored item `seq`, `None` when there is no such flown item.
+    /// Item 0 is home, so, as ArduPilot does, making it current restarts at the first flown item.
+    pub fn commander_index(&self, seq: u16) -> Option<u32> {
+        (self.mission.len() > 1 && usize::from(seq) < self.mission.len())
+            .then(|| u32::from(seq.saturating_sub(1)))
+    }
+
+    /// MISSION_SET_CURRENT: the commander is told (its next status carries the new item, and
+    /// MISSION_CURRENT with it); an item we do not have is refused with a STATUSTEXT, the
+    /// message having no acknowledgement of its own (mavlink.io mission protocol).
+    pub fn set_current(&self, seq: u16) -> Outputs {
+        match self.commander_index(seq) {
+            Some(index) => Outputs {
+                mav: Vec::new(),
+                graph: vec![ToGraph::Command(Command::SetMissionCurrent { index })],
+            },
+            None => Outputs::send(statustext(
+                MavSeverity::MAV_SEVERITY_ERROR,
+                &format!("Mission item {seq} refused: {} items stored", self.mission.len()),
+            )),
+        }
     }
 
     /// MISSION_COUNT: starts an upload (or clears the plan when `count` is 0).
@@ -510,6 +534,24 @@ mod tests {
         assert_eq!(s.mission_len(), 0);
         let out = s.clear(GCS, MISSION, t(1.0));
         assert!(matches!(&out.graph[0], ToGraph::Mission(m) if m.items.is_empty()));
+    }
+
+    #[test]
+    fn set_current_maps_past_home_and_refuses_items_we_do_not_have() {
+        let mut s = MissionService::new();
+        assert!(matches!(s.set_current(0).mav[..], [MavMessage::STATUSTEXT(_)]), "no mission");
+        upload(&mut s, &[0, 1, 2].map(|seq| item(seq, MavCmd::MAV_CMD_NAV_WAYPOINT)));
+        let current = |s: &MissionService, seq| match &s.set_current(seq).graph[..] {
+            [ToGraph::Command(Command::SetMissionCurrent { index })] => Some(*index),
+            _ => None,
+        };
+        assert_eq!(current(&s, 2), Some(1));
+        assert_eq!(current(&s, 1), Some(0));
+        assert_eq!(current(&s, 0), Some(0), "home: restart at the first flown item");
+        let out = s.set_current(3);
+        assert!(out.graph.is_empty());
+        let MavMessage::STATUSTEXT(text) = &out.mav[0] else { panic!("no STATUSTEXT") };
+        assert_eq!(text.severity, MavSeverity::MAV_SEVERITY_ERROR);
     }
 
     #[test]

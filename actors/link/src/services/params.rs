@@ -1,11 +1,26 @@
 //! The parameter protocol (PARAM_REQUEST_LIST / PARAM_REQUEST_READ / PARAM_SET / PARAM_VALUE),
 //! values C-cast into `param_value` (MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST).
 //!
+//! The table is what the graph's actors declare (`ParamDecl` on topic `param_decl`: each owner
+//! its own live parameters, with values, ranges and units), plus any the link's config lists
+//! for benches without owners; an owner's declaration replaces a config entry of the same
+//! name. Entries are kept sorted by name, so the MAVLink index of a parameter does not depend
+//! on which actor started first.
+//!
 //! A set outside the parameter's range is refused: the current value is echoed and a STATUSTEXT
-//! says why. An unknown name gets a STATUSTEXT only (there is no value to echo).
+//! says why. An unknown name gets a STATUSTEXT only (there is no value to echo). An accepted set
+//! is echoed at once and published as `ParamSet` for the owner, which validates it again and
+//! declares the value it really uses: if that differs (the owner refused), the table takes the
+//! owner's value, broadcasts it and says so in a STATUSTEXT.
+//!
+//! Values set over MAVLink, or restored from the parameter file, are the ones persisted. Stored
+//! values whose owner has not declared yet are held and sent to it (`ParamSet`) when it does,
+//! and again whenever it restarts with other values.
+
+use std::collections::BTreeMap;
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::ParamSet;
+use kestrel_proto::messages::{ParamDecl, ParamSet};
 use mavlink::dialects::ardupilotmega::{MavMessage, MavParamType, MavSeverity, PARAM_VALUE_DATA};
 
 use super::events::statustext;
@@ -25,14 +40,35 @@ pub enum ParamError {
     OutOfRange { name: String, value: f64, min: f64, max: f64 },
 }
 
-/// The vehicle's parameters, in config order (that order is the MAVLink index).
+/// One parameter and who answers for it.
+#[derive(Debug)]
+struct Entry {
+    spec: ParamSpec,
+    /// The actor that declared it; `None` for one listed in the link's config.
+    owner: Option<String>,
+    /// Set over MAVLink or restored from the file: written to the file.
+    persist: bool,
+}
+
+/// The vehicle's parameters, sorted by name (that order is the MAVLink index).
 #[derive(Debug)]
 pub struct ParamTable {
-    specs: Vec<ParamSpec>,
+    entries: Vec<Entry>,
+    /// Stored values (from the file) no entry has claimed yet, by name.
+    pending: BTreeMap<String, f64>,
+}
+
+/// What a declaration changed.
+#[derive(Debug, Default)]
+pub struct Declared {
+    /// PARAM_VALUEs and STATUSTEXTs to send, and `ParamSet`s for the owner.
+    pub out: Outputs,
+    /// A persisted value changed (the owner refused it): the file needs rewriting.
+    pub persist_changed: bool,
 }
 
 impl ParamTable {
-    /// Checks `specs` (names, ranges, defaults).
+    /// Checks `specs` (names, ranges, defaults): the parameters the link serves itself.
     pub fn new(specs: Vec<ParamSpec>) -> Result<ParamTable, ParamError> {
         if specs.len() > i16::MAX as usize {
             return Err(ParamError::TooMany(specs.len()));
@@ -53,29 +89,50 @@ impl ParamTable {
                 });
             }
         }
-        Ok(ParamTable { specs })
+        let mut entries: Vec<Entry> =
+            specs.into_iter().map(|spec| Entry { spec, owner: None, persist: false }).collect();
+        entries.sort_by(|a, b| a.spec.name.cmp(&b.spec.name));
+        Ok(ParamTable { entries, pending: BTreeMap::new() })
     }
 
     /// The number of parameters.
     pub fn len(&self) -> usize {
-        self.specs.len()
+        self.entries.len()
     }
 
     /// Whether there are none.
     pub fn is_empty(&self) -> bool {
-        self.specs.is_empty()
+        self.entries.is_empty()
     }
 
-    /// `(name, value)` of every parameter, for persisting.
+    /// `(name, value)` of every parameter, in index order.
     pub fn values(&self) -> impl Iterator<Item = (&str, f64)> {
-        self.specs.iter().map(|s| (s.name.as_str(), s.value))
+        self.entries.iter().map(|e| (e.spec.name.as_str(), e.spec.value))
     }
 
-    /// Applies a stored value at start-up (ignored, with the reason, when unknown or invalid).
+    /// `(name, value)` of what the parameter file keeps: values set over MAVLink or restored,
+    /// and stored values no owner has declared yet (an actor that does not run in this graph).
+    pub fn persisted(&self) -> BTreeMap<&str, f64> {
+        let set = self.entries.iter().filter(|e| e.persist).map(|e| (e.spec.name.as_str(), e.spec.value));
+        self.pending.iter().map(|(n, v)| (n.as_str(), *v)).chain(set).collect()
+    }
+
+    /// Applies a stored value at start-up: at once to a config-listed parameter (refused, with
+    /// the reason, when out of range), else held for the owner that will declare it.
     pub fn restore(&mut self, name: &str, value: f64) -> Result<(), ParamError> {
-        let Some(spec) = self.specs.iter_mut().find(|s| s.name == name) else {
-            return Err(ParamError::Name(name.to_owned()));
+        let Some(entry) = self.entries.iter_mut().find(|e| e.spec.name == name) else {
+            if !value.is_finite() {
+                return Err(ParamError::OutOfRange {
+                    name: name.to_owned(),
+                    value,
+                    min: f64::NEG_INFINITY,
+                    max: f64::INFINITY,
+                });
+            }
+            self.pending.insert(name.to_owned(), value);
+            return Ok(());
         };
+        let spec = &mut entry.spec;
         if !in_range(spec, value) {
             return Err(ParamError::OutOfRange {
                 name: name.to_owned(),
@@ -85,14 +142,115 @@ impl ParamTable {
             });
         }
         spec.value = quantise(spec.kind, value);
+        entry.persist = true;
         Ok(())
     }
 
+    /// Takes an actor's declaration of its parameters (see the module docs).
+    pub fn declare(&mut self, decl: &ParamDecl, now: Time) -> Declared {
+        let mut done = Declared::default();
+        if let Err(e) = decl.check() {
+            let text = format!("Params of {}: {e}", decl.owner);
+            done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_ERROR, &text));
+            return done;
+        }
+        for p in &decl.params {
+            let index = self.entries.iter().position(|e| e.spec.name == p.name);
+            let owned_by_other =
+                index.and_then(|i| self.entries[i].owner.as_deref()).is_some_and(|o| o != decl.owner);
+            if owned_by_other {
+                let text = format!("Param {}: declared by {} too; ignored", p.name, decl.owner);
+                done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_ERROR, &text));
+                continue;
+            }
+            let spec = ParamSpec {
+                name: p.name.clone(),
+                value: p.value,
+                min: p.min,
+                max: p.max,
+                kind: ParamKind::Real32,
+                unit: p.unit.clone(),
+            };
+            match index {
+                Some(i) if self.entries[i].owner.is_some() => {
+                    self.redeclared(i, spec, decl.start, now, &mut done);
+                }
+                _ => {
+                    // New, or replacing a config entry: a stored or config-set value wins.
+                    let wanted = index
+                        .filter(|&i| self.entries[i].persist)
+                        .map(|i| self.entries[i].spec.value)
+                        .or_else(|| self.pending.remove(&p.name));
+                    let entry = Entry { spec, owner: Some(decl.owner.clone()), persist: false };
+                    let i = match index {
+                        Some(i) => {
+                            self.entries[i] = entry;
+                            i
+                        }
+                        None => {
+                            let at = self.entries.partition_point(|e| e.spec.name < p.name);
+                            self.entries.insert(at, entry);
+                            at
+                        }
+                    };
+                    if let Some(value) = wanted {
+                        self.want(i, value, now, &mut done);
+                    }
+                }
+            }
+        }
+        done
+    }
+
+    /// An owner declared parameter `i` again: after a restart it is sent the value set before;
+    /// after a `ParamSet` a different value means it refused, and its value is taken.
+    fn redeclared(&mut self, i: usize, spec: ParamSpec, start: bool, now: Time, done: &mut Declared) {
+        let entry = &mut self.entries[i];
+        let held = entry.spec.value;
+        let declared = spec.value;
+        entry.spec = spec;
+        let persist = entry.persist;
+        if held == declared {
+            return;
+        }
+        if start && persist {
+            self.want(i, held, now, done);
+            return;
+        }
+        if persist {
+            let entry = &self.entries[i];
+            let text =
+                format!("Param {}: refused by {}, keeps {declared}", entry.spec.name, entry.owner_name());
+            done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
+            done.persist_changed = true;
+        }
+        done.out.mav.extend(self.value_msg(i));
+    }
+
+    /// Asks the owner of parameter `i` to take `value` (stored or set before), if in range.
+    fn want(&mut self, i: usize, value: f64, now: Time, done: &mut Declared) {
+        let entry = &mut self.entries[i];
+        if !in_range(&entry.spec, value) {
+            let s = &entry.spec;
+            let text =
+                format!("Param {}: stored {value} outside {}..{} {}; dropped", s.name, s.min, s.max, s.unit);
+            done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
+            done.persist_changed = true;
+            return;
+        }
+        entry.persist = true;
+        let value = quantise(entry.spec.kind, value);
+        if value != entry.spec.value {
+            entry.spec.value = value;
+            done.out.graph.push(ToGraph::Param(ParamSet { time: now, name: entry.spec.name.clone(), value }));
+        }
+    }
+
     fn value_msg(&self, index: usize) -> Option<MavMessage> {
-        let s = self.specs.get(index)?;
+        let s = &self.entries.get(index)?.spec;
         Some(MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
             param_value: s.value as f32,
-            param_count: u16::try_from(self.specs.len()).unwrap_or(u16::MAX),
+            param_count: u16::try_from(self.entries.len()).unwrap_or(u16::MAX),
             param_index: u16::try_from(index).unwrap_or(u16::MAX),
             param_id: s.name.as_str().into(),
             param_type: match s.kind {
@@ -105,26 +263,27 @@ impl ParamTable {
 
     /// Every parameter, in index order.
     pub fn list(&self) -> Vec<MavMessage> {
-        (0..self.specs.len()).filter_map(|i| self.value_msg(i)).collect()
+        (0..self.entries.len()).filter_map(|i| self.value_msg(i)).collect()
     }
 
     /// PARAM_REQUEST_READ: by index when `index >= 0`, else by name. Unknown: nothing.
     pub fn read(&self, name: &str, index: i16) -> Option<MavMessage> {
         let i = match usize::try_from(index) {
             Ok(i) => i,
-            Err(_) => self.specs.iter().position(|s| s.name == name)?,
+            Err(_) => self.entries.iter().position(|e| e.spec.name == name)?,
         };
         self.value_msg(i)
     }
 
     /// PARAM_SET.
     pub fn set(&mut self, name: &str, value: f32, now: Time) -> Outputs {
-        let Some(i) = self.specs.iter().position(|s| s.name == name) else {
+        let Some(i) = self.entries.iter().position(|e| e.spec.name == name) else {
             let text = format!("Param {name}: unknown");
             return Outputs::send(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
         };
         let value = f64::from(value);
-        let spec = &mut self.specs[i];
+        let entry = &mut self.entries[i];
+        let spec = &mut entry.spec;
         if !in_range(spec, value) {
             let text = format!("Param {name}: {value} outside {}..{} {}", spec.min, spec.max, spec.unit);
             let mut out = Outputs::send(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
@@ -132,8 +291,15 @@ impl ParamTable {
             return out;
         }
         spec.value = quantise(spec.kind, value);
+        entry.persist = true;
         let applied = ParamSet { time: now, name: spec.name.clone(), value: spec.value };
         Outputs { mav: self.value_msg(i).into_iter().collect(), graph: vec![ToGraph::Param(applied)] }
+    }
+}
+
+impl Entry {
+    fn owner_name(&self) -> &str {
+        self.owner.as_deref().unwrap_or("the link")
     }
 }
 
@@ -169,13 +335,15 @@ pub fn parse_param_file(text: &str) -> (Vec<(String, f64)>, Vec<String>) {
     (pairs, bad)
 }
 
-/// The persisted form of `table`.
+/// The persisted form of `table`: the values set over MAVLink or restored, sorted by name.
 pub fn render_param_file(table: &ParamTable) -> String {
-    table.values().map(|(n, v)| format!("{n}={v}\n")).collect()
+    table.persisted().into_iter().map(|(n, v)| format!("{n}={v}\n")).collect()
 }
 
 #[cfg(test)]
 mod tests {
+    use kestrel_proto::messages::ParamInfo;
+
     use super::*;
 
     fn spec(name: &str, value: f64, min: f64, max: f64, kind: ParamKind) -> ParamSpec {
@@ -202,13 +370,47 @@ mod tests {
         }
     }
 
+    fn values(msgs: &[MavMessage]) -> Vec<(String, f32)> {
+        msgs.iter()
+            .filter(|m| matches!(m, MavMessage::PARAM_VALUE(_)))
+            .map(|m| (value(m).0, value(m).1))
+            .collect()
+    }
+
+    fn texts(msgs: &[MavMessage]) -> usize {
+        msgs.iter().filter(|m| matches!(m, MavMessage::STATUSTEXT(_))).count()
+    }
+
+    fn decl(owner: &str, start: bool, params: &[(&str, f64)]) -> ParamDecl {
+        ParamDecl {
+            time: Time::ZERO,
+            owner: owner.into(),
+            start,
+            params: params
+                .iter()
+                .map(|&(name, value)| ParamInfo {
+                    name: name.into(),
+                    value,
+                    min: 0.0,
+                    max: 100.0,
+                    unit: "m".into(),
+                    description: String::new(),
+                })
+                .collect(),
+        }
+    }
+
+    fn param_set(name: &str, value: f64) -> ToGraph {
+        ToGraph::Param(ParamSet { time: Time::ZERO, name: name.into(), value })
+    }
+
     #[test]
-    fn list_and_read_by_name_and_index() {
+    fn list_and_read_by_name_and_index_in_name_order() {
         let t = table();
         let all: Vec<_> = t.list().iter().map(value).collect();
-        assert_eq!(all, [("RTL_ALT_M".into(), 30.0, 0, 2), ("FS_ACTION".into(), 1.0, 1, 2)]);
-        assert_eq!(value(&t.read("FS_ACTION", -1).expect("by name")).2, 1);
-        assert_eq!(value(&t.read("", 0).expect("by index")).0, "RTL_ALT_M");
+        assert_eq!(all, [("FS_ACTION".into(), 1.0, 0, 2), ("RTL_ALT_M".into(), 30.0, 1, 2)]);
+        assert_eq!(value(&t.read("RTL_ALT_M", -1).expect("by name")).2, 1);
+        assert_eq!(value(&t.read("", 0).expect("by index")).0, "FS_ACTION");
         assert!(t.read("NOPE", -1).is_none());
         assert!(t.read("", 5).is_none());
     }
@@ -218,10 +420,7 @@ mod tests {
         let mut t = table();
         let out = t.set("RTL_ALT_M", 50.0, Time::ZERO);
         assert_eq!(value(&out.mav[0]).1, 50.0);
-        assert_eq!(
-            out.graph,
-            vec![ToGraph::Param(ParamSet { time: Time::ZERO, name: "RTL_ALT_M".into(), value: 50.0 })]
-        );
+        assert_eq!(out.graph, vec![param_set("RTL_ALT_M", 50.0)]);
         let out = t.set("RTL_ALT_M", 500.0, Time::ZERO);
         assert!(matches!(out.mav[0], MavMessage::STATUSTEXT(_)));
         assert_eq!(value(&out.mav[1]).1, 50.0);
@@ -251,16 +450,73 @@ mod tests {
     }
 
     #[test]
-    fn the_file_round_trips() {
+    fn only_set_or_restored_values_are_persisted_and_they_round_trip() {
         let mut t = table();
+        assert_eq!(render_param_file(&t), "", "defaults are not persisted");
         t.set("RTL_ALT_M", 42.5, Time::ZERO);
+        t.restore("AVOID_CLIMB_M_S", 2.0).expect("held for an owner that is not running");
         let text = render_param_file(&t);
+        assert_eq!(text, "AVOID_CLIMB_M_S=2\nRTL_ALT_M=42.5\n");
         let (pairs, bad) = parse_param_file(&format!("# saved\n{text}garbage\n"));
         assert_eq!(bad, ["garbage"]);
         let mut fresh = table();
         for (n, v) in pairs {
-            fresh.restore(&n, v).expect("known");
+            fresh.restore(&n, v).expect("known or held");
         }
         assert_eq!(value(&fresh.read("RTL_ALT_M", -1).expect("known")).1, 42.5);
+        assert_eq!(render_param_file(&fresh), text);
+    }
+
+    #[test]
+    fn declarations_join_the_table_in_name_order_and_replace_config_entries() {
+        let mut t = table();
+        let done =
+            t.declare(&decl("commander", true, &[("TKOFF_ALT_M", 10.0), ("RTL_ALT_M", 15.0)]), Time::ZERO);
+        assert!(done.out.mav.is_empty() && done.out.graph.is_empty());
+        let names: Vec<_> = t.values().collect();
+        assert_eq!(names, [("FS_ACTION", 1.0), ("RTL_ALT_M", 15.0), ("TKOFF_ALT_M", 10.0)]);
+        // Another actor cannot take a name that is owned.
+        let done = t.declare(&decl("estimator", true, &[("RTL_ALT_M", 99.0)]), Time::ZERO);
+        assert_eq!(texts(&done.out.mav), 1);
+        assert_eq!(value(&t.read("RTL_ALT_M", -1).expect("known")).1, 15.0);
+        // A malformed declaration is refused whole.
+        let done = t.declare(&decl("x", true, &[("A", 1.0), ("A", 2.0)]), Time::ZERO);
+        assert_eq!(texts(&done.out.mav), 1);
+        assert_eq!(t.len(), 3);
+    }
+
+    #[test]
+    fn stored_values_go_to_their_owner_when_it_declares_and_again_after_a_restart() {
+        let mut t = table();
+        t.restore("TKOFF_ALT_M", 12.5).expect("held");
+        let done = t.declare(&decl("commander", true, &[("TKOFF_ALT_M", 10.0)]), Time::ZERO);
+        assert_eq!(done.out.graph, vec![param_set("TKOFF_ALT_M", 12.5)]);
+        assert_eq!(value(&t.read("TKOFF_ALT_M", -1).expect("known")).1, 12.5);
+        // The owner's answer confirms it: nothing more to do.
+        let done = t.declare(&decl("commander", false, &[("TKOFF_ALT_M", 12.5)]), Time::ZERO);
+        assert!(done.out.mav.is_empty() && done.out.graph.is_empty());
+        // A restart loses it: the link sends it again.
+        let done = t.declare(&decl("commander", true, &[("TKOFF_ALT_M", 10.0)]), Time::ZERO);
+        assert_eq!(done.out.graph, vec![param_set("TKOFF_ALT_M", 12.5)]);
+        // A stored value outside the declared range is dropped with a STATUSTEXT.
+        let mut t = table();
+        t.restore("TKOFF_ALT_M", 500.0).expect("held");
+        let done = t.declare(&decl("commander", true, &[("TKOFF_ALT_M", 10.0)]), Time::ZERO);
+        assert!(done.out.graph.is_empty());
+        assert_eq!(texts(&done.out.mav), 1);
+        assert_eq!(render_param_file(&t), "");
+    }
+
+    #[test]
+    fn an_owner_refusing_a_set_value_is_believed_and_broadcast() {
+        let mut t = table();
+        t.declare(&decl("commander", true, &[("BATT_CRT_FRAC", 10.0)]), Time::ZERO);
+        let out = t.set("BATT_CRT_FRAC", 50.0, Time::ZERO);
+        assert_eq!(out.graph, vec![param_set("BATT_CRT_FRAC", 50.0)]);
+        let done = t.declare(&decl("commander", false, &[("BATT_CRT_FRAC", 10.0)]), Time::ZERO);
+        assert_eq!(values(&done.out.mav), [("BATT_CRT_FRAC".to_owned(), 10.0)]);
+        assert_eq!(texts(&done.out.mav), 1);
+        assert!(done.persist_changed);
+        assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=10\n");
     }
 }

@@ -12,15 +12,16 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
-    BatteryStatus, DepthGrid, GpsFix, GpsFixType, LandedState, NavState, OBSTACLE_SECTORS, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, DepthGrid, GpsFix, GpsFixType, LandedState, NavState, OBSTACLE_SECTORS,
+    VehicleStatus,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
-    ATTITUDE_DATA, BATTERY_STATUS_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA,
-    GpsFixType as MavFix, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
-    MavBatteryFunction, MavBatteryType, MavDataStream, MavDistanceSensor, MavFrame, MavLandedState,
-    MavMessage, MavResult, MavSysStatusSensor, MavVtolState, MissionState, OBSTACLE_DISTANCE_DATA,
-    SYS_STATUS_DATA, VFR_HUD_DATA,
+    ATTITUDE_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA,
+    GPS_RAW_INT_DATA, GpsFixType as MavFix, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA,
+    MISSION_CURRENT_DATA, MavBatteryFunction, MavBatteryType, MavDataStream, MavDistanceSensor, MavFrame,
+    MavLandedState, MavMessage, MavResult, MavSysStatusSensor, MavVtolState, MissionState,
+    OBSTACLE_DISTANCE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
 };
 
 /// The graph's latest state, as telemetry needs it.
@@ -31,6 +32,7 @@ pub struct Snapshot {
     pub battery: Option<BatteryStatus>,
     pub status: Option<VehicleStatus>,
     pub depth: Option<DepthGrid>,
+    pub avoidance: Option<AvoidanceCommand>,
     /// Whether a flight mission is stored (for MISSION_CURRENT).
     pub mission_items: u16,
 }
@@ -47,6 +49,9 @@ fn hz(rate: f64) -> Option<Duration> {
     Some(Duration::from_secs_f64(1.0 / rate))
 }
 
+/// Name of the DEBUG_VECT carrying the obstacle avoider's correction.
+pub const AVOIDANCE_VECT_NAME: &str = "AVOID";
+
 /// Default rates (Hz): PX4's and ArduPilot's SITL rates, rounded.
 fn default_streams() -> Vec<Stream> {
     [
@@ -61,6 +66,7 @@ fn default_streams() -> Vec<Stream> {
         (EXTENDED_SYS_STATE_DATA::ID, hz(1.0)),
         (MISSION_CURRENT_DATA::ID, hz(1.0)),
         (OBSTACLE_DISTANCE_DATA::ID, hz(5.0)),
+        (DEBUG_VECT_DATA::ID, hz(5.0)),
     ]
     .into_iter()
     .map(|(id, default)| Stream { id, default, interval: default, next: Time::ZERO })
@@ -238,11 +244,20 @@ impl Telemetry {
                 })
             }
             HOME_POSITION_DATA::ID => {
-                let home = snap.nav.as_ref()?.origin?;
+                // The commander's home (set at arming or by DO_SET_HOME); before it has one,
+                // the estimator's origin, where the vehicle started.
+                let origin = snap.nav.as_ref()?.origin?;
+                let [n, e, d] =
+                    snap.status.as_ref().and_then(|s| s.home).map_or([0.0; 3], |h| h.position_ned_m);
+                let home = LocalFrame::new(origin).to_geodetic([n, e, 0.0]);
                 MavMessage::HOME_POSITION(HOME_POSITION_DATA {
                     latitude: deg_e7(home.lat_deg),
                     longitude: deg_e7(home.lon_deg),
-                    altitude: (home.alt_m * 1000.0).round() as i32,
+                    // One altitude convention with the mission's: down is height below the origin.
+                    altitude: ((origin.alt_m - d) * 1000.0).round() as i32,
+                    x: n as f32,
+                    y: e as f32,
+                    z: d as f32,
                     q: [1.0, 0.0, 0.0, 0.0],
                     time_usec: now.as_micros(),
                     ..Default::default()
@@ -307,6 +322,22 @@ impl Telemetry {
                     increment_f: d.sectors.increment_deg,
                     angle_offset: d.sectors.angle_offset_deg,
                     frame: MavFrame::MAV_FRAME_BODY_FRD,
+                })
+            }
+            DEBUG_VECT_DATA::ID => {
+                // The avoider's correction as ground stations graph it (QGroundControl's
+                // MAVLink inspector, MAVProxy's `graph DEBUG_VECT.x`): x forward, y right,
+                // z down (m/s, body FRD), stamped with its depth grid's capture time.
+                let a = snap.avoidance.as_ref()?;
+                let [x, y, z] = a.velocity_frd_m_s.map(|v| v as f32);
+                let mut name = [0u8; 10];
+                name[..AVOIDANCE_VECT_NAME.len()].copy_from_slice(AVOIDANCE_VECT_NAME.as_bytes());
+                MavMessage::DEBUG_VECT(DEBUG_VECT_DATA {
+                    time_usec: a.time.as_micros(),
+                    x,
+                    y,
+                    z,
+                    name: name.into(),
                 })
             }
             _ => return None,
@@ -418,6 +449,32 @@ mod tests {
     }
 
     #[test]
+    fn the_avoiders_correction_goes_out_as_debug_vect_at_5_hz() {
+        let mut t = Telemetry::new();
+        let count = |t: &mut Telemetry, from_ms: u64| {
+            (from_ms..from_ms + 1000)
+                .step_by(20)
+                .flat_map(|ms| t.due(Time::from_micros(ms * 1000)))
+                .filter_map(|m| match m {
+                    MavMessage::DEBUG_VECT(d) => Some(d),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        assert!(count(&mut t, 0).is_empty(), "nothing before the avoider speaks");
+        t.snapshot.avoidance = Some(AvoidanceCommand {
+            time: Time::from_micros(123),
+            velocity_frd_m_s: [-1.5, 0.5, -0.25],
+            ..AvoidanceCommand::default()
+        });
+        let sent = count(&mut t, 1000);
+        assert_eq!(sent.len(), 5);
+        let d = &sent[0];
+        assert_eq!((d.x, d.y, d.z, d.time_usec), (-1.5, 0.5, -0.25, 123));
+        assert_eq!(&d.name.to_str().expect("ascii").trim_end_matches('\0'), &AVOIDANCE_VECT_NAME);
+    }
+
+    #[test]
     fn default_rates_and_interval_changes() {
         let mut t = Telemetry::new();
         t.snapshot.nav = Some(nav());
@@ -473,6 +530,34 @@ mod tests {
     }
 
     #[test]
+    fn home_position_follows_the_commanders_home() {
+        use kestrel_proto::messages::{FlightMode, Home, LandedState, MissionProgress};
+        let mut t = Telemetry::new();
+        t.snapshot.nav = Some(nav());
+        let home = |t: &Telemetry| match t.build(HOME_POSITION_DATA::ID, Time::ZERO) {
+            Some(MavMessage::HOME_POSITION(h)) => h,
+            other => panic!("{other:?}"),
+        };
+        let origin = home(&t);
+        assert_eq!((origin.latitude, origin.longitude, origin.altitude), (67_971_000, 799_017_000, 20_000));
+        t.snapshot.status = Some(VehicleStatus {
+            time: Time::ZERO,
+            armed: true,
+            mode: FlightMode::PosHold,
+            landed: LandedState::InAir,
+            failsafe: None,
+            mission: MissionProgress::default(),
+            last_refusal: None,
+            home: Some(Home { position_ned_m: [110.6, 0.0, -5.0], revision: 2 }),
+            geofence_enabled: true,
+        });
+        let moved = home(&t);
+        assert!((moved.latitude - 67_981_000).abs() < 20, "{}", moved.latitude);
+        assert_eq!((moved.longitude, moved.altitude), (799_017_000, 25_000));
+        assert_eq!((moved.x, moved.y, moved.z), (110.6, 0.0, -5.0));
+    }
+
+    #[test]
     fn mission_current_counts_items_after_home_and_never_points_past_the_last() {
         use kestrel_proto::messages::{FlightMode, LandedState, MissionProgress};
         let mut t = Telemetry::new();
@@ -488,8 +573,16 @@ mod tests {
             mode: FlightMode::Auto,
             landed: LandedState::InAir,
             failsafe: None,
-            mission: MissionProgress { current, reached, total: 6, completed: reached >= 6 },
+            mission: MissionProgress {
+                current,
+                reached,
+                last_reached: reached.checked_sub(1),
+                total: 6,
+                completed: reached >= 6,
+            },
             last_refusal: None,
+            home: None,
+            geofence_enabled: true,
         };
         t.snapshot.status = Some(status(0, 0));
         assert_eq!(current(&t), (1, 6, MissionState::MISSION_STATE_ACTIVE));

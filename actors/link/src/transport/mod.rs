@@ -1,11 +1,13 @@
 //! The I/O shell: sockets and serial ports feeding the [`crate::hub::Hub`]. Every task
 //! ends when the actor's shutdown token is cancelled.
 
+mod param_writer;
 mod serial;
 mod signing;
 mod stream;
 mod tcp;
 mod udp;
+mod udp_peers;
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -20,6 +22,9 @@ use crate::hub::Hub;
 use crate::router::LinkId;
 use crate::services::ToGraph;
 use crate::services::params::render_param_file;
+
+pub use param_writer::{ParamWriter, WriterStats, write_atomically};
+pub use udp_peers::{EVICTABLE_AFTER, PeerStats};
 
 /// Where messages for the graph go (the actor's publishers, or a test's collector).
 pub type GraphSink = Arc<dyn Fn(Vec<ToGraph>) + Send + Sync>;
@@ -41,6 +46,8 @@ pub enum EndpointError {
         #[source]
         source: tokio_serial::Error,
     },
+    #[error("UDP server on {bind}: max_peers must be at least 1")]
+    NoPeers { bind: SocketAddr },
     #[error("signing key {path}: {reason}")]
     SigningKey { path: PathBuf, reason: String },
 }
@@ -52,8 +59,8 @@ pub struct Shared {
     pub clock: Arc<dyn Clock>,
     pub shutdown: CancellationToken,
     pub graph: GraphSink,
-    /// Where accepted parameter changes persist.
-    pub param_file: Option<PathBuf>,
+    /// Persists accepted parameter changes off the receive path (`None`: not persisted).
+    pub param_writer: Option<Arc<ParamWriter>>,
 }
 
 impl Shared {
@@ -62,8 +69,8 @@ impl Shared {
         self.hub.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Hands frames from link `id` to the hub, then publishes what it produced and persists
-    /// changed parameters (outside the lock).
+    /// Hands frames from link `id` to the hub, then publishes what it produced and queues
+    /// changed parameters for the writer thread (never waiting for the disk).
     pub fn handle_frames(&self, id: LinkId, frames: &[Frame]) {
         if frames.is_empty() {
             return;
@@ -73,13 +80,12 @@ impl Shared {
             let mut hub = self.hub();
             let out: Vec<ToGraph> = frames.iter().flat_map(|f| hub.on_frame(id, f, now)).collect();
             let vehicle = hub.vehicle();
-            let params = vehicle.take_params_changed().then(|| render_param_file(vehicle.params()));
+            let params = (vehicle.take_params_changed() && self.param_writer.is_some())
+                .then(|| render_param_file(vehicle.params()));
             (out, params)
         };
-        if let (Some(text), Some(path)) = (params, &self.param_file)
-            && let Err(e) = write_atomically(path, &text)
-        {
-            tracing::error!(path = %path.display(), error = %e, "cannot persist parameters");
+        if let (Some(text), Some(writer)) = (params, &self.param_writer) {
+            writer.submit(text);
         }
         if !out.is_empty() {
             (self.graph)(out);
@@ -87,22 +93,13 @@ impl Shared {
     }
 }
 
-/// Replaces `path` with `text` so that a power cut leaves the old or the new file, never a mix:
-/// write a temporary file next to it, flush it to disk, rename it over.
-pub fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
-    use std::io::Write;
-    let tmp = path.with_extension("tmp");
-    let mut f = std::fs::File::create(&tmp)?;
-    f.write_all(text.as_bytes())?;
-    f.sync_all()?;
-    std::fs::rename(&tmp, path)
-}
-
 /// An endpoint that is open, with the address it listens or sends from (serial: `None`).
 #[derive(Clone, Debug)]
 pub struct OpenEndpoint {
     pub name: String,
     pub local_addr: Option<SocketAddr>,
+    /// A UDP server's peer counters (admitted, refused, evicted), updated as they change.
+    pub peer_stats: Option<Arc<Mutex<PeerStats>>>,
 }
 
 /// Opens every endpoint and spawns its tasks; `config_dir` resolves relative key paths.
@@ -142,7 +139,7 @@ async fn open_one(
     };
     match &e.kind {
         EndpointKind::UdpOut { address } => udp::open_client(*address, signing, shared).await,
-        EndpointKind::UdpIn { bind } => udp::open_server(*bind, signing, shared).await,
+        EndpointKind::UdpIn { bind, max_peers } => udp::open_server(*bind, *max_peers, signing, shared).await,
         EndpointKind::TcpIn { bind } => tcp::open_server(*bind, signing, shared).await,
         EndpointKind::Serial { device, baud, flow_control } => {
             serial::open(device, *baud, *flow_control, signing, shared)

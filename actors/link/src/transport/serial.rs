@@ -24,5 +24,5 @@ pub fn open(
     let (r, w) = tokio::io::split(port);
     let name = format!("serial {path}");
     stream::spawn(name.clone(), r, w, signing, shared.clone());
-    Ok(OpenEndpoint { name, local_addr: None })
+    Ok(OpenEndpoint { name, local_addr: None, peer_stats: None })
 }

@@ -41,5 +41,5 @@ pub async fn open_server(
             }
         }
     });
-    Ok(OpenEndpoint { name: format!("tcp server {local}"), local_addr: Some(local) })
+    Ok(OpenEndpoint { name: format!("tcp server {local}"), local_addr: Some(local), peer_stats: None })
 }

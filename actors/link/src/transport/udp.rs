@@ -1,16 +1,16 @@
 //! UDP endpoints. The client sends to a fixed address (where a ground station listens) from an
-//! ephemeral port and hears replies there; the server answers every peer that talks to it,
-//! each peer a link of its own, so routing never echoes a peer's frames back to it.
+//! ephemeral port and hears replies there; the server answers every peer that has sent it a
+//! valid frame (see [`super::udp_peers`]), each peer a link of its own, so routing never echoes
+//! a peer's frames back to it.
 
-use std::collections::HashMap;
 use std::net::{Ipv4Addr, SocketAddr};
-use std::sync::Arc;
-use std::time::Duration;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use mavlink::SigningData;
 use tokio::net::UdpSocket;
-use tokio::time::Instant;
 
+use super::udp_peers::{Admission, PeerStats, PeerTable};
 use super::{EndpointError, OpenEndpoint, Shared};
 use crate::frame::FrameParser;
 use crate::hub::Tx;
@@ -55,48 +55,83 @@ pub async fn open_client(
             feed(&shared, id, &mut parser, &buf[..n]);
         }
     });
-    Ok(OpenEndpoint { name: format!("udp client -> {address}"), local_addr: local })
+    Ok(OpenEndpoint { name: format!("udp client -> {address}"), local_addr: local, peer_stats: None })
 }
 
-/// Opens the UDP server endpoint on `bind`.
+/// Opens the UDP server endpoint on `bind`, answering at most `max_peers` peers at once.
 pub async fn open_server(
     bind: SocketAddr,
+    max_peers: usize,
     signing: Option<Arc<SigningData>>,
     shared: &Shared,
 ) -> Result<OpenEndpoint, EndpointError> {
+    if max_peers == 0 {
+        return Err(EndpointError::NoPeers { bind });
+    }
     let socket = bind_socket(bind, "UDP server").await?;
     let local = socket.local_addr().ok();
+    let name = format!("udp server {bind}");
+    let peer_stats = Arc::new(Mutex::new(PeerStats::default()));
+    let published = Arc::clone(&peer_stats);
     let shared = shared.clone();
+    let server = name.clone();
     tokio::spawn(async move {
-        let mut peers: HashMap<SocketAddr, (LinkId, FrameParser, Instant)> = HashMap::new();
+        let mut peers = PeerTable::new(max_peers);
         let mut buf = vec![0u8; DATAGRAM];
         let mut expiry = tokio::time::interval(PEER_TIMEOUT / 3);
+        let publish =
+            |peers: &PeerTable| *published.lock().unwrap_or_else(|e| e.into_inner()) = peers.stats();
         loop {
             let received = tokio::select! {
                 _ = shared.shutdown.cancelled() => break,
                 _ = expiry.tick() => {
-                    peers.retain(|_, (id, _, heard)| {
-                        let alive = heard.elapsed() < PEER_TIMEOUT;
-                        if !alive {
-                            shared.hub().remove_link(*id);
-                        }
-                        alive
-                    });
+                    for id in peers.expire(Instant::now(), PEER_TIMEOUT) {
+                        shared.hub().remove_link(id);
+                    }
+                    publish(&peers);
                     continue;
                 }
                 r = socket.recv_from(&mut buf) => r,
             };
             let Ok((n, peer)) = received else { continue };
-            let (id, parser, heard) = peers.entry(peer).or_insert_with(|| {
-                let tx = Tx::Udp { socket: Arc::clone(&socket), peer };
-                let id = shared.hub().add_link(format!("udp peer {peer}"), tx, signing.clone());
-                (id, FrameParser::new(), Instant::now())
-            });
-            *heard = Instant::now();
-            feed(&shared, *id, parser, &buf[..n]);
+            let now = Instant::now();
+            if let Some((id, parser)) = peers.heard(peer, now) {
+                feed(&shared, id, parser, &buf[..n]);
+                continue;
+            }
+            let mut parser = FrameParser::new();
+            let mut frames = Vec::new();
+            parser.push(&buf[..n], &mut frames);
+            let acceptable = match &signing {
+                Some(signing) => frames.iter().any(|f| f.verify(signing)),
+                None => !frames.is_empty(),
+            };
+            if !acceptable {
+                peers.unverified();
+                publish(&peers);
+                continue;
+            }
+            match peers.admit(now) {
+                Admission::Refuse => {
+                    tracing::debug!(server = %server, %peer, "UDP peer refused: the peer table is full");
+                }
+                Admission::Admit { evict } => {
+                    let mut hub = shared.hub();
+                    if let Some(old) = evict {
+                        hub.remove_link(old);
+                    }
+                    let tx = Tx::Udp { socket: Arc::clone(&socket), peer };
+                    let id = hub.add_link(format!("udp peer {peer}"), tx, signing.clone());
+                    drop(hub);
+                    peers.insert(peer, id, parser, now);
+                    shared.handle_frames(id, &frames);
+                }
+            }
+            publish(&peers);
         }
+        tracing::info!(server = %server, stats = ?peers.stats(), "UDP server peer counters");
     });
-    Ok(OpenEndpoint { name: format!("udp server {bind}"), local_addr: local })
+    Ok(OpenEndpoint { name, local_addr: local, peer_stats: Some(peer_stats) })
 }
 
 async fn bind_socket(addr: SocketAddr, what: &'static str) -> Result<Arc<UdpSocket>, EndpointError> {

@@ -70,7 +70,7 @@ impl Harness {
             clock: Arc::clone(&clock),
             shutdown: shutdown.clone(),
             graph: Arc::new(move |out| sink.lock().expect("graph sink").extend(out)),
-            param_file: None,
+            param_writer: None,
         };
         let endpoints = open_all(endpoints, config_dir, &shared).await.expect("endpoints open");
         let ticker = shared.clone();

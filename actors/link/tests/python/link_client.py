@@ -3,7 +3,8 @@
 Listens on an ephemeral UDP port on 127.0.0.1 (as QGroundControl listens on 14550), prints
 `PORT <n>` so the test can point the vehicle's UDP client at it, then: identifies the vehicle,
 fetches and sets parameters, uploads a mission and downloads it back, arms, switches to AUTO,
-checks an unsupported command, and stops its heartbeats to see the link-loss report. Prints one
+checks an unsupported command, switches the fence off, moves home, sets the current
+mission item, and stops its heartbeats to see the link-loss report. Prints one
 JSON line of results and exits 0 when every step passed.
 """
 
@@ -119,13 +120,53 @@ results["flight"] = {"armed": True, "mode": conn.flightmode}
 
 # 5. An unsupported command is refused at once.
 t0 = time.monotonic()
-conn.mav.command_long_send(1, 1, mav.MAV_CMD_DO_FENCE_ENABLE, 0, 1, 0, 0, 0, 0, 0, 0)
-ack = pump("COMMAND_ACK", lambda m: m.command == mav.MAV_CMD_DO_FENCE_ENABLE, 3, "unsupported")
+conn.mav.command_long_send(1, 1, mav.MAV_CMD_DO_PARACHUTE, 0, 1, 0, 0, 0, 0, 0, 0)
+ack = pump("COMMAND_ACK", lambda m: m.command == mav.MAV_CMD_DO_PARACHUTE, 3, "unsupported")
 if ack.result != mav.MAV_RESULT_UNSUPPORTED:
     fail("unsupported", ack)
 results["unsupported_ack_s"] = round(time.monotonic() - t0, 4)
 
-# 6. Fall silent: the vehicle reports the lost ground station.
+# 6. Fence off (announced), home moved (HOME_POSITION follows), current item set (MISSION_CURRENT).
+conn.mav.command_long_send(1, 1, mav.MAV_CMD_DO_FENCE_ENABLE, 0, 0, 0, 0, 0, 0, 0, 0)
+fence = {}
+
+
+def fence_answered(m):
+    """The ACK and the STATUSTEXT come in one batch, the text first: both are kept."""
+    if m.get_type() == "COMMAND_ACK" and m.command == mav.MAV_CMD_DO_FENCE_ENABLE:
+        fence["ack"] = m.result
+    elif m.get_type() == "STATUSTEXT" and "Geofence disabled" in m.text:
+        fence["text"] = m.text
+    return "ack" in fence and "text" in fence
+
+
+pump(["COMMAND_ACK", "STATUSTEXT"], fence_answered, 3, "fence")
+if fence["ack"] != mav.MAV_RESULT_ACCEPTED:
+    fail("fence", fence)
+conn.mav.command_int_send(1, 1, mav.MAV_FRAME_GLOBAL, mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 0, 0,
+                          int(round((home[0] + 0.0001) * 1e7)), int(round(home[1] * 1e7)), 25.0)
+ack = pump("COMMAND_ACK", lambda m: m.command == mav.MAV_CMD_DO_SET_HOME, 3, "set home")
+if ack.result != mav.MAV_RESULT_ACCEPTED:
+    fail("set home", ack)
+moved = pump("HOME_POSITION", lambda m: m.altitude == 25000, 3, "home position")
+conn.mav.command_long_send(1, 1, mav.MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 0, 95.0, 0, 0)
+ack = pump("COMMAND_ACK", lambda m: m.command == mav.MAV_CMD_DO_SET_HOME, 3, "bad home")
+if ack.result != mav.MAV_RESULT_DENIED:
+    fail("bad home", ack)
+conn.mav.command_long_send(1, 1, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0, 3, 0, 0, 0, 0, 0, 0)
+ack = pump("COMMAND_ACK", lambda m: m.command == mav.MAV_CMD_DO_SET_MISSION_CURRENT, 3, "mission current")
+if ack.result != mav.MAV_RESULT_ACCEPTED:
+    fail("mission current", ack)
+pump("MISSION_CURRENT", lambda m: m.seq == 3, 3, "mission current seq")
+conn.mav.command_long_send(1, 1, mav.MAV_CMD_DO_SET_MISSION_CURRENT, 0, len(items), 0, 0, 0, 0, 0, 0)
+ack = pump("COMMAND_ACK", lambda m: m.command == mav.MAV_CMD_DO_SET_MISSION_CURRENT, 3, "past the end")
+if ack.result != mav.MAV_RESULT_FAILED:
+    fail("past the end", ack)
+conn.mav.mission_set_current_send(1, 1, 2)
+pump("MISSION_CURRENT", lambda m: m.seq == 2, 3, "mission set current")
+results["gcs_commands"] = {"fence": "off", "home_lat": moved.latitude / 1e7, "mission_current": 2}
+
+# 7. Fall silent: the vehicle reports the lost ground station.
 heartbeats_on = False
 t0 = time.monotonic()
 pump("STATUSTEXT", lambda m: "GCS heartbeat lost" in m.text, 6, "link loss")

@@ -56,6 +56,8 @@ pub struct NmeaReader {
     line: Vec<u8>,
     /// Characters dropped outside a sentence or in an overlong one.
     pub dropped_bytes: u64,
+    /// Sentences dropped for running past [`MAX_SENTENCE`] without a line end.
+    pub overlong: u64,
 }
 
 impl NmeaReader {
@@ -82,6 +84,7 @@ impl NmeaReader {
                 }
                 _ if self.line.is_empty() => self.dropped_bytes += 1,
                 _ if self.line.len() >= MAX_SENTENCE => {
+                    self.overlong += 1;
                     self.dropped_bytes += self.line.len() as u64 + 1;
                     self.line.clear();
                 }
@@ -124,6 +127,7 @@ mod tests {
         reader.push(&stream, |l| lines.push(l.to_owned()));
         assert_eq!(lines, ["$GPVTG,054.7,T,034.4,M,005.5,N,010.2,K*48\r"]);
         assert!(reader.dropped_bytes >= 4 + 200);
+        assert_eq!(reader.overlong, 1);
     }
 
     proptest! {

@@ -87,13 +87,24 @@ impl SbusFrame {
 }
 
 /// Finds frames in the serial byte stream, counting what it skips.
+///
+/// A header byte and a footer 24 bytes on are weak evidence (0x0F and 0x00 are common channel
+/// bytes), so until the parser is in step with the stream it also wants the next frame's
+/// header right after a candidate. Once a frame has been confirmed that way, each following
+/// frame that starts where the last one ended is taken as soon as its 25 bytes are in; any
+/// skipped byte or rejected candidate puts the parser out of step again.
 #[derive(Clone, Debug, Default)]
 pub struct SbusParser {
     buf: Vec<u8>,
+    /// The buffer starts where the last accepted frame ended.
+    in_step: bool,
     /// Frames decoded.
     pub frames: u64,
     /// Bytes dropped while looking for a header followed, 24 bytes on, by a footer.
     pub skipped_bytes: u64,
+    /// Header bytes not followed by a footer (or, out of step, by the next header): line
+    /// noise, a cut frame, or a 0x0F inside a frame found while resynchronising.
+    pub rejected: u64,
 }
 
 impl SbusParser {
@@ -110,6 +121,9 @@ impl SbusParser {
     pub fn next_frame(&mut self) -> Option<SbusFrame> {
         loop {
             let start = self.buf.iter().position(|&b| b == HEADER).unwrap_or(self.buf.len());
+            if start > 0 {
+                self.in_step = false;
+            }
             self.skipped_bytes += start as u64;
             self.buf.drain(..start);
             if self.buf.len() < FRAME_LEN {
@@ -117,15 +131,20 @@ impl SbusParser {
             }
             let mut frame = [0u8; FRAME_LEN];
             frame.copy_from_slice(&self.buf[..FRAME_LEN]);
+            let confirmed = self.in_step || self.buf.get(FRAME_LEN) == Some(&HEADER);
             match SbusFrame::decode(&frame) {
-                Ok(decoded) => {
+                Ok(_) if !confirmed && self.buf.len() == FRAME_LEN => return None,
+                Ok(decoded) if confirmed => {
                     self.buf.drain(..FRAME_LEN);
                     self.frames += 1;
+                    self.in_step = true;
                     return Some(decoded);
                 }
-                Err(_) => {
+                Ok(_) | Err(_) => {
                     self.buf.drain(..1);
                     self.skipped_bytes += 1;
+                    self.rejected += 1;
+                    self.in_step = false;
                 }
             }
         }
@@ -166,6 +185,19 @@ mod tests {
         assert_eq!(SbusFrame::decode(&bytes), Err(SbusError::Footer(0x55)));
         bytes[0] = 0x00;
         assert_eq!(SbusFrame::decode(&bytes), Err(SbusError::Header(0x00)));
+    }
+
+    #[test]
+    fn a_false_header_in_noise_does_not_shift_the_frames() {
+        let good =
+            SbusFrame { channels: [1811; 16], digital: [false; 2], frame_lost: false, failsafe: false };
+        // 0x0F noise right before a frame: header at 0x0F, footer at the frame's flags byte.
+        let bytes = [&[0x0F, 0x42, 0x0F][..], &good.encode(), &good.encode()].concat();
+        let mut parser = SbusParser::new();
+        parser.push(&bytes);
+        let frames: Vec<_> = std::iter::from_fn(|| parser.next_frame()).collect();
+        assert_eq!(frames, [good, good]);
+        assert_eq!(parser.rejected, 2);
     }
 
     proptest! {

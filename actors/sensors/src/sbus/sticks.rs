@@ -5,9 +5,10 @@
 use kestrel_proto::Time;
 use kestrel_proto::messages::ManualControl;
 
-use crate::sbus::frame::{CHANNELS, SbusFrame};
+use crate::sbus::frame::SbusFrame;
 
-/// One channel's calibrated travel (raw SBUS counts).
+/// One channel's calibrated travel, in the receiver's raw units (SBUS counts, or pulse widths
+/// in µs for RCIO and PWM receivers).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ChannelRange {
@@ -31,23 +32,29 @@ impl ChannelRange {
         ChannelRange { channel, ..ChannelRange::default() }
     }
 
-    fn raw(&self, frame: &SbusFrame) -> f64 {
-        f64::from(frame.channels[self.channel.clamp(1, CHANNELS) - 1])
+    /// This channel's value; a channel number past the end reads as the centre (callers that
+    /// know their channel count check the map with [`StickMap::highest_channel`]).
+    fn raw(&self, channels: &[u16]) -> f64 {
+        let index = self.channel.max(1) - 1;
+        f64::from(channels.get(index).copied().unwrap_or(self.center))
     }
 
     /// A centred stick, −1..1.
-    fn centred(&self, frame: &SbusFrame) -> f64 {
-        let (raw, center) = (self.raw(frame), f64::from(self.center));
+    fn centred(&self, channels: &[u16]) -> f64 {
+        let (raw, center) = (self.raw(channels), f64::from(self.center));
         let span = if raw >= center { f64::from(self.max) - center } else { center - f64::from(self.min) };
         let value = if span > 0.0 { ((raw - center) / span).clamp(-1.0, 1.0) } else { 0.0 };
         if self.reversed { -value } else { value }
     }
 
     /// A stick from bottom, 0..1.
-    fn upward(&self, frame: &SbusFrame) -> f64 {
+    fn upward(&self, channels: &[u16]) -> f64 {
         let span = f64::from(self.max) - f64::from(self.min);
-        let value =
-            if span > 0.0 { ((self.raw(frame) - f64::from(self.min)) / span).clamp(0.0, 1.0) } else { 0.0 };
+        let value = if span > 0.0 {
+            ((self.raw(channels) - f64::from(self.min)) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         if self.reversed { 1.0 - value } else { value }
     }
 }
@@ -75,23 +82,44 @@ impl Default for StickMap {
 }
 
 impl StickMap {
+    /// AETR on channels 1..4 measured as pulse widths: 1000..1500..2000 µs, as PWM/PPM
+    /// receivers and Navio2's RCIO report them.
+    pub fn pulse_width_us() -> StickMap {
+        let on = |channel| ChannelRange { channel, min: 1000, center: 1500, max: 2000, reversed: false };
+        StickMap { roll: on(1), pitch: on(2), throttle: on(3), yaw: on(4) }
+    }
+
+    /// The highest channel number the map reads (1-based).
+    pub fn highest_channel(&self) -> usize {
+        [self.roll.channel, self.pitch.channel, self.throttle.channel, self.yaw.channel]
+            .into_iter()
+            .max()
+            .unwrap_or(1)
+    }
+
+    /// The sticks for raw channel values (channel 1 first) read at `time`.
+    pub fn sticks(&self, channels: &[u16], time: Time) -> ManualControl {
+        ManualControl {
+            time,
+            roll: self.roll.centred(channels),
+            pitch: self.pitch.centred(channels),
+            yaw: self.yaw.centred(channels),
+            throttle: self.throttle.upward(channels),
+        }
+    }
+
     /// The sticks of `frame`, received at `time`; `None` while the receiver is in failsafe
     /// (its channels are then its failsafe presets, not the pilot's hands — link-loss handling
     /// is the commander's, on the missing input).
     pub fn manual_control(&self, frame: &SbusFrame, time: Time) -> Option<ManualControl> {
-        (!frame.failsafe).then(|| ManualControl {
-            time,
-            roll: self.roll.centred(frame),
-            pitch: self.pitch.centred(frame),
-            yaw: self.yaw.centred(frame),
-            throttle: self.throttle.upward(frame),
-        })
+        (!frame.failsafe).then(|| self.sticks(&frame.channels, time))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sbus::frame::CHANNELS;
 
     fn frame(aetr: [u16; 4]) -> SbusFrame {
         let mut channels = [992; CHANNELS];
@@ -119,6 +147,15 @@ mod tests {
         let half = map.manual_control(&frame([992 + 819 / 2, 992, 992, 992]), Time::ZERO).expect("ok");
         assert!((half.roll - 409.0 / 819.0).abs() < 1e-12);
         assert!((half.throttle - 820.0 / 1639.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn pulse_widths_and_missing_channels() {
+        let map = StickMap::pulse_width_us();
+        let mc = map.sticks(&[1750, 1500, 1000, 1250], Time::ZERO);
+        assert_eq!((mc.roll, mc.pitch, mc.yaw, mc.throttle), (0.5, 0.0, -0.5, 0.0));
+        assert_eq!(map.highest_channel(), 4);
+        assert_eq!(map.sticks(&[2000], Time::ZERO).pitch, 0.0, "absent channel reads centred");
     }
 
     #[test]

@@ -1,0 +1,219 @@
+//! The GPS actor: a u-blox (or any NMEA) receiver on a UART, configured at start-up and read
+//! by a tokio task that publishes each fix on `gps` stamped with its time of validity, with a
+//! `health` report every second.
+//!
+//! On Navio2 the on-board u-blox M8N sits on SPI (`/dev/spidev0.0`), which this actor does not
+//! drive; it reads a receiver on the UART header (`/dev/ttyAMA0`) or USB (`/dev/ttyACM0`).
+
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use kestrel_proto::messages::{GpsFix, SensorHealth};
+use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
+use serde::Deserialize;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::task::JoinHandle;
+use tokio_util::sync::CancellationToken;
+
+use crate::gps::{Configuration, GpsDecoder, GpsStats};
+use crate::health::{Counters, HealthWindow};
+use crate::nmea::NmeaFixOptions;
+use crate::serial::{self, LineSettings, SerialTransport};
+use crate::ubx::DynamicModel;
+
+/// Time for a receiver to finish sending at the old rate and switch to the new one after
+/// CFG-PRT (u-blox: the change applies once the port's transmit buffer is empty).
+const BAUD_SWITCH_WAIT: Duration = Duration::from_millis(150);
+
+/// Period of the health report.
+const HEALTH_PERIOD: Duration = Duration::from_secs(1);
+
+/// `[actors.gps.params]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GpsActorParams {
+    /// UART device node.
+    pub device: PathBuf,
+    /// Line rate the receiver is switched to and read at (bit/s).
+    pub baud: u32,
+    /// Line rate the receiver talks at power-up (u-blox M8 factory setting: 9600 bit/s).
+    pub initial_baud: u32,
+    /// Send the UBX set-up sequence (u-blox receivers). Off for receivers that only speak
+    /// NMEA: they are then read at `baud`, which must be their own rate.
+    pub configure: bool,
+    /// Navigation solutions per second (Hz).
+    pub rate_hz: f64,
+    /// The receiver's navigation filter model (PX4's default: airborne < 2 g).
+    pub dynamic_model: DynamicModel,
+    /// Delay from a NAV-PVT epoch to its earliest possible arrival (s), subtracted on top of
+    /// the observed transport delay; see [`crate::ubx::ValidityClock`].
+    pub ubx_latency_s: f64,
+    /// How NMEA-only fixes fill in accuracy and lag.
+    pub nmea: NmeaFixOptions,
+}
+
+impl Default for GpsActorParams {
+    fn default() -> GpsActorParams {
+        GpsActorParams {
+            device: PathBuf::from("/dev/ttyAMA0"),
+            baud: 115_200,
+            initial_baud: 9600,
+            configure: true,
+            rate_hz: 5.0,
+            dynamic_model: DynamicModel::Airborne2g,
+            ubx_latency_s: 0.05,
+            nmea: NmeaFixOptions::default(),
+        }
+    }
+}
+
+/// What the GPS actor handles.
+#[derive(Debug)]
+pub enum GpsInput {
+    /// Timer `health`, every second.
+    Health(Time),
+}
+
+/// What the reader task needs, handed over in [`Actor::start`].
+struct Reader {
+    port: Box<dyn SerialTransport>,
+    configuration: Option<Configuration>,
+    initial_baud: u32,
+    baud: u32,
+    decoder: GpsDecoder,
+    stats: Arc<Mutex<GpsStats>>,
+    out: Publisher<GpsFix>,
+}
+
+impl Reader {
+    async fn run(mut self, clock: Arc<dyn Clock>, stop: CancellationToken) -> Result<(), String> {
+        let failed = |what: &str, e: std::io::Error| format!("GPS {what}: {e}");
+        if let Some(c) = self.configuration.take() {
+            self.port.write_all(&c.switch_baud).await.map_err(|e| failed("write", e))?;
+            self.port.flush().await.map_err(|e| failed("write", e))?;
+            if self.initial_baud != self.baud {
+                tokio::time::sleep(BAUD_SWITCH_WAIT).await;
+                self.port.set_baud_rate(self.baud).map_err(|e| failed("baud rate change", e))?;
+            }
+            self.port.write_all(&c.settings.concat()).await.map_err(|e| failed("write", e))?;
+            self.port.flush().await.map_err(|e| failed("write", e))?;
+        }
+        let mut buf = [0u8; 1024];
+        loop {
+            let n = tokio::select! {
+                _ = stop.cancelled() => return Ok(()),
+                read = self.port.read(&mut buf) => read.map_err(|e| failed("read", e))?,
+            };
+            if n == 0 {
+                return Err("GPS serial port closed".into());
+            }
+            for fix in self.decoder.push(&buf[..n], clock.now()) {
+                self.out.publish(fix);
+            }
+            *self.stats.lock().unwrap_or_else(|e| e.into_inner()) = self.decoder.stats();
+        }
+    }
+}
+
+/// The GPS actor. Outputs: `gps`, `health`.
+pub struct GpsActor {
+    reader: Option<Reader>,
+    task: Option<JoinHandle<Result<(), String>>>,
+    stats: Arc<Mutex<GpsStats>>,
+    /// The device node, for health reports.
+    device: String,
+    /// Opened in [`Actor::start`], on the running graph's clock.
+    window: Option<HealthWindow>,
+    health_out: Publisher<SensorHealth>,
+}
+
+impl GpsActor {
+    /// Builds the actor on an already opened port (any [`SerialTransport`]); `device` names
+    /// it in health reports.
+    pub fn with_port(
+        port: Box<dyn SerialTransport>,
+        device: &str,
+        params: &GpsActorParams,
+        setup: &mut impl Setup<GpsInput>,
+    ) -> Result<GpsActor, ActorError> {
+        let configuration = params
+            .configure
+            .then(|| Configuration::new(params.baud, params.rate_hz, params.dynamic_model))
+            .transpose()
+            .map_err(|e| ActorError::Params(e.to_string()))?;
+        if !(params.ubx_latency_s.is_finite() && params.ubx_latency_s >= 0.0) {
+            return Err(ActorError::Params(format!(
+                "ubx_latency_s must be a non-negative number of seconds, got {}",
+                params.ubx_latency_s
+            )));
+        }
+        let stats = Arc::new(Mutex::new(GpsStats::default()));
+        setup.timer("health", HEALTH_PERIOD, GpsInput::Health);
+        let reader = Reader {
+            port,
+            configuration,
+            initial_baud: params.initial_baud,
+            baud: params.baud,
+            decoder: GpsDecoder::new(Duration::from_secs_f64(params.ubx_latency_s), params.nmea.clone()),
+            stats: Arc::clone(&stats),
+            out: setup.output("gps"),
+        };
+        Ok(GpsActor {
+            reader: Some(reader),
+            task: None,
+            stats,
+            device: device.to_owned(),
+            window: None,
+            health_out: setup.output("health"),
+        })
+    }
+}
+
+impl Actor for GpsActor {
+    type Params = GpsActorParams;
+    type Input = GpsInput;
+
+    fn build(params: &GpsActorParams, setup: &mut impl Setup<GpsInput>) -> Result<GpsActor, ActorError> {
+        let first_baud = if params.configure { params.initial_baud } else { params.baud };
+        let port = serial::open(
+            &params.device,
+            LineSettings::n81(first_baud),
+            &format!("GPS receiver at {first_baud} baud"),
+        )
+        .map_err(|e| ActorError::Failed(e.to_string()))?;
+        GpsActor::with_port(Box::new(port), &params.device.display().to_string(), params, setup)
+    }
+
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        let reader =
+            self.reader.take().ok_or_else(|| ActorError::Failed("GPS reader already started".into()))?;
+        self.window = Some(HealthWindow::new(ctx.name(), &self.device, ctx.now()));
+        self.task = Some(tokio::spawn(reader.run(Arc::clone(ctx.clock()), ctx.shutdown().clone())));
+        Ok(())
+    }
+
+    async fn handle(&mut self, _ctx: &Context, input: GpsInput) -> Result<(), ActorError> {
+        let GpsInput::Health(now) = input;
+        if let Some(task) = self.task.take_if(|t| t.is_finished()) {
+            let reason = match task.await {
+                Ok(Ok(())) => "the GPS reader stopped".to_owned(),
+                Ok(Err(e)) => e,
+                Err(e) => format!("the GPS reader failed: {e}"),
+            };
+            return Err(ActorError::Failed(reason));
+        }
+        let stats = *self.stats.lock().unwrap_or_else(|e| e.into_inner());
+        let totals = Counters { published: stats.fixes, errors: stats.errors(), clipped: 0 };
+        if let Some(window) = &mut self.window {
+            self.health_out.publish(window.report(now, totals));
+        }
+        Ok(())
+    }
+
+    async fn stop(&mut self, _ctx: &Context) {
+        if let Some(task) = self.task.take() {
+            task.abort();
+        }
+    }
+}

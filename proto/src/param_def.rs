@@ -1,0 +1,199 @@
+//! Live parameters declared once, in the code of the actor that owns them.
+//!
+//! An owner lists its tunables as [`ParamDef`]s over its own parameter struct: the MAVLink name,
+//! range, unit and description next to the field they change. From that one list it builds the
+//! [`ParamDecl`] it publishes to the link ([`declare`]) and applies each `ParamSet` it receives
+//! ([`apply`]): the range is checked again (the link checked it too, but a bench may publish
+//! `ParamSet` without a link), then the owner's own validation of the whole struct, and the old
+//! value is kept when either refuses.
+
+use crate::messages::{ParamDecl, ParamInfo};
+use crate::time::Time;
+
+/// The longest MAVLink `param_id`.
+pub const PARAM_NAME_MAX: usize = 16;
+
+/// One live parameter of a `P`: where it lives and what values it accepts.
+pub struct ParamDef<P> {
+    /// MAVLink name, at most [`PARAM_NAME_MAX`] ASCII characters.
+    pub name: &'static str,
+    /// SI unit of the field (and so of `min`/`max`).
+    pub unit: &'static str,
+    pub min: f64,
+    pub max: f64,
+    pub description: &'static str,
+    /// Reads the value from `P`.
+    pub get: fn(&P) -> f64,
+    /// Writes the value into `P` (one parameter may set several fields, e.g. north and east).
+    pub set: fn(&mut P, f64),
+}
+
+/// What a `ParamSet` did to an owner.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParamChange {
+    /// The field now holds the value.
+    Applied,
+    /// Not one of this owner's parameters (another actor may own it).
+    NotMine,
+}
+
+/// Why an owner kept the old value.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ParamRefused {
+    #[error("parameter {name}: {value} is outside {min}..={max} {unit}")]
+    OutOfRange { name: String, value: f64, min: f64, max: f64, unit: &'static str },
+    #[error("parameter {name}: {reason}")]
+    Invalid { name: String, reason: String },
+}
+
+/// Why a declaration cannot be served over MAVLink.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DeclError {
+    #[error("parameter '{0}': a name must be 1 to 16 ASCII characters")]
+    Name(String),
+    #[error("parameter '{0}' is declared twice")]
+    Duplicate(String),
+    #[error("parameter '{name}': value {value} is outside {min}..={max} or not finite")]
+    OutOfRange { name: String, value: f64, min: f64, max: f64 },
+}
+
+/// The declaration of `defs` with the values `params` holds now; `start` for the one an owner
+/// publishes when it starts (see [`ParamDecl::start`]).
+pub fn declare<P>(defs: &[ParamDef<P>], params: &P, owner: &str, start: bool, time: Time) -> ParamDecl {
+    let values = defs
+        .iter()
+        .map(|d| ParamInfo {
+            name: d.name.to_owned(),
+            value: (d.get)(params),
+            min: d.min,
+            max: d.max,
+            unit: d.unit.to_owned(),
+            description: d.description.to_owned(),
+        })
+        .collect();
+    ParamDecl { time, owner: owner.to_owned(), start, params: values }
+}
+
+/// Sets `name` to `value` in `params` if `defs` holds it, the value is in range and the changed
+/// struct passes `validate`; otherwise `params` is untouched.
+pub fn apply<P: Clone, E: std::fmt::Display>(
+    defs: &[ParamDef<P>],
+    params: &mut P,
+    name: &str,
+    value: f64,
+    validate: impl Fn(&P) -> Result<(), E>,
+) -> Result<ParamChange, ParamRefused> {
+    let Some(def) = defs.iter().find(|d| d.name == name) else {
+        return Ok(ParamChange::NotMine);
+    };
+    if !(value.is_finite() && value >= def.min && value <= def.max) {
+        return Err(ParamRefused::OutOfRange {
+            name: name.to_owned(),
+            value,
+            min: def.min,
+            max: def.max,
+            unit: def.unit,
+        });
+    }
+    let mut changed = params.clone();
+    (def.set)(&mut changed, value);
+    validate(&changed).map_err(|e| ParamRefused::Invalid { name: name.to_owned(), reason: e.to_string() })?;
+    *params = changed;
+    Ok(ParamChange::Applied)
+}
+
+impl ParamDecl {
+    /// Checks what the link relies on: names MAVLink can carry, no name twice, values in range.
+    pub fn check(&self) -> Result<(), DeclError> {
+        for (i, p) in self.params.iter().enumerate() {
+            if p.name.is_empty() || p.name.len() > PARAM_NAME_MAX || !p.name.is_ascii() {
+                return Err(DeclError::Name(p.name.clone()));
+            }
+            if self.params[..i].iter().any(|o| o.name == p.name) {
+                return Err(DeclError::Duplicate(p.name.clone()));
+            }
+            if !(p.value.is_finite() && p.value >= p.min && p.value <= p.max) {
+                return Err(DeclError::OutOfRange {
+                    name: p.name.clone(),
+                    value: p.value,
+                    min: p.min,
+                    max: p.max,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Clone, Debug, PartialEq)]
+    struct Tuning {
+        low: f64,
+        high: f64,
+    }
+
+    const DEFS: [ParamDef<Tuning>; 2] = [
+        ParamDef {
+            name: "T_LOW",
+            unit: "m",
+            min: 0.0,
+            max: 10.0,
+            description: "lower",
+            get: |t| t.low,
+            set: |t, v| t.low = v,
+        },
+        ParamDef {
+            name: "T_HIGH",
+            unit: "m",
+            min: 0.0,
+            max: 10.0,
+            description: "upper",
+            get: |t| t.high,
+            set: |t, v| t.high = v,
+        },
+    ];
+
+    fn ordered(t: &Tuning) -> Result<(), String> {
+        if t.low < t.high { Ok(()) } else { Err(format!("low {} must stay below high {}", t.low, t.high)) }
+    }
+
+    #[test]
+    fn a_declaration_carries_the_current_values_and_passes_its_checks() {
+        let decl = declare(&DEFS, &Tuning { low: 1.0, high: 4.0 }, "owner", true, Time::ZERO);
+        assert_eq!(decl.owner, "owner");
+        let values: Vec<(&str, f64)> = decl.params.iter().map(|p| (p.name.as_str(), p.value)).collect();
+        assert_eq!(values, [("T_LOW", 1.0), ("T_HIGH", 4.0)]);
+        decl.check().expect("valid");
+    }
+
+    #[test]
+    fn apply_sets_in_range_values_and_keeps_the_old_one_on_any_refusal() {
+        let mut t = Tuning { low: 1.0, high: 4.0 };
+        assert_eq!(apply(&DEFS, &mut t, "T_LOW", 2.5, ordered), Ok(ParamChange::Applied));
+        assert_eq!(t.low, 2.5);
+        assert_eq!(apply(&DEFS, &mut t, "OTHER", 2.5, ordered), Ok(ParamChange::NotMine));
+        for (name, value) in [("T_LOW", 11.0), ("T_LOW", f64::NAN), ("T_LOW", -0.1)] {
+            assert!(matches!(
+                apply(&DEFS, &mut t, name, value, ordered),
+                Err(ParamRefused::OutOfRange { .. })
+            ));
+        }
+        assert!(matches!(apply(&DEFS, &mut t, "T_LOW", 5.0, ordered), Err(ParamRefused::Invalid { .. })));
+        assert_eq!(t, Tuning { low: 2.5, high: 4.0 });
+    }
+
+    #[test]
+    fn bad_declarations_are_named() {
+        let mut decl = declare(&DEFS, &Tuning { low: 1.0, high: 4.0 }, "owner", true, Time::ZERO);
+        decl.params[1].name = "T_LOW".into();
+        assert_eq!(decl.check(), Err(DeclError::Duplicate("T_LOW".into())));
+        decl.params[1].name = "A_NAME_LONGER_THAN_16".into();
+        assert_eq!(decl.check(), Err(DeclError::Name("A_NAME_LONGER_THAN_16".into())));
+        decl.params[1].name = "T_HIGH".into();
+        decl.params[1].value = 20.0;
+        assert!(matches!(decl.check(), Err(DeclError::OutOfRange { .. })));
+    }
+}
