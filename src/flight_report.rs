@@ -89,6 +89,11 @@ pub struct FlightSection {
     pub tracking_error_max_m: Option<f64>,
     /// RMS of the same distance over the ground-truth samples on a leg (m).
     pub tracking_error_rms_m: Option<f64>,
+    /// Horizontal length of the true path flown while airborne (m).
+    pub path_length_m: f64,
+    /// Horizontal straight-line distance from where the vehicle left the ground to where it
+    /// ended (m): with `path_length_m`, how far avoiding obstacles made it go round.
+    pub straight_line_m: f64,
 }
 
 /// Root-mean-square estimation errors against ground truth, over the samples where the
@@ -196,6 +201,10 @@ pub struct FlightReportActor {
     loop_stats: Option<ControlLoopStats>,
     failsafes: Vec<FailsafeEntry>,
     frame_latency: FrameLatency,
+    /// Horizontal true path while airborne (m) and its first and latest points (NED, m).
+    path_length_m: f64,
+    airborne_first: Option<[f64; 2]>,
+    airborne_last: Option<[f64; 2]>,
 }
 
 /// Ground truth kept for pairing: 1 s at the simulator's 50 Hz default.
@@ -215,6 +224,14 @@ impl FlightReportActor {
         }
         if let Some(c) = truth.clearance_m {
             self.min_clearance_m = Some(self.min_clearance_m.map_or(c, |m: f64| m.min(c)));
+        }
+        if !truth.landed {
+            let here = [truth.position_ned_m[0], truth.position_ned_m[1]];
+            if let Some(last) = self.airborne_last {
+                self.path_length_m += (here[0] - last[0]).hypot(here[1] - last[1]);
+            }
+            self.airborne_first.get_or_insert(here);
+            self.airborne_last = Some(here);
         }
         if self.truth.len() == TRUTH_WINDOW {
             self.truth.pop_front();
@@ -274,6 +291,11 @@ impl FlightReportActor {
             tracking_error_max_m: (self.tracking.samples > 0).then_some(self.tracking.max_m),
             tracking_error_rms_m: (self.tracking.samples > 0)
                 .then(|| (self.tracking.sum_sq / self.tracking.samples as f64).sqrt()),
+            path_length_m: self.path_length_m,
+            straight_line_m: match (self.airborne_first, self.airborne_last) {
+                (Some(a), Some(b)) => (b[0] - a[0]).hypot(b[1] - a[1]),
+                _ => 0.0,
+            },
         });
         let e = &self.errors;
         let rms = |sum: f64| (sum / e.samples as f64).sqrt();
@@ -335,6 +357,9 @@ impl Actor for FlightReportActor {
             loop_stats: None,
             failsafes: Vec::new(),
             frame_latency: FrameLatency::default(),
+            path_length_m: 0.0,
+            airborne_first: None,
+            airborne_last: None,
         })
     }
 

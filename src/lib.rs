@@ -8,6 +8,7 @@ pub mod flight_plots;
 pub mod flight_report;
 pub mod frame_latency;
 pub mod graph;
+pub mod log_replay;
 pub mod mailbox;
 pub mod recorder;
 pub mod registry;

@@ -38,6 +38,7 @@ impl Registry {
             .with::<kestrel_sensors::GpsActor>("ublox_gps")
             .with::<kestrel_sensors::SbusActor>("sbus_rc")
             .with::<kestrel_sensors::RcioActor>("navio2_rcio")
+            .with::<crate::log_replay::LogReplayActor>("log_replay")
     }
 
     /// Adds actor type `A` under `name`.

@@ -59,8 +59,20 @@ fn fly(name: &str, world: &Path, mission: &str, duration_s: u32) -> Value {
         .output()
         .unwrap();
     assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
-    let value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let value: Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
+    let (flight, avoidance) = (&value["flight"], &value["avoidance"]);
+    println!(
+        "figure: {name}: completed {}, collisions {}, min clearance {:.2} m, {:.1} s, path {:.1} m for {:.1} m straight, frame→setpoint p50 {:.1} ms p95 {:.1} ms (host wall clock)",
+        value["mission"]["completed"],
+        flight["collisions"],
+        flight["min_clearance_m"].as_f64().unwrap_or(f64::NAN),
+        flight["duration_s"].as_f64().unwrap_or(f64::NAN),
+        flight["path_length_m"].as_f64().unwrap_or(f64::NAN),
+        flight["straight_line_m"].as_f64().unwrap_or(f64::NAN),
+        avoidance["frame_to_setpoint_p50_ms"].as_f64().unwrap_or(f64::NAN),
+        avoidance["frame_to_setpoint_p95_ms"].as_f64().unwrap_or(f64::NAN),
+    );
     value
 }
 
@@ -104,4 +116,45 @@ fn thesis_test_2_a_textureless_wall_stops_the_vehicle_short_where_the_thesis_cra
     assert_eq!(collisions(&report), 0, "{report:#}");
     assert!(clearance_m(&report) > 1.0, "{report:#}");
     assert!(!completed(&report), "{report:#}");
+}
+
+#[test]
+#[ignore = "issue 8 is open on this: 7 of 10 seeds fly clean, the issue asks for 9; run with --ignored to measure"]
+fn a_forest_of_24_trees_on_a_100_m_leg_is_flown_through_without_collision_for_nine_of_ten_seeds() {
+    // Seeds 1–10 of config/worlds/forest.toml, two flights at a time (the machine has 2 cores).
+    let template = std::fs::read_to_string(world("forest.toml")).unwrap();
+    assert!(template.contains("\nseed = 1\n"), "the forest world sets its seed on one line");
+    let dir = scratch("forest-worlds");
+    let seeds: Vec<u64> = (1..=10).collect();
+    let outcomes: Vec<(u64, bool, u64, f64)> = seeds
+        .chunks(2)
+        .flat_map(|pair| {
+            std::thread::scope(|scope| {
+                let flights: Vec<_> = pair
+                    .iter()
+                    .map(|&seed| {
+                        let path = dir.join(format!("forest-{seed}.toml"));
+                        std::fs::write(
+                            &path,
+                            template.replace("\nseed = 1\n", &format!("\nseed = {seed}\n")),
+                        )
+                        .unwrap();
+                        scope.spawn(move || {
+                            let report =
+                                fly(&format!("forest-{seed}"), &path, "config/missions/leg-100m.plan", 150);
+                            (seed, completed(&report), collisions(&report), clearance_m(&report))
+                        })
+                    })
+                    .collect();
+                flights.into_iter().map(|f| f.join().expect("flight thread")).collect::<Vec<_>>()
+            })
+        })
+        .collect();
+    for (seed, done, hits, clearance) in &outcomes {
+        println!(
+            "figure: forest seed {seed}: completed {done}, collisions {hits}, min clearance {clearance:.2} m"
+        );
+    }
+    let good = outcomes.iter().filter(|(_, done, hits, _)| *done && *hits == 0).count();
+    assert!(good >= 9, "{good} of 10 seeds completed without a collision: {outcomes:?}");
 }

@@ -24,8 +24,9 @@ const HARDWARE: [(&str, &[&str]); 2] = [
 
 /// A topic each hardware-less graph must have published on within its short run (the link
 /// alone has no source in the graph: it must build and run).
-const PUBLISHES: [(&str, Option<&str>); 5] = [
+const PUBLISHES: [(&str, Option<&str>); 6] = [
     ("sim.toml", Some("nav_state")),
+    ("bench-estimator-replay.toml", Some("nav_state")),
     ("perception-sim.toml", Some("depth_grid")),
     ("sim-forest.toml", Some("depth_grid")),
     ("bench-stereo-files.toml", Some("avoidance_command")),
@@ -50,9 +51,11 @@ fn file_name(path: &Path) -> &str {
 #[test]
 fn every_config_builds_or_names_the_hardware_it_lacks() {
     let files = configs();
-    for (name, _) in
-        HARDWARE.iter().chain(&[("bench-link.toml", &[][..]), ("bench-stereo-files.toml", &[][..])])
-    {
+    for (name, _) in HARDWARE.iter().chain(&[
+        ("bench-link.toml", &[][..]),
+        ("bench-stereo-files.toml", &[][..]),
+        ("bench-estimator-replay.toml", &[][..]),
+    ]) {
         assert!(files.iter().any(|f| file_name(f) == *name), "config/{name} is missing");
     }
     for path in &files {

@@ -95,7 +95,9 @@ fn sigterm_stops_within_a_second_and_leaves_a_readable_log() {
     let log = LogReader::open(&path).unwrap();
     let imu = read::<ImuSample>(&log, "imu");
     let _ = std::fs::remove_file(&path);
-    assert!(imu.len() > 400, "about 1.5 s at 400 Hz was flushed, got {}", imu.len());
+    // The run lasted about 1.5 s of wall time; on a loaded machine the simulation may lag it,
+    // so only ask for a good part of it: the point is that what was recorded was flushed.
+    assert!(imu.len() > 200, "at least half a second at 400 Hz was flushed, got {}", imu.len());
 }
 
 #[test]

@@ -74,6 +74,8 @@ fn flight() -> Flight {
                 gyro_rad_s: f.array(),
                 accel_m_s2: [0.1 * i as f64, -0.0, -9.806_65],
                 dt_s: 0.0025,
+                gyro_clipped: [false; 3],
+                accel_clipped: [i == 400, false, false],
             },
         ));
         if i % 80 == 0 {

@@ -13,7 +13,7 @@ use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
-    AvoidanceCommand, BaroSample, GpsFix, GpsFixType, GroundTruth, MapObstacle, NavState, NavValidity,
+    AvoidanceCommand, BaroSample, GpsFix, GpsFixType, GroundTruth, NavState, NavValidity, Obstacle,
     ObstacleMap, Setpoint, SetpointTarget, TrajectorySetpoint,
 };
 
@@ -120,10 +120,10 @@ const FLIGHT_S: u64 = 20;
 const SPEED_M_S: f64 = 2.0;
 
 /// A tree 3 m east of the synthetic leg (at 20 m north) and a plain wall across its end.
-fn synthetic_obstacles() -> Vec<MapObstacle> {
+fn synthetic_obstacles() -> Vec<Obstacle> {
     vec![
-        MapObstacle::Cylinder { base_ne_m: [20.0, 3.0], radius_m: 1.0, height_m: 8.0 },
-        MapObstacle::Wall {
+        Obstacle::Cylinder { base_ne_m: [20.0, 3.0], radius_m: 1.0, height_m: 8.0 },
+        Obstacle::Wall {
             from_ne_m: [44.0, -8.0],
             to_ne_m: [44.0, 8.0],
             height_m: 4.0,

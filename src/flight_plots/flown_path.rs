@@ -3,7 +3,7 @@
 //! frame around its home, where the obstacles are given; times in seconds from the log's start.
 
 use kestrel_proto::geo::LocalFrame;
-use kestrel_proto::messages::{GroundTruth, MapObstacle, ObstacleMap, Setpoint, SetpointTarget};
+use kestrel_proto::messages::{GroundTruth, Obstacle, ObstacleMap, Setpoint, SetpointTarget};
 
 use super::PlotError;
 use super::footprint;
@@ -118,7 +118,7 @@ impl FlownPath {
 
     /// Stretches of the true path (start and end, m along the track) that pass within
     /// `corridor_m` horizontally of each obstacle: what the side view shows beside the path.
-    pub fn obstacles_beside(&self, along_m: &[f64], corridor_m: f64) -> Vec<(&MapObstacle, f64, f64)> {
+    pub fn obstacles_beside(&self, along_m: &[f64], corridor_m: f64) -> Vec<(&Obstacle, f64, f64)> {
         let mut stretches = Vec::new();
         for obstacle in &self.map.obstacles {
             let mut open: Option<f64> = None;

@@ -4,7 +4,7 @@
 
 use std::f64::consts::TAU;
 
-use kestrel_proto::messages::MapObstacle;
+use kestrel_proto::messages::Obstacle;
 
 /// Vertices of a cylinder's outline: fine enough that a 2 m tree on a 1280 px map looks round.
 const CIRCLE_VERTICES: usize = 48;
@@ -19,19 +19,19 @@ pub(crate) enum Kind {
     PlainWall,
 }
 
-pub(crate) fn kind(obstacle: &MapObstacle) -> Kind {
+pub(crate) fn kind(obstacle: &Obstacle) -> Kind {
     match obstacle {
-        MapObstacle::Cylinder { .. } => Kind::Tree,
-        MapObstacle::Box { .. } => Kind::Box,
-        MapObstacle::Wall { textured: true, .. } => Kind::TexturedWall,
-        MapObstacle::Wall { textured: false, .. } => Kind::PlainWall,
+        Obstacle::Cylinder { .. } => Kind::Tree,
+        Obstacle::Box { .. } => Kind::Box,
+        Obstacle::Wall { textured: true, .. } => Kind::TexturedWall,
+        Obstacle::Wall { textured: false, .. } => Kind::PlainWall,
     }
 }
 
 /// The obstacle's outline seen from above, as (north, east) vertices (m).
-pub(crate) fn outline_ne_m(obstacle: &MapObstacle) -> Vec<(f64, f64)> {
+pub(crate) fn outline_ne_m(obstacle: &Obstacle) -> Vec<(f64, f64)> {
     match *obstacle {
-        MapObstacle::Cylinder { base_ne_m: [n, e], radius_m, .. } => (0..CIRCLE_VERTICES)
+        Obstacle::Cylinder { base_ne_m: [n, e], radius_m, .. } => (0..CIRCLE_VERTICES)
             .map(|i| {
                 let (sin, cos) = (TAU * i as f64 / CIRCLE_VERTICES as f64).sin_cos();
                 (n + radius_m * cos, e + radius_m * sin)
@@ -52,8 +52,8 @@ pub(crate) fn outline_ne_m(obstacle: &MapObstacle) -> Vec<(f64, f64)> {
 
 /// Horizontal distance (m) from `ne_m` (north, east) to the obstacle's outline; negative
 /// inside it.
-pub(crate) fn horizontal_distance_m(obstacle: &MapObstacle, ne_m: (f64, f64)) -> f64 {
-    if let MapObstacle::Cylinder { base_ne_m: [n, e], radius_m, .. } = *obstacle {
+pub(crate) fn horizontal_distance_m(obstacle: &Obstacle, ne_m: (f64, f64)) -> f64 {
+    if let Obstacle::Cylinder { base_ne_m: [n, e], radius_m, .. } = *obstacle {
         return (ne_m.0 - n).hypot(ne_m.1 - e) - radius_m;
     }
     let r = rectangle(obstacle);
@@ -64,12 +64,12 @@ pub(crate) fn horizontal_distance_m(obstacle: &MapObstacle, ne_m: (f64, f64)) ->
 }
 
 /// Bottom and top of the obstacle (m above the ground).
-pub(crate) fn heights_m(obstacle: &MapObstacle) -> (f64, f64) {
+pub(crate) fn heights_m(obstacle: &Obstacle) -> (f64, f64) {
     match *obstacle {
-        MapObstacle::Box { center_ned_m, size_m, .. } => {
+        Obstacle::Box { center_ned_m, size_m, .. } => {
             (-center_ned_m[2] - size_m[2] / 2.0, -center_ned_m[2] + size_m[2] / 2.0)
         }
-        MapObstacle::Cylinder { height_m, .. } | MapObstacle::Wall { height_m, .. } => (0.0, height_m),
+        Obstacle::Cylinder { height_m, .. } | Obstacle::Wall { height_m, .. } => (0.0, height_m),
     }
 }
 
@@ -83,9 +83,9 @@ struct Rectangle {
     cos: f64,
 }
 
-fn rectangle(obstacle: &MapObstacle) -> Rectangle {
+fn rectangle(obstacle: &Obstacle) -> Rectangle {
     match *obstacle {
-        MapObstacle::Box { center_ned_m, size_m, yaw_deg } => {
+        Obstacle::Box { center_ned_m, size_m, yaw_deg } => {
             let (sin, cos) = yaw_deg.to_radians().sin_cos();
             Rectangle {
                 center_ne_m: (center_ned_m[0], center_ned_m[1]),
@@ -94,7 +94,7 @@ fn rectangle(obstacle: &MapObstacle) -> Rectangle {
                 cos,
             }
         }
-        MapObstacle::Wall { from_ne_m, to_ne_m, thickness_m, .. } => {
+        Obstacle::Wall { from_ne_m, to_ne_m, thickness_m, .. } => {
             let along = (to_ne_m[0] - from_ne_m[0], to_ne_m[1] - from_ne_m[1]);
             let length = along.0.hypot(along.1);
             let (sin, cos) = if length > 0.0 { (along.1 / length, along.0 / length) } else { (0.0, 1.0) };
@@ -105,7 +105,7 @@ fn rectangle(obstacle: &MapObstacle) -> Rectangle {
                 cos,
             }
         }
-        MapObstacle::Cylinder { base_ne_m: [n, e], radius_m, .. } => {
+        Obstacle::Cylinder { base_ne_m: [n, e], radius_m, .. } => {
             Rectangle { center_ne_m: (n, e), half_m: (radius_m, radius_m), sin: 0.0, cos: 1.0 }
         }
     }
@@ -117,18 +117,17 @@ mod tests {
 
     #[test]
     fn distances_and_outlines_follow_each_shape() {
-        let tree = MapObstacle::Cylinder { base_ne_m: [10.0, 5.0], radius_m: 1.0, height_m: 8.0 };
+        let tree = Obstacle::Cylinder { base_ne_m: [10.0, 5.0], radius_m: 1.0, height_m: 8.0 };
         assert!((horizontal_distance_m(&tree, (10.0, 0.0)) - 4.0).abs() < 1e-12);
         assert_eq!(heights_m(&tree), (0.0, 8.0));
-        let shed =
-            MapObstacle::Box { center_ned_m: [0.0, 0.0, -3.0], size_m: [4.0, 2.0, 2.0], yaw_deg: 90.0 };
+        let shed = Obstacle::Box { center_ned_m: [0.0, 0.0, -3.0], size_m: [4.0, 2.0, 2.0], yaw_deg: 90.0 };
         // Turned 90°: its 4 m side lies along east.
         assert!((horizontal_distance_m(&shed, (0.0, 3.0)) - 1.0).abs() < 1e-9);
         assert!((horizontal_distance_m(&shed, (2.0, 0.0)) - 1.0).abs() < 1e-9);
         assert_eq!(heights_m(&shed), (2.0, 4.0));
         let corners = outline_ne_m(&shed);
         assert!(corners.iter().all(|(n, e)| (n.abs() - 1.0).abs() < 1e-9 && (e.abs() - 2.0).abs() < 1e-9));
-        let wall = MapObstacle::Wall {
+        let wall = Obstacle::Wall {
             from_ne_m: [20.0, -10.0],
             to_ne_m: [20.0, 10.0],
             height_m: 5.0,

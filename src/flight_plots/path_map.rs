@@ -266,7 +266,7 @@ fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>) -> Result<(), AreaError> {
 mod tests {
     use kestrel_proto::Time;
     use kestrel_proto::geo::Geodetic;
-    use kestrel_proto::messages::{MapObstacle, ObstacleMap};
+    use kestrel_proto::messages::{Obstacle, ObstacleMap};
 
     use super::*;
     use crate::flight_plots::font;
@@ -279,8 +279,8 @@ mod tests {
                 time: Time::ZERO,
                 home: Geodetic { lat_deg: 6.7971, lon_deg: 79.9017, alt_m: 20.0 },
                 obstacles: vec![
-                    MapObstacle::Cylinder { base_ne_m: [20.0, 5.0], radius_m: 2.0, height_m: 8.0 },
-                    MapObstacle::Wall {
+                    Obstacle::Cylinder { base_ne_m: [20.0, 5.0], radius_m: 2.0, height_m: 8.0 },
+                    Obstacle::Wall {
                         from_ne_m: [45.0, -8.0],
                         to_ne_m: [45.0, 8.0],
                         height_m: 4.0,

@@ -115,8 +115,9 @@ def session(mp, results):
     mode = mp.expect(r"^Mode (\w+)", 5.0, "mode shown").group(1)
     results["vehicle"] = {"system": 1, "mode": mode}
 
-    # MAVProxy fetches every parameter by itself once it sees the vehicle (after trying MAVFTP,
-    # which the vehicle does not offer).
+    # MAVProxy fetches every parameter by itself once it sees the vehicle: it asks for the
+    # parameter file over MAVFTP first, the vehicle answers FileNotFound at once, and MAVProxy
+    # falls back to PARAM_REQUEST_LIST (unanswered, it waited ~12 s).
     count = int(mp.expect(r"^Received (\d+) parameters", 20.0, "parameter download").group(1))
     mp.type("param show RTL_ALT_M")
     before = float(mp.expect(r"^RTL_ALT_M\s+(\S+)", 5.0, "param show").group(1))

@@ -133,8 +133,8 @@ fn a_blocked_centre_alone_stops_forward_progress_and_sidesteps_to_the_freer_side
     assert!(command.health.centre_blocked && !command.health.climbing);
     assert_eq!(command.velocity_frd_m_s[0], -5.0);
     // A full tie between the sides: right, by convention, at the sidestep speed.
-    assert_eq!(command.health.sidestep_m_s, 1.5);
-    assert!((command.velocity_frd_m_s[1] - 1.5).abs() < 1e-9 && command.velocity_frd_m_s[2].abs() < 5e-3);
+    assert_eq!(command.health.sidestep_m_s, 1.0);
+    assert!((command.velocity_frd_m_s[1] - 1.0).abs() < 1e-9 && command.velocity_frd_m_s[2].abs() < 5e-3);
 
     // A few near pixels on the right: left (the rule base already leans that way).
     let mut near = blocked(&[(1, 1)]);
@@ -147,7 +147,7 @@ fn a_blocked_centre_alone_stops_forward_progress_and_sidesteps_to_the_freer_side
     let mut tie = clear_grid(0.0, blocked(&[(1, 1)]));
     tie.regions[1][0].nearest_m = Some(6.0);
     let right = unfiltered(5.0).update(at(0.0), &tie).expect("valid");
-    assert!((right.velocity_frd_m_s[1] - 1.5).abs() < 1e-9, "{:?}", right.velocity_frd_m_s);
+    assert!((right.velocity_frd_m_s[1] - 1.0).abs() < 1e-9, "{:?}", right.velocity_frd_m_s);
 
     // Once under way the side is kept while the path stays blocked, even if the other side now
     // looks a little freer (the obstacle slides across the view); it ends when the path clears.
@@ -156,7 +156,7 @@ fn a_blocked_centre_alone_stops_forward_progress_and_sidesteps_to_the_freer_side
     let mut right_nearer = clear_grid(0.1, blocked(&[(1, 1)]));
     right_nearer.regions[1][2].nearest_m = Some(6.0);
     let kept = avoider.update(at(0.1), &right_nearer).expect("valid");
-    assert!((kept.velocity_frd_m_s[1] - 1.5).abs() < 1e-9, "kept right: {:?}", kept.velocity_frd_m_s);
+    assert!((kept.velocity_frd_m_s[1] - 1.0).abs() < 1e-9, "kept right: {:?}", kept.velocity_frd_m_s);
     let clear = avoider.update(at(0.2), &clear_grid(0.2, [[0.0; 3]; 3])).expect("valid");
     assert_eq!(clear.health.sidestep_m_s, 0.0);
     assert!(clear.velocity_frd_m_s[1].abs() < 5e-3);
@@ -172,7 +172,7 @@ fn a_thin_trunk_within_the_sidestep_distance_blocks_the_path() {
     let command = unfiltered(3.0).update(at(0.0), &trunk).expect("valid");
     assert!(command.health.centre_blocked, "{:?}", command.health);
     assert_eq!(command.velocity_frd_m_s[0], -3.0);
-    assert_eq!(command.health.sidestep_m_s, 1.5);
+    assert_eq!(command.health.sidestep_m_s, 1.0);
 }
 
 #[test]
@@ -183,7 +183,7 @@ fn a_whole_blocked_centre_column_sidesteps_instead_of_climbing_or_diving() {
         unfiltered(3.0).update(at(0.0), &clear_grid(0.0, blocked(&[(0, 1), (1, 1), (2, 1)]))).expect("valid");
     assert!(!command.health.climbing);
     assert_eq!(command.velocity_frd_m_s[2], 0.0, "{:?}", command.velocity_frd_m_s);
-    assert!((command.velocity_frd_m_s[1].abs() - 1.5).abs() < 1e-9, "{:?}", command.velocity_frd_m_s);
+    assert!((command.velocity_frd_m_s[1].abs() - 1.0).abs() < 1e-9, "{:?}", command.velocity_frd_m_s);
 }
 
 #[test]

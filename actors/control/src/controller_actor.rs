@@ -198,7 +198,7 @@ impl Actor for ControllerActor {
                 setup.timer("tick", Duration::from_micros(period_us), ControllerInput::Tick);
                 Loop::Lockstep {
                     ctl: Box::new(ctl),
-                    stats: LoopStats::new(period_us),
+                    stats: LoopStats::lockstep(period_us),
                     outputs,
                     iterations: 0,
                     last_nav: None,

@@ -66,6 +66,11 @@ pub struct Ekf {
     newest_imu: Option<Time>,
     newest_gyro_rad_s: Vector3<f64>,
     imu_rejected: u64,
+    /// Accepted IMU samples with a clipped axis, for the health report.
+    imu_clipped: u64,
+    /// Whether the previous accepted IMU sample was clipped: one warning per clipping episode,
+    /// not one per sample at 400 Hz.
+    imu_clipping: bool,
     arrivals: DroppedSamples<Arrivals>,
 }
 
@@ -100,6 +105,8 @@ impl Ekf {
             newest_imu: None,
             newest_gyro_rad_s: Vector3::zeros(),
             imu_rejected: 0,
+            imu_clipped: 0,
+            imu_clipping: false,
             arrivals: DroppedSamples::default(),
             params,
         })
@@ -163,6 +170,7 @@ impl Ekf {
             self.imu_rejected += 1;
             return Err(e);
         }
+        self.count_clipping(sample);
         self.newest_imu = Some(sample.time);
         self.newest_gyro_rad_s = Vector3::from(sample.gyro_rad_s);
         let delta = ImuDelta::from_rates(sample.time, sample.gyro_rad_s, sample.accel_m_s2, sample.dt_s);
@@ -265,6 +273,25 @@ impl Ekf {
             Some(newest) if !self.params.lag_compensation => newest,
             _ => measured,
         }
+    }
+
+    /// Counts a clipped sample, warning when clipping starts. The sample is still used: a
+    /// saturated reading is the best there is, and dropping it would lose the interval.
+    fn count_clipping(&mut self, sample: &ImuSample) {
+        let clipped = sample.is_clipped();
+        if clipped {
+            self.imu_clipped += 1;
+            if !self.imu_clipping {
+                tracing::warn!(
+                    time = %sample.time,
+                    gyro_axes = ?sample.gyro_clipped,
+                    accel_axes = ?sample.accel_clipped,
+                    total = self.imu_clipped,
+                    "IMU clipping: readings at full scale, the prediction understates the motion"
+                );
+            }
+        }
+        self.imu_clipping = clipped;
     }
 
     fn check_imu(&self, s: &ImuSample) -> Result<(), InputError> {
@@ -378,6 +405,7 @@ impl Ekf {
                     .as_ref()
                     .map_or(0, |r| r.filter.numerical_faults + r.filter.covariance_resets),
                 imu_rejected: self.imu_rejected,
+                imu_clipped: self.imu_clipped,
             },
             fusion_horizon_s: self.newest_imu.map_or(0.0, |n| (n - t).as_secs_f64()),
         }

@@ -145,6 +145,8 @@ mod tests {
                 gyro_rad_s: [0.0; 3],
                 accel_m_s2: specific_force.into(),
                 dt_s: 0.0025,
+                gyro_clipped: [false; 3],
+                accel_clipped: [false; 3],
             };
             if let Some(aligned) = a.push_imu(&s, params) {
                 return aligned;
@@ -164,7 +166,14 @@ mod tests {
         let mut aligned = None;
         for i in 0..1000u64 {
             let time = Time::from_micros(2500 * i);
-            let s = ImuSample { time, gyro_rad_s: [0.0; 3], accel_m_s2: [0.0, 0.0, -9.80665], dt_s: 0.0025 };
+            let s = ImuSample {
+                time,
+                gyro_rad_s: [0.0; 3],
+                accel_m_s2: [0.0, 0.0, -9.80665],
+                dt_s: 0.0025,
+                gyro_clipped: [false; 3],
+                accel_clipped: [false; 3],
+            };
             if i % 4 == 1 {
                 let sign = if i % 8 == 1 { 1.0 } else { -1.0 };
                 let noisy = field + Vector3::new(0.0, 0.05 * sign, 0.0);

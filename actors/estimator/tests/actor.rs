@@ -71,6 +71,8 @@ fn a_bad_sample_is_counted_not_fatal() {
         gyro_rad_s: [f64::NAN; 3],
         accel_m_s2: [0.0; 3],
         dt_s: 0.0025,
+        gyro_clipped: [false; 3],
+        accel_clipped: [false; 3],
     };
     ready(actor.handle(&ctx, EstimatorInput::Imu(bad))).expect("a bad sample does not stop the actor");
 }

@@ -43,8 +43,14 @@ impl Bench {
         while self.t_us < end {
             self.t_us += 2500;
             let time = Time::from_micros(self.t_us);
-            let imu =
-                ImuSample { time, gyro_rad_s: [0.0; 3], accel_m_s2: [0.0, 0.0, -9.80665], dt_s: 0.0025 };
+            let imu = ImuSample {
+                time,
+                gyro_rad_s: [0.0; 3],
+                accel_m_s2: [0.0, 0.0, -9.80665],
+                dt_s: 0.0025,
+                gyro_clipped: [false; 3],
+                accel_clipped: [false; 3],
+            };
             self.ekf.push_imu(&imu).unwrap();
             if self.t_us.is_multiple_of(200_000) {
                 let fix = self.gps([0.0; 3]);
@@ -123,12 +129,43 @@ fn bad_samples_are_refused_with_a_typed_error() {
         gyro_rad_s: [f64::NAN, 0.0, 0.0],
         accel_m_s2: [0.0; 3],
         dt_s: 0.0025,
+        gyro_clipped: [false; 3],
+        accel_clipped: [false; 3],
     };
     assert!(ekf.push_imu(&imu).unwrap_err().to_string().contains("imu"));
-    let imu = ImuSample { gyro_rad_s: [0.0; 3], dt_s: -1.0, ..imu };
+    let imu = ImuSample { gyro_rad_s: [0.0; 3], dt_s: -1.0, accel_clipped: [true; 3], ..imu };
     assert!(ekf.push_imu(&imu).is_err());
     assert_eq!(ekf.status().health.imu_rejected, 2);
+    assert_eq!(ekf.status().health.imu_clipped, 0, "a rejected sample is not counted as clipped");
+
     assert!(Ekf::new(EkfParams { gps_gate_sigma: 0.0, ..EkfParams::default() }).is_err());
+}
+
+/// A clipped sample is used (time moves on) and counted once per sample, whatever its axes.
+#[test]
+fn clipped_imu_samples_are_used_and_counted() {
+    let mut bench = settled(EkfParams::default());
+    let before = bench.ekf.status().time;
+    for (k, (gyro_clipped, accel_clipped)) in
+        [([false; 3], [false, false, true]), ([true, false, false], [false; 3]), ([false; 3], [false; 3])]
+            .into_iter()
+            .enumerate()
+    {
+        bench.t_us += 2500;
+        let imu = ImuSample {
+            time: Time::from_micros(bench.t_us),
+            gyro_rad_s: [0.0; 3],
+            accel_m_s2: [0.0, 0.0, -9.80665],
+            dt_s: 0.0025,
+            gyro_clipped,
+            accel_clipped,
+        };
+        bench.ekf.push_imu(&imu).unwrap_or_else(|e| panic!("sample {k}: {e}"));
+    }
+    let status = bench.ekf.status();
+    assert_eq!(status.health.imu_clipped, 2, "{status:?}");
+    assert_eq!(status.health.imu_rejected, 0);
+    assert!(status.time > before);
 }
 
 /// For each sensor: a sample older than the delayed fusion horizon, one whose stamp goes back

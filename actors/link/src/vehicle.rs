@@ -19,6 +19,7 @@ use mavlink::{Message, MessageData};
 
 use crate::services::command::{CommandRequest, CommandService, ack};
 use crate::services::events::{status_changes, statustext};
+use crate::services::ftp;
 use crate::services::heartbeat::{GcsEvent, GcsWatch, vehicle_heartbeat};
 use crate::services::mission::MissionService;
 use crate::services::offboard::{
@@ -35,7 +36,8 @@ pub const COMPONENT_ID: u8 = 1;
 /// of datagrams overflows a ground station's socket buffer, 25 per 20 ms (1250/s) does not.
 pub const PARAMS_PER_TICK: usize = 25;
 
-/// What we claim in AUTOPILOT_VERSION: only what this crate implements.
+/// What we claim in AUTOPILOT_VERSION: only what this crate implements (not FTP: requests are
+/// only refused, see `services::ftp`).
 pub fn capabilities() -> MavProtocolCapability {
     MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT
@@ -190,6 +192,9 @@ impl Vehicle {
             MavMessage::MISSION_ACK(_) => {
                 self.missions.on_ack(from);
                 Outputs::none()
+            }
+            MavMessage::FILE_TRANSFER_PROTOCOL(m) => {
+                Outputs { mav: ftp::answer(from, m).into_iter().collect(), graph: Vec::new() }
             }
             MavMessage::MANUAL_CONTROL(m) => Outputs {
                 mav: Vec::new(),
@@ -601,6 +606,30 @@ mod tests {
         let out = v.on_status(homed.clone());
         assert!(out.mav.iter().any(|m| matches!(m, MavMessage::HOME_POSITION(h) if h.x == 5.0)));
         assert!(!v.on_status(homed).mav.iter().any(|m| matches!(m, MavMessage::HOME_POSITION(_))));
+    }
+
+    #[test]
+    fn ftp_requests_are_refused_at_once_and_not_claimed() {
+        use mavlink::dialects::ardupilotmega::FILE_TRANSFER_PROTOCOL_DATA;
+        let mut v = vehicle(0);
+        let mut payload = [0u8; 251];
+        payload[0] = 5; // sequence number 5
+        payload[2] = 9; // session 9
+        payload[3] = 4; // OpenFileRO
+        let request =
+            FILE_TRANSFER_PROTOCOL_DATA { target_network: 0, target_system: 7, target_component: 1, payload };
+        let out = v.on_message(GCS, &MavMessage::FILE_TRANSFER_PROTOCOL(request), Time::ZERO);
+        let [MavMessage::FILE_TRANSFER_PROTOCOL(nak)] = &out.mav[..] else {
+            panic!("no FTP answer: {out:?}")
+        };
+        // NAK (129) to OpenFileRO (4), FileNotFound (10), sequence 6, session 9, to the sender.
+        assert_eq!((nak.payload[3], nak.payload[5], nak.payload[12]), (129, 4, 10));
+        assert_eq!(
+            (nak.payload[0], nak.payload[2], nak.target_system, nak.target_component),
+            (6, 9, 255, 190)
+        );
+        assert_eq!(v.unhandled, 0);
+        assert!(!capabilities().contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
     }
 
     #[test]

@@ -475,3 +475,87 @@ async fn a_full_udp_server_refuses_newcomers_while_its_peers_are_live() {
     assert_eq!(stats.evicted, 0, "a live peer is never pushed out: {stats:?}");
     assert!(gcs.recv_until(WAIT, |h, _| (h.system_id == 1).then_some(())).await.is_some());
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn ftp_requests_are_refused_at_once_so_ground_stations_fall_back() {
+    let mut gcs = Peer::bind(255).await;
+    let _link = Harness::start(&[udp_out(gcs.addr())], 0, std::path::Path::new(".")).await;
+    let vehicle = vehicle_address(&gcs).await;
+    // MAVProxy's first request for the parameter file: OpenFileRO (4), sequence 0, session 181.
+    let path = b"@PARAM/param.pck?withdefaults=1";
+    let mut payload = [0u8; 251];
+    payload[2] = 181;
+    payload[3] = 4;
+    payload[4] = path.len() as u8;
+    payload[12..12 + path.len()].copy_from_slice(path);
+    let request =
+        FILE_TRANSFER_PROTOCOL_DATA { target_network: 0, target_system: 1, target_component: 1, payload };
+    let started = Instant::now();
+    gcs.send(vehicle, &MavMessage::FILE_TRANSFER_PROTOCOL(request)).await;
+    let (nak, _) = gcs
+        .recv_until(WAIT, |_, m| match m {
+            MavMessage::FILE_TRANSFER_PROTOCOL(f) => Some(f.clone()),
+            _ => None,
+        })
+        .await
+        .expect("an FTP answer");
+    assert!(started.elapsed() < Duration::from_millis(500), "answered after {:?}", started.elapsed());
+    // NAK (129) of OpenFileRO, size 1, FileNotFound (10), sequence 1, the session echoed.
+    let p = nak.payload;
+    assert_eq!((p[0], p[1], p[2], p[3], p[4], p[5], p[12]), (1, 0, 181, 129, 1, 4, 10));
+    assert_eq!((nak.target_system, nak.target_component), (255, 190), "to the requester");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_dropped_mission_item_is_requested_again_and_a_10000_item_mission_refused() {
+    let mut gcs = Peer::bind(255).await;
+    let _link = Harness::start(&[udp_out(gcs.addr())], 0, std::path::Path::new(".")).await;
+    let vehicle = vehicle_address(&gcs).await;
+    let count = |count| {
+        MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count,
+            target_system: 1,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        })
+    };
+    let next = |_: &mavlink::MavHeader, m: &MavMessage| match m {
+        MavMessage::MISSION_REQUEST_INT(r) => Some(Ok(r.seq)),
+        MavMessage::MISSION_ACK(a) => Some(Err(a.mavtype)),
+        _ => None,
+    };
+    gcs.send(vehicle, &count(10_000)).await;
+    let (refused, _) = gcs.recv_until(WAIT, next).await.expect("an answer to 10 000 items");
+    assert_eq!(refused, Err(MavMissionResult::MAV_MISSION_NO_SPACE));
+
+    let item = |seq: u16| {
+        MavMessage::MISSION_ITEM_INT(MISSION_ITEM_INT_DATA {
+            seq,
+            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+            frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            x: 67_971_000 + i32::from(seq) * 100,
+            y: 799_017_000,
+            z: 10.0,
+            target_system: 1,
+            target_component: 1,
+            autocontinue: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+            ..Default::default()
+        })
+    };
+    gcs.send(vehicle, &count(3)).await;
+    assert_eq!(gcs.recv_until(WAIT, next).await.map(|r| r.0), Some(Ok(0)));
+    gcs.send(vehicle, &item(0)).await;
+    assert_eq!(gcs.recv_until(WAIT, next).await.map(|r| r.0), Some(Ok(1)));
+    // Item 1 is "lost": the vehicle asks for it again after its timeout, not before.
+    let dropped = Instant::now();
+    assert_eq!(gcs.recv_until(WAIT, next).await.map(|r| r.0), Some(Ok(1)));
+    let waited = dropped.elapsed();
+    assert!(waited >= Duration::from_millis(1300), "re-requested after only {waited:?}");
+    for seq in 1..3 {
+        gcs.send(vehicle, &item(seq)).await;
+        let want = if seq == 2 { Err(MavMissionResult::MAV_MISSION_ACCEPTED) } else { Ok(seq + 1) };
+        assert_eq!(gcs.recv_until(WAIT, next).await.map(|r| r.0), Some(want));
+    }
+}

@@ -3,8 +3,8 @@
 //! measurement published on `mag` (100 Hz). A `health` timer checks the reader thread: if it
 //! stopped on an error, the actor fails with that error and the supervisor restarts it;
 //! otherwise it publishes the output rate, failed reads and clipped samples on `health`.
-//! `ImuSample` carries no clipping flag of its own: a clipped average is counted in the health
-//! report and logged.
+//! A clipped average carries its per-axis flags in the `ImuSample` itself (for the estimator)
+//! and is also counted in the health report and logged.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -155,7 +155,7 @@ impl Reader {
                         self.mag_out.publish(MagSample { time, field_gauss });
                     }
                     if let Some(out) = self.decimator.push(&reading) {
-                        if out.gyro_clipped.iter().chain(&out.accel_clipped).any(|&c| c) {
+                        if out.sample.is_clipped() {
                             self.stats.clipped.fetch_add(1, Ordering::Relaxed);
                         }
                         self.stats.published.fetch_add(1, Ordering::Relaxed);
@@ -282,6 +282,7 @@ mod tests {
         let imu: Vec<ImuSample> = setup.published("imu");
         assert!(!imu.is_empty());
         assert!((imu[0].accel_m_s2[2] + STANDARD_GRAVITY_M_S2).abs() < 1e-9, "{:?}", imu[0]);
+        assert!(imu.iter().all(|s| !s.is_clipped()), "{:?}", imu[0]);
         assert!(setup.count("mag") > 0);
         let health: Vec<SensorHealth> = setup.published("health");
         assert_eq!(health.len(), 1);
@@ -302,6 +303,12 @@ mod tests {
         // Every average saw a clipped axis (the reader may publish more after the report).
         assert!(health[0].clipped >= 1, "{:?}", health[0]);
         assert!(health[0].clipped <= setup.count("imu") as u64, "{:?}", health[0]);
+        // And each sample says so itself, on one gyro and one accelerometer axis.
+        let imu: Vec<ImuSample> = setup.published("imu");
+        for sample in &imu {
+            let count = |axes: [bool; 3]| axes.iter().filter(|&&c| c).count();
+            assert_eq!((count(sample.gyro_clipped), count(sample.accel_clipped)), (1, 1), "{sample:?}");
+        }
     }
 
     #[test]

@@ -5,13 +5,11 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, MapObstacle,
-    ObstacleMap,
+    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
-use crate::obstacles::Obstacle;
 use crate::rigid_body::RigidBodyState;
 use crate::sensors::schedule::period_us;
 use crate::simulator::{InitialState, SimOptions, SimOutput, Simulator};
@@ -155,26 +153,13 @@ impl Actor for SimActor {
 /// The world's obstacles as loaded (generated ones included) in the log's message form, stamped
 /// `time`.
 fn obstacle_map(world: &World, time: Time) -> ObstacleMap {
-    let obstacles = world
-        .obstacles
-        .iter()
-        .map(|obstacle| match *obstacle {
-            Obstacle::Box { center_ned_m, size_m, yaw_deg } => {
-                MapObstacle::Box { center_ned_m, size_m, yaw_deg }
-            }
-            Obstacle::Cylinder { base_ne_m, radius_m, height_m } => {
-                MapObstacle::Cylinder { base_ne_m, radius_m, height_m }
-            }
-            Obstacle::Wall { from_ne_m, to_ne_m, height_m, thickness_m, textured } => {
-                MapObstacle::Wall { from_ne_m, to_ne_m, height_m, thickness_m, textured }
-            }
-        })
-        .collect();
-    ObstacleMap { time, home: world.home.geodetic(), obstacles }
+    ObstacleMap { time, home: world.home.geodetic(), obstacles: world.obstacles.clone() }
 }
 
 #[cfg(test)]
 mod tests {
+    use kestrel_proto::messages::Obstacle;
+
     use super::*;
 
     #[test]
@@ -198,8 +183,8 @@ mod tests {
         assert_eq!(
             map.obstacles,
             [
-                MapObstacle::Cylinder { base_ne_m: [15.0, -3.0], radius_m: 0.6, height_m: 8.0 },
-                MapObstacle::Wall {
+                Obstacle::Cylinder { base_ne_m: [15.0, -3.0], radius_m: 0.6, height_m: 8.0 },
+                Obstacle::Wall {
                     from_ne_m: [50.0, -10.0],
                     to_ne_m: [50.0, 10.0],
                     height_m: 6.0,

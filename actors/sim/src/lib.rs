@@ -41,7 +41,7 @@ pub use error::{ConfigError, InvalidParam};
 pub use frame_layout::{FrameLayout, MotorGeometry, Spin};
 pub use ground::ContactParams;
 pub use motors::MotorParams;
-pub use obstacles::Obstacle;
+pub use obstacles::{Obstacle, ObstacleGeometry};
 pub use rigid_body::{RigidBody, RigidBodyState, Wrench};
 pub use simulator::{InitialState, SimOptions, SimOutput, Simulator};
 pub use vehicle::{GRAVITY_M_S2, VehicleParams, hover_throttle};

@@ -5,52 +5,22 @@
 //! (distance below the vehicle's collision radius) and the clearance the flight report scores.
 
 use nalgebra::{Vector2, Vector3};
-use serde::{Deserialize, Serialize};
 
 use crate::error::{InvalidParam, finite, positive};
 
-/// One obstacle, as a world file lists it under `[[obstacles]]` with a `kind`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum Obstacle {
-    /// A box, turned `yaw_deg` about the down axis.
-    Box {
-        /// Centre, north/east/down from home (m); down is negative above ground.
-        center_ned_m: [f64; 3],
-        /// Full extents along its own north, east, down axes before the yaw (m).
-        size_m: [f64; 3],
-        /// Rotation about down, clockwise seen from above (degrees).
-        #[serde(default)]
-        yaw_deg: f64,
-    },
-    /// A vertical cylinder standing on the ground, e.g. a tree trunk and crown as one.
-    Cylinder {
-        /// Centre of the base, north/east from home (m).
-        base_ne_m: [f64; 2],
-        radius_m: f64,
-        height_m: f64,
-    },
-    /// A thin vertical slab standing on the ground between two points.
-    Wall {
-        /// One end of the wall's centre line, north/east (m).
-        from_ne_m: [f64; 2],
-        /// The other end (m).
-        to_ne_m: [f64; 2],
-        height_m: f64,
-        thickness_m: f64,
-        /// Whether its faces carry texture a stereo matcher can lock on to; a plain wall is the
-        /// case the thesis's avoider missed (§4.2.3). For the stereo renderer; physics ignores it.
-        #[serde(default = "textured_by_default")]
-        textured: bool,
-    },
+pub use kestrel_proto::messages::Obstacle;
+
+/// What the simulator needs of an obstacle beyond its shape: a check of a world file's values
+/// and the distance to its surface.
+pub trait ObstacleGeometry {
+    /// Checks every value, naming the first bad one.
+    fn validate(&self) -> Result<(), InvalidParam>;
+    /// Signed distance from `p_ned_m` to the obstacle's surface (m), negative inside.
+    fn signed_distance_m(&self, p_ned_m: &Vector3<f64>) -> f64;
 }
 
-fn textured_by_default() -> bool {
-    true
-}
-
-impl Obstacle {
-    pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
+impl ObstacleGeometry for Obstacle {
+    fn validate(&self) -> Result<(), InvalidParam> {
         match self {
             Obstacle::Box { center_ned_m, size_m, yaw_deg } => {
                 finite("center_ned_m", center_ned_m)?;
@@ -78,8 +48,7 @@ impl Obstacle {
         }
     }
 
-    /// Signed distance from `p_ned_m` to the obstacle's surface (m), negative inside.
-    pub fn signed_distance_m(&self, p_ned_m: &Vector3<f64>) -> f64 {
+    fn signed_distance_m(&self, p_ned_m: &Vector3<f64>) -> f64 {
         match self {
             Obstacle::Box { center_ned_m, size_m, yaw_deg } => box_distance(
                 p_ned_m,

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::config_file;
 use crate::error::{ConfigError, InvalidParam, finite, positive};
 use crate::forest::Forest;
-use crate::obstacles::Obstacle;
+use crate::obstacles::{Obstacle, ObstacleGeometry};
 use crate::wind::WindParams;
 
 /// The world the vehicle flies in, as `config/worlds/*.toml` describes it.

@@ -46,6 +46,11 @@ pub struct EstimatorHealth {
     pub numerical_faults: u32,
     /// IMU samples dropped because they were out of order or had an unusable interval.
     pub imu_rejected: u64,
+    /// IMU samples used although some gyro or accelerometer axis was at full scale: the
+    /// prediction then understates the motion (PX4's EKF2 counts and de-weights such accel
+    /// axes). Absent in older logs, which read as 0.
+    #[serde(default)]
+    pub imu_clipped: u64,
 }
 
 /// The estimator's innovations, gate test ratios, counters and health, published at ~10 Hz.

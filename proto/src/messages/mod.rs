@@ -38,7 +38,7 @@ pub use mag::MagSample;
 pub use manual_control::ManualControl;
 pub use mission::{AltitudeFrame, Mission, MissionItem, MissionPoint};
 pub use nav_state::{NavState, NavValidity};
-pub use obstacle_map::{MapObstacle, ObstacleMap};
+pub use obstacle_map::{Obstacle, ObstacleMap};
 pub use param_decl::{ParamDecl, ParamInfo};
 pub use param_set::ParamSet;
 pub use sensor_health::SensorHealth;

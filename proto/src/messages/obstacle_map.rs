@@ -8,12 +8,12 @@ use serde::{Deserialize, Serialize};
 use crate::geo::Geodetic;
 use crate::time::Time;
 
-/// One obstacle's shape and place, in the local NED frame around [`ObstacleMap::home`].
-///
-/// The shapes are the simulator's: every one stands on or above flat ground at home's altitude.
+/// One obstacle's shape and place, in the local NED frame around [`ObstacleMap::home`]: the
+/// simulator's world files list them under `[[obstacles]]` with a `kind`, and its map message
+/// carries the same. Every one stands on or above flat ground at home's altitude.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum MapObstacle {
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Obstacle {
     /// A box turned about the down axis.
     Box {
         /// Centre, north/east/down from home (m); down is negative above ground.
@@ -21,6 +21,7 @@ pub enum MapObstacle {
         /// Full extents along its own north, east, down axes before the yaw (m).
         size_m: [f64; 3],
         /// Rotation about down, clockwise seen from above (degrees).
+        #[serde(default)]
         yaw_deg: f64,
     },
     /// A vertical cylinder standing on the ground (a tree).
@@ -39,9 +40,15 @@ pub enum MapObstacle {
         height_m: f64,
         thickness_m: f64,
         /// Whether its faces carry texture for stereo matching; a plain wall is the case the
-        /// thesis's avoider missed (§4.2.3), so plots tell the two apart.
+        /// thesis's avoider missed (§4.2.3), so plots tell the two apart. For the stereo
+        /// renderer; physics ignores it. Textured unless a world file says otherwise.
+        #[serde(default = "textured_by_default")]
         textured: bool,
     },
+}
+
+fn textured_by_default() -> bool {
+    true
 }
 
 /// Every obstacle of the world as loaded (including any generated at load time), with the
@@ -53,6 +60,6 @@ pub struct ObstacleMap {
     /// Origin of the NED frame the obstacles are given in; the ground is flat at its altitude.
     pub home: Geodetic,
     /// Empty for a world without obstacles.
-    pub obstacles: Vec<MapObstacle>,
+    pub obstacles: Vec<Obstacle>,
 }
 crate::impl_message!(ObstacleMap);

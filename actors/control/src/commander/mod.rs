@@ -583,15 +583,19 @@ impl Commander {
                 self.land_detector.reset();
             }
             LandedState::Landing if !landing_mode => self.landed = LandedState::InAir,
-            LandedState::Landing if fresh.is_none() => {
+            // A landing mode entered before the vehicle ever rose past the airborne height (LAND
+            // sent at once after a take-off was accepted): it is already down, and the detector
+            // must still end the flight, or it would idle armed on the ground for ever.
+            LandedState::OnGround | LandedState::Landing if landing_mode && fresh.is_none() => {
                 // A frozen NavState's velocity says nothing about the ground: no detection, and
                 // the stillness timer starts over once NavStates are fresh again.
                 self.land_detector.reset();
             }
-            LandedState::Landing
-                if fresh.is_some_and(|n| {
-                    self.land_detector.update(now, &n.velocity_ned_m_s, self.params.land_detect_s)
-                }) =>
+            LandedState::OnGround | LandedState::Landing
+                if landing_mode
+                    && fresh.as_ref().is_some_and(|n| {
+                        self.land_detector.update(now, &n.velocity_ned_m_s, self.params.land_detect_s)
+                    }) =>
             {
                 self.landed = LandedState::OnGround;
                 if let Some(runner) = &mut self.runner {

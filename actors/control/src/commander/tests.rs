@@ -683,3 +683,52 @@ fn outside_auto_the_current_item_is_where_the_next_run_starts() {
     let target = north_target(hover_at(&mut c, 3000, [0.0, 0.0, -10.0]));
     assert!((target - 20.0).abs() < 0.5, "{target}");
 }
+
+/// GUIDED, armed and told to take off to 5 m at t = 1 ms; then NavStates every 2.5 ms climb at
+/// `climb_m_s` until `land_at_m` above home, where LAND arrives; from then on the vehicle slows
+/// at 3 m/s², descends at 0.6 m/s to the ground and stands there. Returns the commander and the
+/// time (µs) it disarmed, if it did within 30 s.
+fn land_during_take_off(land_at_m: f64, climb_m_s: f64) -> (Commander, Option<u64>) {
+    let mut c = ready(true);
+    cmd(&mut c, Command::SetMode(FlightMode::Guided)).expect("guided");
+    cmd(&mut c, Command::Arm).expect("arm");
+    cmd(&mut c, Command::Takeoff { altitude_m: 5.0 }).expect("takeoff");
+    let (mut t, mut height_m, mut up_m_s, mut landing) = (1000_u64, 0.0_f64, climb_m_s, false);
+    while t < 30_000_000 {
+        t += 2500;
+        let dt_s = 0.0025;
+        if landing {
+            up_m_s = (up_m_s - 3.0 * dt_s).max(-0.6);
+        }
+        height_m = (height_m + up_m_s * dt_s).max(0.0);
+        if height_m == 0.0 && landing {
+            up_m_s = 0.0;
+        }
+        let mut n = nav(Time(t), -height_m, true);
+        n.velocity_ned_m_s[2] = -up_m_s;
+        c.on_nav(&n);
+        if !landing && height_m >= land_at_m {
+            assert_eq!(at(&mut c, t, Command::SetMode(FlightMode::Land)), Ok(()));
+            landing = true;
+        }
+        c.update(Time(t));
+        if !c.armed() {
+            return (c, Some(t));
+        }
+    }
+    (c, None)
+}
+
+#[test]
+fn land_in_the_take_off_climb_disarms_on_the_ground_below_and_above_the_airborne_height() {
+    // Above the airborne height the land detector runs; below it, the vehicle never counted as
+    // flying, yet LAND must still end on the ground disarmed (as PX4 and ArduPilot do).
+    for land_at_m in [2.0, 0.3] {
+        let (c, disarmed) = land_during_take_off(land_at_m, 1.0);
+        let Some(t) = disarmed else {
+            panic!("LAND at {land_at_m} m in the climb never disarmed: {:?}, {:?}", c.mode(), c.landed())
+        };
+        assert_eq!(c.landed(), LandedState::OnGround);
+        assert!(t > 1_000_000, "LAND at {land_at_m} m disarmed at {t} µs, before touching down");
+    }
+}

@@ -178,7 +178,15 @@ fn read_events(log: &Log, path: &Path, params: &EkfParams) -> Result<Vec<(u64, E
             _ => continue,
         };
         last = Some(t);
-        let s = ImuSample { time: Time::from_micros(t), gyro_rad_s: gyro[i], accel_m_s2: accel[i], dt_s };
+        // `sensor_combined` carries clipping only as a separate counter topic; read as unclipped.
+        let s = ImuSample {
+            time: Time::from_micros(t),
+            gyro_rad_s: gyro[i],
+            accel_m_s2: accel[i],
+            dt_s,
+            gyro_clipped: [false; 3],
+            accel_clipped: [false; 3],
+        };
         events.push((t, Event::Imu(s)));
     }
     if events.is_empty() {

@@ -521,6 +521,56 @@ mod tests {
     }
 
     #[test]
+    fn a_dropped_item_is_requested_again_after_the_timeout_and_the_upload_completes() {
+        let mut s = MissionService::new();
+        let items = [0, 1, 2].map(|seq| item(seq, MavCmd::MAV_CMD_NAV_WAYPOINT));
+        assert_eq!(requested(&s.on_count(GCS, &count(3), t(0.0))), Some(0));
+        assert_eq!(requested(&s.on_item(GCS, &items[0], t(0.1))), Some(1));
+        // Item 1 is lost on the way: nothing until the timeout, then the same request again.
+        assert!(s.on_tick(t(1.5)).mav.is_empty(), "re-requested before the timeout");
+        assert_eq!(requested(&s.on_tick(t(1.7))), Some(1));
+        assert_eq!(requested(&s.on_item(GCS, &items[1], t(1.8))), Some(2));
+        let out = s.on_item(GCS, &items[2], t(1.9));
+        assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+        assert_eq!(s.mission_len(), 3);
+    }
+
+    #[test]
+    fn a_ground_station_that_vanishes_mid_upload_is_given_up_and_the_old_mission_kept() {
+        let mut s = MissionService::new();
+        let old = [0, 1].map(|seq| item(seq, MavCmd::MAV_CMD_NAV_WAYPOINT));
+        upload(&mut s, &old);
+        s.on_count(GCS, &count(4), t(10.0));
+        s.on_item(GCS, &item(0, MavCmd::MAV_CMD_NAV_TAKEOFF), t(10.1));
+        let (mut now, mut requests, mut cancelled) = (10.1, 0, None);
+        while now < 30.0 && cancelled.is_none() {
+            now += 0.02;
+            let out = s.on_tick(t(now));
+            requests += out
+                .mav
+                .iter()
+                .filter(|m| matches!(m, MavMessage::MISSION_REQUEST_INT(r) if r.seq == 1))
+                .count();
+            cancelled = ack_result(&out).map(|r| (r, now));
+            assert!(out.graph.is_empty(), "a cancelled upload must not reach the commander");
+        }
+        let Some((result, at)) = cancelled else { panic!("the upload was never given up") };
+        assert_eq!(result, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED);
+        assert_eq!(requests, RETRIES as usize, "each retry re-sends the request once");
+        let expected = 10.1 + ITEM_TIMEOUT.as_secs_f64() * f64::from(RETRIES + 1);
+        assert!((at - expected).abs() < 0.05, "gave up at {at} s, expected {expected} s");
+        // The previous mission is what a download returns, and nothing more is sent.
+        assert_eq!(s.mission_len(), 2);
+        let out = s.on_request(GCS, 1, MISSION, false);
+        let MavMessage::MISSION_ITEM_INT(kept) = &out.mav[0] else { panic!("no item") };
+        assert_eq!((kept.x, kept.command), (old[1].x, old[1].command));
+        assert!(s.on_tick(t(60.0)).mav.is_empty());
+        // A late item of the dead upload is ignored, not taken as a new one.
+        assert!(s.on_item(GCS, &item(1, MavCmd::MAV_CMD_NAV_WAYPOINT), t(61.0)).mav.is_empty());
+        assert_eq!(s.mission_len(), 2);
+    }
+
+    #[test]
     fn fence_items_are_kept_apart_and_clear_all_publishes_an_empty_mission() {
         let mut s = MissionService::new();
         let mut c = count(1);

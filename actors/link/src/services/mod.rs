@@ -4,6 +4,7 @@
 
 pub mod command;
 pub mod events;
+pub mod ftp;
 pub mod heartbeat;
 pub mod mission;
 pub mod offboard;

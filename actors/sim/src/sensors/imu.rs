@@ -108,6 +108,15 @@ impl Imu {
             + standard_normal3(&mut self.rng) * self.params.gyro_noise_rad_s;
         let accel =
             specific_force_frd + accel_bias + standard_normal3(&mut self.rng) * self.params.accel_noise_m_s2;
-        ImuSample { time, gyro_rad_s: gyro.into(), accel_m_s2: accel.into(), dt_s }
+        // The simulated IMU does not saturate (ground-contact spikes at touchdown exceed ±16 g and
+        // would need a softer contact model first), so it never flags clipping.
+        ImuSample {
+            time,
+            gyro_rad_s: gyro.into(),
+            accel_m_s2: accel.into(),
+            dt_s,
+            gyro_clipped: [false; 3],
+            accel_clipped: [false; 3],
+        }
     }
 }

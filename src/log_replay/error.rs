@@ -1,0 +1,42 @@
+//! Why a log could not be set up for replay. Each variant names the log file and the topic,
+//! so a bench config that points at the wrong recording says which and why.
+
+use std::path::PathBuf;
+
+use crate::recorder::RecorderError;
+
+/// A `log_replay` set-up failure.
+#[derive(Debug, thiserror::Error)]
+pub enum LogReplayError {
+    /// The log could not be read, or a topic in it could not be decoded (the reader's error
+    /// names the file and topic, and lists the log's topics when one is missing).
+    #[error(transparent)]
+    Log(#[from] RecorderError),
+
+    /// `topics` is empty: nothing would be published.
+    #[error("`topics` is empty: name the recorded topics to publish from {}", path.display())]
+    NoTopics { path: PathBuf },
+
+    /// A topic was named twice in `topics`.
+    #[error("`topics` names `{topic}` twice")]
+    DuplicateTopic { topic: String },
+
+    /// The topic holds a message type the replay does not publish.
+    #[error(
+        "flight log {}: topic `{topic}` holds `{found}`, which log_replay cannot publish (it replays {})",
+        path.display(),
+        replayable.join(", ")
+    )]
+    NotReplayable { path: PathBuf, topic: String, found: String, replayable: Vec<&'static str> },
+
+    /// Two topics of one type would go out on the same output port.
+    #[error(
+        "flight log {}: topics `{first}` and `{second}` both hold `{type_name}`; log_replay has one output per type (`{port}`), replay one of them",
+        path.display()
+    )]
+    SameType { path: PathBuf, first: String, second: String, type_name: &'static str, port: &'static str },
+
+    /// `speed` is not a positive, finite factor.
+    #[error("`speed` must be a positive number (log seconds per graph second), got {speed}")]
+    Speed { speed: f64 },
+}
