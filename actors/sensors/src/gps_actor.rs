@@ -9,16 +9,16 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use kestrel_proto::messages::{GpsFix, SensorHealth};
+use kestrel_proto::messages::GpsFix;
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
 use crate::gps::{Configuration, GpsDecoder, GpsStats};
-use crate::health::{Counters, HealthWindow};
+use crate::health::Counters;
 use crate::nmea::NmeaFixOptions;
+use crate::reader_task::ReaderTask;
 use crate::serial::{self, LineSettings, SerialTransport};
 use crate::ubx::DynamicModel;
 
@@ -119,13 +119,8 @@ impl Reader {
 /// The GPS actor. Outputs: `gps`, `health`.
 pub struct GpsActor {
     reader: Option<Reader>,
-    task: Option<JoinHandle<Result<(), String>>>,
     stats: Arc<Mutex<GpsStats>>,
-    /// The device node, for health reports.
-    device: String,
-    /// Opened in [`Actor::start`], on the running graph's clock.
-    window: Option<HealthWindow>,
-    health_out: Publisher<SensorHealth>,
+    task: ReaderTask,
 }
 
 impl GpsActor {
@@ -161,11 +156,8 @@ impl GpsActor {
         };
         Ok(GpsActor {
             reader: Some(reader),
-            task: None,
             stats,
-            device: device.to_owned(),
-            window: None,
-            health_out: setup.output("health"),
+            task: ReaderTask::new("GPS", device, setup.output("health")),
         })
     }
 }
@@ -188,32 +180,18 @@ impl Actor for GpsActor {
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
         let reader =
             self.reader.take().ok_or_else(|| ActorError::Failed("GPS reader already started".into()))?;
-        self.window = Some(HealthWindow::new(ctx.name(), &self.device, ctx.now()));
-        self.task = Some(tokio::spawn(reader.run(Arc::clone(ctx.clock()), ctx.shutdown().clone())));
+        self.task.start(ctx, reader.run(Arc::clone(ctx.clock()), ctx.shutdown().clone()));
         Ok(())
     }
 
     async fn handle(&mut self, _ctx: &Context, input: GpsInput) -> Result<(), ActorError> {
         let GpsInput::Health(now) = input;
-        if let Some(task) = self.task.take_if(|t| t.is_finished()) {
-            let reason = match task.await {
-                Ok(Ok(())) => "the GPS reader stopped".to_owned(),
-                Ok(Err(e)) => e,
-                Err(e) => format!("the GPS reader failed: {e}"),
-            };
-            return Err(ActorError::Failed(reason));
-        }
         let stats = *self.stats.lock().unwrap_or_else(|e| e.into_inner());
         let totals = Counters { published: stats.fixes, errors: stats.errors(), clipped: 0 };
-        if let Some(window) = &mut self.window {
-            self.health_out.publish(window.report(now, totals));
-        }
-        Ok(())
+        self.task.tick(now, totals).await
     }
 
     async fn stop(&mut self, _ctx: &Context) {
-        if let Some(task) = self.task.take() {
-            task.abort();
-        }
+        self.task.stop();
     }
 }

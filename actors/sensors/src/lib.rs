@@ -43,6 +43,7 @@ pub mod nmea;
 pub mod pwm;
 pub mod rcio;
 pub mod rcio_actor;
+pub mod reader_task;
 pub mod sbus;
 pub mod sbus_actor;
 pub mod serial;

@@ -14,14 +14,14 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use kestrel_proto::messages::{ManualControl, SensorHealth};
+use kestrel_proto::messages::ManualControl;
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 use tokio::io::AsyncReadExt;
-use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
-use crate::health::{Counters, HealthWindow};
+use crate::health::Counters;
+use crate::reader_task::ReaderTask;
 use crate::sbus::{SbusParser, StickMap};
 use crate::serial::{self, LineSettings, SerialTransport};
 
@@ -107,13 +107,8 @@ impl Reader {
 /// The SBUS actor. Outputs: `manual_control`, `health`.
 pub struct SbusActor {
     reader: Option<Reader>,
-    task: Option<JoinHandle<Result<(), String>>>,
     stats: Arc<Mutex<SbusStats>>,
-    /// The device node, for health reports.
-    device: String,
-    /// Opened in [`Actor::start`], on the running graph's clock.
-    window: Option<HealthWindow>,
-    health_out: Publisher<SensorHealth>,
+    task: ReaderTask,
 }
 
 impl SbusActor {
@@ -136,11 +131,8 @@ impl SbusActor {
         };
         SbusActor {
             reader: Some(reader),
-            task: None,
             stats,
-            device: device.to_owned(),
-            window: None,
-            health_out: setup.output("health"),
+            task: ReaderTask::new("SBUS", device, setup.output("health")),
         }
     }
 }
@@ -158,32 +150,18 @@ impl Actor for SbusActor {
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
         let reader =
             self.reader.take().ok_or_else(|| ActorError::Failed("SBUS reader already started".into()))?;
-        self.window = Some(HealthWindow::new(ctx.name(), &self.device, ctx.now()));
-        self.task = Some(tokio::spawn(reader.run(Arc::clone(ctx.clock()), ctx.shutdown().clone())));
+        self.task.start(ctx, reader.run(Arc::clone(ctx.clock()), ctx.shutdown().clone()));
         Ok(())
     }
 
     async fn handle(&mut self, _ctx: &Context, input: SbusInput) -> Result<(), ActorError> {
         let SbusInput::Health(now) = input;
-        if let Some(task) = self.task.take_if(|t| t.is_finished()) {
-            let reason = match task.await {
-                Ok(Ok(())) => "the SBUS reader stopped".to_owned(),
-                Ok(Err(e)) => e,
-                Err(e) => format!("the SBUS reader failed: {e}"),
-            };
-            return Err(ActorError::Failed(reason));
-        }
         let stats = *self.stats.lock().unwrap_or_else(|e| e.into_inner());
         let totals = Counters { published: stats.frames, errors: stats.rejected, clipped: 0 };
-        if let Some(window) = &mut self.window {
-            self.health_out.publish(window.report(now, totals));
-        }
-        Ok(())
+        self.task.tick(now, totals).await
     }
 
     async fn stop(&mut self, _ctx: &Context) {
-        if let Some(task) = self.task.take() {
-            task.abort();
-        }
+        self.task.stop();
     }
 }
