@@ -31,6 +31,7 @@ impl Registry {
             .with::<kestrel_control::CommanderActor>("commander")
             .with::<kestrel_control::ControllerActor>("controller")
             .with::<kestrel_control::TruthNavActor>("truth_nav")
+            .with::<kestrel_control::PilotScriptActor>("pilot_script")
             .with::<kestrel_link::LinkActor>("link")
             .with::<kestrel_sensors::BaroActor>("ms5611")
             .with::<kestrel_sensors::ImuActor>("mpu9250")

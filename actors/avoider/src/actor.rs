@@ -3,6 +3,8 @@
 //! Ports (type `avoider` once registered):
 //! * input `depth_grid` (`DepthGrid`): each accepted grid publishes one command;
 //! * input `setpoint` (`Setpoint`): the commander's demand, for the desired speed;
+//! * input `nav` (`NavState`, optional): the estimator's pose, which places what the camera
+//!   saw in the short-term obstacle memory; unrouted, the avoider has no memory;
 //! * timer `check` (every `check_period_s`): publishes the stale command while no fresh grid
 //!   arrives;
 //! * input `param_set` (`ParamSet`): changes to the live settings of
@@ -16,7 +18,7 @@
 
 use std::time::Duration;
 
-use kestrel_proto::messages::{AvoidanceCommand, DepthGrid, ParamDecl, ParamSet, Setpoint};
+use kestrel_proto::messages::{AvoidanceCommand, DepthGrid, NavState, ParamDecl, ParamSet, Setpoint};
 use kestrel_proto::param_def::ParamChange;
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
@@ -31,6 +33,8 @@ pub enum AvoiderInput {
     DepthGrid(DepthGrid),
     /// The commander's setpoint (port `setpoint`).
     Setpoint(Setpoint),
+    /// The estimator's state (port `nav`).
+    Nav(Box<NavState>),
     /// The staleness check (timer `check`), at its scheduled time.
     Check(Time),
     /// A parameter change from the link (port `param_set`).
@@ -90,6 +94,7 @@ impl Actor for AvoiderActor {
             .map_err(|e| ActorError::Params(format!("check_period_s = {}: {e}", params.check_period_s)))?;
         setup.input("depth_grid", AvoiderInput::DepthGrid);
         setup.input("setpoint", AvoiderInput::Setpoint);
+        setup.input("nav", |nav| AvoiderInput::Nav(Box::new(nav)));
         setup.input("param_set", AvoiderInput::Param);
         setup.timer("check", period, AvoiderInput::Check);
         Ok(AvoiderActor {
@@ -120,6 +125,7 @@ impl Actor for AvoiderActor {
                 }
                 Ok(()) | Err(_) => {}
             },
+            AvoiderInput::Nav(nav) => self.avoider.set_pose(&nav),
             AvoiderInput::Check(time) => {
                 if let Some(command) = self.avoider.check(time) {
                     self.command.publish(command);

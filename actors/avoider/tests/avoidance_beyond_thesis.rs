@@ -3,9 +3,11 @@
 //! for a blocked centre the table has no row for, capping the forward speed by the nearest
 //! depth ahead, and the low-pass on the output (§3.3.9).
 
+mod memory_scenes;
 mod scenes;
 
 use kestrel_avoider::{Avoider, AvoiderParams};
+use memory_scenes::{nav_at, with_sectors};
 use scenes::{at, blocked, clear_grid, flying_north, grid};
 
 const EVERYWHERE: [(usize, usize); 9] =
@@ -35,9 +37,15 @@ fn all_blocked_stops_and_climbs_until_the_centre_clears() {
     assert!(still.health.climbing, "{:?}", still.health);
     assert_eq!(still.velocity_frd_m_s, [-4.0, 0.0, -1.5]);
 
-    // The centre clears: the climb ends and the rule base steers again.
+    // The centre clears: the climb goes on for its 1 m margin (1 m at 1.5 m/s: 0.67 s), then
+    // ends and the rule base steers again.
     near[1][1] = 0.1;
-    let over = avoider.update(at(0.2), &clear_grid(0.2, near)).expect("valid");
+    let margin = avoider.update(at(0.2), &clear_grid(0.2, near)).expect("valid");
+    assert!(margin.health.climbing && !margin.health.centre_blocked, "{:?}", margin.health);
+    assert_eq!(margin.velocity_frd_m_s, [-4.0, 0.0, -1.5]);
+    let still = avoider.update(at(0.85), &clear_grid(0.85, near)).expect("valid");
+    assert!(still.health.climbing, "0.65 s after: {:?}", still.health);
+    let over = avoider.update(at(0.9), &clear_grid(0.9, near)).expect("valid");
     assert!(!over.health.climbing && !over.health.centre_blocked, "{:?}", over.health);
     assert!(over.velocity_frd_m_s[2] > -0.5, "no more climb: {:?}", over.velocity_frd_m_s);
 }
@@ -173,6 +181,62 @@ fn a_thin_trunk_within_the_sidestep_distance_blocks_the_path() {
     assert!(command.health.centre_blocked, "{:?}", command.health);
     assert_eq!(command.velocity_frd_m_s[0], -3.0);
     assert_eq!(command.health.sidestep_m_s, 1.0);
+}
+
+#[test]
+fn a_trunk_passed_out_of_view_closes_its_side_to_the_sidestep_and_limits_the_slide() {
+    // Flying north past a trunk seen 45° ahead-right at 2 m; 1.4 m on it is abeam right, out
+    // of view, and a pole straight ahead blocks the path with the sides tied: the sidestep goes
+    // left, where by convention it would go right.
+    let fly = |avoider: &mut Avoider| {
+        avoider.set_pose(&nav_at(0.0, 0.0, 0.0));
+        avoider.update(at(0.0), &with_sectors(clear_grid(0.0, [[0.0; 3]; 3]), &[(9, 2.0)])).expect("valid");
+        avoider.set_pose(&nav_at(0.5, 1.4, 0.0));
+        avoider
+            .update(at(0.5), &with_sectors(clear_grid(0.5, blocked(&[(1, 1)])), &[(0, 3.0)]))
+            .expect("valid")
+    };
+    let mut remembering = unfiltered(3.0);
+    let command = fly(&mut remembering);
+    assert!(remembering.remembered() >= 2, "the trunk and the pole: {}", remembering.remembered());
+    assert_eq!(command.health.sidestep_m_s, -1.0, "{:?}", command.health);
+
+    // Without the memory: right, into the trunk.
+    let mut forgetting = Avoider::thesis(AvoiderParams {
+        filter_time_constant_s: 0.0,
+        memory_time_s: 0.0,
+        ..AvoiderParams::default()
+    })
+    .expect("builds");
+    forgetting.set_setpoint(&flying_north(0.0, 3.0)).expect("valid setpoint");
+    assert_eq!(fly(&mut forgetting).health.sidestep_m_s, 1.0);
+
+    // A pole ahead, a little on the left, so the rule base steers right; something 3 m away on
+    // the left closes that side too, so the vehicle slides right with the trunk abeam right
+    // 1.2 m away: the slide towards it is limited to what stops 1 m short (0.2 m of room:
+    // 0.55 m/s).
+    let mut avoider = unfiltered(3.0);
+    avoider.set_pose(&nav_at(0.0, 0.0, 0.0));
+    // Seen at 55° and 1.2 m / sin 55° = 1.465 m: 0.84 m ahead and 1.2 m to the right.
+    avoider.update(at(0.0), &with_sectors(clear_grid(0.0, [[0.0; 3]; 3]), &[(11, 1.465)])).expect("valid");
+    avoider.set_pose(&nav_at(0.5, 0.84, 0.0));
+    let mut near = blocked(&[(1, 1)]);
+    near[0][0] = 0.1;
+    near[1][0] = 0.1;
+    let mut grid = with_sectors(clear_grid(0.5, near), &[(0, 3.0)]);
+    grid.regions[1][0].nearest_m = Some(3.0);
+    let steer = avoider.update(at(0.5), &grid).expect("valid");
+    assert!(steer.fuzzy.vx_right > 0.2, "the rule base steers right: {:?}", steer.fuzzy);
+    assert!(steer.health.sidestep_m_s > 0.0, "{:?}", steer.health);
+    assert!(steer.health.memory_limited, "{:?}", steer.velocity_frd_m_s);
+    let (sin, cos) = 90f64.to_radians().sin_cos();
+    let towards = (3.0 + steer.velocity_frd_m_s[0]) * cos + steer.velocity_frd_m_s[1] * sin;
+    let cap = (0.36f64 + 2.0 * 2.0 * (1.2 - 1.0)).sqrt() - 0.6;
+    assert!(
+        towards <= cap + 0.05,
+        "{towards} m/s towards the trunk, cap {cap}: {:?}",
+        steer.velocity_frd_m_s
+    );
 }
 
 #[test]

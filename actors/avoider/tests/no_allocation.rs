@@ -1,15 +1,17 @@
 //! `Engine::infer` and the avoider's update allocate nothing: the avoider runs on every depth
 //! frame, beside the real-time controller. A counting global allocator watches inferences of
-//! each rule base and a run of avoider updates. One test function, so that no other test
-//! thread allocates while it counts.
+//! each rule base and a run of avoider updates with poses and a filling obstacle memory. One
+//! test function, so that no other test thread allocates while it counts.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
+mod memory_scenes;
 mod scenes;
 
 use kestrel_avoider::{Avoider, AvoiderParams, rule_file, thesis_engine};
+use memory_scenes::{nav_at, with_sectors};
 use scenes::{at, blocked, clear_grid, flying_north, grid};
 
 struct Counting;
@@ -68,16 +70,20 @@ fn inference_and_avoider_updates_do_not_allocate() {
     let grids: Vec<_> = (0..40)
         .map(|k| {
             let t = f64::from(k) * 0.05;
-            match k % 5 {
+            let g = match k % 5 {
                 4 => grid(t, [[0.0; 3]; 3], textureless),
                 n => clear_grid(t, scenes[n as usize]),
-            }
+            };
+            // Trunks in view that the obstacle memory takes in and then carries out of view.
+            with_sectors(g, &[(k % 23 - 11, 1.0 + f64::from(k % 7)), (3, 2.5)])
         })
         .collect();
     let before = ALLOCATIONS.load(Ordering::SeqCst);
-    for g in &grids {
+    for (k, g) in grids.iter().enumerate() {
+        avoider.set_pose(&nav_at(g.time.as_secs_f64(), 0.15 * k as f64, 0.05 * k as f64));
         avoider.update(g.time, g).expect("valid grid");
     }
+    assert!(avoider.remembered() > 0, "the memory was exercised");
     avoider.check(at(10.0)).expect("stale by then");
     let after = ALLOCATIONS.load(Ordering::SeqCst);
     assert_eq!(after - before, 0, "avoider updates allocated");

@@ -4,7 +4,8 @@
 //! (ManualControl, `latest`), `command` (VehicleCommand, `queue`), `mission` (Mission,
 //! `queue`), `supervisor` (SupervisorEvent, `queue`), `avoidance` (AvoidanceCommand,
 //! `latest`; optional: routed only where the obstacle avoider runs, and from its first command
-//! on AUTO/GUIDED legs blend its correction in and hold when it goes stale); timer `tick` at `tick_rate_hz`;
+//! on AUTO/GUIDED legs and POSHOLD's forward sticks blend its correction in and hold when it
+//! goes stale); timer `tick` at `tick_rate_hz`;
 //! input `param_set` (ParamSet, `queue`); outputs `setpoint` (Setpoint), `status`
 //! (VehicleStatus) and `param_decl` (ParamDecl: the live parameters, at start and after every
 //! `param_set` naming one of them, so the link serves the value really in use).

@@ -12,7 +12,8 @@
 //! * the commander — [`commander`] (modes, arming, failsafes, land detector, missions) and
 //!   [`plan`] (QGroundControl `.plan` files);
 //! * running it — [`rt`] (real-time thread, triple buffer, loop statistics),
-//!   [`controller_actor`] and [`commander_actor`] (the actor shells, with their ports).
+//!   [`controller_actor`] and [`commander_actor`] (the actor shells, with their ports);
+//!   [`pilot_script`] is a pilot on a timetable for deterministic simulated flights.
 //!
 //! Two actors rather than one: the loop must never wait, and on hardware it lives on its own
 //! real-time thread, while the commander does slow, allocating work (missions, strings for
@@ -30,6 +31,7 @@ pub mod flight_controller;
 pub mod flip;
 pub mod mixer;
 pub mod params;
+pub mod pilot_script;
 pub mod plan;
 pub mod position;
 pub mod rate;
@@ -47,6 +49,7 @@ pub use flight_controller::{Demand, FlightController, LoopCounters};
 pub use flip::Flip;
 pub use mixer::{Mixer, MixerOutput, Saturation};
 pub use params::{ControlParams, LoopParams};
+pub use pilot_script::{PilotScriptActor, PilotScriptInput, PilotScriptParams, PilotStep};
 pub use plan::{load_plan, parse_plan};
 pub use position::{AttitudeThrust, PositionController, PositionGains};
 pub use rate::{RateController, RateGains};

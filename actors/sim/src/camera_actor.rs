@@ -3,23 +3,50 @@
 //!
 //! Design choice: the camera is its own actor fed by the simulator's `ground_truth` output
 //! (wire it through a `queue` mailbox so every sample arrives), not a timer inside
-//! [`SimActor`](crate::SimActor). Frames are scheduled on the ground truth's own time stamps:
-//! the first sample at or after each due time (every `1/rate_hz`) is rendered and the frame is
-//! stamped with that sample's time, the instant the pose was true. The images therefore depend
-//! only on the ground-truth stream, never on wall-clock or scheduling, so lockstep runs stay
-//! deterministic; the frame rate is quantised to the ground truth's (50 Hz by default), so
-//! 15 Hz comes out as alternating 60 and 80 ms periods averaging 1/15 s. Rendering (~25 ms per
-//! VGA pair) runs inside the handler on the actor's task.
+//! [`SimActor`](crate::SimActor). Everything is scheduled on the ground truth's own time
+//! stamps, never on wall-clock time, so lockstep runs stay deterministic:
+//!
+//! * **Capture**: the first sample at or after each due time (every `1/rate_hz` from the first
+//!   sample) is the frame's capture instant. Its pose, velocity and body rate (for motion blur)
+//!   are taken and the render (~25 ms per VGA pair) is started on tokio's blocking pool; the handler returns at once, so the simulator
+//!   steps on while the pair renders on another core. The frame is stamped with the capture
+//!   instant. The frame rate is quantised to the ground truth's (50 Hz by default): 15 Hz comes
+//!   out as alternating 60 and 80 ms periods averaging 1/15 s.
+//! * **Delivery**: the frame is published while handling the first sample whose time is at or
+//!   after capture + `latency_s`, a real camera's exposure, readout and transfer delay. If the
+//!   render has not finished by then, that handler awaits it. Under the lockstep clock a
+//!   handler that awaits keeps its input's work token, so simulated time cannot pass the
+//!   delivery sample until the frame is out (the simulator waits for the camera): the frame
+//!   reaches its subscribers at the same simulated time, with the same pixels, however fast
+//!   the host renders. With `latency_s = 0` the capture sample itself awaits its render, as an
+//!   inline render would.
+//! * **Frames in flight**: at most [`MAX_IN_FLIGHT`]. With the defaults (15 Hz, 40 ms) there is
+//!   never more than one; a latency longer than the frame period pipelines renders, as a real
+//!   camera overlaps exposure and readout. A capture that falls due while the pipeline is full
+//!   is skipped (logged and counted, and as deterministic as the rest), as a camera drops a
+//!   frame it has no buffer for, so a slow host or an extreme configuration never queues
+//!   without bound.
 
+use std::collections::VecDeque;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use kestrel_proto::messages::{GroundTruth, StereoFrame};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::Deserialize;
+use tokio::task::JoinHandle;
 
-use crate::camera::{DepthImage, Scene, StereoCamera, StereoCameraParams};
+use crate::camera::{
+    CapturePose, DepthImage, RenderBuffers, Scene, StereoCamera, StereoCameraParams, StereoRender,
+};
+use crate::error::InvalidParam;
 use crate::world::World;
+
+/// Renders started but not yet published, at most.
+const MAX_IN_FLIGHT: usize = 4;
+
+/// Longest capture-to-delivery latency accepted (s).
+const MAX_LATENCY_S: f64 = 1.0;
 
 /// `[actors.camera.params]` of a [`CameraSimActor`].
 #[derive(Clone, Debug, Deserialize)]
@@ -27,8 +54,12 @@ use crate::world::World;
 pub struct CameraSimParams {
     /// World file, relative to the config file's directory (the simulator's).
     pub world: PathBuf,
-    /// Frame rate (Hz).
+    /// Frame rate (Hz), in (0, 1000].
     pub rate_hz: f64,
+    /// Capture-to-delivery latency (s), in [0, 1]: a frame captured at `t` is published with
+    /// the first ground-truth sample at or after `t + latency_s`, stamped `t`. A USB stereo
+    /// camera such as the ZED delivers a VGA pair some 30–60 ms after exposure.
+    pub latency_s: f64,
     /// `[actors.camera.params.camera]`: the rig.
     pub camera: StereoCameraParams,
 }
@@ -38,22 +69,60 @@ impl Default for CameraSimParams {
         CameraSimParams {
             world: PathBuf::from("worlds/empty.toml"),
             rate_hz: 15.0,
+            latency_s: 0.04,
             camera: StereoCameraParams::default(),
         }
     }
 }
 
+impl CameraSimParams {
+    /// Checks every field; the error names the offending one (`camera.…` for the rig's).
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        if !(self.rate_hz.is_finite() && self.rate_hz > 0.0 && self.rate_hz <= 1000.0) {
+            return Err(InvalidParam::new("rate_hz", format!("must be in (0, 1000], got {}", self.rate_hz)));
+        }
+        if !(self.latency_s.is_finite() && (0.0..=MAX_LATENCY_S).contains(&self.latency_s)) {
+            return Err(InvalidParam::new(
+                "latency_s",
+                format!("must be in [0, {MAX_LATENCY_S}] s, got {}", self.latency_s),
+            ));
+        }
+        self.camera.validate().map_err(|e| e.within("camera"))
+    }
+}
+
+/// A frame whose render is running (or done) on the blocking pool, waiting for its delivery
+/// sample.
+struct Pending {
+    /// The capture instant: the frame's stamp.
+    capture: Time,
+    /// Publish with the first sample at or after this time.
+    deliver_at: Time,
+    sequence: u64,
+    /// The render, and the working memory it borrowed, back when it is done.
+    render: JoinHandle<(StereoRender, RenderBuffers)>,
+}
+
 /// Ground truth → rendered stereo frames; ports `ground_truth` (input) and `stereo_frame`
 /// (output).
 pub struct CameraSimActor {
-    camera: StereoCamera,
-    scene: Scene,
+    /// Shared, read-only, with the renders in flight.
+    camera: Arc<StereoCamera>,
+    scene: Arc<Scene>,
     rate_hz: f64,
+    latency_us: u64,
     /// Time of the first sample: frame `k` is due `k/rate_hz` after it; `None` before it.
     origin: Option<Time>,
     /// Index of the next frame due.
     next_slot: u64,
+    /// Sequence number of the next frame captured.
     sequence: u64,
+    /// Oldest capture first.
+    pending: VecDeque<Pending>,
+    /// Captures skipped because [`MAX_IN_FLIGHT`] renders were pending.
+    skipped: u64,
+    /// Working memory of finished renders, lent to the next ones (at most [`MAX_IN_FLIGHT`]).
+    spare: Vec<RenderBuffers>,
     /// True depth of the last published frame's left image.
     last_depth: Option<DepthImage>,
     out: Publisher<StereoFrame>,
@@ -70,10 +139,60 @@ impl CameraSimActor {
         self.last_depth.as_ref()
     }
 
+    /// Captures skipped because the render pipeline was full (four frames in flight).
+    pub fn skipped(&self) -> u64 {
+        self.skipped
+    }
+
     /// When frame slot `slot` is due, counting from `origin` (rounded to the µs, without
     /// accumulating rounding error).
     fn due(&self, origin: Time, slot: u64) -> Time {
         Time(origin.0 + (slot as f64 * 1e6 / self.rate_hz).round() as u64)
+    }
+
+    /// Starts rendering the frame captured at `truth` on the blocking pool.
+    fn capture(&mut self, truth: &GroundTruth) {
+        if self.pending.len() >= MAX_IN_FLIGHT {
+            self.skipped += 1;
+            tracing::warn!(
+                at = %truth.time,
+                skipped = self.skipped,
+                "camera capture skipped: {MAX_IN_FLIGHT} frames already in flight"
+            );
+            return;
+        }
+        let pose = CapturePose::from(truth);
+        let (camera, scene, sequence) = (Arc::clone(&self.camera), Arc::clone(&self.scene), self.sequence);
+        let mut buffers = self.spare.pop().unwrap_or_default();
+        let render = tokio::task::spawn_blocking(move || {
+            let render = camera.render_moving(&scene, &pose, sequence, &mut buffers);
+            (render, buffers)
+        });
+        self.pending.push_back(Pending {
+            capture: truth.time,
+            deliver_at: Time(truth.time.0.saturating_add(self.latency_us)),
+            sequence,
+            render,
+        });
+        self.sequence += 1;
+    }
+
+    /// Publishes every pending frame whose delivery time has come by `now`, oldest first,
+    /// awaiting renders that are still running.
+    async fn deliver(&mut self, now: Time) -> Result<(), ActorError> {
+        while let Some(next) = self.pending.pop_front_if(|p| p.deliver_at <= now) {
+            let (render, buffers) = next
+                .render
+                .await
+                .map_err(|e| ActorError::Failed(format!("camera render {} failed: {e}", next.sequence)))?;
+            self.spare.push(buffers);
+            let (frame, depth) = render
+                .into_frame(next.capture, next.sequence)
+                .map_err(|e| ActorError::Failed(e.to_string()))?;
+            self.out.publish(frame);
+            self.last_depth = Some(depth);
+        }
+        Ok(())
     }
 }
 
@@ -85,43 +204,39 @@ impl Actor for CameraSimActor {
         params: &CameraSimParams,
         setup: &mut impl Setup<GroundTruth>,
     ) -> Result<CameraSimActor, ActorError> {
-        if !(params.rate_hz.is_finite() && params.rate_hz > 0.0 && params.rate_hz <= 1000.0) {
-            return Err(ActorError::Params(format!("rate_hz must be in (0, 1000], got {}", params.rate_hz)));
-        }
-        let camera =
-            StereoCamera::new(&params.camera).map_err(|e| ActorError::Params(format!("camera: {e}")))?;
+        params.validate().map_err(|e| ActorError::Params(e.to_string()))?;
+        let camera = StereoCamera::new(&params.camera)
+            .map_err(|e| ActorError::Params(e.within("camera").to_string()))?;
         let world = World::load(&setup.config_dir().join(&params.world))
             .map_err(|e| ActorError::Params(e.to_string()))?;
         setup.input("ground_truth", |truth| truth);
         Ok(CameraSimActor {
-            camera,
-            scene: Scene::new(&world.obstacles),
+            camera: Arc::new(camera),
+            scene: Arc::new(Scene::new(&world.obstacles)),
             rate_hz: params.rate_hz,
+            latency_us: (params.latency_s * 1e6).round() as u64,
             origin: None,
             next_slot: 0,
             sequence: 0,
+            pending: VecDeque::with_capacity(MAX_IN_FLIGHT),
+            skipped: 0,
+            spare: Vec::with_capacity(MAX_IN_FLIGHT),
             last_depth: None,
             out: setup.output("stereo_frame"),
         })
     }
 
+    /// Delivers what is due, captures if a frame is due, then delivers again so that a zero
+    /// latency publishes the capture sample's own frame.
     async fn handle(&mut self, _ctx: &Context, truth: GroundTruth) -> Result<(), ActorError> {
+        self.deliver(truth.time).await?;
         let origin = *self.origin.get_or_insert(truth.time);
-        if truth.time < self.due(origin, self.next_slot) {
-            return Ok(());
+        if truth.time >= self.due(origin, self.next_slot) {
+            self.capture(&truth);
+            while self.due(origin, self.next_slot) <= truth.time {
+                self.next_slot += 1;
+            }
         }
-        let [w, x, y, z] = truth.attitude;
-        let attitude = UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z));
-        let position = Vector3::from(truth.position_ned_m);
-        let render = self.camera.render(&self.scene, &position, &attitude, self.sequence);
-        let (frame, depth) =
-            render.into_frame(truth.time, self.sequence).map_err(|e| ActorError::Failed(e.to_string()))?;
-        self.out.publish(frame);
-        self.last_depth = Some(depth);
-        self.sequence += 1;
-        while self.due(origin, self.next_slot) <= truth.time {
-            self.next_slot += 1;
-        }
-        Ok(())
+        self.deliver(truth.time).await
     }
 }

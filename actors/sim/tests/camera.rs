@@ -5,7 +5,9 @@ use std::time::Instant;
 
 use kestrel_sim::Obstacle;
 use kestrel_sim::World;
-use kestrel_sim::camera::{Scene, StereoCamera, StereoCameraParams, StereoRender};
+use kestrel_sim::camera::{
+    CapturePose, RenderBuffers, Scene, StereoCamera, StereoCameraParams, StereoRender,
+};
 use nalgebra::{UnitQuaternion, Vector3};
 
 const ALTITUDE_M: f64 = 1.5;
@@ -163,4 +165,252 @@ fn a_vga_pair_of_the_obstacle_course_renders_quickly() {
     let per_pair_ms = start.elapsed().as_secs_f64() * 1e3 / frames as f64;
     eprintln!("VGA stereo pair of obstacles.toml: {per_pair_ms:.1} ms");
     assert!(per_pair_ms < 500.0, "{per_pair_ms} ms per pair");
+}
+
+/// A rig with `exposure_time_s` and `blur_samples`, otherwise the defaults.
+fn blurring(exposure_time_s: f64, blur_samples: u32) -> StereoCamera {
+    StereoCamera::new(&StereoCameraParams { exposure_time_s, blur_samples, ..StereoCameraParams::default() })
+        .unwrap()
+}
+
+/// The body `ALTITUDE_M` above home, level, facing north, moving at `velocity_ned_m_s` and
+/// turning at `rate_frd_rad_s`.
+fn moving(velocity_ned_m_s: [f64; 3], rate_frd_rad_s: [f64; 3]) -> CapturePose {
+    CapturePose {
+        velocity_ned_m_s: Vector3::from(velocity_ned_m_s),
+        angular_velocity_frd_rad_s: Vector3::from(rate_frd_rad_s),
+        ..CapturePose::still(Vector3::new(0.0, 0.0, -ALTITUDE_M), UnitQuaternion::identity())
+    }
+}
+
+/// Row `row` of `image`, columns `cols` (inclusive), as numbers.
+fn row_of(r: &StereoRender, image: &[u8], row: u32, cols: (u32, u32)) -> Vec<f64> {
+    patch(r, image, cols, (row, row)).into_iter().map(f64::from).collect()
+}
+
+/// A still render of `scene` by the default rig at four times its resolution: the same field
+/// of view, 2560 px wide (focal length ×4) and 1917 px high, so that row `4·r` of it is row `r`
+/// of the default image and column `4·c + 1.5` is column `c`.
+fn still_at_four_times_the_resolution(scene: &Scene) -> StereoRender {
+    let fine = StereoCameraParams { width_px: 2560, height_px: 1917, ..StereoCameraParams::default() };
+    StereoCamera::new(&fine).unwrap().render(
+        scene,
+        &Vector3::new(0.0, 0.0, -ALTITUDE_M),
+        &UnitQuaternion::identity(),
+        0,
+    )
+}
+
+/// The width (px) of the horizontal box filter that, applied to the still image, best
+/// reproduces the blurred one over the window `cols` × `rows`: widths every 0.5 px up to 20 px,
+/// then every 0.05 px around the best. The still image is `fine`,
+/// [`still_at_four_times_the_resolution`], interpolated linearly along its rows and averaged
+/// over 64 evenly spread shifts across the box: an independent reference for the renderer's
+/// motion blur, which moves the cameras in 3-D and ray casts again. (Interpolating a still
+/// image at the blurred one's own resolution would smooth it and bias the fit low by up to
+/// half a pixel.)
+fn fitted_box_width_px(
+    fine: &StereoRender,
+    blurred: &StereoRender,
+    cols: (u32, u32),
+    rows: (u32, u32),
+) -> f64 {
+    let pairs: Vec<(Vec<f64>, Vec<f64>)> = (rows.0..=rows.1)
+        .map(|row| {
+            (
+                row_of(fine, &fine.left, 4 * row, (0, fine.width - 1)),
+                row_of(blurred, &blurred.left, row, cols),
+            )
+        })
+        .collect();
+    let error = |width: f64| -> f64 {
+        let mut sum = 0.0;
+        for (sharp, blur) in &pairs {
+            let at = |x: f64| {
+                let (i, frac) = (x.floor() as usize, x - x.floor());
+                sharp[i] + frac * (sharp[i + 1] - sharp[i])
+            };
+            for (col, b) in (cols.0..=cols.1).zip(blur) {
+                let centre = 4.0 * f64::from(col) + 1.5;
+                let boxed = (0..64)
+                    .map(|j| at(centre + 4.0 * width * ((f64::from(j) + 0.5) / 64.0 - 0.5)))
+                    .sum::<f64>()
+                    / 64.0;
+                sum += (boxed - b).powi(2);
+            }
+        }
+        sum
+    };
+    let best = |widths: Vec<f64>| widths.into_iter().min_by(|a, b| error(*a).total_cmp(&error(*b))).unwrap();
+    let coarse = best((0..=40).map(|i| f64::from(i) * 0.5).collect());
+    best((-10..=10).map(|i| (coarse + f64::from(i) * 0.05).max(0.0)).collect())
+}
+
+#[test]
+fn sideways_motion_blurs_a_textured_wall_by_f_v_t_over_z() {
+    let f = camera().intrinsics().focal_px;
+    // Within 2.5 m every octave of the texture is at full strength at both resolutions, so both
+    // images sample one and the same pattern.
+    for (depth_m, cases) in [(2.0, [(1.0, 0.02), (2.0, 0.04)]), (1.5, [(1.0, 0.01), (2.0, 0.03)])] {
+        let scene = Scene::new(&[wall_at(depth_m + 0.1, true)]);
+        let fine = still_at_four_times_the_resolution(&scene);
+        let still =
+            camera().render(&scene, &Vector3::new(0.0, 0.0, -ALTITUDE_M), &UnitQuaternion::identity(), 0);
+        for (speed_m_s, exposure_s) in cases {
+            let pose = moving([0.0, speed_m_s, 0.0], [0.0; 3]);
+            let blurred =
+                blurring(exposure_s, 33).render_moving(&scene, &pose, 0, &mut RenderBuffers::default());
+            let expected = f * speed_m_s * exposure_s / depth_m;
+            let found = fitted_box_width_px(&fine, &blurred, (220, 420), (120, 200));
+            eprintln!(
+                "{speed_m_s} m/s, {exposure_s} s at {depth_m} m: blur {found:.2} px, f·v·T/Z = {expected:.2} px"
+            );
+            assert!((found - expected).abs() < 0.25, "blur {found} px, expected {expected} px");
+            assert_eq!(blurred.depth, still.depth, "depth is the capture instant's");
+        }
+    }
+}
+
+#[test]
+fn motion_blur_spreads_an_edge_over_f_v_t_over_z_pixels_centred_on_the_capture_pose() {
+    // A textureless wall (grey 99) from 20 m west of the line of sight to it, against the sky
+    // (grey 200): a step edge at the image's centre column, above the horizon.
+    let wall = Obstacle::Wall {
+        from_ne_m: [5.1, -20.0],
+        to_ne_m: [5.1, 0.0],
+        height_m: 6.0,
+        thickness_m: 0.2,
+        textured: false,
+    };
+    let scene = Scene::new(&[wall]);
+    let (v, exposure_s, depth_m) = (3.0, 0.04, 5.0);
+    let expected = camera().intrinsics().focal_px * v * exposure_s / depth_m;
+    for samples in [33, 32] {
+        let blurred = blurring(exposure_s, samples).render_moving(
+            &scene,
+            &moving([0.0, v, 0.0], [0.0; 3]),
+            0,
+            &mut RenderBuffers::default(),
+        );
+        let profile = row_of(&blurred, &blurred.left, 150, (280, 360));
+        let (dark, bright) = (profile[0], profile[profile.len() - 1]);
+        assert_eq!((dark, bright), (99.0, 200.0));
+        // 10 % and 90 % crossings, interpolated; a box blur of width w rises over 0.8·w.
+        let crossing = |level: f64| {
+            let target = dark + level * (bright - dark);
+            let k = profile.iter().position(|&p| p >= target).unwrap();
+            k as f64 - 1.0 + (target - profile[k - 1]) / (profile[k] - profile[k - 1])
+        };
+        let width = (crossing(0.9) - crossing(0.1)) / 0.8;
+        let middle = 280.0 + crossing(0.5);
+        eprintln!(
+            "{samples} samples: edge {width:.2} px wide at column {middle:.2}, f·v·T/Z = {expected:.2} px"
+        );
+        assert!((width - expected).abs() < 1.0, "edge {width} px wide, expected {expected} px");
+        // The wall ends straight ahead of the rig's centre, half a baseline right of the left camera.
+        let centre = 319.5 + camera().intrinsics().disparity_px(depth_m) / 2.0;
+        assert!((middle - centre).abs() < 0.25, "edge centred at {middle}, expected {centre}");
+        let still =
+            camera().render(&scene, &Vector3::new(0.0, 0.0, -ALTITUDE_M), &UnitQuaternion::identity(), 0);
+        assert_eq!(blurred.depth, still.depth, "depth is the capture instant's");
+    }
+}
+
+#[test]
+fn yawing_blurs_the_image_centre_by_f_omega_t() {
+    let f = camera().intrinsics().focal_px;
+    let scene = Scene::new(&[wall_at(2.1, true)]);
+    let fine = still_at_four_times_the_resolution(&scene);
+    for (rate_rad_s, exposure_s) in [(0.5, 0.02), (1.0, 0.04)] {
+        let pose = moving([0.0; 3], [0.0, 0.0, rate_rad_s]);
+        let blurred = blurring(exposure_s, 33).render_moving(&scene, &pose, 0, &mut RenderBuffers::default());
+        // Within 30 px of the centre the image moves at f·ω·(1 + (x/f)²) ≤ 1.02·f·ω px/s.
+        let expected = f * rate_rad_s * exposure_s;
+        let found = fitted_box_width_px(&fine, &blurred, (290, 350), (120, 200));
+        eprintln!("{rate_rad_s} rad/s, {exposure_s} s: blur {found:.2} px, f·ω·T = {expected:.2} px");
+        assert!((found - expected).abs() < 0.25, "blur {found} px, expected {expected} px");
+    }
+}
+
+#[test]
+fn exposure_gains_scale_the_images_and_saturate() {
+    let scene = Scene::new(&[wall_at(4.0, true)]);
+    let pose = (Vector3::new(0.0, 0.0, -ALTITUDE_M), UnitQuaternion::identity());
+    let mean = |image: &[u8]| image.iter().map(|&p| f64::from(p)).sum::<f64>() / image.len() as f64;
+    let plain = camera().render(&scene, &pose.0, &pose.1, 0);
+    assert!(plain.left.iter().chain(&plain.right).all(|&p| p < 210), "no pixel near saturation");
+
+    let params = StereoCameraParams {
+        exposure_gain_std: 0.1,
+        lr_gain_mismatch: 0.05,
+        ..StereoCameraParams::default()
+    };
+    let rig = StereoCamera::new(&params).unwrap();
+    for sequence in 0..4 {
+        let (left_gain, right_gain) = rig.exposure_gains(sequence);
+        assert!((right_gain / left_gain - 1.05).abs() < 1e-12);
+        if right_gain > 1.2 {
+            continue;
+        }
+        let r = rig.render(&scene, &pose.0, &pose.1, sequence);
+        let (left_ratio, right_ratio) =
+            (mean(&r.left) / mean(&plain.left), mean(&r.right) / mean(&plain.right));
+        eprintln!(
+            "frame {sequence}: gains {left_gain:.4}/{right_gain:.4}, mean ratios {left_ratio:.4}/{right_ratio:.4}"
+        );
+        assert!((left_ratio - left_gain).abs() < 0.005 && (right_ratio - right_gain).abs() < 0.005);
+        assert_eq!(r.depth, plain.depth);
+    }
+    // Frame to frame the log gain is a standard normal times exposure_gain_std.
+    let logs: Vec<f64> = (0..4000).map(|s| rig.exposure_gains(s).0.ln()).collect();
+    let m = logs.iter().sum::<f64>() / logs.len() as f64;
+    let std = (logs.iter().map(|l| (l - m).powi(2)).sum::<f64>() / logs.len() as f64).sqrt();
+    assert!(m.abs() < 0.01 && (std - 0.1).abs() < 0.005, "log gain mean {m}, std {std}");
+
+    // Open ground and sky: the sky's 200 grey levels times 1.5 saturate at 255.
+    let open = Scene::new(&[]);
+    let plain = camera().render(&open, &pose.0, &pose.1, 0);
+    let bright =
+        StereoCamera::new(&StereoCameraParams { lr_gain_mismatch: 0.5, ..StereoCameraParams::default() })
+            .unwrap()
+            .render(&open, &pose.0, &pose.1, 0);
+    assert_eq!(bright.left, plain.left);
+    let sky: Vec<usize> = (0..plain.right.len()).filter(|&i| plain.depth.depth_m[i].is_infinite()).collect();
+    assert!(sky.len() > 1000 && sky.iter().all(|&i| plain.right[i] == 200 && bright.right[i] == 255));
+}
+
+#[test]
+fn blurred_and_gained_renders_are_deterministic() {
+    let world =
+        World::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/worlds/obstacles.toml"))
+            .unwrap();
+    let scene = Scene::new(&world.obstacles);
+    let params = StereoCameraParams {
+        exposure_time_s: 0.01,
+        blur_samples: 4,
+        exposure_gain_std: 0.1,
+        lr_gain_mismatch: -0.03,
+        noise_std: 1.0,
+        ..StereoCameraParams::default()
+    };
+    let rig = StereoCamera::new(&params).unwrap();
+    let pose = CapturePose {
+        velocity_ned_m_s: Vector3::new(3.0, 0.5, 0.0),
+        angular_velocity_frd_rad_s: Vector3::new(0.1, -0.2, 0.8),
+        ..CapturePose::still(Vector3::new(5.0, 0.0, -2.0), UnitQuaternion::from_euler_angles(0.0, 0.05, 0.1))
+    };
+    let mut buffers = RenderBuffers::default();
+    let a = rig.render_moving(&scene, &pose, 3, &mut buffers);
+    assert_eq!(a, rig.render_moving(&scene, &pose, 3, &mut buffers), "reused buffers change nothing");
+    assert_eq!(a, rig.clone().render_moving(&scene, &pose, 3, &mut RenderBuffers::default()));
+    let b = rig.render_moving(&scene, &pose, 4, &mut buffers);
+    assert_ne!(a.left, b.left);
+    assert_eq!(a.depth, b.depth);
+    let start = Instant::now();
+    let frames = 3;
+    for sequence in 0..frames {
+        std::hint::black_box(rig.render_moving(&scene, &pose, sequence, &mut buffers));
+    }
+    let per_pair_ms = start.elapsed().as_secs_f64() * 1e3 / f64::from(frames as u32);
+    eprintln!("VGA pair of obstacles.toml with 4 blur samples: {per_pair_ms:.1} ms");
 }

@@ -1,9 +1,11 @@
-//! The camera actor shell: ports, frame schedule on ground-truth time, bad params.
+//! The camera actor shell: ports, capture and delivery schedule on ground-truth time, renders
+//! on the blocking pool, bad params.
 
 use std::path::Path;
+use std::time::Duration;
 
 use kestrel_proto::messages::{GroundTruth, StereoFrame};
-use kestrel_proto::testing::{TestSetup, ready};
+use kestrel_proto::testing::TestSetup;
 use kestrel_proto::{Actor, ActorError, Time};
 use kestrel_sim::{CameraSimActor, CameraSimParams};
 
@@ -11,12 +13,14 @@ fn setup() -> TestSetup<GroundTruth> {
     TestSetup::new("camera", Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config"))
 }
 
-/// Level, facing north, 2 m up, 10 m south of the first tree of `obstacles.toml` (at 15, −3).
-fn truth(time_us: u64) -> GroundTruth {
+/// Level, facing north, 2 m up, 10 m south of the first tree of `obstacles.toml` (at 15, −3),
+/// drifting north at `speed_m_s`.
+fn truth(time_us: u64, speed_m_s: f64) -> GroundTruth {
+    let north_m = 5.0 + speed_m_s * time_us as f64 * 1e-6;
     GroundTruth {
         time: Time(time_us),
-        position_ned_m: [5.0, -3.0, -2.0],
-        velocity_ned_m_s: [0.0; 3],
+        position_ned_m: [north_m, -3.0, -2.0],
+        velocity_ned_m_s: [speed_m_s, 0.0, 0.0],
         acceleration_ned_m_s2: [0.0; 3],
         attitude: [1.0, 0.0, 0.0, 0.0],
         angular_velocity_rad_s: [0.0; 3],
@@ -30,40 +34,125 @@ fn truth(time_us: u64) -> GroundTruth {
     }
 }
 
-#[test]
-fn renders_at_its_rate_on_ground_truth_time() {
+/// A QVGA camera on `obstacles.toml` with the given extra parameters.
+fn params(extra: &str) -> CameraSimParams {
+    toml::from_str(&format!(
+        "world = \"worlds/obstacles.toml\"\n{extra}\n[camera]\nwidth_px = 320\nheight_px = 240\n"
+    ))
+    .unwrap()
+}
+
+/// One published frame: stamp, sequence, pixels, and the time of the ground-truth sample
+/// whose handler published it (the graph time of publication under lockstep).
+#[derive(Debug, PartialEq)]
+struct Delivery {
+    stamp_us: u64,
+    sequence: u64,
+    published_us: u64,
+    left: Vec<u8>,
+    right: Vec<u8>,
+}
+
+/// Feeds 50 Hz ground truth for one second into a fresh actor. With `settle`, the test waits
+/// 40 ms of wall time after each sample, so renders are finished when their delivery sample
+/// comes; without, the delivery sample usually has to await them.
+async fn fly(params: &CameraSimParams, speed_m_s: f64, settle: bool) -> (Vec<Delivery>, CameraSimActor) {
     let mut setup = setup();
-    let params: CameraSimParams =
-        toml::from_str("world = \"worlds/obstacles.toml\"\n[camera]\nwidth_px = 320\nheight_px = 240\n")
-            .unwrap();
-    assert_eq!(params.rate_hz, 15.0);
-    let mut actor = CameraSimActor::build(&params, &mut setup).unwrap();
+    let mut actor = CameraSimActor::build(params, &mut setup).unwrap();
+    let ctx = setup.context();
+    let mut out = Vec::new();
+    for i in 0..50 {
+        let truth = truth(i * 20_000, speed_m_s);
+        setup.manual_clock().set(truth.time);
+        actor.handle(&ctx, setup.input("ground_truth", truth.clone())).await.unwrap();
+        let frames = setup.published::<StereoFrame>("stereo_frame");
+        out.extend(frames.iter().skip(out.len()).map(|f: &StereoFrame| Delivery {
+            stamp_us: f.time.0,
+            sequence: f.sequence,
+            published_us: truth.time.0,
+            left: f.left().to_vec(),
+            right: f.right().to_vec(),
+        }));
+        if settle {
+            tokio::time::sleep(Duration::from_millis(40)).await;
+        }
+    }
+    (out, actor)
+}
+
+/// Capture instants of 15 Hz frames on a 50 Hz ground truth (ms).
+const CAPTURES_MS: [u64; 15] = [0, 80, 140, 200, 280, 340, 400, 480, 540, 600, 680, 740, 800, 880, 940];
+
+#[tokio::test]
+async fn captures_at_its_rate_and_delivers_latency_later_stamped_with_the_capture() {
+    let mut setup = setup();
+    let params = params("");
+    assert_eq!((params.rate_hz, params.latency_s), (15.0, 0.04));
+    CameraSimActor::build(&params, &mut setup).unwrap();
     assert_eq!(setup.input_ports(), ["ground_truth"]);
     assert_eq!(setup.output_ports(), ["stereo_frame"]);
-    let ctx = setup.context();
-    for i in 0..50 {
-        ready(actor.handle(&ctx, setup.input("ground_truth", truth(i * 20_000)))).unwrap();
-    }
-    let frames = setup.published::<StereoFrame>("stereo_frame");
-    let times: Vec<u64> = frames.iter().map(|f| f.time.0 / 1000).collect();
-    assert_eq!(times, [0, 80, 140, 200, 280, 340, 400, 480, 540, 600, 680, 740, 800, 880, 940]);
-    assert!(frames.iter().enumerate().all(|(i, f)| f.sequence == i as u64 && f.has_pixels()));
-    assert_eq!((frames[0].width, frames[0].height), (320, 240));
-    assert_eq!(frames[0].left(), frames[14].left(), "same pose, same picture");
+
+    let (frames, actor) = fly(&params, 0.0, false).await;
+    let stamps: Vec<u64> = frames.iter().map(|f| f.stamp_us / 1000).collect();
+    assert_eq!(stamps, CAPTURES_MS);
+    let published: Vec<u64> = frames.iter().map(|f| f.published_us / 1000).collect();
+    assert_eq!(published, CAPTURES_MS.map(|t| t + 40), "first sample at or after capture + 40 ms");
+    assert!(frames.iter().enumerate().all(|(i, f)| f.sequence == i as u64 && f.left.len() == 320 * 240));
+    assert_eq!(frames[0].left, frames[14].left, "same pose, same picture");
+    assert_eq!(actor.skipped(), 0);
     // The trunk (radius 0.6 m) is 10 m ahead of the rig's centre, the left camera 6 cm to its left.
     let centre = actor.last_depth().unwrap().at(159, 119).unwrap();
     assert!((centre - 9.4).abs() < 0.01, "{centre} m");
 }
 
+#[tokio::test]
+async fn a_latency_between_samples_delivers_on_the_next_sample_and_zero_on_the_capture_sample() {
+    let (frames, _) = fly(&params("latency_s = 0.025"), 0.0, false).await;
+    let published: Vec<u64> = frames.iter().map(|f| f.published_us / 1000).collect();
+    assert_eq!(published, CAPTURES_MS.map(|t| t + 40), "25 ms after capture is the second sample on");
+
+    let (frames, _) = fly(&params("latency_s = 0.0"), 0.0, false).await;
+    assert!(frames.iter().all(|f| f.published_us == f.stamp_us));
+    assert_eq!(frames.len(), CAPTURES_MS.len());
+}
+
+#[tokio::test]
+async fn the_same_ground_truth_gives_the_same_frames_at_the_same_times_however_fast_renders_finish() {
+    let params = params("");
+    let (awaited, _) = fly(&params, 2.0, false).await;
+    let (settled, _) = fly(&params, 2.0, true).await;
+    let (again, _) = fly(&params, 2.0, false).await;
+    assert_eq!(awaited.len(), CAPTURES_MS.len());
+    assert_ne!(awaited[0].left, awaited[1].left, "the pose moves, so frames differ");
+    assert!(awaited == settled && awaited == again, "deliveries differ between runs");
+}
+
+#[tokio::test]
+async fn a_latency_longer_than_four_frames_skips_captures_instead_of_queueing() {
+    // 0.3 s at 15 Hz would keep five frames in flight; the pipeline holds four.
+    let (frames, actor) = fly(&params("latency_s = 0.3"), 0.0, false).await;
+    assert!(actor.skipped() > 0);
+    assert!(frames.iter().enumerate().all(|(i, f)| f.sequence == i as u64));
+    assert!(frames.iter().all(|f| f.published_us >= f.stamp_us + 300_000));
+    assert!(frames.iter().all(|f| f.published_us < f.stamp_us + 320_000));
+}
+
 #[test]
-fn bad_params_are_errors() {
+fn bad_params_are_errors_naming_the_field() {
+    let field = |p: CameraSimParams| p.validate().unwrap_err().field;
+    let d = CameraSimParams::default;
+    assert_eq!(field(CameraSimParams { rate_hz: 0.0, ..d() }), "rate_hz");
+    for latency_s in [-0.01, f64::NAN, f64::INFINITY, 1.5] {
+        assert_eq!(field(CameraSimParams { latency_s, ..d() }), "latency_s");
+    }
     let build = |text: &str| {
         let params: CameraSimParams = toml::from_str(text).unwrap();
         CameraSimActor::build(&params, &mut setup()).err()
     };
-    assert!(matches!(build("rate_hz = 0.0"), Some(ActorError::Params(_))));
+    assert!(matches!(build("rate_hz = 0.0"), Some(ActorError::Params(m)) if m.contains("rate_hz")));
+    assert!(matches!(build("latency_s = -0.1"), Some(ActorError::Params(m)) if m.contains("latency_s")));
     assert!(
-        matches!(build("[camera]\nhorizontal_fov_deg = 200.0"), Some(ActorError::Params(m)) if m.contains("horizontal_fov_deg"))
+        matches!(build("[camera]\nhorizontal_fov_deg = 200.0"), Some(ActorError::Params(m)) if m.contains("camera.horizontal_fov_deg"))
     );
     assert!(matches!(build("world = \"worlds/missing.toml\""), Some(ActorError::Params(_))));
 }

@@ -64,6 +64,9 @@ pub struct AvoidanceHealth {
     pub forward_cap_m_s: Option<f64>,
     /// Every region was blocked: the avoider climbs until the centre clears (thesis §6).
     pub climbing: bool,
+    /// The short-term obstacle memory limited the horizontal velocity: something seen earlier,
+    /// possibly out of view now, was too close in the direction of motion.
+    pub memory_limited: bool,
     /// Depth grids refused since start (non-finite or out-of-range shares, out of order, older
     /// than the limit on arrival).
     pub grids_rejected: u64,

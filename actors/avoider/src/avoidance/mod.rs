@@ -10,21 +10,27 @@
 //!    * centre blocked (near share ≥ `blocked_share`): forward progress stops whatever the rule
 //!      base says — table 3.1 only answers when exactly one off-centre region is blocked too, so
 //!      a pole straight ahead with a clear view around it would otherwise get no correction;
-//!    * path blocked with no way given by the rule base (nothing else blocked, or the whole
-//!      centre column blocked so there is no way over or under): a sidestep at
-//!      `sidestep_speed_m_s` towards the freer side ([`View::freer_side`]), latched until the
-//!      path clears so that the vehicle does not dither between sides; the path also counts as
-//!      blocked when the centre's nearest depth is within `sidestep_distance_m` (a thin trunk
-//!      fills little of the region);
+//!    * path blocked and no way over or under given by the rule base: a sidestep at
+//!      `sidestep_speed_m_s` (or the rule base's lateral way, if faster) towards the rule
+//!      base's side or, without one, the freer side ([`View::freer_side`]), latched until the
+//!      path clears (below `climb_exit_share`) so that the vehicle does not dither between
+//!      sides; the path also counts as blocked when the centre's nearest depth is within
+//!      `sidestep_distance_m` (a thin trunk fills little of the region);
 //!    * view ahead unknown (the textureless wall of §4.2.3, [`View::unknown_ahead`]): the
 //!      vehicle keeps at most `unknown_speed_share` of its desired speed (0 by default: stop);
 //!    * every region blocked: forward progress stops and the vehicle climbs at
-//!      `climb_speed_m_s` until the centre's near share falls below `climb_exit_share` (§6);
+//!      `climb_speed_m_s` until the centre's near share falls below `climb_exit_share` (§6),
+//!      and `climb_margin_m` more;
 //! 4. low-pass filters the result (§3.3.9);
 //! 5. caps the forward speed so that the vehicle can stop `stop_distance_m` short of the
 //!    centre's nearest depth, braking at `brake_decel_m_s2` after `reaction_time_s` (PX4's
 //!    collision prevention does the same with its `CP_DIST`). The cap comes after the filter:
-//!    a safety limit must not lag behind the view.
+//!    a safety limit must not lag behind the view;
+//! 6. limits the horizontal velocity towards every obstacle in the short-term
+//!    [`ObstacleMemory`] (what the camera saw, placed in NED with the estimator's pose, so it
+//!    still counts once out of view) so that the vehicle can stop `memory_stop_distance_m`
+//!    short of it. The memory also closes a side to the sidestep. Without poses (the actor's
+//!    `nav` port unrouted) or with `memory_time_s = 0` there is no memory.
 //!
 //! [`Avoider::check`] runs on a timer: once the newest grid is older than `max_grid_age_s` the
 //! view is unknown, so the grid is ignored and the correction, through the same filter, brakes
@@ -39,24 +45,29 @@ mod desired_speed;
 pub mod error;
 pub mod live_params;
 mod low_pass;
+pub mod memory;
 pub mod params;
+mod pose_history;
 pub mod region_inputs;
 mod view;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, DepthGrid, FuzzyVelocity, Setpoint,
+    AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, DepthGrid, FuzzyVelocity, NavState, Setpoint,
 };
 
 use crate::engine::{Engine, Workspace};
 
 /// A lateral or vertical correction of the rule base at least this large (m/s) is a way around
-/// the obstacle, and no sidestep is added.
+/// the obstacle: a lateral one picks the sidestep's side, a vertical one (over or under) is
+/// flown without a sidestep.
 const WAY_M_S: f64 = 0.3;
 pub use desired_speed::desired_speed_m_s;
 use error::{AvoiderError, GridError, ParamsError, SetpointError};
 pub use low_pass::LowPass;
+pub use memory::{MemorySettings, ObstacleMemory, Pose};
 use params::AvoiderParams;
+use pose_history::PoseHistory;
 use region_inputs::InputMap;
 pub use view::View;
 
@@ -72,10 +83,19 @@ pub struct Avoider {
     desired_speed_m_s: f64,
     /// Capture time and frame sequence of the newest accepted grid.
     last_grid: Option<(Time, u64)>,
-    /// Climbing because every region was blocked, until the centre clears.
+    /// Climbing: every region was blocked and the centre has not cleared yet, or it cleared
+    /// less than `climb_margin_m` of climb ago.
     climbing: bool,
+    /// Every region was blocked and the centre has not cleared yet.
+    climb_latched: bool,
+    /// The climb goes on until then: the centre cleared, `climb_margin_m` more.
+    climb_margin_until: Option<Time>,
     /// Side of the sidestep under way (+1 right, −1 left), kept until the path clears.
     sidestep: Option<f64>,
+    /// What the camera saw, in NED (empty without poses).
+    memory: ObstacleMemory,
+    /// The estimator's recent poses; empty while none has arrived or the position is invalid.
+    poses: PoseHistory,
     grids_rejected: u64,
     setpoints_rejected: u64,
 }
@@ -103,7 +123,11 @@ impl Avoider {
             desired_speed_m_s: 0.0,
             last_grid: None,
             climbing: false,
+            climb_latched: false,
+            climb_margin_until: None,
             sidestep: None,
+            memory: ObstacleMemory::new(),
+            poses: PoseHistory::default(),
             grids_rejected: 0,
             setpoints_rejected: 0,
         })
@@ -153,6 +177,25 @@ impl Avoider {
         }
     }
 
+    /// Takes the estimator's pose for the obstacle memory. A state without a valid horizontal
+    /// position or attitude empties the memory: what it holds can no longer be placed.
+    pub fn set_pose(&mut self, nav: &NavState) {
+        let valid = nav.valid.horizontal_position && nav.valid.attitude && nav.valid.vertical_position;
+        if !valid || !nav.position_ned_m.iter().chain(&nav.attitude).all(|v| v.is_finite()) {
+            self.poses.clear();
+            self.memory.clear();
+            return;
+        }
+        let [w, x, y, z] = nav.attitude;
+        let yaw_rad = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+        self.poses.push(Pose { time: nav.time, ned_m: nav.position_ned_m, yaw_rad });
+    }
+
+    /// Obstacle points remembered now.
+    pub fn remembered(&self) -> usize {
+        self.memory.len()
+    }
+
     /// Computes the correction for `grid`, arriving at `now` on the graph clock. A refused grid
     /// is counted and changes nothing else.
     pub fn update(&mut self, now: Time, grid: &DepthGrid) -> Result<AvoidanceCommand, GridError> {
@@ -171,9 +214,12 @@ impl Avoider {
             return None;
         }
         self.climbing = false;
+        self.climb_latched = false;
+        self.climb_margin_until = None;
         self.sidestep = None;
         let brake = [-self.desired_speed_m_s, 0.0, 0.0];
-        let velocity_frd_m_s = self.filter.update(now, brake);
+        let braking = self.filter.update(now, brake);
+        let (velocity_frd_m_s, memory_limited) = self.limit_by_memory(braking);
         Some(AvoidanceCommand {
             time: now,
             grid_time: self.last_grid.map(|(time, _)| time),
@@ -184,7 +230,7 @@ impl Avoider {
             near_shares: [[0.0; 3]; 3],
             desired_speed_m_s: self.desired_speed_m_s,
             speed_input: self.speed_input(),
-            health: AvoidanceHealth { grid_age_s, stale: true, ..self.counters() },
+            health: AvoidanceHealth { grid_age_s, stale: true, memory_limited, ..self.counters() },
         })
     }
 
@@ -211,19 +257,36 @@ impl Avoider {
             *slot = degree as f32;
         }
         self.last_grid = Some((grid.time, grid.frame_sequence));
+        let settings = self.memory_settings();
+        match (settings, self.poses.at(grid.time)) {
+            (Some(settings), Some(capture)) => self.memory.observe(&grid.sectors, &capture, &settings),
+            _ => self.memory.clear(),
+        }
 
         let p = &self.params;
         let region_nearest = |row: usize, col: usize| {
             grid.regions[row][col].nearest_m.map(f64::from).filter(|d| d.is_finite())
         };
         let nearest_ahead = region_nearest(1, 1);
-        self.climbing = if self.climbing {
+        let latched = if self.climb_latched {
             view.centre_near() >= p.climb_exit_share
         } else {
             view.all_blocked(p.blocked_share)
         };
+        if self.climb_latched && !latched {
+            // The centre band clears with the obstacle's top still a few decimetres below the
+            // camera, and the airframe reaches below it (forest seed 4 clipped a trunk's top).
+            let margin_us = (p.climb_margin_m / p.climb_speed_m_s * 1e6).round() as u64;
+            self.climb_margin_until = Some(Time(grid.time.0.saturating_add(margin_us)));
+        }
+        self.climb_latched = latched;
+        self.climbing = latched || self.climb_margin_until.is_some_and(|until| grid.time < until);
+        // Once a side is taken the path stays blocked down to the climb's exit share: a trunk
+        // filling about half the centre must not flip it between blocked and clear, re-choosing
+        // a side each time (the vehicle dithered in front of two trunks for 100 s).
+        let blocked_share = if self.sidestep.is_some() { p.climb_exit_share } else { p.blocked_share };
         let centre_blocked =
-            view.centre_near() >= p.blocked_share || nearest_ahead.is_some_and(|d| d < p.sidestep_distance_m);
+            view.centre_near() >= blocked_share || nearest_ahead.is_some_and(|d| d < p.sidestep_distance_m);
         let unknown_ahead = view.unknown_ahead();
         let desired = self.desired_speed_m_s;
         let target = if self.climbing {
@@ -234,23 +297,30 @@ impl Avoider {
             if centre_blocked {
                 target[0] = target[0].min(-desired);
                 let column_blocked = view.centre_column_blocked(p.blocked_share);
-                let rule_base_gives_way =
-                    target[1].abs() >= WAY_M_S || (target[2].abs() >= WAY_M_S && !column_blocked);
-                if rule_base_gives_way {
-                    self.sidestep = None;
-                } else {
+                let lateral_way = target[1].abs() >= WAY_M_S;
+                let vertical_way = target[2].abs() >= WAY_M_S && !column_blocked;
+                let sidestepping = self.sidestep.is_some() || !vertical_way || lateral_way;
+                if p.sidestep_speed_m_s > 0.0 && sidestepping {
+                    // A side is kept until the path clears: the rule base's own way if it
+                    // gives one, else the freer side.
                     let sides_nearest = [region_nearest(1, 0), region_nearest(1, 2)];
-                    let mut side = *self.sidestep.get_or_insert_with(|| view.freer_side(sides_nearest));
-                    // Never slide into something close on the side under way: turn to the
-                    // other side if that one is not close too.
+                    let mut side = *self.sidestep.get_or_insert_with(|| {
+                        if lateral_way { target[1].signum() } else { view.freer_side(sides_nearest) }
+                    });
+                    // Never slide into something close on the side under way, in view or
+                    // remembered: turn to the other side if that one is not close too.
                     let close = |d: Option<f64>| d.is_some_and(|d| d < p.sidestep_distance_m);
-                    let [left, right] = sides_nearest.map(close);
+                    let [left, right] = [(sides_nearest[0], -1.0), (sides_nearest[1], 1.0)]
+                        .map(|(nearest, side)| close(nearest) || self.side_closed_by_memory(side));
                     let (ahead, other) = if side > 0.0 { (right, left) } else { (left, right) };
                     if ahead && !other {
                         side = -side;
                         self.sidestep = Some(side);
                     }
-                    target[1] = side * p.sidestep_speed_m_s;
+                    // The rule base's lateral answer stands when it goes the same way faster.
+                    if target[1] * side < p.sidestep_speed_m_s {
+                        target[1] = side * p.sidestep_speed_m_s;
+                    }
                     if column_blocked {
                         target[2] = 0.0;
                     }
@@ -268,6 +338,7 @@ impl Avoider {
         if let Some(cap) = forward_cap_m_s {
             velocity_frd_m_s[0] = velocity_frd_m_s[0].min(cap - desired);
         }
+        let (velocity_frd_m_s, memory_limited) = self.limit_by_memory(velocity_frd_m_s);
         Ok(AvoidanceCommand {
             time: grid.time,
             grid_time: Some(grid.time),
@@ -286,19 +357,69 @@ impl Avoider {
                 sidestep_m_s: self.sidestep.map_or(0.0, |side| side * p.sidestep_speed_m_s),
                 forward_cap_m_s,
                 climbing: self.climbing,
+                memory_limited,
                 ..self.counters()
             },
         })
+    }
+
+    /// The memory's settings, `None` when it is off.
+    fn memory_settings(&self) -> Option<MemorySettings> {
+        let p = &self.params;
+        (p.memory_time_s > 0.0).then_some(MemorySettings {
+            time_s: p.memory_time_s,
+            range_m: p.memory_range_m,
+            height_m: p.memory_height_m,
+        })
+    }
+
+    /// The speed (m/s) from which the vehicle can still stop `memory_stop_distance_m` short of
+    /// a remembered point `range_m` away.
+    fn memory_speed_cap_m_s(&self, range_m: f64) -> f64 {
+        self.stopping_speed_m_s(range_m - self.params.memory_stop_distance_m)
+    }
+
+    /// Whether the memory holds a point beside the vehicle on `side` (+1 right, −1 left;
+    /// within 45° of abeam) so near that a sidestep there could not keep its speed.
+    fn side_closed_by_memory(&self, side: f64) -> bool {
+        let (Some(settings), Some(pose)) = (self.memory_settings(), self.poses.newest()) else {
+            return false;
+        };
+        let abeam = side * std::f64::consts::FRAC_PI_2;
+        self.memory
+            .nearest_towards(&pose, &settings, abeam, std::f64::consts::FRAC_PI_4)
+            .is_some_and(|range| self.memory_speed_cap_m_s(range) < self.params.sidestep_speed_m_s)
+    }
+
+    /// `velocity_frd_m_s` (the correction) with the vehicle's horizontal velocity (the desired
+    /// speed forward plus the correction) limited towards every remembered point; whether a
+    /// point limited it.
+    fn limit_by_memory(&self, velocity_frd_m_s: [f64; 3]) -> ([f64; 3], bool) {
+        let (Some(settings), Some(pose)) = (self.memory_settings(), self.poses.newest()) else {
+            return (velocity_frd_m_s, false);
+        };
+        let desired = self.desired_speed_m_s;
+        let [forward, right, down] = velocity_frd_m_s;
+        let ([forward, right], limited) =
+            self.memory.limit(&pose, &settings, [desired + forward, right], |range| {
+                self.memory_speed_cap_m_s(range)
+            });
+        ([forward - desired, right, down], limited)
     }
 
     /// The forward speed (m/s) from which the vehicle can still stop `stop_distance_m` short of
     /// a depth `distance_m` ahead: it covers `v·t_r` before braking and `v²/2a` while braking,
     /// so `v = −a·t_r + √((a·t_r)² + 2a·(d − d_stop))`, and 0 inside the stop distance.
     fn forward_speed_cap_m_s(&self, distance_m: f64) -> f64 {
+        self.stopping_speed_m_s(distance_m - self.params.stop_distance_m)
+    }
+
+    /// The speed (m/s) from which the vehicle stops within `room_m` (0 for no room), braking at
+    /// `brake_decel_m_s2` after `reaction_time_s`.
+    fn stopping_speed_m_s(&self, room_m: f64) -> f64 {
         let p = &self.params;
-        let room = (distance_m - p.stop_distance_m).max(0.0);
         let a_tr = p.brake_decel_m_s2 * p.reaction_time_s;
-        (a_tr * a_tr + 2.0 * p.brake_decel_m_s2 * room).sqrt() - a_tr
+        (a_tr * a_tr + 2.0 * p.brake_decel_m_s2 * room_m.max(0.0)).sqrt() - a_tr
     }
 
     /// `V_in`: the desired speed as a share of the maximum, 0..1.

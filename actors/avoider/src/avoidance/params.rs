@@ -32,6 +32,9 @@ pub struct AvoiderParams {
     /// Climb rate while every region is blocked (m/s, up). Thesis §6 asks for a constant
     /// climb without a number; 1.5 m/s is half of PX4's default maximum climb rate.
     pub climb_speed_m_s: f64,
+    /// Height climbed on once the centre has cleared (m): the centre band clears while the
+    /// obstacle's top is still level with the airframe's underside.
+    pub climb_margin_m: f64,
     /// Share of invalid (no disparity) pixels above which a region is unknown, 0..1.
     pub unknown_invalid_share: f64,
     /// Share of the desired speed the vehicle keeps while the view ahead is unknown, 0..1.
@@ -52,18 +55,35 @@ pub struct AvoiderParams {
     /// Delay the cap allows for between a frame and the vehicle starting to brake (s): grid
     /// latency plus the position loop's response.
     pub reaction_time_s: f64,
-    /// Lateral speed of a sidestep (m/s): with the path blocked and no way given by the rule
-    /// base (table 3.1 has no row for an obstacle only straight ahead, and none for a whole
-    /// blocked centre column), the vehicle slides towards the freer side until the path clears.
-    /// 0 turns the sidestep off (the thesis's behaviour: stop in front of the obstacle). The
-    /// camera does not see sideways, so a fast sidestep carries the vehicle into what it cannot
-    /// see. In the forest of `config/worlds/forest.toml`: at 1.5 m/s seed 1 collided; at 1.0 m/s
-    /// 7 of seeds 1–10 flew clean; at 0.75 m/s 2 of the first 4 seeds run collided
-    /// (tests/avoidance_flights.rs, the forest test).
+    /// Lateral speed of a sidestep (m/s): with the path blocked and no way over or under given
+    /// by the rule base (table 3.1 has no row for an obstacle only straight ahead, and none for
+    /// a whole blocked centre column), the vehicle slides sideways until the path clears. 0
+    /// turns the sidestep off (the thesis's behaviour: stop in front of the obstacle). The
+    /// camera does not see sideways; the obstacle memory limits the slide towards what it saw.
+    /// Before the memory, in the forest of `config/worlds/forest.toml`: at 1.5 m/s seed 1
+    /// collided; at 1.0 m/s 7 of seeds 1–10 flew clean; at 0.75 m/s 2 of the first 4 collided.
     pub sidestep_speed_m_s: f64,
     /// A depth nearer than this in the centre region (m) blocks the path even when its near
     /// share is small (a thin trunk), so the vehicle sidesteps rather than waits in front of it.
     pub sidestep_distance_m: f64,
+    /// Obstacle points are remembered this long (s); 0 turns the memory off. Long enough to
+    /// outlast a hover in front of a trunk while the sidestep finds a way (with 10 s a trunk
+    /// abeam was forgotten during one and hit on the next sidestep, forest seed 6); what the
+    /// camera sees again replaces it sooner, and `memory_range_m` drops what is left behind.
+    pub memory_time_s: f64,
+    /// Sector ranges up to this are remembered, and points farther from the vehicle are
+    /// forgotten (m). A trunk 3 m beside the path leaves the 110° view about 6 m away, so 6 m
+    /// missed one that a sidestep then ran into (forest seed 8); beyond 10 m the camera sees
+    /// again before the vehicle gets there.
+    pub memory_range_m: f64,
+    /// Remembered points count only while the vehicle is within this height of where it saw
+    /// them from (m): the sectors are measured at the vehicle's level, about ±0.35 m per metre
+    /// of range for the 110° VGA camera's centre band.
+    pub memory_height_m: f64,
+    /// The vehicle can always stop this far short of a remembered point (m): its own radius
+    /// plus a margin. Smaller than `stop_distance_m`, which is measured ahead with the whole
+    /// centre region, so that the vehicle still fits between trees 3 m apart.
+    pub memory_stop_distance_m: f64,
     /// Depth grids older than this are ignored and the view counts as unknown (s): a few frames
     /// at 15 Hz plus the stereo engine's latency.
     pub max_grid_age_s: f64,
@@ -80,6 +100,7 @@ impl Default for AvoiderParams {
             blocked_share: 0.5,
             climb_exit_share: 0.3,
             climb_speed_m_s: 1.5,
+            climb_margin_m: 1.0,
             unknown_invalid_share: 0.7,
             unknown_speed_share: 0.0,
             stop_distance_m: 2.0,
@@ -87,6 +108,10 @@ impl Default for AvoiderParams {
             reaction_time_s: 0.3,
             sidestep_speed_m_s: 1.0,
             sidestep_distance_m: 4.0,
+            memory_time_s: 30.0,
+            memory_range_m: 10.0,
+            memory_height_m: 1.5,
+            memory_stop_distance_m: 1.0,
             max_grid_age_s: 0.5,
             check_period_s: 0.1,
         }
@@ -102,6 +127,8 @@ impl AvoiderParams {
             ("brake_decel_m_s2", self.brake_decel_m_s2),
             ("max_grid_age_s", self.max_grid_age_s),
             ("check_period_s", self.check_period_s),
+            ("memory_range_m", self.memory_range_m),
+            ("memory_height_m", self.memory_height_m),
         ];
         for (field, value) in positive {
             if !(value.is_finite() && value > 0.0) {
@@ -114,6 +141,9 @@ impl AvoiderParams {
             ("reaction_time_s", self.reaction_time_s),
             ("sidestep_distance_m", self.sidestep_distance_m),
             ("sidestep_speed_m_s", self.sidestep_speed_m_s),
+            ("memory_time_s", self.memory_time_s),
+            ("climb_margin_m", self.climb_margin_m),
+            ("memory_stop_distance_m", self.memory_stop_distance_m),
         ];
         for (field, value) in non_negative {
             if !(value.is_finite() && value >= 0.0) {

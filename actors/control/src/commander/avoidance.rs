@@ -1,23 +1,33 @@
-//! The avoider in the loop (thesis §3.3.8): AUTO and GUIDED legs flown as velocity demands
-//! with the avoider's correction added, integrated into the position setpoint.
+//! The avoider in the loop (thesis §3.3.8): AUTO and GUIDED legs, and the pilot's sticks in
+//! POSHOLD, flown as velocity demands with the avoider's correction added, integrated into the
+//! position setpoint.
 //!
 //! Used only once an [`AvoidanceCommand`] has arrived (the commander's `avoidance` port is
 //! routed); without one every mode flies exactly as before.
 //!
 //! Each step while flying a leg:
 //! 1. the leg's desired velocity: towards the target at the leg's speed (cruise in AUTO),
-//!    braking at `APPROACH_DECEL_M_S2` to stop on it, and towards the target altitude;
+//!    braking at `APPROACH_DECEL_M_S2` to stop on it, and towards the target altitude; or the
+//!    GUIDED velocity; or the pilot's stick velocity ([`Leg::Sticks`]);
 //! 2. if the newest command is fresh (younger than `avoidance_timeout_s` and not `stale`), its
 //!    body FRD correction is rotated into NED with the vehicle's **heading only**
 //!    ([`frd_to_ned`], the one conversion: level-flight approximation, as the thesis) and
 //!    added. While the avoider asks for a vertical correction (or climbs because every
 //!    region is blocked) the leg's own altitude demand is dropped, so the climb is honoured;
-//! 3. if the stream is stale the demand is zero: the vehicle slows at `AVOID_ACCEL_M_S2` and
-//!    holds where it stopped, and says so in `VehicleStatus.last_refusal` (→ STATUSTEXT);
-//! 4. the demand is rate-limited at `AVOID_ACCEL_M_S2` and integrated into a position
-//!    setpoint kept on a leash that shortens with the demand ([`LEASH_MIN_M`]); the trajectory setpoint carries that
-//!    position with the velocity as feed-forward. The nose turns towards the leg's direction
-//!    (at the yaw stick rate) so that the forward camera looks where the vehicle goes.
+//! 3. if the stream is stale the horizontal demand is zero (and the vertical one too, except
+//!    the pilot's throttle): the vehicle slows at `AVOID_ACCEL_M_S2` and holds where it
+//!    stopped, and says so in `VehicleStatus.last_refusal` (→ STATUSTEXT);
+//! 4. the demand is rate-limited at `AVOID_ACCEL_M_S2` (the ramp's acceleration fed forward)
+//!    and flown as a velocity: while it is non-zero the horizontal position setpoint follows
+//!    the vehicle, and where it reaches zero the setpoint stays and the vehicle holds
+//!    ([`LEASH_M`], [`HOLD_LEASH_M`]); the trajectory setpoint carries that position with the
+//!    velocity as feed-forward. On AUTO and GUIDED legs the nose turns towards the leg's
+//!    direction (at the yaw stick rate) so that the forward camera looks where the vehicle
+//!    goes; in POSHOLD the pilot keeps the heading.
+//!
+//! The desired speed handed to the avoider (`TrajectorySetpoint::desired_speed_m_s`, its
+//! `V_in`) is the leg's horizontal speed; for the sticks it is the forward part of the pilot's
+//! demand, the speed at which the vehicle closes on what the forward camera sees.
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{AvoidanceCommand, NavState, TrajectorySetpoint};
@@ -32,16 +42,22 @@ const VERTICAL_GAIN: f64 = 1.0;
 const LEG_VERTICAL_SPEED_M_S: f64 = 2.0;
 /// Largest change of the velocity demand (m/s²): the slow-down of a stale hold.
 pub(crate) const AVOID_ACCEL_M_S2: f64 = 2.5;
-/// The integrated position setpoint stays within `LEASH_MIN_M + LEASH_TIME_S · |v|` of the
-/// vehicle (m), `v` the velocity demand: a setpoint left metres ahead while the demand drops to
-/// zero would keep pulling the vehicle on towards the obstacle it is braking for.
-const LEASH_MIN_M: f64 = 0.3;
-/// See [`LEASH_MIN_M`] (s): about the position loop's lag behind a velocity demand.
-const LEASH_TIME_S: f64 = 0.5;
+/// While the demand moves the vehicle, the (vertical) position setpoint stays within this of
+/// the vehicle (m): a setpoint left metres ahead while the demand drops to zero would keep
+/// pulling the vehicle on towards the obstacle it is braking for.
+const LEASH_M: f64 = 0.3;
+/// While the demand is zero the setpoint holds still, at most this far from the vehicle (m),
+/// so that a gust cannot drag the held position along (a leash of [`LEASH_M`] did: the
+/// vehicle drifted onto a trunk while climbing beside it, forest seed 4).
+const HOLD_LEASH_M: f64 = 1.0;
 /// A vertical correction above this (m/s) takes the altitude over from the leg.
 const VERTICAL_TAKEOVER_M_S: f64 = 0.1;
 /// The nose turns towards the leg only while the leg asks for at least this speed (m/s).
 const TURN_MIN_SPEED_M_S: f64 = 0.5;
+/// ... and, flying to a position, while it is at least this far away horizontally (m): the
+/// few decimetres of drift from a take-off or landing spot are no direction to look in (the
+/// nose swung 29° on a take-off item).
+const TURN_MIN_DISTANCE_M: f64 = 2.0;
 
 /// What the leg wants, before the avoider.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,6 +66,31 @@ pub(crate) enum Leg {
     To { target: Vector3<f64>, speed_m_s: f64 },
     /// Fly this NED velocity (m/s).
     Velocity(Vector3<f64>),
+    /// The pilot's sticks in POSHOLD. `velocity` is the NED stick velocity (m/s): north and
+    /// east from pitch and roll in the held heading's frame, down from the throttle (0 while
+    /// it is centred and `hold_down_m` is the held altitude, NED down in m). `forward_m_s` is
+    /// the pitch stick's part along the heading (m/s): the forward camera sees only what lies
+    /// ahead, so the avoider's correction (and a stale stream's hold) applies only while it is
+    /// positive; flying sideways or backwards the pilot is unprotected, as with PX4's collision
+    /// prevention in a direction without sensor data (`CP_GO_NO_DATA` = 1). The nose stays
+    /// where the pilot's yaw stick puts it.
+    Sticks { velocity: Vector3<f64>, forward_m_s: f64, hold_down_m: Option<f64> },
+}
+
+impl Leg {
+    /// The avoider has a say: it looks where the leg goes.
+    fn avoided(&self) -> bool {
+        match self {
+            Leg::To { .. } | Leg::Velocity(_) => true,
+            Leg::Sticks { forward_m_s, .. } => *forward_m_s > 0.0,
+        }
+    }
+}
+
+/// Vertical speed (m/s, NED down) towards an altitude `error_m` below (positive) or above the
+/// setpoint.
+fn towards_altitude(error_m: f64) -> f64 {
+    (VERTICAL_GAIN * error_m).clamp(-LEG_VERTICAL_SPEED_M_S, LEG_VERTICAL_SPEED_M_S)
 }
 
 /// The body FRD vector `[forward, right, down]` in NED for a vehicle heading `yaw_rad`
@@ -86,6 +127,8 @@ pub(crate) struct Blend {
     pub setpoint: TrajectorySetpoint,
     /// The stale hold started (true) or ended (false) at this step.
     pub hold_changed: Option<bool>,
+    /// The avoider's vertical correction replaced the leg's altitude demand at this step.
+    pub vertical_takeover: bool,
 }
 
 impl AvoidanceLoop {
@@ -118,7 +161,7 @@ impl AvoidanceLoop {
     }
 
     /// The setpoint for `leg` at `now`, `dt_s` after the last step; `yaw_rad` is the heading
-    /// held so far (turned towards the leg here).
+    /// held so far (turned towards an AUTO or GUIDED leg here).
     pub fn step(
         &mut self,
         now: Time,
@@ -138,55 +181,104 @@ impl AvoidanceLoop {
                 let distance = horizontal.norm();
                 let speed = speed_m_s.min((2.0 * APPROACH_DECEL_M_S2 * distance).sqrt());
                 let h = if distance > 1e-9 { horizontal * (speed / distance) } else { Vector3::zeros() };
-                let vz = (VERTICAL_GAIN * to.z).clamp(-LEG_VERTICAL_SPEED_M_S, LEG_VERTICAL_SPEED_M_S);
-                Vector3::new(h.x, h.y, vz)
+                Vector3::new(h.x, h.y, towards_altitude(to.z))
             }
             Leg::Velocity(v) => v,
+            Leg::Sticks { velocity, hold_down_m, .. } => {
+                let vz = hold_down_m.map_or(velocity.z, |down| towards_altitude(down - p_sp.z));
+                Vector3::new(velocity.x, velocity.y, vz)
+            }
         };
         let leg_horizontal = Vector3::new(desired.x, desired.y, 0.0);
+        let avoided = leg.avoided();
         let fresh = self.fresh(now, timeout_s).copied();
         let heading = super::heading(nav);
+        let mut vertical_takeover = false;
         match fresh {
+            _ if !avoided => {}
             Some(cmd) => {
                 let correction = frd_to_ned(cmd.velocity_frd_m_s, heading);
                 if cmd.health.climbing || correction.z.abs() > VERTICAL_TAKEOVER_M_S {
                     desired.z = 0.0;
+                    vertical_takeover = true;
                 }
                 desired += correction;
             }
+            // The pilot keeps the throttle: the camera never looked up or down, and climbing
+            // is the pilot's way out.
+            None if matches!(leg, Leg::Sticks { .. }) => (desired.x, desired.y) = (0.0, 0.0),
             None => desired = Vector3::zeros(),
         }
-        let holding = fresh.is_none();
+        let holding = avoided && fresh.is_none();
         let hold_changed = (holding != self.holding).then_some(holding);
         self.holding = holding;
-        // Rate-limit the demand, integrate, keep the setpoint on a leash.
+        // Rate-limit the demand, integrate, keep the setpoint on a leash. In POSHOLD the
+        // avoider's brake passes at once: its forward cap is already a braking plan
+        // (`brake_decel_m_s2` after `reaction_time_s`), and at the pilot's stick speed (5 m/s)
+        // a second ramp here lags it by a metre or more.
+        let sticks_braked =
+            fresh.is_some() && matches!(leg, Leg::Sticks { .. }) && desired.xy().norm() < v_cmd.xy().norm();
         let change = desired - v_cmd;
         let max_change = AVOID_ACCEL_M_S2 * dt_s;
-        v_cmd += if change.norm() > max_change { change * (max_change / change.norm()) } else { change };
+        let step = if change.norm() > max_change && !sticks_braked {
+            change * (max_change / change.norm())
+        } else {
+            change
+        };
+        v_cmd += step;
+        // The ramp's acceleration goes to the controller as feed-forward, as PX4's trajectory
+        // generator does: without it the velocity loop (MPC_XY_VEL_P_ACC = 1.8/s) trails the
+        // ramp by about half a second, and a vehicle braking for a trunk decelerated at about
+        // 1.2 m/s² where the avoider planned on 2 (forest seed 9). A brake passed at once
+        // (POSHOLD) feeds at most the ramp's rate.
+        let feed_forward = step / dt_s.max(1e-6);
+        let acceleration = if feed_forward.norm() > AVOID_ACCEL_M_S2 {
+            feed_forward * (AVOID_ACCEL_M_S2 / feed_forward.norm())
+        } else {
+            feed_forward
+        };
+        if v_cmd.x.hypot(v_cmd.y) > 0.0 {
+            // A velocity is flown, as in PX4's position mode: while the demand moves the
+            // vehicle the horizontal setpoint follows it, without the lead that a lagging
+            // vehicle would catch up on (up to 1 m/s faster than the demand, towards what the
+            // avoider is braking for, or sideways into a trunk after a sidestep); it stays
+            // where the demand reaches zero, and the vehicle holds there.
+            (p_sp.x, p_sp.y) = (pos.x, pos.y);
+        }
         p_sp += v_cmd * dt_s;
         let lead = p_sp - pos;
-        let leash = LEASH_MIN_M + LEASH_TIME_S * v_cmd.norm();
+        let leash = if v_cmd.norm() > 0.0 { LEASH_M } else { HOLD_LEASH_M };
         if lead.norm() > leash {
             p_sp = pos + lead * (leash / lead.norm());
         }
         self.state = Some((p_sp, v_cmd));
-        // Nose along the leg, at the yaw rate.
-        if !holding && leg_horizontal.norm() >= TURN_MIN_SPEED_M_S {
+        // Nose along an AUTO or GUIDED leg, at the yaw rate.
+        let turns = match leg {
+            Leg::To { target, .. } => (target - pos).xy().norm() >= TURN_MIN_DISTANCE_M,
+            Leg::Velocity(_) => true,
+            Leg::Sticks { .. } => false,
+        };
+        if turns && !holding && leg_horizontal.norm() >= TURN_MIN_SPEED_M_S {
             let bearing = leg_horizontal.y.atan2(leg_horizontal.x);
             let error = wrap_pi(bearing - *yaw_rad);
             let max_turn = yaw_rate_rad_s * dt_s;
             *yaw_rad = wrap_pi(*yaw_rad + error.clamp(-max_turn, max_turn));
         }
         let horizontal_speed = v_cmd.x.hypot(v_cmd.y);
+        let desired_speed = match leg {
+            Leg::Sticks { forward_m_s, .. } => forward_m_s.max(0.0),
+            Leg::To { .. } | Leg::Velocity(_) => leg_horizontal.norm(),
+        };
         let setpoint = TrajectorySetpoint {
             position_ned_m: [Some(p_sp.x), Some(p_sp.y), Some(p_sp.z)],
             velocity_ned_m_s: [Some(v_cmd.x), Some(v_cmd.y), Some(v_cmd.z)],
+            acceleration_ned_m_s2: acceleration.into(),
             yaw_rad: Some(*yaw_rad),
             max_horizontal_speed_m_s: Some(horizontal_speed + 1.0),
-            desired_speed_m_s: Some(leg_horizontal.norm()),
+            desired_speed_m_s: Some(desired_speed),
             ..TrajectorySetpoint::default()
         };
-        Blend { setpoint, hold_changed }
+        Blend { setpoint, hold_changed, vertical_takeover }
     }
 }
 

@@ -212,9 +212,9 @@ impl Commander {
         }
     }
 
-    /// A correction from the obstacle avoider: from the first one on, AUTO and GUIDED legs
-    /// blend it in and hold when the stream goes stale (see `avoidance`). Non-finite ones are
-    /// ignored.
+    /// A correction from the obstacle avoider: from the first one on, AUTO and GUIDED legs and
+    /// the pilot's forward sticks in POSHOLD blend it in and hold when the stream goes stale
+    /// (see `avoidance`). Non-finite ones are ignored.
     pub fn on_avoidance(&mut self, cmd: &AvoidanceCommand) {
         if !self.avoidance.on_command(cmd) {
             tracing::warn!("non-finite avoidance command ignored");

@@ -6,7 +6,7 @@ use kestrel_proto::messages::{
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
-use super::avoidance::{Leg, Limits};
+use super::avoidance::{Blend, Leg, Limits};
 use super::mission_runner::MissionStep;
 use super::{Commander, heading};
 use crate::airframe::GRAVITY_M_S2;
@@ -88,7 +88,7 @@ impl Commander {
                 SetpointTarget::MotorsOff
             }
             FlightMode::AltHold => self.alt_hold(&nav, &sticks, dt_s),
-            FlightMode::PosHold => self.pos_hold(&nav, &sticks, dt_s),
+            FlightMode::PosHold => self.pos_hold(now, &nav, &sticks, dt_s),
             FlightMode::Guided => self.guided(now, dt_s, &nav, on_ground),
             FlightMode::Auto => self.auto(now, dt_s, &nav),
             FlightMode::Takeoff => {
@@ -178,12 +178,20 @@ impl Commander {
         })
     }
 
-    fn pos_hold(&mut self, nav: &NavState, s: &ManualControl, dt_s: f64) -> SetpointTarget {
+    /// POSHOLD: the sticks fly a velocity (`stick_speed_m_s` at full deflection, in the held
+    /// heading's frame) and the throttle a climb rate; centred, the vehicle holds where it is.
+    /// With the avoider in the loop the stick velocity is flown as a leg ([`Leg::Sticks`]):
+    /// the correction is blended in while the pilot flies forward, and a stale stream slows
+    /// and holds as in AUTO; the yaw stick keeps the heading and the throttle the height,
+    /// unless the avoider climbs (then the height reached is held afterwards). Centred sticks
+    /// hold as without the avoider, whatever its state.
+    fn pos_hold(&mut self, now: Time, nav: &NavState, s: &ManualControl, dt_s: f64) -> SetpointTarget {
         let yaw_rate = s.yaw * self.params.yaw_rate_deg_s.to_radians();
         let yaw = self.held_yaw(nav, yaw_rate, dt_s);
         let (pz, vz) = self.vertical(nav, s);
         let centred = s.roll.abs() < STICK_CENTRED && s.pitch.abs() < STICK_CENTRED;
         let (pn, pe, vn, ve) = if centred {
+            self.avoidance.reset();
             let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
             (Some(p.x), Some(p.y), None, None)
         } else {
@@ -191,7 +199,19 @@ impl Commander {
             let v = self.params.stick_speed_m_s;
             let (sin, cos) = yaw.sin_cos();
             let (fwd, right) = (s.pitch * v, s.roll * v);
-            (None, None, Some(fwd * cos - right * sin), Some(fwd * sin + right * cos))
+            let (vn, ve) = (fwd * cos - right * sin, fwd * sin + right * cos);
+            if self.avoidance.active() {
+                let velocity = Vector3::new(vn, ve, vz.unwrap_or(0.0));
+                let leg = Leg::Sticks { velocity, forward_m_s: fwd, hold_down_m: pz };
+                let blend = self.avoiding(now, dt_s, nav, leg);
+                if blend.vertical_takeover {
+                    // Re-latched at the height reached once the avoider lets go.
+                    self.hold.down_m = None;
+                }
+                let sp = TrajectorySetpoint { yaw_rate_rad_s: yaw_rate, ..blend.setpoint };
+                return SetpointTarget::Trajectory(sp);
+            }
+            (None, None, Some(vn), Some(ve))
         };
         SetpointTarget::Trajectory(TrajectorySetpoint {
             position_ned_m: [pn, pe, pz],
@@ -213,7 +233,7 @@ impl Commander {
                 GuidedTarget::Velocity(v) => Some(Leg::Velocity(Vector3::from(v))),
             };
             match leg {
-                Some(leg) => return self.avoiding(now, dt_s, nav, leg),
+                Some(leg) => return SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint),
                 None => self.avoidance.reset(),
             }
         }
@@ -244,7 +264,8 @@ impl Commander {
                 if self.avoidance.active() =>
             {
                 let speed_m_s = sp.max_horizontal_speed_m_s.unwrap_or(self.params.guided_speed_m_s);
-                self.avoiding(now, dt_s, nav, Leg::To { target: Vector3::new(n, e, d), speed_m_s })
+                let leg = Leg::To { target: Vector3::new(n, e, d), speed_m_s };
+                SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint)
             }
             MissionStep::Fly(mut sp) => {
                 sp.yaw_rad = Some(*self.hold.yaw_rad.get_or_insert(heading(nav)));
@@ -262,7 +283,7 @@ impl Commander {
 
     /// A leg flown with the avoider in the loop (`avoidance` module); a stale stream holds and
     /// says so once in the status (→ STATUSTEXT) and the log.
-    fn avoiding(&mut self, now: Time, dt_s: f64, nav: &NavState, leg: Leg) -> SetpointTarget {
+    fn avoiding(&mut self, now: Time, dt_s: f64, nav: &NavState, leg: Leg) -> Blend {
         let mut yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
         let limits = Limits {
             timeout_s: self.params.avoidance_timeout_s,
@@ -276,10 +297,10 @@ impl Commander {
                 tracing::warn!(mode = ?self.mode, "{why}");
                 self.last_refusal = Some(why.to_owned());
             }
-            Some(false) => tracing::info!(mode = ?self.mode, "avoidance fresh again: flying the leg"),
+            Some(false) => tracing::info!(mode = ?self.mode, "avoidance hold over: flying the leg"),
             None => {}
         }
-        SetpointTarget::Trajectory(blend.setpoint)
+        blend
     }
 
     fn hold_here(&mut self, nav: &NavState) -> SetpointTarget {

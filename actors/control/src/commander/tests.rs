@@ -425,15 +425,35 @@ fn guided_velocity_blends_the_rotated_correction_and_honours_the_climb() {
     }
     let v = velocity(&sp);
     assert!((v[0] - 2.0).abs() < 1e-6 && v[1].abs() < 1e-6 && (v[2] + 0.5).abs() < 1e-6, "{v:?}");
-    // The position setpoint is the integrated demand, kept on a leash of 0.3 m + 0.5 s of the
-    // demand ahead of the vehicle (here 0.3 + 0.5·|(2, 0, −0.5)| = 1.33 m).
+    // A moving demand is flown as a velocity: the horizontal position setpoint is the
+    // vehicle's (still at the origin here) plus one step of the demand, with no lead to catch
+    // up on; the vertical one climbs ahead, within the 0.3 m leash.
     let p = sp.position_ned_m.map(|p| p.expect("position"));
-    let lead = nalgebra::Vector3::new(p[0], p[1], p[2] + 5.0);
-    let leash = 0.3 + 0.5 * nalgebra::Vector3::from(v).norm();
-    assert!(lead.norm() <= leash + 1e-9 && lead.x > 1.0 && lead.z < 0.0, "{p:?}");
+    assert!((p[0] - 2.0 * 0.0025).abs() < 1e-4 && p[1].abs() < 1e-9, "{p:?}");
+    assert!(p[2] + 5.0 < 0.0 && p[2] + 5.0 >= -0.3 - 1e-9, "{p:?}");
     // The nose turned towards the demanded direction (north).
     assert!(sp.yaw_rad.expect("yaw").abs() < 1e-6, "{:?}", sp.yaw_rad);
     assert_eq!(c.status(Time(t)).last_refusal, None);
+}
+
+#[test]
+fn a_target_a_few_decimetres_away_does_not_turn_the_nose() {
+    // Facing north; a GUIDED target 0.5 m east (the drift of a take-off spot) is flown to
+    // without swinging the forward camera towards it; one 10 m east turns it.
+    for (east_m, turns) in [(0.5, false), (10.0, true)] {
+        let mut c = hovering();
+        at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
+        at(&mut c, 2000, Command::GotoNed { position_ned_m: [0.0, east_m, -5.0] }).expect("goto");
+        let mut sp = TrajectorySetpoint::default();
+        for k in 1..=400 {
+            let t = 2000 + k * 2500;
+            c.on_nav(&nav_heading(t, -5.0, 0.0));
+            c.on_avoidance(&avoidance(t, [0.0; 3], false));
+            sp = trajectory(c.update(Time(t)).target);
+        }
+        let yaw = sp.yaw_rad.expect("yaw");
+        assert_eq!(yaw.abs() > 0.5, turns, "{east_m} m east: yaw {yaw}");
+    }
 }
 
 /// Armed in AUTO at 10 m, flying towards a waypoint about 11 m north with the avoider in the
@@ -527,6 +547,184 @@ fn without_avoidance_commands_auto_flies_point_to_point_as_before() {
     assert_eq!(sp.velocity_ned_m_s, [None; 3]);
     assert_eq!(sp.max_horizontal_speed_m_s, Some(4.0));
     assert!(sp.position_ned_m[0].expect("north") > 10.0);
+}
+
+// The avoider in POSHOLD: the pilot's stick velocity is the leg.
+
+/// Armed in POSHOLD 5 m up, facing `yaw_rad`, at t = 2 ms.
+fn poshold_facing(yaw_rad: f64) -> Commander {
+    let mut c = ready(true);
+    c.on_nav(&nav_heading(1000, 0.0, yaw_rad));
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arm");
+    c.on_nav(&nav_heading(2000, -5.0, yaw_rad));
+    c.update(Time(2000));
+    assert_eq!(c.landed(), LandedState::InAir);
+    c
+}
+
+fn sticks(t: u64, roll: f64, pitch: f64, yaw: f64, throttle: f64) -> ManualControl {
+    ManualControl { time: Time(t), roll, pitch, yaw, throttle }
+}
+
+/// Steps `c` every 2.5 ms for `duration_us` from `t` (µs, advanced) hovering 5 m up facing `yaw_rad` with
+/// `manual` sticks and, if given, a fresh avoidance command `frd`; returns the last setpoint.
+fn fly_sticks(
+    c: &mut Commander,
+    t: &mut u64,
+    duration_us: u64,
+    yaw_rad: f64,
+    manual: [f64; 4],
+    frd: Option<[f64; 3]>,
+) -> TrajectorySetpoint {
+    let [roll, pitch, yaw, throttle] = manual;
+    let mut sp = TrajectorySetpoint::default();
+    let until = *t + duration_us;
+    while *t < until {
+        *t += 2500;
+        c.on_nav(&nav_heading(*t, -5.0, yaw_rad));
+        c.on_manual(&sticks(*t, roll, pitch, yaw, throttle));
+        if let Some(frd) = frd {
+            c.on_avoidance(&avoidance(*t, frd, false));
+        }
+        sp = trajectory(c.update(Time(*t)).target);
+    }
+    sp
+}
+
+#[test]
+fn poshold_forward_stick_blends_the_rotated_correction_and_the_pilot_keeps_heading_and_throttle() {
+    let east = std::f64::consts::FRAC_PI_2;
+    let mut c = poshold_facing(east);
+    let mut t = 2000;
+    // Full forward stick facing east (5 m/s east); the avoider asks for 1 m/s to the right
+    // (south) and nothing vertical.
+    let sp = fly_sticks(&mut c, &mut t, 3_000_000, east, [0.0, 1.0, 0.0, 0.5], Some([0.0, 1.0, 0.0]));
+    let v = velocity(&sp);
+    assert!((v[0] + 1.0).abs() < 1e-6 && (v[1] - 5.0).abs() < 1e-6, "{v:?}");
+    // Throttle centred: the height is held (the demand settles to zero, the setpoint at 5 m).
+    assert!(v[2].abs() < 1e-3, "{v:?}");
+    assert!((sp.position_ned_m[2].expect("down") + 5.0).abs() < 0.01, "{:?}", sp.position_ned_m);
+    // V_in is the pilot's demanded speed, not the blended one.
+    assert_eq!(sp.desired_speed_m_s, Some(5.0));
+    let facing = |sp: &TrajectorySetpoint| (sp.yaw_rad.expect("yaw") - east).abs() < 1e-9;
+    assert!(facing(&sp), "the nose stays where the pilot put it: {:?}", sp.yaw_rad);
+    // Forward and right together: the leg points south-east of the heading, the nose stays.
+    let sp = fly_sticks(&mut c, &mut t, 2_000_000, east, [0.5, 1.0, 0.0, 0.5], Some([0.0, 1.0, 0.0]));
+    let v = velocity(&sp);
+    assert!((v[0] + 2.5 + 1.0).abs() < 1e-6 && (v[1] - 5.0).abs() < 1e-6, "{v:?}");
+    assert!(facing(&sp), "{:?}", sp.yaw_rad);
+    assert_eq!(sp.desired_speed_m_s, Some(5.0), "the forward part, towards what the camera sees");
+    // The throttle still climbs (2.5 m/s at full stick) ...
+    let sp = fly_sticks(&mut c, &mut t, 2_000_000, east, [0.0, 1.0, 0.0, 1.0], Some([0.0, 1.0, 0.0]));
+    assert!((velocity(&sp)[2] + 2.5).abs() < 1e-6, "{:?}", velocity(&sp));
+    // ... unless the avoider asks for a vertical correction: then it has the vertical.
+    let sp = fly_sticks(&mut c, &mut t, 2_000_000, east, [0.0, 1.0, 0.0, 0.0], Some([0.0, 0.0, -0.5]));
+    assert!((velocity(&sp)[2] + 0.5).abs() < 1e-6, "{:?}", velocity(&sp));
+    // The yaw stick turns the nose at its rate (90 °/s at full stick), fed forward.
+    let before = sp.yaw_rad.expect("yaw");
+    let sp = fly_sticks(&mut c, &mut t, 500_000, east, [0.0, 1.0, 0.5, 0.5], Some([0.0; 3]));
+    let turned = sp.yaw_rad.expect("yaw") - before;
+    assert!((turned - 45f64.to_radians() * 0.5).abs() < 1e-3, "{turned}");
+    assert!((sp.yaw_rate_rad_s - 45f64.to_radians()).abs() < 1e-12);
+    assert_eq!(c.status(Time(t)).last_refusal, None);
+    assert_eq!(c.mode(), FlightMode::PosHold);
+}
+
+#[test]
+fn poshold_takes_the_avoiders_brake_at_once_and_never_leads_the_vehicle() {
+    let mut c = poshold_facing(0.0);
+    let mut t = 2000;
+    let sp = fly_sticks(&mut c, &mut t, 3_000_000, 0.0, [0.0, 1.0, 0.0, 0.5], Some([0.0; 3]));
+    assert!((velocity(&sp)[0] - 5.0).abs() < 1e-6, "{:?}", velocity(&sp));
+    // Moving, the horizontal setpoint is where the vehicle is plus one step of the demand:
+    // no lead for a lagging vehicle to catch up on.
+    let p = sp.position_ned_m.map(|p| p.expect("position"));
+    assert!((p[0] - 5.0 * 0.0025).abs() < 1e-9 && p[1].abs() < 1e-9, "{p:?}");
+    // The avoider brakes to 1 m/s forward: not ramped at 2.5 m/s², its cap is the plan.
+    let sp = fly_sticks(&mut c, &mut t, 2500, 0.0, [0.0, 1.0, 0.0, 0.5], Some([-4.0, 0.0, 0.0]));
+    assert!((velocity(&sp)[0] - 1.0).abs() < 1e-6, "{:?}", velocity(&sp));
+    // Speeding up again is ramped.
+    let sp = fly_sticks(&mut c, &mut t, 2500, 0.0, [0.0, 1.0, 0.0, 0.5], Some([0.0; 3]));
+    assert!((velocity(&sp)[0] - 1.0 - 2.5 * 0.0025).abs() < 1e-6, "{:?}", velocity(&sp));
+}
+
+#[test]
+fn poshold_sideways_or_backwards_sticks_get_no_correction_and_no_stale_hold() {
+    // The camera looks ahead only: what it sees is not on a sideways or backward path.
+    let mut c = poshold_facing(0.0);
+    let mut t = 2000;
+    let sp = fly_sticks(&mut c, &mut t, 3_000_000, 0.0, [1.0, 0.0, 0.0, 0.5], Some([-3.0, 1.0, 0.0]));
+    let v = velocity(&sp);
+    assert!(v[0].abs() < 1e-6 && (v[1] - 5.0).abs() < 1e-6, "{v:?}");
+    assert_eq!(sp.desired_speed_m_s, Some(0.0));
+    let sp = fly_sticks(&mut c, &mut t, 3_000_000, 0.0, [0.0, -1.0, 0.0, 0.5], None);
+    assert!((velocity(&sp)[0] + 5.0).abs() < 1e-6, "{:?}", velocity(&sp));
+    assert!(!c.avoidance_holding());
+    assert_eq!(c.status(Time(t)).last_refusal, None);
+}
+
+#[test]
+fn poshold_centred_sticks_hold_position_whatever_the_avoider_says() {
+    for stream in [Some([0.0, 1.0, -0.5]), None] {
+        let mut c = poshold_facing(0.0);
+        let mut t = 2000;
+        // One command makes the avoider active; then fresh corrections, or a stale stream.
+        c.on_avoidance(&avoidance(t, [0.0; 3], false));
+        let sp = fly_sticks(&mut c, &mut t, 3_000_000, 0.0, [0.0, 0.0, 0.0, 0.5], stream);
+        assert_eq!(sp.position_ned_m, [Some(0.0), Some(0.0), Some(-5.0)], "{stream:?}");
+        assert_eq!(sp.velocity_ned_m_s, [None; 3]);
+        assert_eq!(sp.desired_speed_m_s, None);
+        assert!(!c.avoidance_holding());
+        assert_eq!(c.status(Time(t)).last_refusal, None, "holding is no refusal");
+    }
+}
+
+#[test]
+fn poshold_stale_avoidance_while_pushing_forward_slows_holds_and_says_why() {
+    let mut c = poshold_facing(0.0);
+    let mut t = 2000;
+    fly_sticks(&mut c, &mut t, 3_000_000, 0.0, [0.0, 1.0, 0.0, 0.5], Some([0.0; 3]));
+    // The depth stream stops while the pilot keeps pushing.
+    let mut speeds = Vec::new();
+    let mut last = TrajectorySetpoint::default();
+    while t < 7_000_000 {
+        last = fly_sticks(&mut c, &mut t, 2500, 0.0, [0.0, 1.0, 0.0, 0.5], None);
+        let v = velocity(&last);
+        speeds.push(v[0].hypot(v[1]));
+    }
+    assert!(speeds.windows(2).all(|w| w[1] <= w[0] + 1e-9), "speeds rise");
+    assert!(speeds[0] > 4.9, "slows down, does not stop dead: {}", speeds[0]);
+    assert_eq!(*speeds.last().unwrap(), 0.0);
+    assert!(c.avoidance_holding());
+    let why = c.status(Time(t)).last_refusal.expect("says why");
+    assert!(why.contains("avoidance stale"), "{why}");
+    let held = last.position_ned_m;
+    let next = fly_sticks(&mut c, &mut t, 2500, 0.0, [0.0, 1.0, 0.0, 0.5], None);
+    assert_eq!(next.position_ned_m, held, "holds position");
+    // The throttle still climbs while held.
+    let sp = fly_sticks(&mut c, &mut t, 2_000_000, 0.0, [0.0, 1.0, 0.0, 1.0], None);
+    let v = velocity(&sp);
+    assert!(v[0].hypot(v[1]) == 0.0 && (v[2] + 2.5).abs() < 1e-6, "{v:?}");
+    assert_eq!(c.mode(), FlightMode::PosHold);
+    // Sticks centred: an ordinary position hold.
+    let sp = fly_sticks(&mut c, &mut t, 2500, 0.0, [0.0, 0.0, 0.0, 0.5], None);
+    assert_eq!(sp.position_ned_m, [Some(0.0), Some(0.0), Some(-5.0)]);
+    assert!(!c.avoidance_holding());
+}
+
+#[test]
+fn poshold_without_an_avoider_flies_the_sticks_as_before() {
+    let east = std::f64::consts::FRAC_PI_2;
+    let mut c = poshold_facing(east);
+    let mut t = 2000;
+    let sp = fly_sticks(&mut c, &mut t, 1_000_000, east, [0.0, 1.0, 0.0, 0.5], None);
+    let [vn, ve, vd] = sp.velocity_ned_m_s;
+    assert!(vn.expect("north").abs() < 1e-9 && (ve.expect("east") - 5.0).abs() < 1e-9 && vd.is_none());
+    assert_eq!(sp.position_ned_m, [None, None, Some(-5.0)]);
+    assert_eq!((sp.desired_speed_m_s, sp.max_horizontal_speed_m_s), (None, None));
+    assert!((sp.yaw_rad.expect("yaw") - east).abs() < 1e-9, "{:?}", sp.yaw_rad);
+    assert_eq!(c.status(Time(t)).last_refusal, None);
 }
 
 // Ground-station commands that move the commander's references: home, the geofence switch and

@@ -4,8 +4,11 @@
 //! for scoring.
 //!
 //! [`StereoCameraParams`] configure the rig, [`Scene`] holds the world in renderer form and
-//! [`StereoCamera::render`] makes a [`StereoRender`]: left and right 8-bit grey images and a
-//! [`DepthImage`]. The core is pure; [`CameraSimActor`](crate::CameraSimActor) publishes it.
+//! [`StereoCamera::render`] (a body at rest) or [`StereoCamera::render_moving`] (a body in
+//! motion, for motion blur) makes a [`StereoRender`]: left and right 8-bit grey images and a
+//! [`DepthImage`]. Motion blur, auto-exposure gain changes, a left/right gain mismatch and
+//! pixel noise are optional and off by default. The core is pure;
+//! [`CameraSimActor`](crate::CameraSimActor) publishes it.
 
 mod params;
 mod render;
@@ -13,5 +16,5 @@ mod scene;
 mod texture;
 
 pub use params::{Intrinsics, StereoCameraParams};
-pub use render::{DepthImage, StereoCamera, StereoRender};
+pub use render::{CapturePose, DepthImage, RenderBuffers, StereoCamera, StereoRender};
 pub use scene::Scene;

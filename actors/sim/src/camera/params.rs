@@ -22,7 +22,24 @@ pub struct StereoCameraParams {
     pub mount_frd_m: [f64; 3],
     /// Standard deviation of the Gaussian noise added to every pixel (grey levels); 0 for none.
     pub noise_std: f64,
-    /// Seed of the surface texture and the image noise.
+    /// Exposure time (s), in [0, 0.1], for motion blur: each image integrates the scene over
+    /// a window this long centred on the capture instant (so the blurred image is centred on
+    /// the stamped pose and agrees with the true depth, which stays the capture instant's).
+    /// 0 renders the capture instant alone.
+    pub exposure_time_s: f64,
+    /// Sub-images averaged over the exposure window, in 1..=64: a blur `w` px wide is drawn
+    /// as this many copies `w/blur_samples` px apart, so use about one per pixel of the
+    /// widest blur expected. Each costs a full render of both cameras (~25 ms per VGA pair
+    /// here), and an even count one more depth-only pass; unused while the body is at rest.
+    pub blur_samples: u32,
+    /// Auto-exposure flicker: standard deviation of the natural log of a per-frame global gain
+    /// on both images, in [0, 1] (0.1 ≈ ±10 % frame to frame); 0 for a constant gain of 1.
+    pub exposure_gain_std: f64,
+    /// Fixed gain mismatch of the right camera against the left, in [-0.5, 0.5]: its pixels are
+    /// `1 + lr_gain_mismatch` times brighter (0.05 = 5 % brighter), as on real rigs whose two
+    /// sensors and lenses never quite match.
+    pub lr_gain_mismatch: f64,
+    /// Seed of the surface texture, the image noise and the exposure gains.
     pub seed: u64,
 }
 
@@ -35,6 +52,10 @@ impl Default for StereoCameraParams {
             baseline_m: 0.12,
             mount_frd_m: [0.0; 3],
             noise_std: 0.0,
+            exposure_time_s: 0.0,
+            blur_samples: 5,
+            exposure_gain_std: 0.0,
+            lr_gain_mismatch: 0.0,
             seed: 1,
         }
     }
@@ -42,6 +63,10 @@ impl Default for StereoCameraParams {
 
 /// Largest image side the renderer accepts (px).
 const MAX_SIDE_PX: u32 = 8192;
+/// Longest exposure accepted (s): past this the blur smears everything an avoider needs.
+const MAX_EXPOSURE_S: f64 = 0.1;
+/// Most sub-images per exposure.
+const MAX_BLUR_SAMPLES: u32 = 64;
 
 impl StereoCameraParams {
     /// Checks every field; the error names the offending one.
@@ -57,7 +82,16 @@ impl StereoCameraParams {
         }
         positive("baseline_m", self.baseline_m)?;
         finite("mount_frd_m", &self.mount_frd_m)?;
-        non_negative("noise_std", self.noise_std)
+        non_negative("noise_std", self.noise_std)?;
+        within("exposure_time_s", self.exposure_time_s, 0.0, MAX_EXPOSURE_S)?;
+        if !(1..=MAX_BLUR_SAMPLES).contains(&self.blur_samples) {
+            return Err(InvalidParam::new(
+                "blur_samples",
+                format!("must be in 1..={MAX_BLUR_SAMPLES}, got {}", self.blur_samples),
+            ));
+        }
+        within("exposure_gain_std", self.exposure_gain_std, 0.0, 1.0)?;
+        within("lr_gain_mismatch", self.lr_gain_mismatch, -0.5, 0.5)
     }
 
     /// The pinhole model of both (rectified) cameras.
@@ -69,6 +103,15 @@ impl StereoCameraParams {
             cy_px: (f64::from(self.height_px) - 1.0) / 2.0,
             baseline_m: self.baseline_m,
         }
+    }
+}
+
+/// Checks that `value` is a number in `[lo, hi]`.
+fn within(field: &str, value: f64, lo: f64, hi: f64) -> Result<(), InvalidParam> {
+    if (lo..=hi).contains(&value) {
+        Ok(())
+    } else {
+        Err(InvalidParam::new(field, format!("must be in [{lo}, {hi}], got {value}")))
     }
 }
 
@@ -119,5 +162,17 @@ mod tests {
         assert_eq!(bad(StereoCameraParams { baseline_m: 0.0, ..d() }), "baseline_m");
         assert_eq!(bad(StereoCameraParams { mount_frd_m: [f64::NAN, 0.0, 0.0], ..d() }), "mount_frd_m");
         assert_eq!(bad(StereoCameraParams { noise_std: -1.0, ..d() }), "noise_std");
+        for exposure_time_s in [-0.001, 0.2, f64::NAN] {
+            assert_eq!(bad(StereoCameraParams { exposure_time_s, ..d() }), "exposure_time_s");
+        }
+        for blur_samples in [0, 65] {
+            assert_eq!(bad(StereoCameraParams { blur_samples, ..d() }), "blur_samples");
+        }
+        for exposure_gain_std in [-0.1, 1.5, f64::INFINITY] {
+            assert_eq!(bad(StereoCameraParams { exposure_gain_std, ..d() }), "exposure_gain_std");
+        }
+        for lr_gain_mismatch in [-0.6, 0.6, f64::NAN] {
+            assert_eq!(bad(StereoCameraParams { lr_gain_mismatch, ..d() }), "lr_gain_mismatch");
+        }
     }
 }

@@ -1,11 +1,20 @@
 //! The stereo renderer: one ray per pixel from each camera into the [`Scene`], shaded with
 //! procedural texture and a fixed sun, plus the left camera's true depth.
+//!
+//! Optional camera effects, all off by default and all deterministic (a function of the
+//! parameters, the pose and the frame's sequence number only):
+//! * motion blur: the scene integrated over the exposure window, centred on the capture
+//!   instant, as the average of `blur_samples` renders at poses extrapolated from the body's
+//!   velocity and rate;
+//! * exposure: a per-frame global gain (auto-exposure flicker) and a fixed right/left gain
+//!   mismatch, applied to the scene's radiance before quantisation to 8 bits;
+//! * Gaussian pixel noise, added with the gain and before quantisation.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{FrameSizeError, StereoFrame};
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use kestrel_proto::messages::{FrameSizeError, GroundTruth, StereoFrame};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use rand::SeedableRng;
-use rand_distr::{Distribution, Normal};
+use rand_distr::{Distribution, Normal, StandardNormal};
 use rand_pcg::Pcg64;
 
 use crate::camera::params::{Intrinsics, StereoCameraParams};
@@ -14,7 +23,7 @@ use crate::camera::texture::Texture;
 use crate::error::InvalidParam;
 
 /// Grey level of the sky (uniform).
-const SKY: u8 = 200;
+const SKY: f32 = 200.0;
 /// Grey level of a textureless surface lit by the ambient light alone.
 const PLAIN_ALBEDO: f32 = 0.6;
 /// Unit vector from a surface towards the sun (NED): high, to the south-east.
@@ -24,6 +33,8 @@ const AMBIENT: f32 = 0.5;
 const SUNLIGHT: f32 = 0.5;
 /// Corners nearer than this in front of a camera make an obstacle's projection unbounded (m).
 const NEAR_M: f32 = 0.01;
+/// Mixed into the seed of the exposure gains so they draw from another stream than the noise.
+const GAIN_STREAM: u64 = 0x6A09_E667_F3BC_C908;
 
 /// A rectified stereo pair rendering a [`Scene`] by ray casting; pure and deterministic (the
 /// same scene, pose, parameters and sequence number give the same images).
@@ -42,6 +53,80 @@ pub struct StereoCamera {
     texture: Texture,
     /// Per-pixel image noise (grey levels), if any.
     noise: Option<Normal<f64>>,
+}
+
+/// The body's true state at a frame's capture instant: the pose the frame shows and, for
+/// motion blur, how it is moving.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CapturePose {
+    /// Body origin, north/east/down from home (m).
+    pub position_ned_m: Vector3<f64>,
+    /// Rotation of body FRD into NED.
+    pub attitude: UnitQuaternion<f64>,
+    /// Velocity north/east/down (m/s).
+    pub velocity_ned_m_s: Vector3<f64>,
+    /// Angular rate about body forward, right, down (rad/s).
+    pub angular_velocity_frd_rad_s: Vector3<f64>,
+}
+
+impl From<&GroundTruth> for CapturePose {
+    /// The simulator's true state as a capture pose.
+    fn from(truth: &GroundTruth) -> CapturePose {
+        let [w, x, y, z] = truth.attitude;
+        CapturePose {
+            position_ned_m: Vector3::from(truth.position_ned_m),
+            attitude: UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
+            velocity_ned_m_s: Vector3::from(truth.velocity_ned_m_s),
+            angular_velocity_frd_rad_s: Vector3::from(truth.angular_velocity_rad_s),
+        }
+    }
+}
+
+impl CapturePose {
+    /// A body at rest at `position_ned_m`, turned by `attitude` (body FRD → NED).
+    pub fn still(position_ned_m: Vector3<f64>, attitude: UnitQuaternion<f64>) -> CapturePose {
+        CapturePose {
+            position_ned_m,
+            attitude,
+            velocity_ned_m_s: Vector3::zeros(),
+            angular_velocity_frd_rad_s: Vector3::zeros(),
+        }
+    }
+
+    /// Position and attitude `dt_s` seconds after the capture instant (before it when
+    /// negative), at constant velocity and body rate. Over an exposure of a few milliseconds
+    /// the neglected acceleration term is below a millimetre.
+    pub fn at(&self, dt_s: f64) -> (Vector3<f64>, UnitQuaternion<f64>) {
+        (
+            self.position_ned_m + self.velocity_ned_m_s * dt_s,
+            // Body rates turn the body frame: q(t + dt) = q(t) ⊗ exp(ω·dt).
+            self.attitude * UnitQuaternion::from_scaled_axis(self.angular_velocity_frd_rad_s * dt_s),
+        )
+    }
+
+    fn is_still(&self) -> bool {
+        self.velocity_ned_m_s == Vector3::zeros() && self.angular_velocity_frd_rad_s == Vector3::zeros()
+    }
+}
+
+/// Working memory of [`StereoCamera::render_moving`], reused from frame to frame so a render
+/// allocates only the images and depth it returns.
+#[derive(Clone, Debug, Default)]
+pub struct RenderBuffers {
+    /// Scene radiance per pixel (grey levels at unit gain), summed over the exposure's
+    /// sub-images with their weights.
+    left: Vec<f32>,
+    right: Vec<f32>,
+}
+
+impl RenderBuffers {
+    /// Zeroes both accumulators at `pixels` pixels, keeping their allocations.
+    fn reset(&mut self, pixels: usize) {
+        for buffer in [&mut self.left, &mut self.right] {
+            buffer.clear();
+            buffer.resize(pixels, 0.0);
+        }
+    }
 }
 
 /// One rendered stereo pair with the left camera's true depth.
@@ -126,8 +211,9 @@ impl StereoCamera {
         &self.params
     }
 
-    /// Renders both cameras with the body at `position_ned_m` (m from home) turned by
-    /// `attitude` (body FRD → NED); `sequence` seeds this frame's image noise.
+    /// Renders both cameras with the body at rest at `position_ned_m` (m from home) turned by
+    /// `attitude` (body FRD → NED): no motion blur; `sequence` seeds this frame's noise and
+    /// exposure gain.
     pub fn render(
         &self,
         scene: &Scene,
@@ -135,39 +221,97 @@ impl StereoCamera {
         attitude: &UnitQuaternion<f64>,
         sequence: u64,
     ) -> StereoRender {
+        let pose = CapturePose::still(*position_ned_m, *attitude);
+        self.render_moving(scene, &pose, sequence, &mut RenderBuffers::default())
+    }
+
+    /// Renders both cameras as captured with the body at `pose`; `sequence` seeds this frame's
+    /// noise and exposure gain, `buffers` is working memory (any, e.g. the last frame's).
+    ///
+    /// With an exposure time `T` and a moving body, each image is the mean of `blur_samples`
+    /// renders at `T·((i + ½)/n − ½)` s from the capture instant (the midpoint rule over the
+    /// window), so a point moving `s` px/s on the image is smeared over `s·T` px, centred on
+    /// where it is at the capture instant. That costs `blur_samples` times a still render,
+    /// plus one depth-only pass of the left camera when `blur_samples` is even; the depth is
+    /// always the capture instant's. A body at rest, or `T = 0`, renders once.
+    pub fn render_moving(
+        &self,
+        scene: &Scene,
+        pose: &CapturePose,
+        sequence: u64,
+        buffers: &mut RenderBuffers,
+    ) -> StereoRender {
+        let (width, height) = (self.params.width_px, self.params.height_px);
+        let pixels = width as usize * height as usize;
+        buffers.reset(pixels);
+        let mut depth_m = vec![f32::INFINITY; pixels];
+        let exposure_s = self.params.exposure_time_s;
+        let samples = if exposure_s > 0.0 && !pose.is_still() { self.params.blur_samples } else { 1 };
+        let weight = 1.0 / samples as f32;
+        // With an odd count the middle sample falls on the capture instant exactly.
+        let centre = (samples % 2 == 1).then_some(samples / 2);
+        for i in 0..samples {
+            let dt_s = exposure_s * ((f64::from(i) + 0.5) / f64::from(samples) - 0.5);
+            let (left, right) = self.views(&pose.at(dt_s));
+            let depth = (Some(i) == centre).then_some(&mut depth_m[..]);
+            self.render_view(scene, &left, Some((&mut buffers.left, weight)), depth);
+            self.render_view(scene, &right, Some((&mut buffers.right, weight)), None);
+        }
+        if centre.is_none() {
+            let (left, _) = self.views(&pose.at(0.0));
+            self.render_view(scene, &left, None, Some(&mut depth_m));
+        }
+        let (left_gain, right_gain) = self.exposure_gains(sequence);
+        let mut noise = self.noise.as_ref().map(|noise| {
+            (noise, Pcg64::seed_from_u64(self.params.seed ^ sequence.wrapping_mul(0x9E37_79B9_7F4A_7C15)))
+        });
+        let left = quantise(&buffers.left, left_gain as f32, noise.as_mut());
+        let right = quantise(&buffers.right, right_gain as f32, noise.as_mut());
+        StereoRender { width, height, left, right, depth: DepthImage { width, height, depth_m } }
+    }
+
+    /// The gains frame `sequence` applies to the scene's radiance, `(left, right)`: a global
+    /// gain `exp(exposure_gain_std·z)` with `z` standard normal, drawn afresh for each frame
+    /// from the seed and the sequence number (so any frame renders alone, in any order), times
+    /// `1 + lr_gain_mismatch` for the right camera. `(1, 1)` with the defaults.
+    pub fn exposure_gains(&self, sequence: u64) -> (f64, f64) {
+        let std = self.params.exposure_gain_std;
+        let gain = if std > 0.0 {
+            let mut rng = Pcg64::seed_from_u64(
+                (self.params.seed ^ GAIN_STREAM).wrapping_add(sequence.wrapping_mul(0x9E37_79B9_7F4A_7C15)),
+            );
+            let z: f64 = StandardNormal.sample(&mut rng);
+            (std * z).exp()
+        } else {
+            1.0
+        };
+        (gain, gain * (1.0 + self.params.lr_gain_mismatch))
+    }
+
+    /// Where the left and right cameras are and how they are turned with the body at
+    /// `(position_ned_m, attitude)`.
+    fn views(&self, (position_ned_m, attitude): &(Vector3<f64>, UnitQuaternion<f64>)) -> (View, View) {
         let body_to_ned = attitude.to_rotation_matrix().into_inner();
         // Camera x, y, z are body right, down, forward.
         let camera_to_body = Matrix3::new(0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
         let rotation: Matrix3<f32> = (body_to_ned * camera_to_body).cast();
         let mount = position_ned_m + body_to_ned * Vector3::from(self.params.mount_frd_m);
         let half_baseline = body_to_ned * Vector3::new(0.0, self.params.baseline_m / 2.0, 0.0);
-        let left = View { origin: (mount - half_baseline).cast(), rotation };
-        let right = View { origin: (mount + half_baseline).cast(), rotation };
-
-        let pixels = self.params.width_px as usize * self.params.height_px as usize;
-        let mut depth_m = vec![f32::INFINITY; pixels];
-        let mut left_image = vec![SKY; pixels];
-        let mut right_image = vec![SKY; pixels];
-        self.render_view(scene, &left, &mut left_image, Some(&mut depth_m));
-        self.render_view(scene, &right, &mut right_image, None);
-        if let Some(noise) = &self.noise {
-            let mut rng =
-                Pcg64::seed_from_u64(self.params.seed ^ sequence.wrapping_mul(0x9E37_79B9_7F4A_7C15));
-            add_noise(&mut left_image, noise, &mut rng);
-            add_noise(&mut right_image, noise, &mut rng);
-        }
-        let (width, height) = (self.params.width_px, self.params.height_px);
-        StereoRender {
-            width,
-            height,
-            left: left_image,
-            right: right_image,
-            depth: DepthImage { width, height, depth_m },
-        }
+        (
+            View { origin: (mount - half_baseline).cast(), rotation },
+            View { origin: (mount + half_baseline).cast(), rotation },
+        )
     }
 
-    /// Casts every pixel of one camera into `image` (and its depth into `depth_m`).
-    fn render_view(&self, scene: &Scene, view: &View, image: &mut [u8], mut depth_m: Option<&mut Vec<f32>>) {
+    /// Casts every pixel of one camera: adds `weight` times its radiance (grey levels) to
+    /// `image`, and writes its depth (m) into `depth_m`; either may be left out.
+    fn render_view(
+        &self,
+        scene: &Scene,
+        view: &View,
+        mut image: Option<(&mut [f32], f32)>,
+        mut depth_m: Option<&mut [f32]>,
+    ) {
         let width = self.column_rays.len();
         let bounds: Vec<(usize, PixelRect)> = scene
             .shapes()
@@ -200,22 +344,32 @@ impl StereoCamera {
                         nearest = Some((t, Some((i, face))));
                     }
                 }
-                let Some((t, what)) = nearest else { continue };
-                let surface = match what {
-                    None => Scene::ground_surface(&(view.origin + t * dir)),
-                    Some((i, face)) => scene.shapes()[i].surface(i as u32 + 1, &view.origin, &dir, t, face),
+                let pixel = row * width + col;
+                let Some((t, what)) = nearest else {
+                    if let Some((image, weight)) = image.as_mut() {
+                        image[pixel] += *weight * SKY;
+                    }
+                    continue;
                 };
-                image[row * width + col] = self.shade(&surface, &dir, t * footprint_per_depth);
+                if let Some((image, weight)) = image.as_mut() {
+                    let surface = match what {
+                        None => Scene::ground_surface(&(view.origin + t * dir)),
+                        Some((i, face)) => {
+                            scene.shapes()[i].surface(i as u32 + 1, &view.origin, &dir, t, face)
+                        }
+                    };
+                    image[pixel] += *weight * self.shade(&surface, &dir, t * footprint_per_depth);
+                }
                 if let Some(depth) = depth_m.as_deref_mut() {
-                    depth[row * width + col] = t;
+                    depth[pixel] = t;
                 }
             }
         }
     }
 
-    /// Grey level of `surface` seen along `dir` with a pixel footprint of `footprint_m` (m)
-    /// across the line of sight.
-    fn shade(&self, surface: &Surface, dir: &Vector3<f32>, footprint_m: f32) -> u8 {
+    /// Radiance of `surface` seen along `dir` with a pixel footprint of `footprint_m` (m)
+    /// across the line of sight, in grey levels at unit gain (not rounded).
+    fn shade(&self, surface: &Surface, dir: &Vector3<f32>, footprint_m: f32) -> f32 {
         let sun = Vector3::from(TOWARDS_SUN);
         let light = AMBIENT + SUNLIGHT * surface.normal.dot(&sun).max(0.0);
         let albedo = if surface.textured {
@@ -224,7 +378,7 @@ impl StereoCamera {
         } else {
             PLAIN_ALBEDO
         };
-        (255.0 * albedo * light).round().clamp(0.0, 255.0) as u8
+        255.0 * albedo * light
     }
 
     /// The pixels `shape` can cover in `view` (inclusive ranges), or `None` when it is wholly
@@ -265,9 +419,14 @@ struct PixelRect {
     rows: (usize, usize),
 }
 
-/// Adds `noise` (grey levels) to every pixel, saturating.
-fn add_noise(image: &mut [u8], noise: &Normal<f64>, rng: &mut Pcg64) {
-    for p in image {
-        *p = (f64::from(*p) + noise.sample(rng)).round().clamp(0.0, 255.0) as u8;
+/// The 8-bit image of `radiance` (grey levels at unit gain) times `gain`, plus `noise` (grey
+/// levels) if any, rounded and saturated at 0 and 255.
+fn quantise(radiance: &[f32], gain: f32, noise: Option<&mut (&Normal<f64>, Pcg64)>) -> Vec<u8> {
+    match noise {
+        None => radiance.iter().map(|&r| (gain * r).round().clamp(0.0, 255.0) as u8).collect(),
+        Some((noise, rng)) => radiance
+            .iter()
+            .map(|&r| (f64::from(gain * r) + noise.sample(rng)).round().clamp(0.0, 255.0) as u8)
+            .collect(),
     }
 }
