@@ -44,17 +44,10 @@ fn scores(params: &StereoCameraParams) -> Scores {
             time: Time::ZERO,
             position_ned_m: [north_m, 0.0, -2.0],
             velocity_ned_m_s: [3.0, 0.0, 0.0],
-            acceleration_ned_m_s2: [0.0; 3],
             // Yawed 0.1 rad right of north.
             attitude: [0.05f64.cos(), 0.0, 0.0, 0.05f64.sin()],
             angular_velocity_rad_s: [0.0, 0.0, 0.9],
-            lat_deg: 0.0,
-            lon_deg: 0.0,
-            alt_msl_m: 0.0,
-            landed: false,
-            crashed: false,
-            collisions: 0,
-            clearance_m: None,
+            ..GroundTruth::default()
         };
         let r = camera.render_moving(&scene, &CapturePose::from(&truth), sequence as u64, &mut buffers);
         let left = gray_mat(&r.left, r.width, r.height).unwrap();

@@ -21,16 +21,7 @@ fn truth(time_us: u64, speed_m_s: f64) -> GroundTruth {
         time: Time(time_us),
         position_ned_m: [north_m, -3.0, -2.0],
         velocity_ned_m_s: [speed_m_s, 0.0, 0.0],
-        acceleration_ned_m_s2: [0.0; 3],
-        attitude: [1.0, 0.0, 0.0, 0.0],
-        angular_velocity_rad_s: [0.0; 3],
-        lat_deg: 0.0,
-        lon_deg: 0.0,
-        alt_msl_m: 0.0,
-        landed: false,
-        crashed: false,
-        collisions: 0,
-        clearance_m: None,
+        ..GroundTruth::default()
     }
 }
 

@@ -34,3 +34,25 @@ pub struct GroundTruth {
     pub clearance_m: Option<f64>,
 }
 crate::impl_message!(GroundTruth);
+
+impl Default for GroundTruth {
+    /// At rest at the origin, level and facing north (the identity attitude, not a zero
+    /// quaternion), on no particular spot of the Earth: for tests that set what they need.
+    fn default() -> GroundTruth {
+        GroundTruth {
+            time: Time::ZERO,
+            position_ned_m: [0.0; 3],
+            velocity_ned_m_s: [0.0; 3],
+            acceleration_ned_m_s2: [0.0; 3],
+            attitude: [1.0, 0.0, 0.0, 0.0],
+            angular_velocity_rad_s: [0.0; 3],
+            lat_deg: 0.0,
+            lon_deg: 0.0,
+            alt_msl_m: 0.0,
+            landed: false,
+            crashed: false,
+            collisions: 0,
+            clearance_m: None,
+        }
+    }
+}
