@@ -212,31 +212,16 @@ impl AvoidanceLoop {
         let holding = avoided && fresh.is_none();
         let hold_changed = (holding != self.holding).then_some(holding);
         self.holding = holding;
-        // Rate-limit the demand, integrate, keep the setpoint on a leash. In POSHOLD the
-        // avoider's brake passes at once: its forward cap is already a braking plan
-        // (`brake_decel_m_s2` after `reaction_time_s`), and at the pilot's stick speed (5 m/s)
-        // a second ramp here lags it by a metre or more.
-        let sticks_braked =
-            fresh.is_some() && matches!(leg, Leg::Sticks { .. }) && desired.xy().norm() < v_cmd.xy().norm();
+        // Rate-limit the demand, then fly it as a velocity with the ramp fed forward.
         let change = desired - v_cmd;
         let max_change = AVOID_ACCEL_M_S2 * dt_s;
-        let step = if change.norm() > max_change && !sticks_braked {
-            change * (max_change / change.norm())
-        } else {
-            change
-        };
+        let step = if change.norm() > max_change { change * (max_change / change.norm()) } else { change };
         v_cmd += step;
         // The ramp's acceleration goes to the controller as feed-forward, as PX4's trajectory
         // generator does: without it the velocity loop (MPC_XY_VEL_P_ACC = 1.8/s) trails the
         // ramp by about half a second, and a vehicle braking for a trunk decelerated at about
-        // 1.2 m/s² where the avoider planned on 2 (forest seed 9). A brake passed at once
-        // (POSHOLD) feeds at most the ramp's rate.
-        let feed_forward = step / dt_s.max(1e-6);
-        let acceleration = if feed_forward.norm() > AVOID_ACCEL_M_S2 {
-            feed_forward * (AVOID_ACCEL_M_S2 / feed_forward.norm())
-        } else {
-            feed_forward
-        };
+        // 1.2 m/s² where the avoider planned on 2 (forest seed 9).
+        let acceleration = step / dt_s.max(1e-6);
         if v_cmd.x.hypot(v_cmd.y) > 0.0 {
             // A velocity is flown, as in PX4's position mode: while the demand moves the
             // vehicle the horizontal setpoint follows it, without the lead that a lagging

@@ -632,21 +632,23 @@ fn poshold_forward_stick_blends_the_rotated_correction_and_the_pilot_keeps_headi
 }
 
 #[test]
-fn poshold_takes_the_avoiders_brake_at_once_and_never_leads_the_vehicle() {
+fn poshold_ramps_the_avoiders_brake_with_feed_forward_and_never_leads_the_vehicle() {
     let mut c = poshold_facing(0.0);
     let mut t = 2000;
     let sp = fly_sticks(&mut c, &mut t, 3_000_000, 0.0, [0.0, 1.0, 0.0, 0.5], Some([0.0; 3]));
     assert!((velocity(&sp)[0] - 5.0).abs() < 1e-6, "{:?}", velocity(&sp));
+    assert_eq!(sp.acceleration_ned_m_s2, [0.0; 3], "steady: nothing to feed forward");
     // Moving, the horizontal setpoint is where the vehicle is plus one step of the demand:
     // no lead for a lagging vehicle to catch up on.
     let p = sp.position_ned_m.map(|p| p.expect("position"));
     assert!((p[0] - 5.0 * 0.0025).abs() < 1e-9 && p[1].abs() < 1e-9, "{p:?}");
-    // The avoider brakes to 1 m/s forward: not ramped at 2.5 m/s², its cap is the plan.
+    // The avoider brakes to 1 m/s forward: ramped at 2.5 m/s² as in every mode, with the
+    // ramp's deceleration fed forward to the controller.
     let sp = fly_sticks(&mut c, &mut t, 2500, 0.0, [0.0, 1.0, 0.0, 0.5], Some([-4.0, 0.0, 0.0]));
+    assert!((velocity(&sp)[0] - (5.0 - 2.5 * 0.0025)).abs() < 1e-6, "{:?}", velocity(&sp));
+    assert!((sp.acceleration_ned_m_s2[0] + 2.5).abs() < 1e-6, "{:?}", sp.acceleration_ned_m_s2);
+    let sp = fly_sticks(&mut c, &mut t, 1_600_000, 0.0, [0.0, 1.0, 0.0, 0.5], Some([-4.0, 0.0, 0.0]));
     assert!((velocity(&sp)[0] - 1.0).abs() < 1e-6, "{:?}", velocity(&sp));
-    // Speeding up again is ramped.
-    let sp = fly_sticks(&mut c, &mut t, 2500, 0.0, [0.0, 1.0, 0.0, 0.5], Some([0.0; 3]));
-    assert!((velocity(&sp)[0] - 1.0 - 2.5 * 0.0025).abs() < 1e-6, "{:?}", velocity(&sp));
 }
 
 #[test]
