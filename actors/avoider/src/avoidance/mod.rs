@@ -83,9 +83,6 @@ pub struct Avoider {
     desired_speed_m_s: f64,
     /// Capture time and frame sequence of the newest accepted grid.
     last_grid: Option<(Time, u64)>,
-    /// Climbing: every region was blocked and the centre has not cleared yet, or it cleared
-    /// less than `climb_margin_m` of climb ago.
-    climbing: bool,
     /// Every region was blocked and the centre has not cleared yet.
     climb_latched: bool,
     /// The climb goes on until then: the centre cleared, `climb_margin_m` more.
@@ -122,7 +119,6 @@ impl Avoider {
             params,
             desired_speed_m_s: 0.0,
             last_grid: None,
-            climbing: false,
             climb_latched: false,
             climb_margin_until: None,
             sidestep: None,
@@ -213,7 +209,6 @@ impl Avoider {
         if grid_age_s.is_some_and(|age| age <= self.params.max_grid_age_s) {
             return None;
         }
-        self.climbing = false;
         self.climb_latched = false;
         self.climb_margin_until = None;
         self.sidestep = None;
@@ -280,7 +275,7 @@ impl Avoider {
             self.climb_margin_until = Some(Time(grid.time.0.saturating_add(margin_us)));
         }
         self.climb_latched = latched;
-        self.climbing = latched || self.climb_margin_until.is_some_and(|until| grid.time < until);
+        let climbing = latched || self.climb_margin_until.is_some_and(|until| grid.time < until);
         // Once a side is taken the path stays blocked down to the climb's exit share: a trunk
         // filling about half the centre must not flip it between blocked and clear, re-choosing
         // a side each time (the vehicle dithered in front of two trunks for 100 s).
@@ -289,7 +284,7 @@ impl Avoider {
             view.centre_near() >= blocked_share || nearest_ahead.is_some_and(|d| d < p.sidestep_distance_m);
         let unknown_ahead = view.unknown_ahead();
         let desired = self.desired_speed_m_s;
-        let target = if self.climbing {
+        let target = if climbing {
             self.sidestep = None;
             [-desired, 0.0, -p.climb_speed_m_s]
         } else {
@@ -356,7 +351,7 @@ impl Avoider {
                 centre_blocked,
                 sidestep_m_s: self.sidestep.map_or(0.0, |side| side * p.sidestep_speed_m_s),
                 forward_cap_m_s,
-                climbing: self.climbing,
+                climbing,
                 memory_limited,
                 ..self.counters()
             },

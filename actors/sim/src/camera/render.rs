@@ -35,6 +35,9 @@ const SUNLIGHT: f32 = 0.5;
 const NEAR_M: f32 = 0.01;
 /// Mixed into the seed of the exposure gains so they draw from another stream than the noise.
 const GAIN_STREAM: u64 = 0x6A09_E667_F3BC_C908;
+/// The frame sequence number is spread over the seed's bits by this odd constant (2⁶⁴/φ), so
+/// neighbouring frames get unrelated noise and gains.
+const SEQUENCE_SPREAD: u64 = 0x9E37_79B9_7F4A_7C15;
 
 /// A rectified stereo pair rendering a [`Scene`] by ray casting; pure and deterministic (the
 /// same scene, pose, parameters and sequence number give the same images).
@@ -263,7 +266,7 @@ impl StereoCamera {
         }
         let (left_gain, right_gain) = self.exposure_gains(sequence);
         let mut noise = self.noise.as_ref().map(|noise| {
-            (noise, Pcg64::seed_from_u64(self.params.seed ^ sequence.wrapping_mul(0x9E37_79B9_7F4A_7C15)))
+            (noise, Pcg64::seed_from_u64(self.params.seed ^ sequence.wrapping_mul(SEQUENCE_SPREAD)))
         });
         let left = quantise(&buffers.left, left_gain as f32, noise.as_mut());
         let right = quantise(&buffers.right, right_gain as f32, noise.as_mut());
@@ -278,7 +281,7 @@ impl StereoCamera {
         let std = self.params.exposure_gain_std;
         let gain = if std > 0.0 {
             let mut rng = Pcg64::seed_from_u64(
-                (self.params.seed ^ GAIN_STREAM).wrapping_add(sequence.wrapping_mul(0x9E37_79B9_7F4A_7C15)),
+                (self.params.seed ^ GAIN_STREAM).wrapping_add(sequence.wrapping_mul(SEQUENCE_SPREAD)),
             );
             let z: f64 = StandardNormal.sample(&mut rng);
             (std * z).exp()
