@@ -84,6 +84,8 @@ pub struct HubStats {
     pub unroutable: u64,
     /// Messages addressed to us that no service uses.
     pub unhandled: u64,
+    /// Frames that claimed our own system id: dropped unrouted and unread (see `Hub::on_frame`).
+    pub own_id_refused: u64,
 }
 
 /// Every link, the router and the vehicle.
@@ -93,12 +95,20 @@ pub struct Hub {
     links: BTreeMap<LinkId, LinkState>,
     next_id: LinkId,
     undecodable: u64,
+    own_id_refused: u64,
 }
 
 impl Hub {
     /// A hub with no links yet.
     pub fn new(vehicle: Vehicle) -> Hub {
-        Hub { vehicle, router: Router::new(), links: BTreeMap::new(), next_id: 1, undecodable: 0 }
+        Hub {
+            vehicle,
+            router: Router::new(),
+            links: BTreeMap::new(),
+            next_id: 1,
+            undecodable: 0,
+            own_id_refused: 0,
+        }
     }
 
     /// The vehicle (for the actor's inputs and for tests).
@@ -146,6 +156,7 @@ impl Hub {
             undecodable: self.undecodable,
             unroutable: self.router.unroutable(),
             unhandled: self.vehicle.unhandled,
+            own_id_refused: self.own_id_refused,
         }
     }
 
@@ -159,6 +170,18 @@ impl Hub {
             return Vec::new();
         }
         state.stats.frames_in += 1;
+        // Only this process speaks with our system id: a frame that claims it is a loop, a
+        // second vehicle configured with our id, or a forgery (an "armed" HEARTBEAT, a position of
+        // 1e38 m). Routing it would show the ground station a vehicle that is not there, and
+        // learning it would route our own traffic back; mavlink-router and ArduPilot drop such
+        // frames too. Counted, and said once in the log.
+        if frame.system_id == u32::from(self.vehicle.system_id()) {
+            if self.own_id_refused == 0 {
+                tracing::warn!(link = %state.name, "a frame claimed our system id: dropped (counted in own_id_refused)");
+            }
+            self.own_id_refused += 1;
+            return Vec::new();
+        }
         self.router.learn(link, frame.system_id);
         let msg = frame.decode();
         if msg.is_err() {
@@ -174,8 +197,7 @@ impl Hub {
         {
             state.txbuf = Some(r.txbuf);
         }
-        let own_echo = frame.system_id == u32::from(self.vehicle.system_id());
-        if own_echo || !self.vehicle.is_for_us(&msg) {
+        if !self.vehicle.is_for_us(&msg) {
             return Vec::new();
         }
         let sender = Sender { system_id: frame.system_id, component_id: frame.component_id };
@@ -284,6 +306,37 @@ mod tests {
             MavHeader { system_id: 255, component_id: 190, sequence: 0 },
             &MavMessage::PARAM_REQUEST_READ(r),
         )
+    }
+
+    #[test]
+    fn frames_claiming_our_system_id_are_neither_forwarded_nor_obeyed() {
+        let (mut hub, gcs, mut gcs_rx) = hub();
+        let (tx, mut other_rx) = mpsc::channel(100);
+        let other = hub.add_link("other".into(), Tx::Stream(tx), None);
+        let mut parser = FrameParser::new();
+        let forged_armed = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            mavtype: MavType::MAV_TYPE_QUADROTOR,
+            base_mode: mavlink::dialects::ardupilotmega::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED,
+            ..Default::default()
+        });
+        let mut forged =
+            encode(MavHeader { system_id: 1, component_id: 1, sequence: 0 }, &forged_armed, None);
+        let mut read = read_p();
+        // The same PARAM_REQUEST_READ, but claiming to come from us (system 1).
+        read = {
+            let mut frames = Vec::new();
+            FrameParser::new().push(&read, &mut frames);
+            let msg = frames[0].decode().expect("valid");
+            encode(MavHeader { system_id: 1, component_id: 190, sequence: 1 }, &msg, None)
+        };
+        forged.extend(read);
+        feed(&mut hub, other, &mut parser, &forged);
+        assert!(gcs_rx.try_recv().is_err(), "a forged frame reached the ground station's link");
+        assert!(other_rx.try_recv().is_err(), "a frame claiming our id was answered");
+        assert_eq!(hub.stats().own_id_refused, 2);
+        // A real ground station is still served and routed.
+        feed(&mut hub, gcs, &mut FrameParser::new(), &read_p());
+        assert!(gcs_rx.try_recv().is_ok(), "PARAM_VALUE for the ground station");
     }
 
     proptest! {

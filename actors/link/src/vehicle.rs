@@ -17,7 +17,7 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{Message, MessageData};
 
-use crate::services::command::{CommandRequest, CommandService, ack};
+use crate::services::command::{CommandRequest, CommandService, ack, whole};
 use crate::services::events::{status_changes, statustext};
 use crate::services::ftp;
 use crate::services::heartbeat::{GcsEvent, GcsWatch, vehicle_heartbeat};
@@ -233,15 +233,11 @@ impl Vehicle {
                 graph: Vec::new(),
             },
             MavCmd::MAV_CMD_REQUEST_MESSAGE => {
-                let id = p[0];
-                let msg = if id == f64::from(AUTOPILOT_VERSION_DATA::ID) {
-                    Some(self.autopilot_version())
-                } else if id == 0.0 {
-                    Some(self.heartbeat())
-                } else if (0.0..=f64::from(u32::MAX)).contains(&id) {
-                    self.telemetry.build(id as u32, now)
-                } else {
-                    None
+                let msg = match whole(p[0], u32::MAX) {
+                    Some(AUTOPILOT_VERSION_DATA::ID) => Some(self.autopilot_version()),
+                    Some(0) => Some(self.heartbeat()),
+                    Some(id) => self.telemetry.build(id, now),
+                    None => None,
                 };
                 match msg {
                     Some(m) => Outputs {
@@ -256,8 +252,7 @@ impl Vehicle {
                 if p[0] == -1.0 {
                     return Outputs::send(ack(&request, MavResult::MAV_RESULT_ACCEPTED));
                 }
-                let seq =
-                    (p[0].fract() == 0.0 && (0.0..=f64::from(u16::MAX)).contains(&p[0])).then(|| p[0] as u16);
+                let seq = whole(p[0], u16::MAX.into()).and_then(|s| u16::try_from(s).ok());
                 // Out of range (no mission included) is FAILED, as the command's definition says.
                 let Some(index) = seq.and_then(|s| self.missions.commander_index(s)) else {
                     return Outputs::send(ack(&request, MavResult::MAV_RESULT_FAILED));

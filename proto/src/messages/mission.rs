@@ -5,6 +5,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::time::Time;
 
+/// Most items a flight mission may hold, however it arrives: MAVLink upload (which refuses a
+/// larger MISSION_COUNT with NO_SPACE), a `.plan` file, or the graph. 1000 is ArduPilot's
+/// practical ceiling on a board with little storage and far beyond any survey a multirotor
+/// battery can fly.
+pub const MAX_MISSION_ITEMS: usize = 1000;
+
 /// What a mission item's altitude is measured from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]

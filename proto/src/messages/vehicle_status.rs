@@ -74,6 +74,9 @@ pub enum FailsafeCause {
     NavStateStale,
     /// A flight-critical actor failed (supervisor report).
     CriticalActorFailed,
+    /// The pilot's sticks (RC or MAVLink MANUAL_CONTROL) stopped while a mode flown from them
+    /// was active (ArduPilot's radio failsafe, PX4's `COM_RC_LOSS_T`).
+    ManualControlLost,
 }
 
 /// A failsafe that is active now.

@@ -64,8 +64,13 @@ impl Commander {
         if mode == FlightMode::Auto && self.mission.is_none() {
             return refuse("Auto needs a mission");
         }
-        if needs_sticks(mode) && self.manual.is_none() {
+        if needs_sticks(mode) && self.sticks(now).is_none() {
             return refuse(format!("{mode:?} needs manual control input"));
+        }
+        if mode == FlightMode::Auto
+            && let Some(mission) = &self.mission
+        {
+            self.mission_feasible(mission).map_err(|r| Refusal(format!("Auto refused: {r}")))?;
         }
         Ok(())
     }
@@ -88,7 +93,7 @@ impl Commander {
             return refuse("arming refused: not on the ground");
         }
         self.mode_allowed(now, self.mode).map_err(|r| Refusal(format!("arming refused: {r}")))?;
-        if needs_sticks(self.mode) && self.manual.is_some_and(|m| m.throttle > LOW_THROTTLE) {
+        if needs_sticks(self.mode) && self.sticks(now).is_some_and(|m| m.throttle > LOW_THROTTLE) {
             return refuse("arming refused: throttle not low");
         }
         if self.params.require_battery {

@@ -4,7 +4,7 @@
 use kestrel_proto::Time;
 use kestrel_proto::messages::{Failsafe, FailsafeAction, FailsafeCause};
 
-const CAUSES: [FailsafeCause; 7] = [
+const CAUSES: [FailsafeCause; 8] = [
     FailsafeCause::DataLinkLost,
     FailsafeCause::BatteryLow,
     FailsafeCause::BatteryCritical,
@@ -12,6 +12,7 @@ const CAUSES: [FailsafeCause; 7] = [
     FailsafeCause::EstimatorUnhealthy,
     FailsafeCause::NavStateStale,
     FailsafeCause::CriticalActorFailed,
+    FailsafeCause::ManualControlLost,
 ];
 
 /// Causes that stay active once fired, for the rest of the flight: a battery does not

@@ -11,6 +11,7 @@
 mod arming;
 mod avoidance;
 mod failsafe;
+mod feasibility;
 mod home;
 mod land_detector;
 mod live_params;
@@ -34,7 +35,7 @@ pub use failsafe::{FailsafeMonitor, FailsafeRecord};
 pub use kestrel_proto::param_def::{ParamChange, ParamRefused};
 pub use land_detector::LandDetector;
 pub use mission_runner::{MissionRunner, MissionStep};
-pub use params::{CommanderParams, FailsafeParams, GeofenceParams};
+pub use params::{CommanderParams, FailsafeParams, FeasibilityParams, GeofenceParams};
 
 use crate::error::InvalidParam;
 use crate::flip::Flip;
@@ -44,6 +45,11 @@ use modes::{Hold, RtlPhase};
 
 /// Height above home at which the vehicle counts as airborne (m).
 const AIRBORNE_HEIGHT_M: f64 = 0.5;
+/// A height target this far below the vehicle (m), or a descent faster than this (m/s), is a
+/// demand to go down: the position loop turns 1 m of error into a descent well above the land
+/// detector's still threshold, so standing still against it means the ground is there.
+const DESCENT_DEMAND_M: f64 = 1.0;
+const DESCENT_DEMAND_M_S: f64 = 0.1;
 
 /// The commander's state.
 #[derive(Debug)]
@@ -78,6 +84,12 @@ pub struct Commander {
     guided: modes::GuidedTarget,
     takeoff_height_m: f64,
     land_detector: LandDetector,
+    /// The land detector outside the landing modes: still for a while although the setpoint
+    /// asks to go down means the ground holds the vehicle (a waypoint below the ground, a pilot
+    /// who landed in POSHOLD). PX4's and ArduPilot's detectors do not depend on the mode either.
+    ground_contact: LandDetector,
+    /// The last setpoint asked for a descent the vehicle should be making.
+    descent_demanded: bool,
     failsafes: FailsafeMonitor,
     applied_action: Option<FailsafeAction>,
     critical_failure: bool,
@@ -114,6 +126,8 @@ impl Commander {
             flip: None,
             guided: modes::GuidedTarget::Hold,
             land_detector: LandDetector::default(),
+            ground_contact: LandDetector::default(),
+            descent_demanded: false,
             failsafes: FailsafeMonitor::default(),
             applied_action: None,
             critical_failure: false,
@@ -197,7 +211,8 @@ impl Commander {
         self.battery = Some(battery.clone());
     }
 
-    /// Sticks; they also count as a live data link. Non-finite sticks are ignored.
+    /// Sticks; they also count as a live data link. Non-finite sticks are ignored; sticks older
+    /// than `failsafe.manual_timeout_s` count as none (`sticks`).
     pub fn on_manual(&mut self, manual: &ManualControl) {
         let m = manual;
         if [m.roll, m.pitch, m.yaw, m.throttle].iter().all(|v| v.is_finite()) {
@@ -234,16 +249,19 @@ impl Commander {
         }
     }
 
-    /// A new mission; replaces the old one. Refused while flying it.
+    /// A new mission; replaces the old one. Refused while flying it, and when a field is not a
+    /// number or there are too many items. One that is well-formed but cannot be flown from here
+    /// (below home, outside the fence, too far: `feasibility`) is kept — the ground station holds
+    /// it, and flying an older one instead would be worse — and refused, by item, when AUTO is
+    /// asked for; the reason is reported at once as well.
     pub fn on_mission(&mut self, mission: Mission) -> Result<(), Refusal> {
         if self.armed && self.mode == FlightMode::Auto {
             return self.refused(refuse("mission upload refused while flying AUTO"));
         }
-        if mission.items.is_empty()
-            || !(mission.cruise_speed_m_s.is_finite() && mission.cruise_speed_m_s > 0.0)
-        {
-            return self.refused(refuse("mission refused: no items or bad cruise speed"));
-        }
+        let fields = feasibility::check_fields(&mission);
+        self.refused(fields)?;
+        let feasible = self.mission_feasible(&mission);
+        let _ = self.refused(feasible);
         self.last_progress = MissionRunner::new(mission.clone()).progress();
         self.mission = Some(mission);
         self.runner = None;
@@ -417,8 +435,29 @@ impl Commander {
         if !finite {
             return refuse("guided target is not finite");
         }
+        match target {
+            modes::GuidedTarget::Position(p) => {
+                if let Some(why) = self.guided_position_refused(&Vector3::from(p)) {
+                    return refuse(format!("guided target refused: {why}"));
+                }
+            }
+            modes::GuidedTarget::Velocity(v) => {
+                let (speed, max) = (Vector3::from(v).norm(), self.params.feasibility.max_velocity_m_s);
+                if speed > max {
+                    return refuse(format!("guided velocity refused: {speed:.1} m/s, at most {max:.1} m/s"));
+                }
+            }
+            modes::GuidedTarget::Hold => {}
+        }
         self.guided = target;
         Ok(())
+    }
+
+    /// The pilot's sticks if they are fresh at `now`: a ground station's MANUAL_CONTROL sent
+    /// once, seconds ago, must not fly the vehicle.
+    pub(crate) fn sticks(&self, now: Time) -> Option<&ManualControl> {
+        let timeout = self.params.failsafe.manual_timeout_s;
+        self.manual.as_ref().filter(|m| now.saturating_since(m.time).as_secs_f64() <= timeout)
     }
 
     /// The newest NavState if it is fresh at `now`.
@@ -457,6 +496,7 @@ impl Commander {
         self.track_landed(now);
         self.check_failsafes(now);
         let target = if self.armed { self.fly(now, dt_s) } else { SetpointTarget::MotorsOff };
+        self.descent_demanded = self.nav.as_ref().is_some_and(|n| descends(&target, n));
         if self.armed && self.mode == FlightMode::Auto && self.runner.is_some() {
             // The run has started from the item a ground station chose; later runs start over.
             self.mission_start = None;
@@ -493,6 +533,7 @@ impl Commander {
         let unhealthy = nav.as_ref().is_some_and(|n| {
             fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
         });
+        let sticks_lost = self.manual.is_some() && flown_from_sticks(self.mode) && self.sticks(now).is_none();
         let fence = self.geofence_enabled
             && nav.as_ref().is_some_and(|n| {
                 let home = self.home_or(n);
@@ -521,6 +562,7 @@ impl Commander {
             armed && self.critical_failure,
             fs.critical_actor_action,
         );
+        m.set(now, FailsafeCause::ManualControlLost, armed && sticks_lost, fs.manual_action);
         self.apply_failsafe(now);
     }
 
@@ -583,6 +625,20 @@ impl Commander {
                 self.land_detector.reset();
             }
             LandedState::Landing if !landing_mode => self.landed = LandedState::InAir,
+            LandedState::InAir if !landing_mode => {
+                let touching = self.descent_demanded
+                    && fresh.as_ref().is_some_and(|n| {
+                        self.ground_contact.update(now, &n.velocity_ned_m_s, self.params.land_detect_s)
+                    });
+                if !self.descent_demanded || fresh.is_none() {
+                    self.ground_contact.reset();
+                }
+                if touching {
+                    tracing::warn!(mode = ?self.mode, "on the ground outside a landing: disarming");
+                    self.last_refusal = Some(format!("{:?}: ground contact, landed", self.mode));
+                    self.touched_down();
+                }
+            }
             // A landing mode entered before the vehicle ever rose past the airborne height (LAND
             // sent at once after a take-off was accepted): it is already down, and the detector
             // must still end the flight, or it would idle armed on the ground for ever.
@@ -597,17 +653,25 @@ impl Commander {
                         self.land_detector.update(now, &n.velocity_ned_m_s, self.params.land_detect_s)
                     }) =>
             {
-                self.landed = LandedState::OnGround;
-                if let Some(runner) = &mut self.runner {
-                    if self.mode == FlightMode::Auto {
-                        runner.landed();
-                    }
-                    self.last_progress = runner.progress();
+                if let Some(runner) = &mut self.runner
+                    && self.mode == FlightMode::Auto
+                {
+                    runner.landed();
                 }
-                self.disarm("landed");
+                self.touched_down();
             }
             _ => {}
         }
+    }
+
+    /// The land detector tripped: on the ground, the mission's progress kept, disarmed.
+    fn touched_down(&mut self) {
+        self.landed = LandedState::OnGround;
+        self.ground_contact.reset();
+        if let Some(runner) = &self.runner {
+            self.last_progress = runner.progress();
+        }
+        self.disarm("landed");
     }
 
     fn is_landing(&self) -> bool {
@@ -618,6 +682,20 @@ impl Commander {
             _ => false,
         }
     }
+}
+
+/// Modes whose setpoint comes from the sticks: losing them is a failsafe there.
+fn flown_from_sticks(mode: FlightMode) -> bool {
+    matches!(mode, FlightMode::Stabilize | FlightMode::Acro | FlightMode::AltHold | FlightMode::PosHold)
+}
+
+/// Whether `target` asks the vehicle at `nav` to go down: a downward velocity, or a height
+/// target at least [`DESCENT_DEMAND_M`] below it.
+fn descends(target: &SetpointTarget, nav: &NavState) -> bool {
+    let SetpointTarget::Trajectory(t) = target else { return false };
+    let down_velocity = t.velocity_ned_m_s[2].is_some_and(|v| v > DESCENT_DEMAND_M_S);
+    let down_position = t.position_ned_m[2].is_some_and(|d| d - nav.position_ned_m[2] > DESCENT_DEMAND_M);
+    down_velocity || down_position
 }
 
 fn attitude(nav: &NavState) -> UnitQuaternion<f64> {

@@ -79,7 +79,10 @@ impl Commander {
             }
             return target;
         }
-        let sticks = self.manual.unwrap_or(ManualControl { throttle: 0.5, ..ManualControl::default() });
+        // Stale sticks are centred ones: the vehicle holds rather than fly a deflection
+        // remembered from seconds ago (the `ManualControlLost` failsafe acts on the loss).
+        let sticks =
+            self.sticks(now).copied().unwrap_or(ManualControl { throttle: 0.5, ..ManualControl::default() });
         let on_ground = self.landed == LandedState::OnGround;
         match self.mode {
             FlightMode::Stabilize => self.stabilize(&nav, &sticks, dt_s),
@@ -95,7 +98,15 @@ impl Commander {
                 let home = self.home_or(&nav);
                 let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
                 let yaw = *self.hold.yaw_rad.get_or_insert(heading(&nav));
-                traj([Some(p.x), Some(p.y), Some(home.z - self.takeoff_height_m)], [None; 3], Some(yaw))
+                let down = home.z - self.takeoff_height_m;
+                if (nav.position_ned_m[2] - down).abs() < ALTITUDE_TOLERANCE_M {
+                    // Up: hold there in GUIDED, as ArduCopter's take-off ends, so targets are
+                    // taken at once instead of refused until the mode is set again.
+                    self.enter(FlightMode::Guided);
+                    self.hold.position = Some(Vector3::new(p.x, p.y, down));
+                    self.hold.yaw_rad = Some(yaw);
+                }
+                traj([Some(p.x), Some(p.y), Some(down)], [None; 3], Some(yaw))
             }
             FlightMode::ReturnToLaunch => self.rtl(now, &nav),
             FlightMode::Land => {
@@ -239,10 +250,7 @@ impl Commander {
         }
         match self.guided {
             GuidedTarget::Hold if on_ground => SetpointTarget::MotorsOff,
-            GuidedTarget::Hold => {
-                let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
-                traj(at(&p), [None; 3], Some(yaw))
-            }
+            GuidedTarget::Hold => self.hold_here(nav),
             GuidedTarget::Position(p) => traj(p.map(Some), [None; 3], Some(yaw)),
             GuidedTarget::Velocity(v) => traj([None; 3], v.map(Some), Some(yaw)),
         }

@@ -57,6 +57,7 @@ pub struct CommanderParams {
     pub require_battery: bool,
     pub failsafe: FailsafeParams,
     pub geofence: GeofenceParams,
+    pub feasibility: FeasibilityParams,
 }
 
 impl Default for CommanderParams {
@@ -86,6 +87,7 @@ impl Default for CommanderParams {
             require_battery: true,
             failsafe: FailsafeParams::default(),
             geofence: GeofenceParams::default(),
+            feasibility: FeasibilityParams::default(),
         }
     }
 }
@@ -107,6 +109,14 @@ pub struct FailsafeParams {
     pub geofence_action: FailsafeAction,
     pub estimator_action: FailsafeAction,
     pub critical_actor_action: FailsafeAction,
+    /// Sticks (RC or MAVLink MANUAL_CONTROL) older than this are gone (s): modes flown from
+    /// them are refused, and losing them while one is flown fires `manual_action`. ArduPilot
+    /// drops MAVLink sticks after `RC_OVERRIDE_TIME` (3 s) and PX4 declares RC lost after
+    /// `COM_RC_LOSS_T` (0.5 s); 1 s tolerates a ground station's joystick at 10 Hz over a lossy
+    /// radio without flying stale sticks for long.
+    pub manual_timeout_s: f64,
+    /// What losing the sticks does (ArduPilot `FS_THR_ENABLE` = RTL, PX4 `NAV_RCL_ACT` = Return).
+    pub manual_action: FailsafeAction,
 }
 
 impl Default for FailsafeParams {
@@ -121,6 +131,8 @@ impl Default for FailsafeParams {
             geofence_action: FailsafeAction::ReturnToLaunch,
             estimator_action: FailsafeAction::Land,
             critical_actor_action: FailsafeAction::Land,
+            manual_timeout_s: 1.0,
+            manual_action: FailsafeAction::ReturnToLaunch,
         }
     }
 }
@@ -140,6 +152,34 @@ pub struct GeofenceParams {
 impl Default for GeofenceParams {
     fn default() -> GeofenceParams {
         GeofenceParams { max_radius_m: 300.0, max_altitude_m: 120.0, polygon: Vec::new() }
+    }
+}
+
+/// `[feasibility]`: what a mission or a GUIDED target may ask (see `feasibility`), checked on
+/// upload, at the start of AUTO and for every target, whether or not the geofence is on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FeasibilityParams {
+    /// Least height above home of a waypoint, take-off item or GUIDED target (m); landing points
+    /// are exempt. PX4 refuses waypoints below home; 2 m keeps a mistyped 0 off the ground.
+    pub min_height_m: f64,
+    /// Largest horizontal distance from home of any point flown to (m).
+    pub max_distance_m: f64,
+    /// Largest horizontal distance from the vehicle to a mission's first point (m), PX4's
+    /// `MIS_DIST_1WP` (900 m): a plan made for another field is caught before take-off.
+    pub first_distance_m: f64,
+    /// Largest GUIDED velocity target (m/s), PX4's `MPC_XY_VEL_MAX` order (12 m/s).
+    pub max_velocity_m_s: f64,
+}
+
+impl Default for FeasibilityParams {
+    fn default() -> FeasibilityParams {
+        FeasibilityParams {
+            min_height_m: 2.0,
+            max_distance_m: 1000.0,
+            first_distance_m: 900.0,
+            max_velocity_m_s: 12.0,
+        }
     }
 }
 
@@ -167,12 +207,17 @@ impl CommanderParams {
             ("avoidance_timeout_s", self.avoidance_timeout_s),
             ("guided_speed_m_s", self.guided_speed_m_s),
             ("failsafe.link_timeout_s", self.failsafe.link_timeout_s),
+            ("failsafe.manual_timeout_s", self.failsafe.manual_timeout_s),
+            ("feasibility.max_distance_m", self.feasibility.max_distance_m),
+            ("feasibility.first_distance_m", self.feasibility.first_distance_m),
+            ("feasibility.max_velocity_m_s", self.feasibility.max_velocity_m_s),
             ("geofence.max_radius_m", self.geofence.max_radius_m),
             ("geofence.max_altitude_m", self.geofence.max_altitude_m),
         ] {
             positive(name, v)?;
         }
         within("rtl_loiter_s", self.rtl_loiter_s, 0.0, 600.0)?;
+        within("feasibility.min_height_m", self.feasibility.min_height_m, -100.0, 100.0)?;
         within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
         within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;
         within("failsafe.battery_critical", self.failsafe.battery_critical, 0.0, self.failsafe.battery_low)?;

@@ -152,6 +152,8 @@ pub struct Flight {
     pub nav_blackout: bool,
     /// Edits every NavState before it is delivered (to provoke estimator failsafes).
     pub nav_edit: fn(&mut NavState),
+    /// Sticks sent on every step, as a radio does; `None` sends none.
+    pub sticks: Option<kestrel_proto::messages::ManualControl>,
 }
 
 impl Flight {
@@ -159,7 +161,14 @@ impl Flight {
         let mut l = Loop::new(World::default(), [0.0, 0.0, 0.0], UnitQuaternion::identity());
         l.step();
         let commander = kestrel_control::Commander::new(params).expect("valid commander params");
-        let mut f = Flight { l, commander, battery_override: None, nav_blackout: false, nav_edit: |_| {} };
+        let mut f = Flight {
+            l,
+            commander,
+            battery_override: None,
+            nav_blackout: false,
+            nav_edit: |_| {},
+            sticks: None,
+        };
         f.run(0.2);
         f
     }
@@ -181,6 +190,9 @@ impl Flight {
         let mut nav = truth_nav(&self.l.sim);
         nav.origin = Some(self.l.sim.world().home.geodetic());
         (self.nav_edit)(&mut nav);
+        if let Some(sticks) = self.sticks {
+            self.commander.on_manual(&kestrel_proto::messages::ManualControl { time: self.now(), ..sticks });
+        }
         if !self.nav_blackout {
             self.commander.on_nav(&nav);
         }

@@ -101,14 +101,17 @@ impl CommandService {
     pub fn handle(&mut self, request: CommandRequest, now: Time) -> Option<Outputs> {
         let p = request.params;
         let (command, effect) = match request.command {
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM if p[0] > 0.5 => (Command::Arm, Effect::Armed(true)),
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => {
-                (Command::Disarm { force: p[1] == FORCE_DISARM_MAGIC }, Effect::Armed(false))
-            }
+            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => match switch(p[0]) {
+                Some(true) => (Command::Arm, Effect::Armed(true)),
+                Some(false) => (Command::Disarm { force: p[1] == FORCE_DISARM_MAGIC }, Effect::Armed(false)),
+                None => return Some(Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED))),
+            },
             MavCmd::MAV_CMD_DO_SET_MODE => {
                 // param1 is base_mode: only MAV_MODE_FLAG_CUSTOM_MODE_ENABLED selects by custom mode.
-                let custom = (p[0] as u32 & 1 == 1).then(|| flight_mode(p[1] as u32)).flatten();
-                let Some(mode) = custom else {
+                let (Some(base), Some(custom)) = (whole(p[0], u8::MAX.into()), whole(p[1], u32::MAX)) else {
+                    return Some(Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)));
+                };
+                let Some(mode) = (base & 1 == 1).then(|| flight_mode(custom)).flatten() else {
                     return Some(Outputs::send(ack(&request, MavResult::MAV_RESULT_FAILED)));
                 };
                 (Command::SetMode(mode), Effect::Mode(mode))
@@ -124,7 +127,14 @@ impl CommandService {
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => {
                 (Command::ReturnToLaunch, Effect::Mode(FlightMode::ReturnToLaunch))
             }
-            MavCmd::MAV_CMD_MISSION_START => (Command::MissionStart, Effect::Mode(FlightMode::Auto)),
+            // param1/param2 (first and last item) must be numbers; 0 and 0 fly the whole mission,
+            // the only form we fly, and other ranges are DENIED rather than flown differently.
+            MavCmd::MAV_CMD_MISSION_START if p[0] == 0.0 && p[1] == 0.0 => {
+                (Command::MissionStart, Effect::Mode(FlightMode::Auto))
+            }
+            MavCmd::MAV_CMD_MISSION_START => {
+                return Some(Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)));
+            }
             MavCmd::MAV_CMD_DO_SET_HOME => match home_target(&request) {
                 Ok(point) => {
                     let after = self.status.as_ref().and_then(|s| s.home).map_or(0, |h| h.revision);
@@ -211,8 +221,10 @@ impl CommandService {
 /// its distance) the commander decides.
 fn home_target(request: &CommandRequest) -> Result<Option<MissionPoint>, MavResult> {
     let p = request.params;
-    if p[0] > 0.5 {
-        return Ok(None);
+    match switch(p[0]) {
+        Some(true) => return Ok(None),
+        Some(false) => {}
+        None => return Err(MavResult::MAV_RESULT_DENIED),
     }
     let (frame, deg) = match request.frame {
         None => (AltitudeFrame::Amsl, 1.0),
@@ -235,15 +247,30 @@ fn home_target(request: &CommandRequest) -> Result<Option<MissionPoint>, MavResu
 /// MAV_CMD_DO_FENCE_ENABLE's param1: 0 off, 1 on. 2 (ArduPilot: disable the floor only) is
 /// UNSUPPORTED, as our fence has no floor (minimum altitude) to disable; anything else DENIED.
 fn fence_switch(param1: f64) -> Result<bool, MavResult> {
-    if param1 == 0.0 {
-        Ok(false)
-    } else if param1 == 1.0 {
-        Ok(true)
-    } else if param1 == 2.0 {
-        Err(MavResult::MAV_RESULT_UNSUPPORTED)
-    } else {
-        Err(MavResult::MAV_RESULT_DENIED)
+    match switch(param1) {
+        Some(enabled) => Ok(enabled),
+        None if param1 == 2.0 => Err(MavResult::MAV_RESULT_UNSUPPORTED),
+        None => Err(MavResult::MAV_RESULT_DENIED),
     }
+}
+
+/// A parameter that switches something off or on: exactly 0 or exactly 1, as PX4 and ArduPilot
+/// read MAV_CMD_COMPONENT_ARM_DISARM's param1. Anything else — 0.5, 2, NaN, ±inf — is `None`,
+/// so a corrupted or careless command is refused instead of being read as one of the two.
+pub(crate) fn switch(param: f64) -> Option<bool> {
+    if param == 0.0 {
+        Some(false)
+    } else if param == 1.0 {
+        Some(true)
+    } else {
+        None
+    }
+}
+
+/// A parameter that carries a whole number in `0..=max` (a mode number, a message id): `None`
+/// for fractions, negatives, values past `max`, NaN and ±inf, never truncated into range.
+pub(crate) fn whole(param: f64, max: u32) -> Option<u32> {
+    (param.fract() == 0.0 && (0.0..=f64::from(max)).contains(&param)).then_some(param as u32)
 }
 
 #[cfg(test)]
@@ -349,6 +376,64 @@ mod tests {
             ToGraph::Command(c) => Some(*c),
             _ => None,
         })
+    }
+
+    #[test]
+    fn arm_disarm_takes_exactly_zero_or_one_and_refuses_the_rest() {
+        let mut s = CommandService::new();
+        for param1 in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.5, 0.9, 2.0, -1.0, 1e30] {
+            for param2 in [0.0, 21196.0] {
+                let out = s
+                    .handle(
+                        request(
+                            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+                            [param1, param2, 0.0, 0.0, 0.0, 0.0, 0.0],
+                        ),
+                        Time::ZERO,
+                    )
+                    .expect("handled");
+                assert!(out.graph.is_empty(), "param1 {param1} param2 {param2} reached the commander");
+                assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "param1 {param1}");
+            }
+        }
+        let disarm = s
+            .handle(
+                request(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                Time::ZERO,
+            )
+            .expect("handled");
+        assert_eq!(graph(&disarm), Some(Command::Disarm { force: false }), "NaN is not the force code");
+    }
+
+    #[test]
+    fn mode_and_mission_start_refuse_what_is_not_a_whole_number() {
+        let mut s = CommandService::new();
+        for params in [
+            [f64::NAN, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [1.0, f64::INFINITY, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [1.0, 3.5, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [1.0, -3.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [257.0, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+            [1.0, 4_294_967_299.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        ] {
+            let out = s.handle(request(MavCmd::MAV_CMD_DO_SET_MODE, params), Time::ZERO).expect("handled");
+            assert!(out.graph.is_empty(), "{params:?}");
+            assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{params:?}");
+        }
+        for first in [f64::NAN, f64::INFINITY, 2.0] {
+            let p = [first, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            let out = s.handle(request(MavCmd::MAV_CMD_MISSION_START, p), Time::ZERO).expect("handled");
+            assert!(out.graph.is_empty(), "{first}");
+            assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED);
+        }
+        for param1 in [f64::NAN, 0.5, f64::NEG_INFINITY] {
+            let p = [param1, 0.0, 0.0, 0.0, 6.8, 79.9, 30.0];
+            let out = s.handle(request(MavCmd::MAV_CMD_DO_SET_HOME, p), Time::ZERO).expect("handled");
+            assert!(out.graph.is_empty(), "{param1}");
+            let p = [param1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+            let out = s.handle(request(MavCmd::MAV_CMD_DO_FENCE_ENABLE, p), Time::ZERO).expect("handled");
+            assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{param1}");
+        }
     }
 
     #[test]

@@ -30,6 +30,7 @@ fn cause_text(cause: FailsafeCause) -> &'static str {
         FailsafeCause::EstimatorUnhealthy => "EKF unhealthy",
         FailsafeCause::NavStateStale => "navigation stale",
         FailsafeCause::CriticalActorFailed => "critical task failed",
+        FailsafeCause::ManualControlLost => "radio (sticks) lost",
     }
 }
 

@@ -15,7 +15,9 @@
 use std::time::Duration;
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{AltitudeFrame, Command, Mission, MissionItem, MissionPoint};
+use kestrel_proto::messages::{
+    AltitudeFrame, Command, MAX_MISSION_ITEMS, Mission, MissionItem, MissionPoint,
+};
 use mavlink::dialects::ardupilotmega::{
     MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
     MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType, MavSeverity,
@@ -24,8 +26,9 @@ use mavlink::dialects::ardupilotmega::{
 use super::events::statustext;
 use super::{Outputs, Sender, ToGraph};
 
-/// Most items a plan of any type may hold; larger uploads are refused with NO_SPACE.
-pub const MAX_ITEMS: u16 = 1000;
+/// Most items a plan of any type may hold (home included); larger uploads are refused with
+/// NO_SPACE. The one limit for missions however they arrive (`MAX_MISSION_ITEMS`).
+pub const MAX_ITEMS: u16 = MAX_MISSION_ITEMS as u16;
 /// Time to wait for a requested item before asking again.
 pub const ITEM_TIMEOUT: Duration = Duration::from_millis(1500);
 /// Requests repeated before an upload is given up.

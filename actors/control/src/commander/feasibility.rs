@@ -1,0 +1,287 @@
+//! Feasibility of what a ground station asks the vehicle to fly: a mission on upload and again
+//! when it starts (PX4's `MissionFeasibilityChecker`), and a GUIDED position or velocity target
+//! when it arrives. A target that would take the vehicle below home, out of the geofence or
+//! farther than the configured distances is refused with the item and the reason, so the
+//! ground station says what to fix instead of the vehicle flying into the ground.
+
+use kestrel_proto::geo::LocalFrame;
+use kestrel_proto::messages::{MAX_MISSION_ITEMS, Mission, MissionItem, MissionPoint};
+use nalgebra::Vector3;
+
+use super::arming::Refusal;
+use super::mission_runner::resolve;
+use super::params::{FeasibilityParams, GeofenceParams};
+use super::{Commander, inside_polygon};
+
+/// Where the checks measure from, in NED metres from the estimator's origin.
+pub(crate) struct Place<'a> {
+    pub frame: &'a LocalFrame,
+    pub home: Vector3<f64>,
+    pub vehicle: Vector3<f64>,
+    /// The fence's polygon in NED north/east (m), empty for none.
+    pub fence_ned: &'a [[f64; 2]],
+    pub fence_enabled: bool,
+}
+
+/// What can be checked without knowing where the vehicle is: the item count and that every
+/// number is one. The caller names the mission's origin (upload, `.plan` file).
+pub(crate) fn check_fields(mission: &Mission) -> Result<(), Refusal> {
+    let n = mission.items.len();
+    if n == 0 {
+        return Err(Refusal("mission refused: no items".into()));
+    }
+    if n > MAX_MISSION_ITEMS {
+        return Err(Refusal(format!("mission refused: {n} items, at most {MAX_MISSION_ITEMS}")));
+    }
+    if !(mission.cruise_speed_m_s.is_finite() && mission.cruise_speed_m_s > 0.0) {
+        return Err(Refusal(format!("mission refused: cruise speed {} m/s", mission.cruise_speed_m_s)));
+    }
+    for (i, item) in mission.items.iter().enumerate() {
+        let bad = |what: &str| Err(Refusal(format!("mission item {}: {what}", i + 1)));
+        let finite_point = |p: &MissionPoint| p.lat_deg.is_finite() && p.lon_deg.is_finite();
+        match *item {
+            MissionItem::Takeoff { point } if !point.alt_m.is_finite() => {
+                return bad("altitude is not a number");
+            }
+            MissionItem::Waypoint { point, .. } | MissionItem::Land { point } if !finite_point(&point) => {
+                return bad("latitude/longitude is not a number");
+            }
+            MissionItem::Waypoint { point, .. } if !point.alt_m.is_finite() => {
+                return bad("altitude is not a number");
+            }
+            MissionItem::Waypoint { acceptance_radius_m, hold_s, .. }
+                if !(acceptance_radius_m.is_finite()
+                    && acceptance_radius_m > 0.0
+                    && hold_s.is_finite()
+                    && hold_s >= 0.0) =>
+            {
+                return bad("acceptance radius or hold time out of range");
+            }
+            MissionItem::LoiterTime { duration_s } if !(duration_s.is_finite() && duration_s >= 0.0) => {
+                return bad("loiter time out of range");
+            }
+            MissionItem::ChangeSpeed { speed_m_s } if !(speed_m_s.is_finite() && speed_m_s > 0.0) => {
+                return bad("speed out of range");
+            }
+            _ => {}
+        }
+        if let MissionItem::Takeoff { point }
+        | MissionItem::Waypoint { point, .. }
+        | MissionItem::Land { point } = item
+            && finite_point(point)
+            && !(point.lat_deg.abs() <= 90.0 && point.lon_deg.abs() <= 180.0)
+        {
+            return bad("latitude/longitude out of range");
+        }
+    }
+    Ok(())
+}
+
+/// The whole check, once home and the NED frame are known: every point flown is at least
+/// `min_height_m` above home (landing points excepted: their altitude is not flown), inside the
+/// geofence when it is on, within `max_distance_m` of home, and the first one within
+/// `first_distance_m` of the vehicle (PX4's `MIS_DIST_1WP`).
+pub(crate) fn check_mission(
+    mission: &Mission,
+    place: &Place<'_>,
+    limits: &FeasibilityParams,
+    fence: &GeofenceParams,
+) -> Result<(), Refusal> {
+    check_fields(mission)?;
+    let mut first = true;
+    for (i, item) in mission.items.iter().enumerate() {
+        let (point, flown_height) = match item {
+            MissionItem::Takeoff { point } | MissionItem::Waypoint { point, .. } => (point, true),
+            MissionItem::Land { point } => (point, false),
+            _ => continue,
+        };
+        let ned = resolve(point, place.frame, &place.home, &place.vehicle);
+        let has_xy = point.lat_deg.is_finite() && point.lon_deg.is_finite();
+        let why = check_point(&ned, flown_height, place, limits, fence).or_else(|| {
+            let from_vehicle = (ned.x - place.vehicle.x).hypot(ned.y - place.vehicle.y);
+            (first && has_xy && from_vehicle > limits.first_distance_m).then(|| {
+                format!(
+                    "{from_vehicle:.0} m from the vehicle, first item at most {:.0} m",
+                    limits.first_distance_m
+                )
+            })
+        });
+        if let Some(why) = why {
+            return Err(Refusal(format!("mission item {}: {why}", i + 1)));
+        }
+        first &= !has_xy;
+    }
+    Ok(())
+}
+
+/// Why a NED point (m) cannot be flown to, `None` when it can; `flown_height` false for a
+/// landing point, whose height is the ground's.
+pub(crate) fn check_point(
+    ned: &Vector3<f64>,
+    flown_height: bool,
+    place: &Place<'_>,
+    limits: &FeasibilityParams,
+    fence: &GeofenceParams,
+) -> Option<String> {
+    if !ned.iter().all(|v| v.is_finite()) {
+        return Some("position is not a number".into());
+    }
+    let height = place.home.z - ned.z;
+    let distance = (ned.x - place.home.x).hypot(ned.y - place.home.y);
+    if flown_height && height < limits.min_height_m {
+        return Some(format!("{height:.1} m above home, at least {:.1} m", limits.min_height_m));
+    }
+    if distance > limits.max_distance_m {
+        return Some(format!("{distance:.0} m from home, at most {:.0} m", limits.max_distance_m));
+    }
+    if place.fence_enabled {
+        if distance > fence.max_radius_m {
+            return Some(format!(
+                "{distance:.0} m from home, outside the {:.0} m geofence",
+                fence.max_radius_m
+            ));
+        }
+        if flown_height && height > fence.max_altitude_m {
+            return Some(format!(
+                "{height:.0} m above home, above the {:.0} m geofence",
+                fence.max_altitude_m
+            ));
+        }
+        if !inside_polygon(place.fence_ned, ned.x, ned.y) {
+            return Some("outside the geofence polygon".into());
+        }
+    }
+    None
+}
+
+impl Commander {
+    /// Home, the frame and the vehicle's position, once the estimator has an origin and a
+    /// position (before that nothing can be placed and a mission waits for its start check).
+    pub(crate) fn place(&self) -> Option<Place<'_>> {
+        let (frame, nav) = (self.frame.as_ref()?, self.nav.as_ref()?);
+        let vehicle = Vector3::from(nav.position_ned_m);
+        Some(Place {
+            frame,
+            home: self.home_ned.unwrap_or(vehicle),
+            vehicle,
+            fence_ned: &self.fence_ned,
+            fence_enabled: self.geofence_enabled,
+        })
+    }
+
+    /// The mission check against what the commander knows now; `Ok` when nothing can be placed
+    /// yet (the start check, which needs a position anyway, judges it then).
+    pub(crate) fn mission_feasible(&self, mission: &Mission) -> Result<(), Refusal> {
+        match self.place() {
+            Some(place) => check_mission(mission, &place, &self.params.feasibility, &self.params.geofence),
+            None => check_fields(mission),
+        }
+    }
+
+    /// Why a GUIDED position target (NED, m) is refused, `None` when it may be flown.
+    pub(crate) fn guided_position_refused(&self, target: &Vector3<f64>) -> Option<String> {
+        let Some(place) = self.place() else { return Some("no position estimate".into()) };
+        check_point(target, true, &place, &self.params.feasibility, &self.params.geofence)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use kestrel_proto::Time;
+    use kestrel_proto::geo::Geodetic;
+    use kestrel_proto::messages::AltitudeFrame;
+
+    use super::*;
+
+    const HOME: Geodetic = Geodetic { lat_deg: 6.7971, lon_deg: 79.9017, alt_m: 20.0 };
+
+    fn waypoint(north_m: f64, alt_m: f64) -> MissionItem {
+        let lat_deg = HOME.lat_deg + north_m / 111_000.0;
+        MissionItem::Waypoint {
+            point: MissionPoint { lat_deg, lon_deg: HOME.lon_deg, alt_m, frame: AltitudeFrame::RelativeHome },
+            acceptance_radius_m: 2.0,
+            hold_s: 0.0,
+        }
+    }
+
+    fn mission(items: Vec<MissionItem>) -> Mission {
+        Mission { time: Time::ZERO, items, cruise_speed_m_s: 5.0 }
+    }
+
+    fn check(items: Vec<MissionItem>, fence_enabled: bool) -> Result<(), Refusal> {
+        let frame = LocalFrame::new(HOME);
+        let place = Place {
+            frame: &frame,
+            home: Vector3::zeros(),
+            vehicle: Vector3::zeros(),
+            fence_ned: &[],
+            fence_enabled,
+        };
+        check_mission(&mission(items), &place, &FeasibilityParams::default(), &GeofenceParams::default())
+    }
+
+    fn reason(r: Result<(), Refusal>) -> String {
+        r.expect_err("refused").0
+    }
+
+    #[test]
+    fn a_waypoint_below_home_or_the_least_height_is_refused_by_item() {
+        assert_eq!(check(vec![waypoint(10.0, 10.0), waypoint(20.0, 10.0)], true), Ok(()));
+        let r = reason(check(vec![waypoint(10.0, 10.0), waypoint(20.0, -500.0)], true));
+        assert!(r.starts_with("mission item 2: -500.0 m above home"), "{r}");
+        let r = reason(check(vec![waypoint(10.0, 0.5)], true));
+        assert!(r.starts_with("mission item 1:"), "{r}");
+    }
+
+    #[test]
+    fn a_landing_point_needs_no_height_but_must_be_inside_the_fence() {
+        let land = |north_m: f64| MissionItem::Land {
+            point: MissionPoint {
+                lat_deg: HOME.lat_deg + north_m / 111_000.0,
+                lon_deg: HOME.lon_deg,
+                alt_m: 0.0,
+                frame: AltitudeFrame::RelativeHome,
+            },
+        };
+        assert_eq!(check(vec![waypoint(10.0, 10.0), land(20.0)], true), Ok(()));
+        let r = reason(check(vec![waypoint(10.0, 10.0), land(400.0)], true));
+        assert!(r.contains("item 2") && r.contains("geofence"), "{r}");
+    }
+
+    #[test]
+    fn the_fence_the_distance_limit_and_the_first_item_distance_each_refuse() {
+        let r = reason(check(vec![waypoint(10.0, 130.0)], true));
+        assert!(r.contains("above the 120 m geofence"), "{r}");
+        assert_eq!(check(vec![waypoint(10.0, 130.0)], false), Ok(()), "fence off: height is not limited");
+        let r = reason(check(vec![waypoint(350.0, 10.0)], true));
+        assert!(r.contains("outside the 300 m geofence"), "{r}");
+        let r = reason(check(vec![waypoint(950.0, 10.0)], false));
+        assert!(r.contains("first item at most 900 m"), "{r}");
+        let r = reason(check(vec![waypoint(500.0, 10.0), waypoint(1500.0, 10.0)], false));
+        assert!(r.contains("item 2") && r.contains("at most 1000 m"), "{r}");
+    }
+
+    #[test]
+    fn numbers_that_are_not_numbers_and_too_many_items_are_refused() {
+        let nan_alt = waypoint(10.0, f64::NAN);
+        assert!(reason(check(vec![waypoint(5.0, 10.0), nan_alt], true)).starts_with("mission item 2"));
+        let far = MissionItem::Waypoint {
+            point: MissionPoint {
+                lat_deg: 95.0,
+                lon_deg: 0.0,
+                alt_m: 10.0,
+                frame: AltitudeFrame::RelativeHome,
+            },
+            acceptance_radius_m: 2.0,
+            hold_s: 0.0,
+        };
+        assert!(reason(check(vec![far], true)).contains("out of range"));
+        let speed = MissionItem::ChangeSpeed { speed_m_s: f64::INFINITY };
+        assert!(reason(check(vec![speed], true)).contains("speed"));
+        let many = vec![waypoint(10.0, 10.0); MAX_MISSION_ITEMS + 1];
+        assert!(reason(check_fields(&mission(many))).contains("at most 1000"));
+        let mut m = mission(vec![waypoint(10.0, 10.0)]);
+        m.cruise_speed_m_s = f64::NAN;
+        assert!(check_fields(&m).is_err());
+    }
+}
