@@ -343,6 +343,7 @@ impl Vehicle {
     /// due now (kept apart so radio links can thin telemetry only).
     pub fn on_tick(&mut self, now: Time) -> (Outputs, Vec<MavMessage>) {
         let mut out = Outputs { mav: self.commands.on_tick(now), graph: Vec::new() };
+        out.mav.extend(self.params.on_tick(now));
         out.extend(self.missions.on_tick(now));
         out.extend(self.next_params());
         if self.gcs.check(now) == Some(GcsEvent::Lost) {

@@ -134,6 +134,9 @@ pub(crate) fn check_point(
     if distance > limits.max_distance_m {
         return Some(format!("{distance:.0} m from home, at most {:.0} m", limits.max_distance_m));
     }
+    if flown_height && height > limits.max_distance_m {
+        return Some(format!("{height:.0} m above home, at most {:.0} m", limits.max_distance_m));
+    }
     if place.fence_enabled {
         if distance > fence.max_radius_m {
             return Some(format!(
@@ -259,6 +262,8 @@ mod tests {
         assert!(r.contains("first item at most 900 m"), "{r}");
         let r = reason(check(vec![waypoint(500.0, 10.0), waypoint(1500.0, 10.0)], false));
         assert!(r.contains("item 2") && r.contains("at most 1000 m"), "{r}");
+        let r = reason(check(vec![waypoint(10.0, 1e30)], false));
+        assert!(r.contains("above home, at most 1000 m"), "fence off, still bounded: {r}");
     }
 
     #[test]

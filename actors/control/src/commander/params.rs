@@ -163,7 +163,8 @@ pub struct FeasibilityParams {
     /// Least height above home of a waypoint, take-off item or GUIDED target (m); landing points
     /// are exempt. PX4 refuses waypoints below home; 2 m keeps a mistyped 0 off the ground.
     pub min_height_m: f64,
-    /// Largest horizontal distance from home of any point flown to (m).
+    /// Largest horizontal distance from home, and height above it, of any point flown to (m):
+    /// a bound that holds with the geofence off.
     pub max_distance_m: f64,
     /// Largest horizontal distance from the vehicle to a mission's first point (m), PX4's
     /// `MIS_DIST_1WP` (900 m): a plan made for another field is caught before take-off.

@@ -9,15 +9,20 @@
 //!
 //! A set outside the parameter's range is refused: the current value is echoed and a STATUSTEXT
 //! says why. An unknown name gets a STATUSTEXT only (there is no value to echo). An accepted set
-//! is echoed at once and published as `ParamSet` for the owner, which validates it again and
-//! declares the value it really uses: if that differs (the owner refused), the table takes the
-//! owner's value, broadcasts it and says so in a STATUSTEXT.
+//! of a parameter the link serves itself is echoed at once. One an actor owns is published as
+//! `ParamSet` for the owner, which validates it again and declares the value it really uses; only
+//! that declaration is echoed, as PX4 answers with the value in use: the set value when the owner
+//! took it, the owner's own when it refused (with a STATUSTEXT). An owner that does not answer
+//! within [`CONFIRM_TIMEOUT`] — its `param_set` input unrouted, the actor down — leaves the old
+//! value, which is echoed with a STATUSTEXT saying so: a ground station never sees a value the
+//! vehicle does not use.
 //!
 //! Values set over MAVLink, or restored from the parameter file, are the ones persisted. Stored
 //! values whose owner has not declared yet are held and sent to it (`ParamSet`) when it does,
 //! and again whenever it restarts with other values.
 
 use std::collections::BTreeMap;
+use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{ParamDecl, ParamSet};
@@ -40,6 +45,19 @@ pub enum ParamError {
     OutOfRange { name: String, value: f64, min: f64, max: f64 },
 }
 
+/// How long an owner has to declare the value it took after a `ParamSet` (in-process, it
+/// answers within one message hop; a second is generous and still short for a ground station,
+/// which repeats an unanswered PARAM_SET after about that long).
+pub const CONFIRM_TIMEOUT: Duration = Duration::from_secs(1);
+
+/// A set sent to an owner, waiting for its declaration.
+#[derive(Debug)]
+struct Awaiting {
+    name: String,
+    wanted: f64,
+    deadline: Time,
+}
+
 /// One parameter and who answers for it.
 #[derive(Debug)]
 struct Entry {
@@ -56,6 +74,8 @@ pub struct ParamTable {
     entries: Vec<Entry>,
     /// Stored values (from the file) no entry has claimed yet, by name.
     pending: BTreeMap<String, f64>,
+    /// Sets sent to owners and not yet confirmed.
+    awaiting: Vec<Awaiting>,
 }
 
 /// What a declaration changed.
@@ -92,7 +112,7 @@ impl ParamTable {
         let mut entries: Vec<Entry> =
             specs.into_iter().map(|spec| Entry { spec, owner: None, persist: false }).collect();
         entries.sort_by(|a, b| a.spec.name.cmp(&b.spec.name));
-        Ok(ParamTable { entries, pending: BTreeMap::new() })
+        Ok(ParamTable { entries, pending: BTreeMap::new(), awaiting: Vec::new() })
     }
 
     /// The number of parameters.
@@ -205,6 +225,25 @@ impl ParamTable {
     /// An owner declared parameter `i` again: after a restart it is sent the value set before;
     /// after a `ParamSet` a different value means it refused, and its value is taken.
     fn redeclared(&mut self, i: usize, spec: ParamSpec, start: bool, now: Time, done: &mut Declared) {
+        if let Some(at) = self.awaiting.iter().position(|a| a.name == spec.name) {
+            let wanted = self.awaiting.swap_remove(at).wanted;
+            let entry = &mut self.entries[i];
+            entry.spec = spec;
+            if entry.spec.value == wanted {
+                entry.persist = true;
+                done.persist_changed = true;
+            } else {
+                let text = format!(
+                    "Param {}: refused by {}, keeps {}",
+                    entry.spec.name,
+                    entry.owner_name(),
+                    entry.spec.value
+                );
+                done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
+            }
+            done.out.mav.extend(self.value_msg(i));
+            return;
+        }
         let entry = &mut self.entries[i];
         let held = entry.spec.value;
         let declared = spec.value;
@@ -290,10 +329,42 @@ impl ParamTable {
             out.mav.extend(self.value_msg(i));
             return out;
         }
-        spec.value = quantise(spec.kind, value);
+        let value = quantise(spec.kind, value);
+        let set = ParamSet { time: now, name: spec.name.clone(), value };
+        if entry.owner.is_some() {
+            self.awaiting.retain(|a| a.name != set.name);
+            self.awaiting.push(Awaiting {
+                name: set.name.clone(),
+                wanted: value,
+                deadline: now + CONFIRM_TIMEOUT,
+            });
+            return Outputs { mav: Vec::new(), graph: vec![ToGraph::Param(set)] };
+        }
+        spec.value = value;
         entry.persist = true;
-        let applied = ParamSet { time: now, name: spec.name.clone(), value: spec.value };
-        Outputs { mav: self.value_msg(i).into_iter().collect(), graph: vec![ToGraph::Param(applied)] }
+        Outputs { mav: self.value_msg(i).into_iter().collect(), graph: vec![ToGraph::Param(set)] }
+    }
+
+    /// Sets whose owner did not answer in time: the old value stays, and is echoed with why.
+    pub fn on_tick(&mut self, now: Time) -> Vec<MavMessage> {
+        let mut out = Vec::new();
+        let (expired, waiting): (Vec<_>, Vec<_>) =
+            std::mem::take(&mut self.awaiting).into_iter().partition(|a| now >= a.deadline);
+        self.awaiting = waiting;
+        for a in expired {
+            let Some(i) = self.entries.iter().position(|e| e.spec.name == a.name) else { continue };
+            let e = &self.entries[i];
+            let text = format!(
+                "Param {}: {} did not take {}; keeps {}",
+                a.name,
+                e.owner_name(),
+                a.wanted,
+                e.spec.value
+            );
+            out.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
+            out.extend(self.value_msg(i));
+        }
+        out
     }
 }
 
@@ -513,10 +584,37 @@ mod tests {
         t.declare(&decl("commander", true, &[("BATT_CRT_FRAC", 10.0)]), Time::ZERO);
         let out = t.set("BATT_CRT_FRAC", 50.0, Time::ZERO);
         assert_eq!(out.graph, vec![param_set("BATT_CRT_FRAC", 50.0)]);
+        assert!(out.mav.is_empty(), "no echo before the owner answers");
         let done = t.declare(&decl("commander", false, &[("BATT_CRT_FRAC", 10.0)]), Time::ZERO);
         assert_eq!(values(&done.out.mav), [("BATT_CRT_FRAC".to_owned(), 10.0)]);
         assert_eq!(texts(&done.out.mav), 1);
+        assert_eq!(render_param_file(&t), "", "the refused value is not persisted");
+    }
+
+    #[test]
+    fn an_owner_taking_a_set_value_is_echoed_and_persisted() {
+        let mut t = table();
+        t.declare(&decl("commander", true, &[("BATT_CRT_FRAC", 10.0)]), Time::ZERO);
+        t.set("BATT_CRT_FRAC", 20.0, Time::ZERO);
+        let done = t.declare(&decl("commander", false, &[("BATT_CRT_FRAC", 20.0)]), Time::ZERO);
+        assert_eq!(values(&done.out.mav), [("BATT_CRT_FRAC".to_owned(), 20.0)]);
+        assert_eq!(texts(&done.out.mav), 0);
         assert!(done.persist_changed);
-        assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=10\n");
+        assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=20\n");
+        assert!(t.on_tick(Time::from_secs_f64(5.0)).is_empty(), "confirmed: nothing expires");
+    }
+
+    #[test]
+    fn an_owner_that_never_answers_leaves_the_old_value_and_says_so() {
+        let mut t = table();
+        t.declare(&decl("commander", true, &[("BATT_CRT_FRAC", 10.0)]), Time::ZERO);
+        let out = t.set("BATT_CRT_FRAC", 20.0, Time::ZERO);
+        assert!(out.mav.is_empty());
+        assert!(t.on_tick(Time::from_secs_f64(0.5)).is_empty(), "still within the timeout");
+        let late = t.on_tick(Time::from_secs_f64(1.0));
+        assert_eq!(values(&late), [("BATT_CRT_FRAC".to_owned(), 10.0)]);
+        assert_eq!(texts(&late), 1);
+        assert_eq!(render_param_file(&t), "");
+        assert!(t.on_tick(Time::from_secs_f64(2.0)).is_empty(), "said once");
     }
 }
