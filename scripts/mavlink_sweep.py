@@ -563,6 +563,88 @@ def check(passed, **detail):
     return {"pass": bool(passed), **detail}
 
 
+class Fuzzer:
+    """The fuzzer's socket: sends the generator's datagrams at the rate limit, and counts what
+    the vehicle sends back to it (COMMAND_ACKs per command and result)."""
+
+    def __init__(self, args, monitor):
+        self.args, self.monitor = args, monitor
+        self.target = parse_target(args.target)
+        self.gen = Generator(args.seed, args.system_id)
+        self.socket = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.socket.bind(("127.0.0.1", 0))
+        self.socket.settimeout(0.2)
+        self.replies, self.acks = Counter(), Counter()
+        self.sent = {c: Counter() for c, _ in CLASSES}
+        self.digest = hashlib.sha256()
+        # Commands and forged frames sent lately (wall time, class, hex), for the evidence.
+        self.recent = deque(maxlen=4096)
+        self.armed_evidence = None
+        self.send_errors = 0
+        self.stopped_by = "frames"
+
+    def drain_replies(self, stop):
+        parser = dialect.MAVLink(None)
+        parser.robust_parsing = True
+        while not stop.is_set():
+            try:
+                data = self.socket.recv(65536)
+            except OSError:  # the timeout included
+                continue
+            try:
+                msgs = parser.parse_buffer(data) or []
+            except Exception:  # noqa: BLE001 - a reply pymavlink cannot parse is only counted
+                self.replies["unparsable"] += 1
+                continue
+            for m in msgs:
+                if m.get_srcSystem() == self.args.system_id and m.get_srcComponent() == VEHICLE_COMPONENT:
+                    self.replies[m.get_type()] += 1
+                    if m.get_type() == "COMMAND_ACK":
+                        self.acks[(m.command, m.result)] += 1
+
+    def note_arming(self):
+        if self.armed_evidence is None and self.monitor.first_armed is not None:
+            self.armed_evidence = describe_arming(self.recent, self.monitor.first_armed, self.args.system_id)
+
+    def send_all(self):
+        """Sends `--frames` datagrams at most `--rate` a second, within `--time-limit`."""
+        args, monitor = self.args, self.monitor
+        t0 = time.monotonic()
+        for i in range(args.frames):
+            due, now = t0 + i / args.rate, time.monotonic()
+            if now > t0 + args.time_limit:
+                self.stopped_by = "time limit"
+                break
+            if due > now:
+                time.sleep(due - now)
+            cls, data, frames = self.gen.next()
+            forged = [f for f, sysid, _ in frames if sysid == args.system_id]
+            if forged:
+                with monitor.lock:
+                    monitor.forged.update(forged)
+            self.digest.update(data)
+            try:
+                self.socket.sendto(data, self.target)
+            except OSError:
+                self.send_errors += 1
+            counts = self.sent[cls]
+            counts["datagrams"] += 1
+            counts["frames"] += len(frames)
+            counts["bytes"] += len(data)
+            if cls in ("command_long", "command_int", "own_sysid"):
+                self.recent.append((time.monotonic(), cls, data.hex()))
+            self.note_arming()
+            if i and i % 50000 == 0:
+                print(f"  {i} sent, {time.monotonic() - t0:.1f} s", flush=True)
+        return t0, time.monotonic()
+
+    def summary(self, seconds, pace):
+        return {"datagrams": sum(c["datagrams"] for c in self.sent.values()), "seconds": round(seconds, 2),
+                "stopped_by": self.stopped_by, "seed": self.args.seed, "rate_limit_hz": self.args.rate,
+                "sha256": self.digest.hexdigest(), "send_errors": self.send_errors,
+                "pace_vehicle_s_per_wall_s": round(pace, 3), "excluded": dict(self.gen.neutralised)}
+
+
 def sweep(args):
     host, port = parse_target(args.target)
     monitor = Monitor(host, port, args.system_id)
@@ -575,97 +657,34 @@ def sweep(args):
     before, before_count, before_missing, _ = monitor.fetch_params()
     print(f"before: {before_count} parameters ({len(before_missing)} never answered)", flush=True)
 
-    gen = Generator(args.seed, args.system_id)
-    gen.known_params = sorted(before)
-    fuzz = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    fuzz.bind(("127.0.0.1", 0))
-    fuzz.settimeout(0.2)
-    replies = Counter()
-    acks = Counter()
+    fuzzer = Fuzzer(args, monitor)
+    fuzzer.gen.known_params = sorted(before)
     stop = threading.Event()
-
-    def drain_replies():
-        """What the vehicle sends the fuzzer's link: COMMAND_ACKs counted per command and result."""
-        parser = dialect.MAVLink(None)
-        parser.robust_parsing = True
-        while not stop.is_set():
-            try:
-                data = fuzz.recv(65536)
-            except (socket.timeout, OSError):
-                continue
-            try:
-                msgs = parser.parse_buffer(data) or []
-            except Exception:  # noqa: BLE001 - a reply pymavlink cannot parse is only counted
-                replies["unparsable"] += 1
-                continue
-            for m in msgs:
-                if m.get_srcSystem() == args.system_id and m.get_srcComponent() == VEHICLE_COMPONENT:
-                    replies[m.get_type()] += 1
-                    if m.get_type() == "COMMAND_ACK":
-                        acks[(m.command, m.result)] += 1
 
     def watch():
         while not stop.is_set():
             monitor.pump(0.2)
 
-    threads = [threading.Thread(target=drain_replies, daemon=True), threading.Thread(target=watch, daemon=True)]
+    threads = [threading.Thread(target=fuzzer.drain_replies, args=(stop,), daemon=True),
+               threading.Thread(target=watch, daemon=True)]
     for t in threads:
         t.start()
-
-    sent = {c: Counter() for c, _ in CLASSES}
-    digest = hashlib.sha256()
-    recent = deque(maxlen=4096)
-    armed_evidence = None
-    send_errors = 0
-    t0 = time.monotonic()
-    deadline = t0 + args.time_limit
-    stopped_by = "frames"
-    for i in range(args.frames):
-        due = t0 + i / args.rate
-        now = time.monotonic()
-        if now > deadline:
-            stopped_by = "time limit"
-            break
-        if due > now:
-            time.sleep(due - now)
-        cls, data, frames = gen.next()
-        forged = [f for f, sysid, _ in frames if sysid == args.system_id]
-        if forged:
-            with monitor.lock:
-                monitor.forged.update(forged)
-        digest.update(data)
-        try:
-            fuzz.sendto(data, (host, port))
-        except OSError:
-            send_errors += 1
-        s = sent[cls]
-        s["datagrams"] += 1
-        s["frames"] += len(frames)
-        s["bytes"] += len(data)
-        if cls in ("command_long", "command_int", "own_sysid"):
-            recent.append((time.monotonic(), cls, data.hex()))
-        if armed_evidence is None and monitor.first_armed is not None:
-            armed_evidence = describe_arming(recent, monitor.first_armed, args.system_id)
-        if i and i % 50000 == 0:
-            print(f"  {i} sent, {time.monotonic() - t0:.1f} s", flush=True)
-    sweep_s = time.monotonic() - t0
-    sweep_end = time.monotonic()
-    print(f"sent {sum(s['datagrams'] for s in sent.values())} datagrams in {sweep_s:.1f} s "
-          f"(stopped by {stopped_by}), sha256 {digest.hexdigest()[:16]}", flush=True)
-
-    # After: heartbeats still coming, then the full list again.
+    t0, sweep_end = fuzzer.send_all()
+    print(f"sent {sum(c['datagrams'] for c in fuzzer.sent.values())} datagrams in {sweep_end - t0:.1f} s "
+          f"(stopped by {fuzzer.stopped_by}), sha256 {fuzzer.digest.hexdigest()[:16]}", flush=True)
     time.sleep(0.5)
     stop.set()
     for t in threads:
         t.join()
-    if armed_evidence is None and monitor.first_armed is not None:
-        armed_evidence = describe_arming(recent, monitor.first_armed, args.system_id)
+    fuzzer.note_arming()
+
+    # After: heartbeats still coming, then the full list again.
     during_heartbeats = [t for t in monitor.heartbeats if t0 <= t <= sweep_end]
     boot_during = [(w, b) for w, b in monitor.boot_ms if t0 <= w <= sweep_end]
     monitor.pump(AFTER_S)
     after_heartbeats = [t for t in monitor.heartbeats if t > sweep_end + 0.5]
     after, after_count, after_missing, rereads = monitor.fetch_params()
-    fuzz.close()
+    fuzzer.socket.close()
 
     gaps = [b - a for a, b in zip([t0] + during_heartbeats, during_heartbeats + [sweep_end])]
     vehicle_s = (boot_during[-1][1] - boot_during[0][1]) / 1000.0 if len(boot_during) > 1 else 0.0
@@ -674,10 +693,10 @@ def sweep(args):
     changed = sorted(n for n in set(before) | set(after) if before.get(n) != after.get(n))
     checks = {
         "heartbeats_during": check(
-            gaps and max(gaps) <= MAX_HEARTBEAT_GAP_S and len(during_heartbeats) >= math.floor(vehicle_s) - 1,
-            received=len(during_heartbeats), vehicle_s=round(vehicle_s, 2),
-            max_gap_s=round(max(gaps), 2) if gaps else None),
-        "heartbeats_after": check(len(after_heartbeats) >= 3, received=len(after_heartbeats), window_s=AFTER_S - 0.5),
+            max(gaps) <= MAX_HEARTBEAT_GAP_S and len(during_heartbeats) >= math.floor(vehicle_s) - 1,
+            received=len(during_heartbeats), vehicle_s=round(vehicle_s, 2), max_gap_s=round(max(gaps), 2)),
+        "heartbeats_after": check(len(after_heartbeats) >= 3, received=len(after_heartbeats),
+                                  window_s=AFTER_S - 0.5),
         "params_complete": check(after_count > 0 and not after_missing, count=after_count,
                                  missing=after_missing[:20], rereads=rereads),
         "params_unchanged": check(before_count > 0 and not changed and before_count == after_count,
@@ -689,38 +708,38 @@ def sweep(args):
                                    by_message=dict(monitor.forged_echoes.most_common(6))),
     }
     if args.pid:
-        try:
-            os.kill(args.pid, 0)
-            up = True
-        except OSError:
-            up = False
-        checks["process_up"] = check(up, pid=args.pid)
+        checks["process_up"] = check(alive(args.pid), pid=args.pid)
     if args.min_pace:
         checks["pace"] = check(pace >= args.min_pace, pace=round(pace, 3), min=args.min_pace)
     status = monitor.sys_status
     result = {
         "ok": all(c["pass"] for c in checks.values()),
         "checks": checks,
-        "sweep": {"datagrams": sum(s["datagrams"] for s in sent.values()),
-                  "seconds": round(sweep_s, 2), "stopped_by": stopped_by, "seed": args.seed,
-                  "rate_limit_hz": args.rate, "sha256": digest.hexdigest(), "send_errors": send_errors,
-                  "pace_vehicle_s_per_wall_s": round(pace, 3), "elapsed_s": round(time.monotonic() - started, 1),
-                  "excluded": dict(gen.neutralised)},
-        "sent": {c: dict(s) for c, s in sent.items()},
+        "sweep": {**fuzzer.summary(sweep_end - t0, pace), "elapsed_s": round(time.monotonic() - started, 1)},
+        "sent": {c: dict(n) for c, n in fuzzer.sent.items()},
         "vehicle": {
             "messages_to_checker": dict(monitor.messages.most_common(12)),
-            "replies_to_fuzzer": dict(replies.most_common(12)),
-            "acks": summarise_acks(acks),
+            "replies_to_fuzzer": dict(fuzzer.replies.most_common(12)),
+            "acks": summarise_acks(fuzzer.acks),
             "modes_seen": dict(monitor.modes),
             "statustext": dict(monitor.statustext.most_common(15)),
             "sys_status": None if status is None else {
                 "drop_rate_comm": status.drop_rate_comm, "errors_comm": status.errors_comm},
             "checker_bad_data": monitor.bad_data,
         },
-        "evidence": {"first_armed": armed_evidence},
+        "evidence": {"first_armed": fuzzer.armed_evidence},
     }
     print(json.dumps(result), flush=True)
     return 0 if result["ok"] else 1
+
+
+def alive(pid):
+    """Whether process `pid` exists (signal 0 sends nothing)."""
+    try:
+        os.kill(pid, 0)
+    except OSError:
+        return False
+    return True
 
 
 def command_name(cmd):
