@@ -16,7 +16,8 @@ frames/s, a busy UDP ground station a few hundred, so this is ten times a hostil
 while leaving the link's 1 Hz heartbeat path and telemetry plenty of room) and stops after
 `--time-limit` seconds (default twice the nominal time plus 30 s) whichever comes first; and the
 checker, a pymavlink ground station (system 255) sending GCS heartbeats at 1 Hz. The frames are a
-function of `--seed` alone (their SHA-256 is printed: two runs with one seed print one digest);
+function of `--seed` and the vehicle's parameter names (their SHA-256 is printed: two runs with
+one seed against one configuration print one digest);
 the classes, picked per datagram by weight:
 
     random_bytes   1..300 random bytes, a third starting with a MAVLink start byte
@@ -80,7 +81,10 @@ hold: `--report` (kestrel run --report) for the 400 Hz loop (control period p50 
 3750 µs — the loop's own overrun threshold — and no overruns, on the graph clock); `--record` (an
 MCAP holding the simulator's `ground_truth` topic: `[record] topics` must include it) for
 never_moved: the true position stays within 0.1 m of where it started (SIM_STATE and
-LOCAL_POSITION_NED report the estimate, not the truth); and `--log` (kestrel's stderr) for the
+LOCAL_POSITION_NED report the estimate, not the truth), and no_actor_failed: nothing on the
+`supervisor` topic (which must be recorded too), where every actor failure and restart is
+published — a panicking actor is restarted and the process stays up, so "the process is up"
+alone would not see it; and `--log` (kestrel's stderr) for the
 link's own counters, which it logs only when it stops: per link frames in/out, refused, dropped;
 hub-wide undecodable, unroutable, unhandled; the UDP server's peer counters.
 """
@@ -212,7 +216,7 @@ def frame_v1(layout, payload, sysid, compid, seq):
 
 
 class Generator:
-    """The sweep's datagrams, a function of the seed alone."""
+    """The sweep's datagrams, a function of the seed (and of `known_params`, the names listed)."""
 
     def __init__(self, seed, vehicle_sysid):
         self.rng = random.Random(seed)
@@ -796,18 +800,27 @@ def check_run(args):
         **{k: control.get(k) for k in ("period_p50_us", "period_p99_us", "period_max_us", "overruns")})
     from mcap.reader import make_reader
 
-    first, worst, samples, crashed = None, 0.0, 0, False
+    first, worst, samples, crashed, failures = None, 0.0, 0, False, []
     with open(args.record, "rb") as stream:
-        for _, channel, message in make_reader(stream).iter_messages(topics=["ground_truth"]):
-            truth = json.loads(message.data)
-            p = truth["position_ned_m"]
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        recorded = {c.topic for c in summary.channels.values()} if summary is not None else set()
+        for _, channel, message in reader.iter_messages(topics=["ground_truth", "supervisor"]):
+            event = json.loads(message.data)
+            if channel.topic == "supervisor":
+                failures.append({k: event.get(k) for k in ("actor", "kind", "reason")})
+                continue
+            p = event["position_ned_m"]
             first = first or p
             worst = max(worst, math.dist(first, p))
-            crashed |= truth["crashed"]
+            crashed |= event["crashed"]
             samples += 1
     checks["never_moved"] = check(samples > 0 and worst <= TRUTH_TOLERANCE_M and not crashed,
                                   source="ground_truth topic of the MCAP", samples=samples,
                                   max_displacement_m=round(worst, 4), crashed=crashed)
+    checks["no_actor_failed"] = check("supervisor" in recorded and not failures,
+                                      source="supervisor topic of the MCAP", recorded="supervisor" in recorded,
+                                      events=len(failures), first=failures[:5])
     result = {"ok": all(c["pass"] for c in checks.values()), "checks": checks,
               "flight": report.get("flight"), "failsafes": report.get("failsafes")}
     if args.log:

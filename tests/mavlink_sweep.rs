@@ -8,7 +8,7 @@
 //!
 //! The vehicle runs config/sim.toml with one link endpoint, a UDP server on an ephemeral port of
 //! 127.0.0.1 (read back from the log, so parallel tests never collide), the ground-station
-//! parameter table of tests/gcs.rs, and `[record] topics` cut to the simulator's ground truth.
+//! parameter table of tests/gcs.rs, and `[record] topics` cut to what `--check-run` reads.
 //! It is paced at `--speedup 1`: a flood of 2500 datagrams per wall second is one per vehicle
 //! second too.
 
@@ -27,9 +27,10 @@ const FRAMES: &str = "100000";
 const SEED: &str = "14";
 /// Hard bound on the run, in vehicle seconds (`--duration`; wall seconds too at `--speedup 1`).
 const DURATION_S: &str = "240";
-/// `[record] topics` in config/sim.toml, and what the sweep records instead.
+/// `[record] topics` in config/sim.toml, and what the sweep records instead: the simulator's
+/// truth and the supervisor's actor failures, which the script's `--check-run` reads.
 const RECORD_ALL: &str = "topics = [\"*\"]";
-const RECORD_TRUTH: &str = "topics = [\"ground_truth\"]";
+const RECORD_TRUTH: &str = "topics = [\"ground_truth\", \"supervisor\"]";
 
 /// The UDP server's port, from kestrel's "MAVLink endpoint open … local=Some(127.0.0.1:PORT)".
 fn server_port(log: &Path) -> u16 {
