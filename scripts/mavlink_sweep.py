@@ -11,10 +11,10 @@ Usage:
 The first form is the sweep. `--target` is the vehicle's UDP server (default
 udp:127.0.0.1:14540, the `udp_in` endpoint of the default graph); only 127.0.0.1 is ever a target.
 Two sockets of our own talk to it, each a peer (a link) of its own: the fuzzer, which sends
-`--frames` datagrams at most `--rate` per second (default 2500/s: a MAVLink radio carries ~100
-frames/s, a busy UDP ground station a few hundred, so this is ten times a hostile peer's share
-while leaving the link's 1 Hz heartbeat path and telemetry plenty of room) and stops after
-`--time-limit` seconds (default twice the nominal time plus 30 s) whichever comes first; and the
+`--frames` datagrams at most `--rate` per second (default 2500/s, some ten times what a busy
+ground station sends: a flood, yet one the vehicle's 1 Hz heartbeat and telemetry can get
+through, which heartbeats_during checks) and stops after `--time-limit` seconds (default twice
+the nominal time plus 30 s), whichever comes first; and the
 checker, a pymavlink ground station (system 255) sending GCS heartbeats at 1 Hz. The frames are a
 function of `--seed` and the vehicle's parameter names (their SHA-256 is printed: two runs with
 one seed against one configuration print one digest);
@@ -77,16 +77,22 @@ The last line is one JSON object: {"ok": bool, "checks": {NAME: {"pass": bool, .
 every check passed, 1 otherwise.
 
 The second form, after the vehicle has stopped (SIGTERM), checks what only the run's own files
-hold: `--report` (kestrel run --report) for the 400 Hz loop (control period p50 = 2500 µs, p99 ≤
-3750 µs — the loop's own overrun threshold — and no overruns, on the graph clock); `--record` (an
-MCAP holding the simulator's `ground_truth` topic: `[record] topics` must include it) for
-never_moved: the true position stays within 0.1 m of where it started (SIM_STATE and
-LOCAL_POSITION_NED report the estimate, not the truth), and no_actor_failed: nothing on the
-`supervisor` topic (which must be recorded too), where every actor failure and restart is
-published — a panicking actor is restarted and the process stays up, so "the process is up"
-alone would not see it; and `--log` (kestrel's stderr) for the
-link's own counters, which it logs only when it stops: per link frames in/out, refused, dropped;
-hub-wide undecodable, unroutable, unhandled; the UDP server's peer counters.
+hold:
+    loop_400hz          `--report` (kestrel run --report): control period p50 = 2500 µs, p99 ≤
+                        3750 µs (the loop's own overrun threshold), no overruns. Under the lockstep
+                        clock these are on the graph clock and see only a skipped step; whether the
+                        graph kept up with the wall clock is the sweep's pace (printed always,
+                        checked with --min-pace)
+    never_moved         `--record` (an MCAP whose `[record] topics` include `ground_truth`): the
+                        simulator's true position stays within 0.1 m of where it started, and the
+                        vehicle never crashed (SIM_STATE and LOCAL_POSITION_NED report the
+                        estimate, not the truth)
+    no_actor_failed     the same MCAP holds the `supervisor` topic and nothing on it: every actor
+                        failure and restart is published there, and a panicking actor restarted
+                        leaves the process up, so "the process is up" alone would not see it
+and prints the link's own counters from `--log` (kestrel's stderr), which it logs only when it
+stops: per link frames in/out, refused, dropped, thinned; hub-wide undecodable, unroutable,
+unhandled; the UDP server's peer counters.
 """
 
 import argparse
