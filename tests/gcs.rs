@@ -11,11 +11,15 @@
 //! client's transcript (wall time, vehicle time, event) is printed for `--nocapture`. A test
 //! passes when the client exits 0 and `kestrel` exits 0 on SIGTERM; on failure both are killed.
 
+mod sim_vehicle;
+
 use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
+
+use sim_vehicle::{PARAM_TABLE, Proc, python, root, sim_config, stop, tail, temp_dir};
 
 /// Simulated seconds per wall second: a 60 s flight takes 12 s, and the 5 s (vehicle time)
 /// link-loss timeout is a full second of wall time, ten of the client's heartbeats.
@@ -24,76 +28,6 @@ const SPEEDUP: &str = "5";
 const DURATION_S: &str = "200";
 /// Wall-clock bound on one client.
 const CLIENT_LIMIT: Duration = Duration::from_secs(55);
-
-/// The vehicle's MAVLink parameters as the ground station sees them (the sim config has none).
-const PARAM_TABLE: &str = r#"[
-  { name = "RTL_ALT_M", value = 15.0, min = 5.0, max = 120.0, unit = "m" },
-  { name = "WPNAV_SPEED_MS", value = 5.0, min = 0.5, max = 15.0, unit = "m/s" },
-  { name = "LAND_SPEED_MS", value = 1.5, min = 0.3, max = 3.0, unit = "m/s" },
-  { name = "FENCE_RADIUS_M", value = 300.0, min = 10.0, max = 10000.0, unit = "m" },
-  { name = "FS_GCS_ENABLE", value = 1, min = 0, max = 1, kind = "int32" },
-  { name = "FS_GCS_TIMEOUT_S", value = 5.0, min = 1.0, max = 60.0, unit = "s" },
-]"#;
-
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn python() -> PathBuf {
-    let python = root().join(".venv/bin/python");
-    assert!(
-        python.exists(),
-        "no Python venv at {}: run scripts/python-env.sh (it installs pymavlink and MAVProxy from scripts/requirements-*.txt)",
-        python.display()
-    );
-    python
-}
-
-/// A fresh temp dir for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("kestrel-gcs-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
-/// config/sim.toml with the link's params replaced by `link_params` (TOML lines of dotted keys)
-/// and the sim's relative paths made absolute.
-fn sim_config(link_params: &str) -> String {
-    let text = std::fs::read_to_string(root().join("config/sim.toml")).expect("config/sim.toml");
-    let config_dir = root().join("config");
-    let mut out = String::new();
-    let (mut section, mut inserted) = (String::new(), false);
-    // Brackets still open in a link `params…` statement being dropped.
-    let mut dropping = 0i32;
-    for line in text.lines() {
-        let trimmed = line.trim();
-        if dropping == 0 && trimmed.starts_with('[') {
-            section = trimmed.to_owned();
-        }
-        if section == "[actors.link]" && (dropping > 0 || trimmed.starts_with("params")) {
-            dropping +=
-                trimmed.matches(['[', '{']).count() as i32 - trimmed.matches([']', '}']).count() as i32;
-            continue;
-        }
-        let mut line = line.to_owned();
-        if section == "[actors.sim]" && trimmed.starts_with("params") {
-            for key in ["vehicle", "world"] {
-                let relative = format!("{key} = \"");
-                assert!(line.contains(&relative), "config/sim.toml's sim has no {key}: {line}");
-                line = line.replace(&relative, &format!("{key} = \"{}/", config_dir.display()));
-            }
-        }
-        out.push_str(&line);
-        out.push('\n');
-        if section == "[actors.link]" && trimmed.starts_with("type") {
-            out.push_str(link_params);
-            inserted = true;
-        }
-    }
-    assert!(inserted, "config/sim.toml has no [actors.link] with a type");
-    out
-}
 
 /// The link's params for a ground station at 127.0.0.1:`port`; `endpoint_extra` goes into the
 /// endpoint's table, `extra` after it.
@@ -105,27 +39,10 @@ fn link_params(port: u16, endpoint_extra: &str, extra: &str) -> String {
     )
 }
 
-/// A child process killed (and reaped) when dropped, so a failing test leaves nothing behind.
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Ok(None) = self.0.try_wait() {
-            let _ = self.0.kill();
-            let _ = self.0.wait();
-        }
-    }
-}
-
 /// What one client run produced.
 struct Flight {
     transcript: Vec<String>,
     kestrel_log: String,
-}
-
-fn tail(text: &str, lines: usize) -> String {
-    let all: Vec<&str> = text.lines().collect();
-    all[all.len().saturating_sub(lines)..].join("\n")
 }
 
 /// Runs `script ARGS` against `kestrel run` with the config `link(port)` makes, in `dir`.
@@ -239,18 +156,7 @@ fn fly_with_env(
     );
 
     // The client is done: stop the vehicle as an operator would.
-    if kestrel_exit.is_none() {
-        let kill = Command::new("kill").args(["-TERM", &kestrel.0.id().to_string()]).status().expect("kill");
-        assert!(kill.success(), "SIGTERM to kestrel");
-    }
-    let stopping = Instant::now();
-    let status = loop {
-        if let Some(status) = kestrel.0.try_wait().expect("kestrel status") {
-            break status;
-        }
-        assert!(stopping.elapsed() < Duration::from_secs(5), "{label}: kestrel ignored SIGTERM");
-        std::thread::sleep(Duration::from_millis(20));
-    };
+    let status = stop(&mut kestrel, label);
     let kestrel_log = read_log();
     assert!(status.success(), "{label}: kestrel exited with {status}\n{}", tail(&kestrel_log, 40));
     println!("── {label}: client exit 0, kestrel exit 0 after {:.1} s ──", started.elapsed().as_secs_f64());

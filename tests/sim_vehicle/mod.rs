@@ -1,0 +1,118 @@
+//! What the tests that run `kestrel run` as a child process on the simulator share (tests/gcs.rs,
+//! tests/mavlink_sweep.rs): the repository and its Python venv, scratch directories,
+//! config/sim.toml with the link's params of the test's choosing, a child process that dies with
+//! the test, and stopping the vehicle as an operator does.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, ExitStatus};
+use std::time::{Duration, Instant};
+
+/// The vehicle's MAVLink parameters as the ground station sees them (the sim config has none).
+pub const PARAM_TABLE: &str = r#"[
+  { name = "RTL_ALT_M", value = 15.0, min = 5.0, max = 120.0, unit = "m" },
+  { name = "WPNAV_SPEED_MS", value = 5.0, min = 0.5, max = 15.0, unit = "m/s" },
+  { name = "LAND_SPEED_MS", value = 1.5, min = 0.3, max = 3.0, unit = "m/s" },
+  { name = "FENCE_RADIUS_M", value = 300.0, min = 10.0, max = 10000.0, unit = "m" },
+  { name = "FS_GCS_ENABLE", value = 1, min = 0, max = 1, kind = "int32" },
+  { name = "FS_GCS_TIMEOUT_S", value = 5.0, min = 1.0, max = 60.0, unit = "s" },
+]"#;
+
+/// The repository's root.
+pub fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The venv's Python (pymavlink, MAVProxy, mcap).
+pub fn python() -> PathBuf {
+    let python = root().join(".venv/bin/python");
+    assert!(
+        python.exists(),
+        "no Python venv at {}: run scripts/python-env.sh (it installs pymavlink and MAVProxy from scripts/requirements-*.txt)",
+        python.display()
+    );
+    python
+}
+
+/// A fresh temp dir for one test.
+pub fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kestrel-gcs-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// config/sim.toml with the link's params replaced by `link_params` (TOML lines of dotted keys)
+/// and the sim's relative paths made absolute.
+pub fn sim_config(link_params: &str) -> String {
+    let text = std::fs::read_to_string(root().join("config/sim.toml")).expect("config/sim.toml");
+    let config_dir = root().join("config");
+    let mut out = String::new();
+    let (mut section, mut inserted) = (String::new(), false);
+    // Brackets still open in a link `params…` statement being dropped.
+    let mut dropping = 0i32;
+    for line in text.lines() {
+        let trimmed = line.trim();
+        if dropping == 0 && trimmed.starts_with('[') {
+            section = trimmed.to_owned();
+        }
+        if section == "[actors.link]" && (dropping > 0 || trimmed.starts_with("params")) {
+            dropping +=
+                trimmed.matches(['[', '{']).count() as i32 - trimmed.matches([']', '}']).count() as i32;
+            continue;
+        }
+        let mut line = line.to_owned();
+        if section == "[actors.sim]" && trimmed.starts_with("params") {
+            for key in ["vehicle", "world"] {
+                let relative = format!("{key} = \"");
+                assert!(line.contains(&relative), "config/sim.toml's sim has no {key}: {line}");
+                line = line.replace(&relative, &format!("{key} = \"{}/", config_dir.display()));
+            }
+        }
+        out.push_str(&line);
+        out.push('\n');
+        if section == "[actors.link]" && trimmed.starts_with("type") {
+            out.push_str(link_params);
+            inserted = true;
+        }
+    }
+    assert!(inserted, "config/sim.toml has no [actors.link] with a type");
+    out
+}
+
+/// A child process killed (and reaped) when dropped, so a failing test leaves nothing behind.
+pub struct Proc(pub Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Ok(None) = self.0.try_wait() {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+}
+
+/// The last `lines` lines of `text`.
+pub fn tail(text: &str, lines: usize) -> String {
+    let all: Vec<&str> = text.lines().collect();
+    all[all.len().saturating_sub(lines)..].join("\n")
+}
+
+/// Stops `kestrel` as an operator would (SIGTERM, unless it has exited already) and returns its
+/// exit status; it must go within 5 s. `label` names the run in a failure.
+pub fn stop(kestrel: &mut Proc, label: &str) -> ExitStatus {
+    if kestrel.0.try_wait().expect("kestrel status").is_none() {
+        let kill = std::process::Command::new("kill")
+            .args(["-TERM", &kestrel.0.id().to_string()])
+            .status()
+            .expect("kill");
+        assert!(kill.success(), "{label}: SIGTERM to kestrel");
+    }
+    let stopping = Instant::now();
+    loop {
+        if let Some(status) = kestrel.0.try_wait().expect("kestrel status") {
+            return status;
+        }
+        assert!(stopping.elapsed() < Duration::from_secs(5), "{label}: kestrel ignored SIGTERM");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
