@@ -209,6 +209,16 @@ fn a_parameter_set_over_mavlink_survives_a_restart() {
 }
 
 #[test]
+fn a_parameter_whose_owner_never_hears_the_set_keeps_its_old_value() {
+    let dir = temp_dir("params-unrouted");
+    // The link's ParamSets go to a topic nobody subscribes to: every owner's param_set input is
+    // unrouted, so no set can be applied and none may be echoed as if it were.
+    let unrouted = |port| link_params(port, "", "outputs.param_set = \"param_set_to_nobody\"\n");
+    fly(&dir, "params-unrouted", "gcs_params.py", &["unapplied", "RTL_ALT_M", "42.5"], unrouted);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn with_signing_on_only_a_client_holding_the_key_can_arm() {
     let dir = temp_dir("signing");
     let key: String = (0u8..32).map(|i| format!("{:02x}", i.wrapping_mul(37).wrapping_add(11))).collect();

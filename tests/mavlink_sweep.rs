@@ -23,10 +23,15 @@ use serde_json::Value;
 use sim_vehicle::{PARAM_TABLE, Proc, python, root, sim_config, stop, tail, temp_dir};
 
 /// Datagrams in the sweep, and the seed that makes them.
+/// `KESTREL_SWEEP_FRAMES` overrides the count for the long bench run (10⁶: `KESTREL_SWEEP_FRAMES=1000000
+/// cargo nextest run -p kestrel --test mavlink_sweep --no-capture`), with the run's bound scaled.
 const FRAMES: &str = "100000";
+/// The script's default rate (datagrams per second), which sets how long a sweep lasts.
+const RATE_HZ: u64 = 2500;
 const SEED: &str = "14";
-/// Hard bound on the run, in vehicle seconds (`--duration`; wall seconds too at `--speedup 1`).
-const DURATION_S: &str = "240";
+/// Vehicle seconds (`--duration`; wall seconds too at `--speedup 1`) beyond the sweep itself that
+/// bound the run: start-up, the parameter lists before and after, the stop.
+const MARGIN_S: u64 = 200;
 /// `[record] topics` in config/sim.toml, and what the sweep records instead: the simulator's
 /// truth and the supervisor's actor failures, which the script's `--check-run` reads.
 const RECORD_ALL: &str = "topics = [\"*\"]";
@@ -87,6 +92,9 @@ fn failed_checks(result: &Value) -> Vec<String> {
 
 #[test]
 fn a_sweep_of_bad_mavlink_leaves_the_vehicle_up_unarmed_unmoved_and_unchanged() {
+    let frames = std::env::var("KESTREL_SWEEP_FRAMES").unwrap_or_else(|_| FRAMES.to_owned());
+    let count: u64 = frames.parse().expect("KESTREL_SWEEP_FRAMES is a count");
+    let duration_s = (count / RATE_HZ + MARGIN_S).to_string();
     let dir = temp_dir("mavlink-sweep");
     let link = format!(
         "params.system_id = 1\n\
@@ -104,7 +112,7 @@ fn a_sweep_of_bad_mavlink_leaves_the_vehicle_up_unarmed_unmoved_and_unchanged() 
         Command::new(env!("CARGO_BIN_EXE_kestrel"))
             .current_dir(&dir)
             .env_remove("RUST_LOG")
-            .args(["run", "--quiet", "--speedup", "1", "--duration", DURATION_S, "--config"])
+            .args(["run", "--quiet", "--speedup", "1", "--duration", &duration_s, "--config"])
             .arg(&config)
             .arg("--report")
             .arg(&report)
@@ -117,8 +125,8 @@ fn a_sweep_of_bad_mavlink_leaves_the_vehicle_up_unarmed_unmoved_and_unchanged() 
             .expect("start kestrel run"),
     );
     let target = format!("udp:127.0.0.1:{}", server_port(&log_path));
-    println!("── sweep of {FRAMES} datagrams (seed {SEED}) at {target} ──");
-    let during = sweep_script(&["--frames", FRAMES, "--seed", SEED, "--target", &target]);
+    println!("── sweep of {frames} datagrams (seed {SEED}) at {target} ──");
+    let during = sweep_script(&["--frames", &frames, "--seed", SEED, "--target", &target]);
     let up = kestrel.0.try_wait().expect("kestrel status").is_none();
 
     let status = stop(&mut kestrel, "mavlink sweep");

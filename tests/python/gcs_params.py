@@ -2,6 +2,8 @@
 
 Usage: gcs_params.py set NAME VALUE      set it (PARAM_VALUE echo), as run 1
        gcs_params.py expect NAME VALUE   the list and a read by name show it, as run 2
+       gcs_params.py unapplied NAME VALUE   the owner never gets the set (its param_set input
+                                         unrouted): the echo and a read keep the old value
 (run by tests/gcs.rs; see gcs_common.py for the transcript)
 """
 
@@ -21,6 +23,13 @@ def params(gcs):
         gcs.set_param(NAME, VALUE, "param set")
         # Nothing acknowledges the write to disk; give the link a moment before the restart.
         gcs.quiet(0.5)
+    elif ACTION == "unapplied":
+        old = listed[NAME]
+        gcs.set_param(NAME, VALUE, "param set", expect_echo=old)
+        read = gcs.read_param(NAME, "param read")
+        if not math.isclose(read, old):
+            raise Failed("unapplied", f"{NAME}: read {read} after an unapplied set, wanted {old}")
+        gcs.results["unapplied"] = f"{NAME}={VALUE} not taken, {old} echoed and read"
     elif ACTION == "expect":
         read = gcs.read_param(NAME, "param read")
         if not (math.isclose(listed.get(NAME, math.nan), VALUE) and math.isclose(read, VALUE)):
