@@ -47,18 +47,18 @@ struct Flight {
 
 /// Runs `script ARGS` against `kestrel run` with the config `link(port)` makes, in `dir`.
 fn fly(dir: &Path, label: &str, script: &str, args: &[&str], link: impl Fn(u16) -> String) -> Flight {
-    fly_with_env(dir, label, script, args, &[], link)
+    fly_with_env(dir, label, script, args, &[], |port| sim_config(&link(port)))
 }
 
 /// [`fly`] with extra environment variables for the client (`GCS_SERIAL`: talk over a serial
-/// device instead of UDP, announcing port 0).
+/// device instead of UDP, announcing port 0) and the whole config text `config(port)` makes.
 fn fly_with_env(
     dir: &Path,
     label: &str,
     script: &str,
     args: &[&str],
     env: &[(&str, &str)],
-    link: impl Fn(u16) -> String,
+    config: impl Fn(u16) -> String,
 ) -> Flight {
     let mut client = Proc(
         Command::new(python())
@@ -98,8 +98,8 @@ fn fly_with_env(
         );
     };
 
-    let config = dir.join(format!("{label}.toml"));
-    std::fs::write(&config, sim_config(&link(port))).expect("write the config");
+    let config_path = dir.join(format!("{label}.toml"));
+    std::fs::write(&config_path, config(port)).expect("write the config");
     let log_path = dir.join(format!("{label}.log"));
     let log = std::fs::File::create(&log_path).expect("log file");
     let mut kestrel = Proc(
@@ -107,7 +107,7 @@ fn fly_with_env(
             .current_dir(dir)
             .env_remove("RUST_LOG")
             .args(["run", "--quiet", "--speedup", SPEEDUP, "--duration", DURATION_S, "--config"])
-            .arg(&config)
+            .arg(&config_path)
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(log)
@@ -211,10 +211,14 @@ fn a_parameter_set_over_mavlink_survives_a_restart() {
 #[test]
 fn a_parameter_whose_owner_never_hears_the_set_keeps_its_old_value() {
     let dir = temp_dir("params-unrouted");
-    // The link's ParamSets go to a topic nobody subscribes to: every owner's param_set input is
-    // unrouted, so no set can be applied and none may be echoed as if it were.
-    let unrouted = |port| link_params(port, "", "outputs.param_set = \"param_set_to_nobody\"\n");
-    fly(&dir, "params-unrouted", "gcs_params.py", &["unapplied", "RTL_ALT_M", "42.5"], unrouted);
+    // No actor subscribes to the link's ParamSets (every `inputs.param_set` left out, as in a
+    // hand-made graph): no set can be applied, and none may be echoed as if it were.
+    let unrouted = |port| {
+        let text = sim_config(&link_params(port, "", ""));
+        text.lines().filter(|l| !l.starts_with("inputs.param_set")).collect::<Vec<_>>().join("\n")
+    };
+    let args = ["unapplied", "RTL_ALT_M", "42.5"];
+    fly_with_env(&dir, "params-unrouted", "gcs_params.py", &args, &[], unrouted);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -304,12 +308,12 @@ fn a_ground_station_flies_the_square_mission_over_a_57600_baud_serial_link() {
     let env = [("GCS_SERIAL", gcs_tty), ("GCS_BAUD", "57600")];
     let flight =
         fly_with_env(&dir, "serial", "gcs_flight.py", &[plan.to_str().expect("utf-8 path")], &env, |_| {
-            format!(
+            sim_config(&format!(
                 "params.system_id = 1\n\
                  params.endpoints = [ {{ type = \"serial\", device = \"{}\", baud = 57600 }} ]\n\
                  params.params = {PARAM_TABLE}\n",
                 vehicle_tty.display()
-            )
+            ))
         });
     let result = flight.transcript.last().expect("result");
     for needed in ["\"downloaded_identical\": true", "\"RTL\"", "\"reached\": [1, 2, 3, 4, 5"] {
