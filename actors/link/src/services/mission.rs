@@ -200,7 +200,17 @@ impl MissionService {
         if t == MavMissionType::MAV_MISSION_TYPE_MISSION {
             match to_mission(&up.items, now) {
                 Ok(mission) => out.graph.push(ToGraph::Mission(mission)),
-                Err(result) => return Outputs::send(Self::ack(from, t, result)),
+                Err(ItemRefused { seq, result }) => {
+                    // MISSION_ACK carries only the reason; the item it is about goes in words.
+                    let text = format!("Mission item {seq}: {}", refusal_text(result));
+                    return Outputs {
+                        mav: vec![
+                            statustext(MavSeverity::MAV_SEVERITY_ERROR, &text),
+                            Self::ack(from, t, result),
+                        ],
+                        graph: Vec::new(),
+                    };
+                }
             }
         }
         if let Some(plan) = self.plan(t) {
@@ -346,41 +356,64 @@ fn point(m: &MISSION_ITEM_INT_DATA) -> Result<MissionPoint, MavMissionResult> {
     Ok(MissionPoint { lat_deg, lon_deg, alt_m: f64::from(m.z), frame })
 }
 
+/// An uploaded item that cannot be flown: its sequence number and the MISSION_ACK result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ItemRefused {
+    pub seq: u16,
+    pub result: MavMissionResult,
+}
+
+/// What a refused item's MISSION_ACK result means, for the STATUSTEXT beside it (short: a
+/// STATUSTEXT holds 50 characters, the prefix "Mission item 65535: " takes 20).
+fn refusal_text(result: MavMissionResult) -> &'static str {
+    match result {
+        MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME => "frame not supported",
+        MavMissionResult::MAV_MISSION_UNSUPPORTED => "command not supported",
+        MavMissionResult::MAV_MISSION_INVALID_PARAM1 => "param1 out of range",
+        MavMissionResult::MAV_MISSION_INVALID_PARAM2 => "param2 out of range",
+        MavMissionResult::MAV_MISSION_INVALID_PARAM5_X => "latitude out of range",
+        MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y => "longitude out of range",
+        MavMissionResult::MAV_MISSION_INVALID_PARAM7 => "altitude not a number",
+        _ => "invalid",
+    }
+}
+
 /// The commander's mission from uploaded items (item 0, home, skipped).
-pub fn to_mission(items: &[MISSION_ITEM_INT_DATA], now: Time) -> Result<Mission, MavMissionResult> {
+pub fn to_mission(items: &[MISSION_ITEM_INT_DATA], now: Time) -> Result<Mission, ItemRefused> {
     let mut out = Vec::with_capacity(items.len().saturating_sub(1));
     for m in items.iter().skip(1) {
+        let refused = |result| ItemRefused { seq: m.seq, result };
         let item = match m.command {
             MavCmd::MAV_CMD_NAV_WAYPOINT => {
                 let hold_s = f64::from(m.param1);
                 let radius = f64::from(m.param2);
                 if !(hold_s.is_finite() && hold_s >= 0.0) {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+                    return Err(refused(MavMissionResult::MAV_MISSION_INVALID_PARAM1));
                 }
                 if !(radius.is_finite() && radius >= 0.0) {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
+                    return Err(refused(MavMissionResult::MAV_MISSION_INVALID_PARAM2));
                 }
                 let acceptance_radius_m = if radius > 0.0 { radius } else { DEFAULT_ACCEPTANCE_M };
-                MissionItem::Waypoint { point: point(m)?, acceptance_radius_m, hold_s }
+                MissionItem::Waypoint { point: point(m).map_err(refused)?, acceptance_radius_m, hold_s }
             }
-            MavCmd::MAV_CMD_NAV_TAKEOFF => MissionItem::Takeoff { point: point(m)? },
-            MavCmd::MAV_CMD_NAV_LAND => MissionItem::Land { point: point(m)? },
+            MavCmd::MAV_CMD_NAV_TAKEOFF => MissionItem::Takeoff { point: point(m).map_err(refused)? },
+            MavCmd::MAV_CMD_NAV_LAND => MissionItem::Land { point: point(m).map_err(refused)? },
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => MissionItem::ReturnToLaunch,
             MavCmd::MAV_CMD_NAV_LOITER_TIME => {
                 let duration_s = f64::from(m.param1);
                 if !(duration_s.is_finite() && duration_s >= 0.0) {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM1);
+                    return Err(refused(MavMissionResult::MAV_MISSION_INVALID_PARAM1));
                 }
                 MissionItem::LoiterTime { duration_s }
             }
             MavCmd::MAV_CMD_DO_CHANGE_SPEED => {
                 let speed_m_s = f64::from(m.param2);
                 if !(speed_m_s.is_finite() && speed_m_s > 0.0) {
-                    return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM2);
+                    return Err(refused(MavMissionResult::MAV_MISSION_INVALID_PARAM2));
                 }
                 MissionItem::ChangeSpeed { speed_m_s }
             }
-            _ => return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED),
+            _ => return Err(refused(MavMissionResult::MAV_MISSION_UNSUPPORTED)),
         };
         out.push(item);
     }
@@ -489,6 +522,20 @@ mod tests {
         let out = upload(&mut s, &[item(0, MavCmd::MAV_CMD_NAV_WAYPOINT), bad]);
         assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME));
         assert!(out.graph.is_empty());
+        let said = out.mav.iter().find_map(|m| match m {
+            MavMessage::STATUSTEXT(t) => {
+                Some(t.text.to_str().unwrap_or_default().trim_end_matches('\0').to_owned())
+            }
+            _ => None,
+        });
+        assert_eq!(said.as_deref(), Some("Mission item 1: frame not supported"));
+        let mut nan = item(2, MavCmd::MAV_CMD_NAV_WAYPOINT);
+        nan.z = f32::NAN;
+        let out = upload(
+            &mut s,
+            &[item(0, MavCmd::MAV_CMD_NAV_WAYPOINT), item(1, MavCmd::MAV_CMD_NAV_WAYPOINT), nan],
+        );
+        assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_INVALID_PARAM7));
         let out = s.on_request(GCS, 1, MISSION, false);
         let MavMessage::MISSION_ITEM_INT(kept) = &out.mav[0] else { panic!("no item") };
         assert_eq!(kept.frame, MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT);
