@@ -98,6 +98,7 @@ async fn run_graph(
     registry: &Registry,
     options: RunOptions,
 ) -> Result<RunReport, RunError> {
+    config.validate().map_err(|e| RunError::Config(vec![e]))?;
     let run_cfg = &config.graph.run;
     let source = &config.source;
     let activity = Activity::new();

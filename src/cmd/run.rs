@@ -12,13 +12,13 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     let config_path = locate_config(&args.config)?;
     let mut config = LoadedConfig::load(&config_path).map_err(|e| e.to_string())?;
     apply_flight_flags(&mut config, &args)?;
-    let duration = match args.duration {
-        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
-        Some(s) => return Err(format!("--duration {s}: expected a positive number of seconds")),
-        None => None,
-    };
-    if let Some(n) = args.speedup.filter(|n| !(n.is_finite() && *n >= 0.0)) {
-        return Err(format!("--speedup {n}: expected a number ≥ 0 (0 = as fast as possible)"));
+    let duration = args
+        .duration
+        .map(kestrel::config::check_duration_s)
+        .transpose()
+        .map_err(|m| format!("--duration {m}"))?;
+    if let Some(Err(m)) = args.speedup.map(kestrel::config::check_speedup) {
+        return Err(format!("--{m}"));
     }
     tracing::info!(config = %config_path.display(), "starting");
     let options = RunOptions {
