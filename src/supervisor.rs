@@ -73,15 +73,21 @@ impl<A: Actor> ActorKind for KindOf<A> {
             Some(p) => (toml::Value::Table(p.get_ref().clone()), p.span()),
             None => (toml::Value::Table(toml::Table::new()), decl.kind.span()),
         };
+        let at = |message: String| ConfigError {
+            file: source.path.clone(),
+            line: param_line(source, name, decl, &message)
+                .or_else(|| (!params_at.is_empty()).then(|| source.line_of(params_at.start))),
+            message,
+        };
         let params: A::Params = table_value.try_into().map_err(|e: toml::de::Error| {
-            vec![source.error_at(params_at.clone(), format!("actor '{name}' params: {}", e.message().trim()))]
+            vec![at(format!("actor '{name}' params: {}", e.message().trim()))]
         })?;
         let doorbell = Doorbell::new();
         let mut table = PortTable::default();
         let mut wiring = Wiring::first(name, decl, source, graph, &mut table, Arc::clone(&doorbell));
         let built = A::build(&params, &mut wiring);
         let declared = wiring.finish();
-        let actor = built.map_err(|e| vec![source.error_at(params_at, format!("actor '{name}': {e}"))])?;
+        let actor = built.map_err(|e| vec![at(format!("actor '{name}': {e}"))])?;
         let declared = declared.map_err(|errors| {
             errors
                 .into_iter()
@@ -99,6 +105,41 @@ impl<A: Actor> ActorKind for KindOf<A> {
             first: Some((actor, declared)),
         }))
     }
+}
+
+/// The line of the parameter an error message names: the longest dotted key path of the
+/// actor's `params` (`camera.width_px`, `tick_rate_hz`) that the message mentions as a whole
+/// word. Parameters come to the actor without their places, so this is how an actor's "field X
+/// is out of range" finds its line; `None` when the message names none that the file spells.
+fn param_line(source: &Source, name: &str, decl: &ActorDecl, message: &str) -> Option<usize> {
+    fn paths(table: &toml::Table, prefix: &[String], out: &mut Vec<Vec<String>>) {
+        for (key, value) in table {
+            let mut path = prefix.to_vec();
+            path.push(key.clone());
+            if let toml::Value::Table(inner) = value {
+                paths(inner, &path, out);
+            }
+            out.push(path);
+        }
+    }
+    let mentions = |word: &str| {
+        message.match_indices(word).any(|(i, _)| {
+            let ident = |c: char| c.is_alphanumeric() || c == '_' || c == '.';
+            !message[..i].ends_with(ident) && !message[i + word.len()..].starts_with(ident)
+        })
+    };
+    let mut all = Vec::new();
+    paths(decl.params.as_ref()?.get_ref(), &[], &mut all);
+    all.sort_by_key(|p| std::cmp::Reverse(p.join(".").len()));
+    let last = |p: &Vec<String>| p.last().cloned().unwrap_or_default();
+    let unique_last = |p: &&Vec<String>| all.iter().filter(|q| last(q) == last(p)).count() == 1;
+    let named = all
+        .iter()
+        .find(|p| mentions(&p.join(".")))
+        .or_else(|| all.iter().filter(unique_last).find(|p| mentions(&last(p))))?;
+    let mut key = vec!["actors", name, "params"];
+    key.extend(named.iter().map(String::as_str));
+    source.line_of_key(&key)
 }
 
 struct Prepared<A: Actor> {

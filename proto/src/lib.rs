@@ -19,6 +19,7 @@ pub mod messages;
 pub mod param_def;
 pub mod testing;
 pub mod time;
+pub mod timing;
 
 pub use actor::{Actor, ActorError, Context, Publisher, Setup, Sink};
 pub use clock::Clock;

@@ -1,7 +1,6 @@
 //! `kestrel run`: fly a graph (the simulator by default).
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use kestrel::{LoadedConfig, Registry, RunError, RunOptions};
 
