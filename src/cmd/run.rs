@@ -70,6 +70,9 @@ fn apply_flight_flags(config: &mut LoadedConfig, args: &RunArgs) -> Result<(), S
     if let Some(mission) = &args.mission {
         let absolute =
             std::path::absolute(mission).map_err(|e| format!("--mission {}: {e}", mission.display()))?;
+        // Read here too, so a bad plan is reported as the plan's own error, before the graph
+        // that carries it is built.
+        kestrel_control::load_plan(&absolute).map_err(|e| format!("--mission {e}"))?;
         params.insert("mission".into(), toml::Value::String(absolute.display().to_string()));
     }
     if args.auto {

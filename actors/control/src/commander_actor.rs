@@ -107,9 +107,11 @@ impl Actor for CommanderActor {
         let mut commander =
             Commander::new(params.commander.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
         if let Some(path) = &params.mission {
-            let mission =
-                load_plan(&setup.config_dir().join(path)).map_err(|e| ActorError::Params(e.to_string()))?;
-            commander.on_mission(mission).map_err(|e| ActorError::Params(e.to_string()))?;
+            let path = setup.config_dir().join(path);
+            let mission = load_plan(&path).map_err(|e| ActorError::Params(e.to_string()))?;
+            commander
+                .on_mission(mission)
+                .map_err(|e| ActorError::Params(format!("{}: {e}", path.display())))?;
         }
         let tick_period =
             kestrel_proto::timing::period_of_rate("tick_rate_hz", params.tick_rate_hz, 1.0, 1000.0)?;
