@@ -12,6 +12,7 @@
 
 pub mod actor;
 pub mod attitude;
+pub mod bad_input;
 pub mod clock;
 pub mod geo;
 pub mod message;
