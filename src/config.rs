@@ -87,15 +87,25 @@ impl Source {
         ConfigError { file: self.path.clone(), line: None, message: message.into() }
     }
 
-    /// The 1-based line of the key at `path` (table names, then the key), if the text has it:
-    /// `["run", "status_period_s"]`, `["actors", "sim", "params", "seed"]`.
+    /// The 1-based line of the key at `path` (table names, then the key; an index for an array
+    /// element), if the text has it: `["run", "status_period_s"]`,
+    /// `["actors", "link", "params", "endpoints", "1", "bind"]`.
     pub fn line_of_key(&self, path: &[&str]) -> Option<usize> {
         let document = toml::de::DeTable::parse(&self.text).ok()?;
         let (mut table, mut span) = (document.get_ref(), None);
-        for (depth, key) in path.iter().enumerate() {
-            let (name, value) = table.get_key_value(*key)?;
+        let mut keys = path.iter().peekable();
+        while let Some(key) = keys.next() {
+            let (name, mut value) = table.get_key_value(*key)?;
             span = Some(name.span());
-            if depth + 1 < path.len() {
+            // Array elements: the element's own span (an inline table's brace).
+            while let (toml::de::DeValue::Array(items), Some(index)) =
+                (value.get_ref(), keys.peek().and_then(|k| k.parse::<usize>().ok()))
+            {
+                keys.next();
+                value = items.get(index)?;
+                span = Some(value.span());
+            }
+            if keys.peek().is_some() {
                 let toml::de::DeValue::Table(inner) = value.get_ref() else { return None };
                 table = inner;
             }

@@ -109,17 +109,23 @@ impl<A: Actor> ActorKind for KindOf<A> {
 
 /// The line of the parameter an error message names: the longest dotted key path of the
 /// actor's `params` (`camera.width_px`, `tick_rate_hz`) that the message mentions as a whole
-/// word. Parameters come to the actor without their places, so this is how an actor's "field X
-/// is out of range" finds its line; `None` when the message names none that the file spells.
+/// word, else a string value it quotes (`"127.0.0.1:99999"`), else a key name only one
+/// parameter has. Parameters come to the actor without their places, so this is how an actor's
+/// "field X is out of range" finds its line; `None` when the message names none that the file
+/// spells. Array elements are path segments `0`, `1`, ….
 fn param_line(source: &Source, name: &str, decl: &ActorDecl, message: &str) -> Option<usize> {
-    fn paths(table: &toml::Table, prefix: &[String], out: &mut Vec<Vec<String>>) {
-        for (key, value) in table {
+    type Leaf = (Vec<String>, Option<String>);
+    fn paths(value: &toml::Value, prefix: &[String], out: &mut Vec<Leaf>) {
+        let children: Vec<(String, &toml::Value)> = match value {
+            toml::Value::Table(table) => table.iter().map(|(k, v)| (k.clone(), v)).collect(),
+            toml::Value::Array(items) => items.iter().enumerate().map(|(i, v)| (i.to_string(), v)).collect(),
+            _ => Vec::new(),
+        };
+        for (key, child) in children {
             let mut path = prefix.to_vec();
-            path.push(key.clone());
-            if let toml::Value::Table(inner) = value {
-                paths(inner, &path, out);
-            }
-            out.push(path);
+            path.push(key);
+            paths(child, &path, out);
+            out.push((path, child.as_str().map(str::to_owned)));
         }
     }
     let mentions = |word: &str| {
@@ -129,14 +135,17 @@ fn param_line(source: &Source, name: &str, decl: &ActorDecl, message: &str) -> O
         })
     };
     let mut all = Vec::new();
-    paths(decl.params.as_ref()?.get_ref(), &[], &mut all);
-    all.sort_by_key(|p| std::cmp::Reverse(p.join(".").len()));
-    let last = |p: &Vec<String>| p.last().cloned().unwrap_or_default();
-    let unique_last = |p: &&Vec<String>| all.iter().filter(|q| last(q) == last(p)).count() == 1;
-    let named = all
+    paths(&toml::Value::Table(decl.params.as_ref()?.get_ref().clone()), &[], &mut all);
+    all.sort_by_key(|(p, _)| std::cmp::Reverse(p.join(".").len()));
+    let last = |p: &[String]| p.last().cloned().unwrap_or_default();
+    let unique_last = |p: &[String]| all.iter().filter(|(q, _)| last(q) == last(p)).count() == 1;
+    let (named, _) = all
         .iter()
-        .find(|p| mentions(&p.join(".")))
-        .or_else(|| all.iter().filter(unique_last).find(|p| mentions(&last(p))))?;
+        .find(|(p, _)| mentions(&p.join(".")))
+        .or_else(|| {
+            all.iter().find(|(_, v)| v.as_ref().is_some_and(|v| message.contains(&format!("\"{v}\""))))
+        })
+        .or_else(|| all.iter().find(|(p, _)| unique_last(p) && mentions(&last(p))))?;
     let mut key = vec!["actors", name, "params"];
     key.extend(named.iter().map(String::as_str));
     source.line_of_key(&key)

@@ -40,3 +40,16 @@ fn actor_timing_parameters_out_of_range_are_errors_at_their_line() {
     let motors = "[actors.motors]\ntype = \"pwm_motors\"\n[actors.motors.params]\nchannels = [0, 1, 2, 3]\ntimeout_s = 1e30\n";
     assert_located(motors, 5, "timeout_s");
 }
+
+#[test]
+fn a_bad_socket_address_is_named_with_its_field_value_and_line() {
+    let link = "[actors.link]\ntype = \"link\"\nparams.endpoints = [\n\
+        { type = \"udp_in\", bind = \"0.0.0.0:14540\" },\n\
+        { type = \"udp_out\", address = \"127.0.0.1:99999\" },\n]\n";
+    let errors = start_up_errors(link);
+    let error = errors.first().expect("an error");
+    assert_eq!(error.line, Some(5), "{error}");
+    assert!(error.message.contains("endpoint address \"127.0.0.1:99999\""), "{error}");
+    let tcp = "[actors.link]\ntype = \"link\"\nparams.endpoints = [{ type = \"tcp_in\", bind = \"localhost:5760\" }]\n";
+    assert_located(tcp, 3, "endpoint bind \"localhost:5760\"");
+}
