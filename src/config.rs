@@ -212,7 +212,10 @@ impl RestartPolicy {
             ("backoff_max_s", self.backoff_max_s),
         ] {
             if !(v.is_finite() && (0.0..=MAX_RESTART_S).contains(&v)) {
-                return Err((field, format!("restart {field} = {v}: expected 0..={MAX_RESTART_S} seconds")));
+                return Err((
+                    field,
+                    format!("restart {field} = {v:?}: expected 0..={MAX_RESTART_S} seconds"),
+                ));
             }
         }
         Ok(())
@@ -309,7 +312,7 @@ impl LoadedConfig {
             return Err(at_run(
                 "status_period_s",
                 format!(
-                    "[run] status_period_s = {period}: expected {lo}..={hi} seconds, or 0 for no status line"
+                    "[run] status_period_s = {period:?}: expected {lo}..={hi} seconds, or 0 for no status line"
                 ),
             ));
         }
@@ -348,7 +351,7 @@ pub fn check_speedup(speedup: f64) -> Result<(), String> {
     if speedup == 0.0 || (lo..=hi).contains(&speedup) {
         Ok(())
     } else {
-        Err(format!("speedup = {speedup}: expected {lo}..={hi}, or 0 for as fast as possible"))
+        Err(format!("speedup = {speedup:?}: expected {lo}..={hi}, or 0 for as fast as possible"))
     }
 }
 
@@ -357,7 +360,7 @@ pub fn check_duration_s(s: f64) -> Result<Duration, String> {
     if s > 0.0 && s <= MAX_DURATION_S {
         Ok(Duration::from_secs_f64(s))
     } else {
-        Err(format!("{s}: expected a number of seconds in (0, {MAX_DURATION_S}]"))
+        Err(format!("{s:?}: expected a number of seconds in (0, {MAX_DURATION_S}]"))
     }
 }
 

@@ -111,7 +111,8 @@ fn every_shipped_parameter_at_an_extreme_is_refused_or_used_without_a_panic() {
             let mut leaves = Vec::new();
             numeric_leaves(&toml::Value::Table(params.get_ref().clone()), &mut Vec::new(), &mut leaves);
             for leaf in leaves {
-                let values = floats.iter().map(|&f| toml::Value::Float(f)).chain(integers.map(toml::Value::Integer));
+                let values =
+                    floats.iter().map(|&f| toml::Value::Float(f)).chain(integers.map(toml::Value::Integer));
                 for value in values {
                     let mut table = toml::Value::Table(params.get_ref().clone());
                     *leaf_mut(&mut table, &leaf) = value.clone();
@@ -137,4 +138,17 @@ fn every_shipped_parameter_at_an_extreme_is_refused_or_used_without_a_panic() {
         }
     }
     assert!(built > 100, "the sweep reached {built} builds");
+}
+
+#[test]
+fn a_pace_given_by_the_caller_is_checked_like_the_configs() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/ranges-test.toml");
+    let config = LoadedConfig::parse(&path, "[actors]\n").expect("an empty graph");
+    let options = RunOptions { speedup: Some(1e-300), ..RunOptions::default() };
+    match kestrel::run(&config, &Registry::standard(), options) {
+        Err(RunError::Config(errors)) => {
+            assert!(errors[0].message.contains("speedup = 1e-300"), "{errors:?}")
+        }
+        other => panic!("expected a config error, got {other:?}"),
+    }
 }

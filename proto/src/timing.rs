@@ -25,7 +25,7 @@ pub fn seconds(field: &str, value: f64, min_s: f64, max_s: f64) -> Result<Durati
     if (lo..=hi).contains(&value) {
         Ok(Duration::from_secs_f64(value))
     } else {
-        Err(ActorError::Params(format!("{field} = {value}: expected {lo}..={hi} seconds")))
+        Err(ActorError::Params(format!("{field} = {value:?}: expected {lo}..={hi} seconds")))
     }
 }
 
@@ -35,7 +35,7 @@ pub fn positive_seconds(field: &str, value: f64, max_s: f64) -> Result<Duration,
     if value > 0.0 && value <= hi {
         Ok(Duration::from_secs_f64(value))
     } else {
-        Err(ActorError::Params(format!("{field} = {value}: expected a number of seconds in (0, {hi}]")))
+        Err(ActorError::Params(format!("{field} = {value:?}: expected a number of seconds in (0, {hi}]")))
     }
 }
 
@@ -46,7 +46,7 @@ pub fn period_of_rate(field: &str, hz: f64, min_hz: f64, max_hz: f64) -> Result<
     if (lo..=hi).contains(&hz) {
         Ok(Duration::from_secs_f64(1.0 / hz))
     } else {
-        Err(ActorError::Params(format!("{field} = {hz}: expected {lo}..={hi} Hz")))
+        Err(ActorError::Params(format!("{field} = {hz:?}: expected {lo}..={hi} Hz")))
     }
 }
 

@@ -153,6 +153,8 @@ impl Actor for PilotScriptActor {
 
 #[cfg(test)]
 mod tests {
+    use std::time::Duration;
+
     use super::*;
     use kestrel_proto::messages::FlightMode;
 

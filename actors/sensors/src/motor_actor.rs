@@ -95,6 +95,8 @@ impl Actor for MotorActor {
 
 #[cfg(test)]
 mod tests {
+    use std::time::Duration;
+
     use kestrel_proto::messages::MAX_MOTORS;
     use kestrel_proto::testing::{TestSetup, ready};
 
