@@ -18,7 +18,9 @@
 //! ```
 //!
 //! Every name a person can mistype keeps its place in the file, so a wrong name is reported as
-//! `FILE:LINE: …` naming it, at start-up.
+//! `FILE:LINE: …` naming it, at start-up. Every duration and size is range-checked at load, with
+//! the limits below (`MAX_*`): a value that would overflow a `Duration` or an allocation is a
+//! located error, never a panic or an abort later.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -31,6 +33,17 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use crate::mailbox::MailboxKind;
+
+/// Longest run a config or `--duration` may ask for (s): about 31 years, far past any flight,
+/// and far inside what the clock's microseconds hold.
+pub const MAX_DURATION_S: f64 = 1e9;
+/// `[run] speedup` range besides 0 (as fast as possible): slower than a thousandth of real time
+/// or faster than a million times it is a typo, not a pace.
+pub const SPEEDUP_RANGE: (f64, f64) = (1e-3, 1e6);
+/// `[run] status_period_s` range besides 0 (no status line) (s).
+pub const STATUS_PERIOD_RANGE_S: (f64, f64) = (0.1, 86_400.0);
+/// Longest restart window or backoff (s): a day.
+pub const MAX_RESTART_S: f64 = 86_400.0;
 
 /// A config problem, located in its file.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -74,6 +87,37 @@ impl Source {
         ConfigError { file: self.path.clone(), line: None, message: message.into() }
     }
 
+    /// The 1-based line of the key at `path` (table names, then the key; an index for an array
+    /// element), if the text has it: `["run", "status_period_s"]`,
+    /// `["actors", "link", "params", "endpoints", "1", "bind"]`.
+    pub fn line_of_key(&self, path: &[&str]) -> Option<usize> {
+        let document = toml::de::DeTable::parse(&self.text).ok()?;
+        let (mut table, mut span) = (document.get_ref(), None);
+        let mut keys = path.iter().peekable();
+        while let Some(key) = keys.next() {
+            let (name, mut value) = table.get_key_value(*key)?;
+            span = Some(name.span());
+            // Array elements: the element's own span (an inline table's brace).
+            while let (toml::de::DeValue::Array(items), Some(index)) =
+                (value.get_ref(), keys.peek().and_then(|k| k.parse::<usize>().ok()))
+            {
+                keys.next();
+                value = items.get(index)?;
+                span = Some(value.span());
+            }
+            if keys.peek().is_some() {
+                let toml::de::DeValue::Table(inner) = value.get_ref() else { return None };
+                table = inner;
+            }
+        }
+        span.map(|s| self.line_of(s.start))
+    }
+
+    /// An error at the key `path` (see [`Source::line_of_key`]), or without a place.
+    pub fn error_at_key(&self, path: &[&str], message: impl Into<String>) -> ConfigError {
+        ConfigError { file: self.path.clone(), line: self.line_of_key(path), message: message.into() }
+    }
+
     /// The directory relative paths in the config resolve against.
     pub fn dir(&self) -> &Path {
         self.path.parent().unwrap_or(Path::new("."))
@@ -96,11 +140,13 @@ pub enum ClockKind {
 #[serde(deny_unknown_fields, default)]
 pub struct RunConfig {
     pub clock: ClockKind,
-    /// Lockstep pacing in simulated seconds per wall second; 0 runs as fast as possible.
+    /// Lockstep pacing in simulated seconds per wall second; 0 runs as fast as possible,
+    /// otherwise within [`SPEEDUP_RANGE`].
     pub speedup: f64,
-    /// Stop after this much graph time (s); none runs until Ctrl-C.
+    /// Stop after this much graph time (s), at most [`MAX_DURATION_S`]; none runs until Ctrl-C.
     pub duration_s: Option<f64>,
-    /// Wall-clock period of the status line (s); 0 turns it off.
+    /// Wall-clock period of the status line (s), within [`STATUS_PERIOD_RANGE_S`]; exactly 0
+    /// turns it off (a negative or NaN period is an error, not a way to spell "off").
     pub status_period_s: f64,
 }
 
@@ -149,19 +195,28 @@ impl Default for RestartPolicy {
 impl RestartPolicy {
     /// The restart window.
     pub fn window(&self) -> Duration {
-        Duration::from_secs_f64(self.window_s)
+        seconds(self.window_s)
     }
 
     /// The delay before restart number `n` (1-based) within the window.
     pub fn backoff(&self, n: u32) -> Duration {
         let factor = 2f64.powi(n.saturating_sub(1).min(60) as i32);
-        Duration::from_secs_f64((self.backoff_initial_s * factor).min(self.backoff_max_s))
+        seconds((self.backoff_initial_s * factor).min(self.backoff_max_s))
     }
 
-    fn validate(&self) -> Result<(), String> {
-        let ok = |v: f64| v.is_finite() && v >= 0.0;
-        if !(ok(self.window_s) && ok(self.backoff_initial_s) && ok(self.backoff_max_s)) {
-            return Err("restart window and backoffs must be finite and ≥ 0 seconds".into());
+    /// The first field outside `0..=MAX_RESTART_S` seconds, named, with what is wrong with it.
+    fn validate(&self) -> Result<(), (&'static str, String)> {
+        for (field, v) in [
+            ("window_s", self.window_s),
+            ("backoff_initial_s", self.backoff_initial_s),
+            ("backoff_max_s", self.backoff_max_s),
+        ] {
+            if !(v.is_finite() && (0.0..=MAX_RESTART_S).contains(&v)) {
+                return Err((
+                    field,
+                    format!("restart {field} = {v:?}: expected 0..={MAX_RESTART_S} seconds"),
+                ));
+            }
         }
         Ok(())
     }
@@ -241,18 +296,36 @@ impl LoadedConfig {
         Ok(config)
     }
 
-    fn validate(&self) -> Result<(), ConfigError> {
+    /// Checks every range the runtime relies on (also after a caller changed the graph).
+    pub fn validate(&self) -> Result<(), ConfigError> {
         let run = &self.graph.run;
-        if !(run.speedup.is_finite() && run.speedup >= 0.0) {
-            return Err(self.source.error("[run] speedup must be a finite number ≥ 0"));
+        let at_run = |key: &str, message: String| self.source.error_at_key(&["run", key], message);
+        if let Err(m) = check_speedup(run.speedup) {
+            return Err(at_run("speedup", format!("[run] {m}")));
         }
-        if run.duration_s.is_some_and(|d| !(d.is_finite() && d > 0.0)) {
-            return Err(self.source.error("[run] duration_s must be a positive number of seconds"));
+        if let Some(Err(m)) = run.duration_s.map(check_duration_s) {
+            return Err(at_run("duration_s", format!("[run] duration_s = {m}")));
+        }
+        let (lo, hi) = STATUS_PERIOD_RANGE_S;
+        let period = run.status_period_s;
+        if !(period == 0.0 || (lo..=hi).contains(&period)) {
+            return Err(at_run(
+                "status_period_s",
+                format!(
+                    "[run] status_period_s = {period:?}: expected {lo}..={hi} seconds, or 0 for no status line"
+                ),
+            ));
         }
         for (name, decl) in &self.graph.actors {
-            decl.restart
-                .validate()
-                .map_err(|m| self.source.error_at(name.span(), format!("actor '{}': {m}", name.get_ref())))?;
+            decl.restart.validate().map_err(|(field, m)| {
+                let at = self.source.line_of_key(&["actors", name.get_ref(), "restart", field]);
+                let line = at.unwrap_or_else(|| self.source.line_of(name.span().start));
+                ConfigError {
+                    file: self.source.path.clone(),
+                    line: Some(line),
+                    message: format!("actor '{}': {m}", name.get_ref()),
+                }
+            })?;
             for (port, route) in &decl.inputs {
                 route.mailbox.get_ref().parse::<MailboxKind>().map_err(|m| {
                     self.source.error_at(
@@ -263,6 +336,31 @@ impl LoadedConfig {
             }
         }
         Ok(())
+    }
+}
+
+/// `s` seconds, for a value the config checks bounded; an out-of-range one saturates rather
+/// than panics.
+fn seconds(s: f64) -> Duration {
+    Duration::try_from_secs_f64(s).unwrap_or(if s > 0.0 { Duration::MAX } else { Duration::ZERO })
+}
+
+/// Checks a lockstep pace: 0 (flat out) or within [`SPEEDUP_RANGE`].
+pub fn check_speedup(speedup: f64) -> Result<(), String> {
+    let (lo, hi) = SPEEDUP_RANGE;
+    if speedup == 0.0 || (lo..=hi).contains(&speedup) {
+        Ok(())
+    } else {
+        Err(format!("speedup = {speedup:?}: expected {lo}..={hi}, or 0 for as fast as possible"))
+    }
+}
+
+/// A run length in seconds, `(0, MAX_DURATION_S]`; the error starts with the value.
+pub fn check_duration_s(s: f64) -> Result<Duration, String> {
+    if s > 0.0 && s <= MAX_DURATION_S {
+        Ok(Duration::from_secs_f64(s))
+    } else {
+        Err(format!("{s:?}: expected a number of seconds in (0, {MAX_DURATION_S}]"))
     }
 }
 
@@ -285,6 +383,43 @@ mod tests {
         let err = parse("[actors.a]\ntype = \"sim\"\nbogus = 1\n").unwrap_err();
         assert_eq!(err.line, Some(3), "{err}");
         assert!(err.message.contains("bogus"), "{err}");
+    }
+
+    #[test]
+    fn durations_out_of_range_are_located_errors_not_panics() {
+        for (value, line) in [("inf", 3), ("1e30", 3), ("-1.0", 3), ("nan", 3)] {
+            let text = format!("[run]\nclock = \"lockstep\"\nstatus_period_s = {value}\n[actors]\n");
+            let err = parse(&text).unwrap_err();
+            assert_eq!(err.line, Some(line), "{value}: {err}");
+            assert!(err.message.contains("status_period_s"), "{err}");
+        }
+        assert!(parse("[run]\nstatus_period_s = 0.0\n[actors]\n").is_ok(), "0 means no status line");
+        for text in ["[run]\nduration_s = 1e30\n[actors]\n", "[run]\nspeedup = 1e-300\n[actors]\n"] {
+            let err = parse(text).unwrap_err();
+            assert_eq!(err.line, Some(2), "{err}");
+        }
+        let err = parse("[actors.a]\ntype = \"sim\"\nrestart = { window_s = 1e30 }\n").unwrap_err();
+        assert_eq!(err.line, Some(3), "{err}");
+        assert!(err.message.contains("window_s"), "{err}");
+    }
+
+    #[test]
+    fn a_queue_deeper_than_the_cap_is_a_located_error() {
+        let text =
+            "[actors.a]\ntype = \"sim\"\ninputs.x = { topic = \"t\", mailbox = \"queue(1000000000000)\" }\n";
+        let err = parse(text).unwrap_err();
+        assert_eq!(err.line, Some(3), "{err}");
+        assert!(err.message.contains("at most 1048576"), "{err}");
+        let text = "[actors.a]\ntype = \"sim\"\ninputs.x = { topic = \"t\", mailbox = \"queue(1048576)\" }\n";
+        assert!(parse(text).is_ok());
+    }
+
+    #[test]
+    fn keys_are_found_by_their_path() {
+        let config = parse("[run]\nspeedup = 1.0\n\n[actors.a]\ntype = \"sim\"\nparams.seed = 3\n").unwrap();
+        assert_eq!(config.source.line_of_key(&["run", "speedup"]), Some(2));
+        assert_eq!(config.source.line_of_key(&["actors", "a", "params", "seed"]), Some(6));
+        assert_eq!(config.source.line_of_key(&["actors", "b"]), None);
     }
 
     #[test]

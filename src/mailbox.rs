@@ -19,6 +19,14 @@ use tokio::sync::Notify;
 
 use crate::activity::{Activity, Busy};
 
+/// The most messages a `queue(N)` may hold: 2²⁰, a thousand times the deepest queue a graph
+/// needs (an IMU queue of 64, the flight report's 65 536), and small enough that a full queue of
+/// the largest message stays within a laptop's memory.
+pub const MAX_QUEUE_CAPACITY: usize = 1 << 20;
+
+/// Slots a queue reserves up front; a deeper one grows (once, never shrinking) as it fills.
+const PREALLOCATED: usize = 1024;
+
 /// How a route buffers messages for its subscriber.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MailboxKind {
@@ -31,15 +39,18 @@ pub enum MailboxKind {
 impl FromStr for MailboxKind {
     type Err = String;
 
-    /// Parses `latest` or `queue(N)` with `N ≥ 1`.
+    /// Parses `latest` or `queue(N)` with `1 ≤ N ≤ MAX_QUEUE_CAPACITY`.
     fn from_str(s: &str) -> Result<Self, String> {
         let s = s.trim();
         if s == "latest" {
             return Ok(MailboxKind::Latest);
         }
         let inner = s.strip_prefix("queue(").and_then(|r| r.strip_suffix(')'));
+        let too_deep = || format!("mailbox '{s}': a queue holds at most {MAX_QUEUE_CAPACITY} messages");
         match inner.map(|n| n.trim().parse::<usize>()) {
-            Some(Ok(n)) if n >= 1 => Ok(MailboxKind::Queue(n)),
+            Some(Ok(n)) if (1..=MAX_QUEUE_CAPACITY).contains(&n) => Ok(MailboxKind::Queue(n)),
+            Some(Ok(n)) if n > MAX_QUEUE_CAPACITY => Err(too_deep()),
+            Some(Err(e)) if *e.kind() == std::num::IntErrorKind::PosOverflow => Err(too_deep()),
             _ => Err(format!("mailbox '{s}' is neither \"latest\" nor \"queue(N)\" with N ≥ 1")),
         }
     }
@@ -165,7 +176,7 @@ impl<T> Mailbox<T> {
         activity: Option<Arc<Activity>>,
     ) -> Arc<Mailbox<T>> {
         let capacity = match kind {
-            MailboxKind::Queue(n) => n,
+            MailboxKind::Queue(n) => n.min(PREALLOCATED),
             MailboxKind::Latest => 1,
         };
         Arc::new(Mailbox {

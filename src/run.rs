@@ -98,6 +98,10 @@ async fn run_graph(
     registry: &Registry,
     options: RunOptions,
 ) -> Result<RunReport, RunError> {
+    config.validate().map_err(|e| RunError::Config(vec![e]))?;
+    if let Some(Err(m)) = options.speedup.map(crate::config::check_speedup) {
+        return Err(RunError::Config(vec![config.source.error(format!("the run's {m}"))]));
+    }
     let run_cfg = &config.graph.run;
     let source = &config.source;
     let activity = Activity::new();

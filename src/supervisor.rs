@@ -73,15 +73,21 @@ impl<A: Actor> ActorKind for KindOf<A> {
             Some(p) => (toml::Value::Table(p.get_ref().clone()), p.span()),
             None => (toml::Value::Table(toml::Table::new()), decl.kind.span()),
         };
+        let at = |message: String| ConfigError {
+            file: source.path.clone(),
+            line: param_line(source, name, decl, &message)
+                .or_else(|| (!params_at.is_empty()).then(|| source.line_of(params_at.start))),
+            message,
+        };
         let params: A::Params = table_value.try_into().map_err(|e: toml::de::Error| {
-            vec![source.error_at(params_at.clone(), format!("actor '{name}' params: {}", e.message().trim()))]
+            vec![at(format!("actor '{name}' params: {}", e.message().trim()))]
         })?;
         let doorbell = Doorbell::new();
         let mut table = PortTable::default();
         let mut wiring = Wiring::first(name, decl, source, graph, &mut table, Arc::clone(&doorbell));
         let built = A::build(&params, &mut wiring);
         let declared = wiring.finish();
-        let actor = built.map_err(|e| vec![source.error_at(params_at, format!("actor '{name}': {e}"))])?;
+        let actor = built.map_err(|e| vec![at(format!("actor '{name}': {e}"))])?;
         let declared = declared.map_err(|errors| {
             errors
                 .into_iter()
@@ -99,6 +105,50 @@ impl<A: Actor> ActorKind for KindOf<A> {
             first: Some((actor, declared)),
         }))
     }
+}
+
+/// The line of the parameter an error message names: the longest dotted key path of the
+/// actor's `params` (`camera.width_px`, `tick_rate_hz`) that the message mentions as a whole
+/// word, else a string value it quotes (`"127.0.0.1:99999"`), else a key name only one
+/// parameter has. Parameters come to the actor without their places, so this is how an actor's
+/// "field X is out of range" finds its line; `None` when the message names none that the file
+/// spells. Array elements are path segments `0`, `1`, ….
+fn param_line(source: &Source, name: &str, decl: &ActorDecl, message: &str) -> Option<usize> {
+    type Leaf = (Vec<String>, Option<String>);
+    fn paths(value: &toml::Value, prefix: &[String], out: &mut Vec<Leaf>) {
+        let children: Vec<(String, &toml::Value)> = match value {
+            toml::Value::Table(table) => table.iter().map(|(k, v)| (k.clone(), v)).collect(),
+            toml::Value::Array(items) => items.iter().enumerate().map(|(i, v)| (i.to_string(), v)).collect(),
+            _ => Vec::new(),
+        };
+        for (key, child) in children {
+            let mut path = prefix.to_vec();
+            path.push(key);
+            paths(child, &path, out);
+            out.push((path, child.as_str().map(str::to_owned)));
+        }
+    }
+    let mentions = |word: &str| {
+        message.match_indices(word).any(|(i, _)| {
+            let ident = |c: char| c.is_alphanumeric() || c == '_' || c == '.';
+            !message[..i].ends_with(ident) && !message[i + word.len()..].starts_with(ident)
+        })
+    };
+    let mut all = Vec::new();
+    paths(&toml::Value::Table(decl.params.as_ref()?.get_ref().clone()), &[], &mut all);
+    all.sort_by_key(|(p, _)| std::cmp::Reverse(p.join(".").len()));
+    let last = |p: &[String]| p.last().cloned().unwrap_or_default();
+    let unique_last = |p: &[String]| all.iter().filter(|(q, _)| last(q) == last(p)).count() == 1;
+    let (named, _) = all
+        .iter()
+        .find(|(p, _)| mentions(&p.join(".")))
+        .or_else(|| {
+            all.iter().find(|(_, v)| v.as_ref().is_some_and(|v| message.contains(&format!("\"{v}\""))))
+        })
+        .or_else(|| all.iter().find(|(p, _)| unique_last(p) && mentions(&last(p))))?;
+    let mut key = vec!["actors", name, "params"];
+    key.extend(named.iter().map(String::as_str));
+    source.line_of_key(&key)
 }
 
 struct Prepared<A: Actor> {

@@ -112,6 +112,39 @@ fn a_config_with_an_unknown_actor_fails_naming_it() {
 }
 
 #[test]
+fn bad_input_files_and_values_are_named_and_refused_without_a_panic() {
+    let plan = temp_path("bad.plan");
+    std::fs::write(
+        &plan,
+        r#"{"fileType": "Plan", "mission": {"items": [
+            {"type": "SimpleItem", "command": 22, "frame": 3, "params": [0,0,0,null,null,null,10]},
+            {"type": "SimpleItem", "command": 19, "frame": 3, "params": [-4,0,0,null,6.8,79.9,10]}]}}"#,
+    )
+    .unwrap();
+    let out = kestrel().args(["run", "--duration", "1", "--mission"]).arg(&plan).output().unwrap();
+    let _ = std::fs::remove_file(&plan);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains(&format!("{}: mission item 1: ", plan.display())), "{stderr}");
+    assert!(!stderr.contains("sim.toml"), "the plan's error is the plan's: {stderr}");
+
+    let config = temp_path("inf_status.toml");
+    std::fs::write(&config, "[run]\nstatus_period_s = inf\n\n[actors.sim]\ntype = \"sim\"\n").unwrap();
+    let out = kestrel().args(["run", "--duration", "1", "--config"]).arg(&config).output().unwrap();
+    let _ = std::fs::remove_file(&config);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains(&format!("{}:2: [run] status_period_s = inf", config.display())), "{stderr}");
+
+    for duration in ["1e30", "inf"] {
+        let out = kestrel().args(["run", "--duration", duration]).output().unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains("--duration"), "{stderr}");
+    }
+}
+
+#[test]
 fn help_documents_every_flag() {
     let out = kestrel().args(["run", "--help"]).output().unwrap();
     let help = String::from_utf8_lossy(&out.stdout);

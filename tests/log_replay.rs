@@ -172,8 +172,11 @@ fn an_output_routed_to_a_topic_of_another_type_is_a_type_mismatch() {
 }
 
 #[test]
-fn a_speed_that_is_not_positive_is_refused() {
-    let params = format!(r#"{{ log = "{}", topics = ["imu"], speed = 0.0 }}"#, flight_log().display());
-    let message = config_error(run_replay("speed.toml", &params, "", 1.0));
-    assert!(message.contains("`speed` must be a positive number"), "{message}");
+fn a_speed_outside_the_pace_range_is_refused() {
+    for speed in ["0.0", "1e-300", "inf"] {
+        let params =
+            format!(r#"{{ log = "{}", topics = ["imu"], speed = {speed} }}"#, flight_log().display());
+        let message = config_error(run_replay("speed.toml", &params, "", 1.0));
+        assert!(message.contains("`speed` must be within 0.001..=1000000"), "{speed}: {message}");
+    }
 }

@@ -12,6 +12,7 @@
 
 pub mod actor;
 pub mod attitude;
+pub mod bad_input;
 pub mod clock;
 pub mod geo;
 pub mod message;
@@ -19,6 +20,7 @@ pub mod messages;
 pub mod param_def;
 pub mod testing;
 pub mod time;
+pub mod timing;
 
 pub use actor::{Actor, ActorError, Context, Publisher, Setup, Sink};
 pub use clock::Clock;

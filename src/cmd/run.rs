@@ -1,7 +1,6 @@
 //! `kestrel run`: fly a graph (the simulator by default).
 
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 use kestrel::{LoadedConfig, Registry, RunError, RunOptions};
 
@@ -12,13 +11,13 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     let config_path = locate_config(&args.config)?;
     let mut config = LoadedConfig::load(&config_path).map_err(|e| e.to_string())?;
     apply_flight_flags(&mut config, &args)?;
-    let duration = match args.duration {
-        Some(s) if s.is_finite() && s > 0.0 => Some(Duration::from_secs_f64(s)),
-        Some(s) => return Err(format!("--duration {s}: expected a positive number of seconds")),
-        None => None,
-    };
-    if let Some(n) = args.speedup.filter(|n| !(n.is_finite() && *n >= 0.0)) {
-        return Err(format!("--speedup {n}: expected a number ≥ 0 (0 = as fast as possible)"));
+    let duration = args
+        .duration
+        .map(kestrel::config::check_duration_s)
+        .transpose()
+        .map_err(|m| format!("--duration {m}"))?;
+    if let Some(Err(m)) = args.speedup.map(kestrel::config::check_speedup) {
+        return Err(format!("--{m}"));
     }
     tracing::info!(config = %config_path.display(), "starting");
     let options = RunOptions {
@@ -71,6 +70,9 @@ fn apply_flight_flags(config: &mut LoadedConfig, args: &RunArgs) -> Result<(), S
     if let Some(mission) = &args.mission {
         let absolute =
             std::path::absolute(mission).map_err(|e| format!("--mission {}: {e}", mission.display()))?;
+        // Read here too, so a bad plan is reported as the plan's own error, before the graph
+        // that carries it is built.
+        kestrel_control::load_plan(&absolute).map_err(|e| format!("--mission {e}"))?;
         params.insert("mission".into(), toml::Value::String(absolute.display().to_string()));
     }
     if args.auto {

@@ -36,7 +36,11 @@ pub enum LogReplayError {
     )]
     SameType { path: PathBuf, first: String, second: String, type_name: &'static str, port: &'static str },
 
-    /// `speed` is not a positive, finite factor.
-    #[error("`speed` must be a positive number (log seconds per graph second), got {speed}")]
+    /// `speed` is outside the pace range a run allows (`config::SPEEDUP_RANGE`).
+    #[error(
+        "`speed` must be within {}..={} (log seconds per graph second), got {speed}",
+        crate::config::SPEEDUP_RANGE.0,
+        crate::config::SPEEDUP_RANGE.1
+    )]
     Speed { speed: f64 },
 }

@@ -73,7 +73,8 @@ impl LogReplayActor {
         params: &LogReplayParams,
         setup: &mut impl Setup<Infallible>,
     ) -> Result<LogReplayActor, LogReplayError> {
-        if !(params.speed.is_finite() && params.speed > 0.0) {
+        let (slowest, fastest) = crate::config::SPEEDUP_RANGE;
+        if !(slowest..=fastest).contains(&params.speed) {
             return Err(LogReplayError::Speed { speed: params.speed });
         }
         let path = setup.config_dir().join(&params.log);

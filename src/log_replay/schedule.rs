@@ -63,10 +63,11 @@ impl Pace {
         Pace { log_origin: first_log_time, graph_origin: now.max(first_log_time), speed }
     }
 
-    /// The graph time at which the message recorded at `log_time` is due.
+    /// The graph time at which the message recorded at `log_time` is due (the end of time for
+    /// one a slow pace puts beyond what a `Duration` holds).
     pub fn graph_time(&self, log_time: Time) -> Time {
         let since = log_time.saturating_since(self.log_origin).as_secs_f64() / self.speed;
-        self.graph_origin + std::time::Duration::from_secs_f64(since)
+        self.graph_origin + std::time::Duration::try_from_secs_f64(since).unwrap_or(std::time::Duration::MAX)
     }
 }
 
@@ -76,6 +77,12 @@ mod tests {
 
     fn t(us: u64) -> Time {
         Time::from_micros(us)
+    }
+
+    #[test]
+    fn a_pace_too_slow_for_a_duration_saturates_instead_of_panicking() {
+        let pace = Pace::new(t(0), t(0), 1e-300);
+        assert_eq!(pace.graph_time(t(10_000_000)), Time::from_micros(u64::MAX));
     }
 
     #[test]

@@ -16,8 +16,6 @@
 //! Refused inputs are counted in the command's health and logged at the 1st, 2nd, 4th, 8th…
 //! refusal, so a broken camera cannot flood the log.
 
-use std::time::Duration;
-
 use kestrel_proto::messages::{AvoidanceCommand, DepthGrid, NavState, ParamDecl, ParamSet, Setpoint};
 use kestrel_proto::param_def::ParamChange;
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
@@ -90,8 +88,7 @@ impl Actor for AvoiderActor {
         }
         .map_err(|e| ActorError::Params(e.to_string()))?;
         let avoider = Avoider::new(engine, params.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
-        let period = Duration::try_from_secs_f64(params.check_period_s)
-            .map_err(|e| ActorError::Params(format!("check_period_s = {}: {e}", params.check_period_s)))?;
+        let period = kestrel_proto::timing::seconds("check_period_s", params.check_period_s, 1e-3, 10.0)?;
         setup.input("depth_grid", AvoiderInput::DepthGrid);
         setup.input("setpoint", AvoiderInput::Setpoint);
         setup.input("nav", |nav| AvoiderInput::Nav(Box::new(nav)));

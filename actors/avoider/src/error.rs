@@ -51,6 +51,8 @@ pub enum Cause {
     Syntax(String),
     #[error("malformed number '{0}'")]
     MalformedNumber(String),
+    #[error("defuzzifier resolution {found}: an integral defuzzifier takes 1..={max} samples")]
+    Resolution { found: String, max: usize },
     #[error(
         "unknown term type '{0}' (expected one of Gaussian, Triangle, Trapezoid, Bell, Sigmoid, Ramp, Constant)"
     )]

@@ -252,11 +252,18 @@ pub(crate) fn defuzzifier(value: &str) -> Result<Defuzzifier, Cause> {
     })
 }
 
-/// A resolution: a whole number of samples, at least 1.
+/// The most samples an integral defuzzifier may take: a hundred times fuzzylite's default of
+/// 1000; each output variable keeps this many samples per term.
+pub const MAX_RESOLUTION: usize = 100_000;
+
+/// A resolution: a whole number of samples in `1..=MAX_RESOLUTION`. fuzzylite reads any
+/// integer here, but with 0 or fewer samples every output it computes is NaN, so a resolution
+/// below 1 is refused as what it is, not as a malformed number.
 pub(crate) fn resolution(text: &str) -> Result<usize, Cause> {
-    match text.parse::<usize>() {
-        Ok(n) if n >= 1 => Ok(n),
-        _ => Err(Cause::MalformedNumber(text.to_string())),
+    let n: i128 = text.parse().map_err(|_| Cause::MalformedNumber(text.to_string()))?;
+    match usize::try_from(n) {
+        Ok(n) if (1..=MAX_RESOLUTION).contains(&n) => Ok(n),
+        _ => Err(Cause::Resolution { found: text.to_string(), max: MAX_RESOLUTION }),
     }
 }
 

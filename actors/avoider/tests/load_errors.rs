@@ -218,3 +218,18 @@ fn bad_inputs_are_named() {
     let mut foreign = other.workspace();
     assert_eq!(engine.infer(&mut foreign, &[1.0, 2.0]), Err(InputError::ForeignWorkspace));
 }
+
+#[test]
+fn a_resolution_below_one_or_beyond_the_cap_is_named_as_such() {
+    let line = line_of("defuzzifier: Centroid");
+    for (resolution, found) in [("0", "0"), ("-5", "-5"), ("1000000000000", "1000000000000")] {
+        let (at, cause, message) =
+            fll_error(&tipper_with(line, &format!("  defuzzifier: Centroid {resolution}")));
+        assert_eq!(at, line);
+        assert_eq!(cause, Cause::Resolution { found: found.into(), max: fll::MAX_RESOLUTION }, "{message}");
+        assert!(!message.contains("malformed"), "{message}");
+    }
+    let (_, cause, _) = fll_error(&tipper_with(line, "  defuzzifier: Centroid 100.0"));
+    assert_eq!(cause, Cause::MalformedNumber("100.0".into()), "fuzzylite reads an integer here too");
+    assert!(fll::parse(&tipper_with(line, "  defuzzifier: Centroid 1"), "one.fll").is_ok());
+}

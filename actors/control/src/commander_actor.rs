@@ -107,17 +107,14 @@ impl Actor for CommanderActor {
         let mut commander =
             Commander::new(params.commander.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
         if let Some(path) = &params.mission {
-            let mission =
-                load_plan(&setup.config_dir().join(path)).map_err(|e| ActorError::Params(e.to_string()))?;
-            commander.on_mission(mission).map_err(|e| ActorError::Params(e.to_string()))?;
+            let path = setup.config_dir().join(path);
+            let mission = load_plan(&path).map_err(|e| ActorError::Params(e.to_string()))?;
+            commander
+                .on_mission(mission)
+                .map_err(|e| ActorError::Params(format!("{}: {e}", path.display())))?;
         }
-        if !(params.tick_rate_hz.is_finite() && (1.0..=1000.0).contains(&params.tick_rate_hz)) {
-            return Err(ActorError::Params(format!(
-                "tick_rate_hz {} not within 1..=1000",
-                params.tick_rate_hz
-            )));
-        }
-        let tick_period = Duration::from_secs_f64(1.0 / params.tick_rate_hz);
+        let tick_period =
+            kestrel_proto::timing::period_of_rate("tick_rate_hz", params.tick_rate_hz, 1.0, 1000.0)?;
         setup.input("nav", |nav| CommanderInput::Nav(Box::new(nav)));
         setup.input("battery", CommanderInput::Battery);
         setup.input("manual", CommanderInput::Manual);

@@ -70,4 +70,12 @@ pub enum PlanError {
     NotAPlan(String),
     #[error("mission item {index}: {reason}")]
     Item { index: usize, reason: String },
+    /// What was wrong in the plan file at `path`, so an error names the file the person wrote
+    /// and not the graph config that carried its name.
+    #[error("{path}: {source}")]
+    InFile {
+        path: PathBuf,
+        #[source]
+        source: Box<PlanError>,
+    },
 }

@@ -23,8 +23,6 @@
 //! ]
 //! ```
 
-use std::time::Duration;
-
 use kestrel_proto::messages::{Command, ManualControl, VehicleCommand};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -114,7 +112,8 @@ impl Actor for PilotScriptActor {
         setup: &mut impl Setup<PilotScriptInput>,
     ) -> Result<Self, ActorError> {
         params.validate().map_err(ActorError::Params)?;
-        setup.timer("tick", Duration::from_secs_f64(1.0 / params.rate_hz), PilotScriptInput::Tick);
+        let tick = kestrel_proto::timing::period_of_rate("rate_hz", params.rate_hz, 1.0, 1000.0)?;
+        setup.timer("tick", tick, PilotScriptInput::Tick);
         Ok(PilotScriptActor {
             steps: params.steps.clone(),
             next: 0,
@@ -154,6 +153,8 @@ impl Actor for PilotScriptActor {
 
 #[cfg(test)]
 mod tests {
+    use std::time::Duration;
+
     use super::*;
     use kestrel_proto::messages::FlightMode;
 

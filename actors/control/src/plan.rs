@@ -53,7 +53,7 @@ struct PlanItem {
 pub fn load_plan(path: &Path) -> Result<Mission, PlanError> {
     let text = std::fs::read_to_string(path)
         .map_err(|source| PlanError::Read { path: path.to_path_buf(), source })?;
-    parse_plan(&text)
+    parse_plan(&text).map_err(|e| PlanError::InFile { path: path.to_path_buf(), source: Box::new(e) })
 }
 
 /// Converts the text of a `.plan` file.

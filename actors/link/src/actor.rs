@@ -120,9 +120,8 @@ impl Actor for LinkActor {
         if params.system_id == 0 {
             return Err(ActorError::Params("system_id must be 1..=255".into()));
         }
-        if !(params.gcs_timeout_s.is_finite() && params.gcs_timeout_s > 0.0) {
-            return Err(ActorError::Params("gcs_timeout_s must be a positive number of seconds".into()));
-        }
+        let gcs_timeout =
+            kestrel_proto::timing::positive_seconds("gcs_timeout_s", params.gcs_timeout_s, 3600.0)?;
         let config_dir = setup.config_dir().to_owned();
         let table = load_params(params, &config_dir)?;
         setup.input("nav_state", LinkInput::Nav);
@@ -140,7 +139,7 @@ impl Actor for LinkActor {
             manual: setup.output("manual_control"),
             param: setup.output("param_set"),
         };
-        let vehicle = Vehicle::new(params.system_id, table, Duration::from_secs_f64(params.gcs_timeout_s));
+        let vehicle = Vehicle::new(params.system_id, table, gcs_timeout);
         Ok(LinkActor {
             params: params.clone(),
             config_dir,

@@ -102,17 +102,24 @@ pub struct EndpointConfig {
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum EndpointKind {
     /// UDP client: sends to `address` from an ephemeral port and hears replies on it.
-    UdpOut { address: SocketAddr },
+    UdpOut {
+        #[serde(deserialize_with = "address")]
+        address: SocketAddr,
+    },
     /// UDP server: listens on `bind` and answers every peer that has sent it a valid MAVLink
     /// frame, at most `max_peers` at once (a newcomer to a full table replaces a peer silent
     /// for 3 s, or is refused and counted).
     UdpIn {
+        #[serde(deserialize_with = "bind")]
         bind: SocketAddr,
         #[serde(default = "default_max_peers")]
         max_peers: usize,
     },
     /// TCP server: every accepted connection is a link of its own.
-    TcpIn { bind: SocketAddr },
+    TcpIn {
+        #[serde(deserialize_with = "bind")]
+        bind: SocketAddr,
+    },
     /// Serial port, e.g. a 433 MHz SiK radio.
     Serial {
         device: PathBuf,
@@ -122,6 +129,25 @@ pub enum EndpointKind {
         #[serde(default)]
         flow_control: bool,
     },
+}
+
+/// An endpoint's `address`, refused with the field and the text when it is not `IP:PORT`.
+fn address<'de, D: serde::Deserializer<'de>>(d: D) -> Result<SocketAddr, D::Error> {
+    socket_address("address", d)
+}
+
+/// An endpoint's `bind`, refused with the field and the text when it is not `IP:PORT`.
+fn bind<'de, D: serde::Deserializer<'de>>(d: D) -> Result<SocketAddr, D::Error> {
+    socket_address("bind", d)
+}
+
+fn socket_address<'de, D: serde::Deserializer<'de>>(field: &str, d: D) -> Result<SocketAddr, D::Error> {
+    let text = String::deserialize(d)?;
+    text.parse().map_err(|e| {
+        serde::de::Error::custom(format!(
+            "endpoint {field} \"{text}\": {e} (expected IP:PORT with a port 0..=65535, e.g. \"127.0.0.1:14550\" or \"[::1]:14550\")"
+        ))
+    })
 }
 
 fn default_max_peers() -> usize {

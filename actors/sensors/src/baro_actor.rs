@@ -94,7 +94,7 @@ fn poll_period(params: &BaroActorParams) -> Result<Duration, ActorError> {
             params.oversampling, params.rate_hz
         )));
     }
-    Ok(Duration::from_secs_f64(0.5 / params.rate_hz))
+    Ok(kestrel_proto::timing::period_of_rate("rate_hz", params.rate_hz, 0.0, max_hz)? / 2)
 }
 
 impl Actor for BaroActor {

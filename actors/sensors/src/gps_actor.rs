@@ -137,12 +137,8 @@ impl GpsActor {
             .then(|| Configuration::new(params.baud, params.rate_hz, params.dynamic_model))
             .transpose()
             .map_err(|e| ActorError::Params(e.to_string()))?;
-        if !(params.ubx_latency_s.is_finite() && params.ubx_latency_s >= 0.0) {
-            return Err(ActorError::Params(format!(
-                "ubx_latency_s must be a non-negative number of seconds, got {}",
-                params.ubx_latency_s
-            )));
-        }
+        let ubx_latency = kestrel_proto::timing::seconds("ubx_latency_s", params.ubx_latency_s, 0.0, 10.0)?;
+        kestrel_proto::timing::seconds("nmea.lag_s", params.nmea.lag_s, 0.0, 10.0)?;
         let stats = Arc::new(Mutex::new(GpsStats::default()));
         setup.timer("health", HEALTH_PERIOD, GpsInput::Health);
         let reader = Reader {
@@ -150,7 +146,7 @@ impl GpsActor {
             configuration,
             initial_baud: params.initial_baud,
             baud: params.baud,
-            decoder: GpsDecoder::new(Duration::from_secs_f64(params.ubx_latency_s), params.nmea.clone()),
+            decoder: GpsDecoder::new(ubx_latency, params.nmea.clone()),
             stats: Arc::clone(&stats),
             out: setup.output("gps"),
         };

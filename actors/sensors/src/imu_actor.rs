@@ -95,12 +95,12 @@ impl ImuActor {
         params: &ImuActorParams,
         setup: &mut impl Setup<ImuInput>,
     ) -> Result<ImuActor, ActorError> {
-        if !(params.output_rate_hz.is_finite() && params.output_rate_hz > 0.0) {
-            return Err(ActorError::Params(format!(
-                "output_rate_hz must be positive, got {}",
-                params.output_rate_hz
-            )));
-        }
+        let output_period = kestrel_proto::timing::period_of_rate(
+            "output_rate_hz",
+            params.output_rate_hz,
+            0.0,
+            f64::INFINITY,
+        )?;
         let bus_path = bus.path().display().to_string();
         let imu = Mpu9250::new(bus, params.mpu9250.clone(), &mut std::thread::sleep)
             .map_err(|e| ActorError::Failed(e.to_string()))?;
@@ -111,7 +111,7 @@ impl ImuActor {
             reader: None,
             stats: Arc::default(),
             read_period,
-            output_period: Duration::from_secs_f64(1.0 / params.output_rate_hz),
+            output_period,
             imu_out: setup.output("imu"),
             mag_out: setup.output("mag"),
             device: bus_path,

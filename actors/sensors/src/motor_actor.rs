@@ -2,7 +2,6 @@
 //! falls back to the disarmed pulse when the controller goes quiet.
 
 use std::path::PathBuf;
-use std::time::Duration;
 
 use kestrel_proto::messages::ActuatorOutputs;
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
@@ -59,10 +58,7 @@ impl Actor for MotorActor {
         params: &MotorActorParams,
         setup: &mut impl Setup<MotorInput>,
     ) -> Result<MotorActor, ActorError> {
-        if !(params.timeout_s.is_finite() && params.timeout_s > 0.0) {
-            return Err(ActorError::Params(format!("timeout_s must be positive, got {}", params.timeout_s)));
-        }
-        let timeout = Duration::from_secs_f64(params.timeout_s);
+        let timeout = kestrel_proto::timing::positive_seconds("timeout_s", params.timeout_s, 60.0)?;
         let root = setup.config_dir().join(&params.root);
         let motors = MotorOutput::open(
             &root,
@@ -99,6 +95,8 @@ impl Actor for MotorActor {
 
 #[cfg(test)]
 mod tests {
+    use std::time::Duration;
+
     use kestrel_proto::messages::MAX_MOTORS;
     use kestrel_proto::testing::{TestSetup, ready};
 

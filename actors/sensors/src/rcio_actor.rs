@@ -75,11 +75,7 @@ pub struct RcioActor {
 }
 
 fn period(name: &str, hz: f64) -> Result<Duration, ActorError> {
-    if hz.is_finite() && hz > 0.0 && hz <= 1000.0 {
-        Ok(Duration::from_secs_f64(1.0 / hz))
-    } else {
-        Err(ActorError::Params(format!("{name} must be in (0, 1000] Hz, got {hz}")))
-    }
+    kestrel_proto::timing::period_of_rate(name, hz, 0.0, 1000.0)
 }
 
 impl RcioActor {

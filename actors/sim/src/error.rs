@@ -56,6 +56,17 @@ pub(crate) fn positive(field: &str, value: f64) -> Result<(), InvalidParam> {
     }
 }
 
+/// Checks that `value` is a rate in `(0, MAX_RATE_HZ]` (Hz): a faster one would schedule
+/// samples a microsecond apart and size delay queues for millions of them.
+pub(crate) fn rate(field: &str, value: f64) -> Result<(), InvalidParam> {
+    let max = kestrel_proto::timing::MAX_RATE_HZ;
+    if value.is_finite() && value > 0.0 && value <= max {
+        Ok(())
+    } else {
+        Err(InvalidParam::new(field, format!("must be a rate in (0, {max}] Hz, got {value}")))
+    }
+}
+
 /// Checks that `value` is finite and not negative.
 pub(crate) fn non_negative(field: &str, value: f64) -> Result<(), InvalidParam> {
     if value.is_finite() && value >= 0.0 {

@@ -19,7 +19,7 @@ const TRIES_PER_TREE: usize = 1000;
 pub struct Forest {
     /// Seed of the layout: the same seed gives the same trees.
     pub seed: u64,
-    /// Number of trees.
+    /// Number of trees, at most [`MAX_TREES`].
     pub trees: usize,
     /// North extent of the trunks' centres, `[from, to]` (m from home).
     pub north_m: [f64; 2],
@@ -39,9 +39,19 @@ pub struct Forest {
     pub keep_clear_radius_m: f64,
 }
 
+/// The most trees a forest may hold: a hundred times the test forest's 24, and few enough that
+/// placing them (each tried against every other) and ray-casting them stays quick.
+pub const MAX_TREES: usize = 10_000;
+
 impl Forest {
     /// Checks the ranges.
     pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
+        if self.trees > MAX_TREES {
+            return Err(InvalidParam::new(
+                "trees",
+                format!("must be at most {MAX_TREES}, got {}", self.trees),
+            ));
+        }
         for (field, [lo, hi]) in [
             ("north_m", self.north_m),
             ("east_m", self.east_m),

@@ -16,7 +16,7 @@ use kestrel_proto::messages::{
 use nalgebra::Vector3;
 
 use crate::battery::Battery;
-use crate::error::{InvalidParam, finite, positive};
+use crate::error::{InvalidParam, finite, rate};
 use crate::ground::Ground;
 use crate::motors::Motors;
 use crate::obstacles::Collisions;
@@ -344,8 +344,8 @@ fn validate_options(options: &SimOptions, imu_rate_hz: f64) -> Result<(), Invali
             ),
         ));
     }
-    positive("ground_truth_rate_hz", options.ground_truth_rate_hz)?;
-    positive("battery_rate_hz", options.battery_rate_hz)?;
+    rate("ground_truth_rate_hz", options.ground_truth_rate_hz)?;
+    rate("battery_rate_hz", options.battery_rate_hz)?;
     let body = &options.initial.body;
     finite("initial.position_ned_m", body.position_ned_m.as_slice())?;
     finite("initial.velocity_ned_m_s", body.velocity_ned_m_s.as_slice())?;

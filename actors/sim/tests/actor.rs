@@ -67,3 +67,23 @@ fn bad_params_are_param_errors_naming_the_problem() {
     assert!(matches!(&err, ActorError::Params(m) if m.contains("physics_substeps")), "{err}");
     assert!(toml::from_str::<SimActorParams>("seeed = 1\n").is_err(), "unknown params are rejected");
 }
+
+#[test]
+fn sizes_and_rates_too_large_to_simulate_are_refused_by_name() {
+    let vehicle: kestrel_sim::VehicleParams =
+        toml::from_str("[sensors.gps]\nrate_hz = 1e30\n").expect("parses");
+    let err = vehicle.validate().expect_err("a 1e30 Hz GPS would size its lag queue for 10⁷ fixes");
+    assert!(err.to_string().contains("sensors.gps.rate_hz"), "{err}");
+
+    let forest = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/worlds/forest.toml"),
+    )
+    .expect("the forest world");
+    let dir = std::env::temp_dir().join(format!("kestrel-sim-trees-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("huge_forest.toml");
+    std::fs::write(&path, forest.replace("trees = 24", "trees = 1000000000000")).expect("write");
+    let err = kestrel_sim::World::load(&path).expect_err("10¹² trees cannot be planted");
+    assert!(err.to_string().contains("forest.trees"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

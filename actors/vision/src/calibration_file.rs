@@ -123,12 +123,49 @@ impl StereoCalibration {
         Ok(calibration)
     }
 
-    /// Checks what later steps rely on: finite numbers, a usable `Q`, a positive depth scale.
+    /// Checks what later steps rely on: finite numbers, camera matrices with positive focal
+    /// lengths, rotations that are rotations, a usable `Q`, a positive depth scale. Each
+    /// message names the key.
     pub fn check(&self) -> Result<(), String> {
-        let all = self.k1.iter().chain(&self.k2).chain(&self.r).chain(&self.r1).chain(&self.r2).flatten();
-        let all = all.chain(self.p1.iter().chain(&self.p2).flatten()).chain(self.q.iter().flatten());
-        if !all.chain(&self.t).chain(&self.d1).chain(&self.d2).all(|v| v.is_finite()) {
-            return Err("contains a non-finite number".into());
+        let matrices: [(&str, &[f64]); 9] = [
+            ("K1", self.k1.as_flattened()),
+            ("K2", self.k2.as_flattened()),
+            ("R", self.r.as_flattened()),
+            ("R1", self.r1.as_flattened()),
+            ("R2", self.r2.as_flattened()),
+            ("P1", self.p1.as_flattened()),
+            ("P2", self.p2.as_flattened()),
+            ("Q", self.q.as_flattened()),
+            ("T", &self.t),
+        ];
+        for (key, values) in matrices.into_iter().chain([("D1", &self.d1[..]), ("D2", &self.d2[..])]) {
+            if let Some(v) = values.iter().find(|v| !v.is_finite()) {
+                return Err(format!("{key} contains the non-finite number {v}"));
+            }
+        }
+        for (key, k) in [("K1", &self.k1), ("K2", &self.k2)] {
+            let (fx, fy) = (k[0][0], k[1][1]);
+            if !(fx > 0.0 && fy > 0.0) {
+                return Err(format!("{key}: focal lengths fx = {fx}, fy = {fy} must be positive (px)"));
+            }
+            if k[1][0] != 0.0 || k[2] != [0.0, 0.0, 1.0] {
+                return Err(format!(
+                    "{key} is not a camera matrix: its rows must be [fx s cx], [0 fy cy], [0 0 1]"
+                ));
+            }
+        }
+        for (key, p) in [("P1", &self.p1), ("P2", &self.p2)] {
+            if !(p[0][0] > 0.0 && p[1][1] > 0.0) {
+                return Err(format!(
+                    "{key}: focal lengths {} and {} must be positive (px)",
+                    p[0][0], p[1][1]
+                ));
+            }
+        }
+        for (key, r) in [("R", &self.r), ("R1", &self.r1), ("R2", &self.r2)] {
+            if let Some(e) = rotation_error(r) {
+                return Err(format!("{key} is not a rotation: {e}"));
+            }
         }
         if [4, 5, 8, 12, 14].iter().all(|n| self.d1.len() != *n) || self.d1.len() != self.d2.len() {
             return Err(format!(
@@ -145,4 +182,24 @@ impl StereoCalibration {
         }
         Ok(())
     }
+}
+
+/// How far `r` is from a rotation, if farther than a calibration's rounding explains: `RᵀR`
+/// must be the identity and the determinant +1, each within 1e-3 (a singular or scaled matrix
+/// would rectify into nonsense).
+fn rotation_error(r: &[[f64; 3]; 3]) -> Option<String> {
+    const TOLERANCE: f64 = 1e-3;
+    for i in 0..3 {
+        for j in 0..3 {
+            let dot: f64 = (0..3).map(|k| r[k][i] * r[k][j]).sum();
+            let expected = if i == j { 1.0 } else { 0.0 };
+            if (dot - expected).abs() > TOLERANCE {
+                return Some(format!("column {i}·column {j} = {dot}, expected {expected}"));
+            }
+        }
+    }
+    let det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
+        - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+        + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
+    ((det - 1.0).abs() > TOLERANCE).then(|| format!("determinant {det}, expected 1"))
 }

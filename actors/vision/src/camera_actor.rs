@@ -4,8 +4,6 @@
 //! Reads block the actor's task for one frame's I/O (a few ms); that is acceptable for a
 //! source actor and keeps the shell free of threads of its own.
 
-use std::time::Duration;
-
 use kestrel_proto::messages::StereoFrame;
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use opencv::core::MatTraitConst;
@@ -45,11 +43,9 @@ impl Actor for CameraActor {
     type Input = Time;
 
     fn build(params: &CameraParams, setup: &mut impl Setup<Time>) -> Result<Self, ActorError> {
-        if !(params.fps.is_finite() && params.fps > 0.0 && params.fps <= 1000.0) {
-            return Err(ActorError::Params(format!("fps {} must be in (0, 1000]", params.fps)));
-        }
+        let period = kestrel_proto::timing::period_of_rate("fps", params.fps, 0.0, 1000.0)?;
         let source = FrameSource::open(&params.source, setup.config_dir()).map_err(actor_error)?;
-        setup.timer("frame", Duration::from_secs_f64(1.0 / params.fps), |t| t);
+        setup.timer("frame", period, |t| t);
         Ok(CameraActor { source, out: setup.output("stereo_frame"), sequence: 0, exhausted: false })
     }
 

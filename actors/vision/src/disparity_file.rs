@@ -82,7 +82,7 @@ pub fn read_pfm(path: &Path) -> Result<DisparityMap, VisionError> {
         (w.parse().map_err(|_| bad("bad width"))?, h.parse().map_err(|_| bad("bad height"))?);
     let little = scale.parse::<f32>().map_err(|_| bad("bad scale"))? < 0.0;
     let body = &bytes[start..];
-    if body.len() != width * height * 4 {
+    if width.checked_mul(height).and_then(|n| n.checked_mul(4)) != Some(body.len()) {
         return Err(bad("pixel data does not match the header's size"));
     }
     let mut values = vec![0.0; width * height];

@@ -6,7 +6,7 @@ use kestrel_proto::messages::BaroSample;
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{InvalidParam, finite, non_negative, positive};
+use crate::error::{InvalidParam, finite, non_negative, rate};
 use crate::sensors::noise::standard_normal;
 
 /// ISA sea-level pressure (Pa).
@@ -52,7 +52,7 @@ impl Default for BaroParams {
 
 impl BaroParams {
     pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
-        positive("rate_hz", self.rate_hz)?;
+        rate("rate_hz", self.rate_hz)?;
         non_negative("lag_s", self.lag_s)?;
         if self.lag_s > 10.0 {
             return Err(InvalidParam::new("lag_s", "must not exceed 10 s"));

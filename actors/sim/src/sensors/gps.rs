@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
-use crate::error::{InvalidParam, non_negative, positive};
+use crate::error::{InvalidParam, non_negative, rate};
 use crate::rigid_body::RigidBodyState;
 use crate::sensors::noise::standard_normal3;
 
@@ -46,7 +46,7 @@ impl Default for GpsParams {
 
 impl GpsParams {
     pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
-        positive("rate_hz", self.rate_hz)?;
+        rate("rate_hz", self.rate_hz)?;
         non_negative("lag_s", self.lag_s)?;
         if self.lag_s > 10.0 {
             return Err(InvalidParam::new("lag_s", "must not exceed 10 s"));
