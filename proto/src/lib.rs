@@ -13,12 +13,15 @@
 pub mod actor;
 pub mod attitude;
 pub mod clock;
+pub mod frame_layout;
 pub mod geo;
 pub mod message;
 pub mod messages;
 pub mod param_def;
+#[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod time;
+pub mod units;
 
 pub use actor::{Actor, ActorError, Context, Publisher, Setup, Sink};
 pub use clock::Clock;

@@ -39,7 +39,7 @@ pub mod rt;
 pub mod truth_nav;
 pub mod tuning;
 
-pub use airframe::{AirframeParams, Frame};
+pub use airframe::AirframeParams;
 pub use attitude::{AttitudeController, AttitudeGains, attitude_error};
 pub use commander::{Commander, CommanderParams, Refusal};
 pub use commander_actor::{CommanderActor, CommanderActorParams, CommanderInput};

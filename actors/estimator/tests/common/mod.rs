@@ -4,13 +4,12 @@
 
 use kestrel_estimator::{Ekf, EkfParams, InputError};
 use kestrel_proto::Time;
+use kestrel_proto::frame_layout::FrameLayout;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{ActuatorOutputs, GpsFix, GroundTruth, MagSample, NavState};
+use kestrel_proto::units::GRAVITY_M_S2;
 use kestrel_sim::sensors::SensorParams;
-use kestrel_sim::{
-    FrameLayout, GRAVITY_M_S2, RigidBodyState, SimOptions, SimOutput, Simulator, VehicleParams, WindParams,
-    World,
-};
+use kestrel_sim::{RigidBodyState, SimOptions, SimOutput, Simulator, VehicleParams, WindParams, World};
 use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3, Vector4};
 
 /// Seconds the vehicle sits still on the ground before take-off (alignment).
