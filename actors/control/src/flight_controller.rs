@@ -14,11 +14,11 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::attitude::AttitudeController;
 use crate::error::{InvalidParam, RejectedInput};
+use crate::live_params::Gains;
 use crate::mixer::{Mixer, Saturation};
 use crate::params::ControlParams;
 use crate::position::{PositionController, yaw_of};
 use crate::rate::RateController;
-use crate::tuning::Gains;
 
 /// Largest step the integrators accept (s): a longer gap (a paused simulation, a stall) is
 /// treated as this long.

@@ -29,6 +29,7 @@ pub mod controller_actor;
 pub mod error;
 pub mod flight_controller;
 pub mod flip;
+pub mod live_params;
 pub mod mixer;
 pub mod params;
 pub mod pilot_script;
@@ -37,7 +38,6 @@ pub mod position;
 pub mod rate;
 pub mod rt;
 pub mod truth_nav;
-pub mod tuning;
 
 pub use airframe::AirframeParams;
 pub use attitude::{AttitudeController, AttitudeGains, attitude_error};
@@ -47,6 +47,7 @@ pub use controller_actor::{ControllerActor, ControllerActorParams, ControllerInp
 pub use error::{InvalidParam, PlanError, RejectedInput};
 pub use flight_controller::{Demand, FlightController, LoopCounters};
 pub use flip::Flip;
+pub use live_params::{Gains, Tuning};
 pub use mixer::{Mixer, MixerOutput, Saturation};
 pub use params::{ControlParams, LoopParams};
 pub use pilot_script::{PilotScriptActor, PilotScriptInput, PilotScriptParams, PilotStep};
@@ -54,4 +55,3 @@ pub use plan::{load_plan, parse_plan};
 pub use position::{AttitudeThrust, PositionController, PositionGains};
 pub use rate::{RateController, RateGains};
 pub use truth_nav::{TruthNavActor, TruthNavInput, TruthNavParams};
-pub use tuning::{Gains, Tuning};
