@@ -10,7 +10,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use kestrel_control::{ControlParams, FlightController, PositionController, PositionGains};
 use kestrel_proto::Time;
 use kestrel_proto::messages::{NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
-use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 fn nav(i: u64) -> NavState {
     NavState::exact(

@@ -73,6 +73,11 @@ impl EstimatorActor {
         }
     }
 
+    /// Samples refused so far (non-finite, out of order, …): counted and logged, never fatal.
+    pub fn rejected_inputs(&self) -> u64 {
+        self.rejected_inputs
+    }
+
     /// Applies a `ParamSet` naming one of our noises or gates; applied or refused, the link is
     /// told the values in use (stamped with the change's own time: the actor reads no clock).
     fn on_param(&mut self, p: &ParamSet) {
