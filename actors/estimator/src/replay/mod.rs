@@ -13,6 +13,8 @@
 
 mod ulog;
 
+pub use ulog::UlogDamage;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -38,6 +40,8 @@ pub enum ReplayError {
         #[source]
         source: std::io::Error,
     },
+    #[error("{path:?} is not a ULog (it does not start with the ULog magic; {bytes} bytes)")]
+    NotUlog { path: PathBuf, bytes: u64 },
     #[error("ULog {path:?} lacks topic `{topic}`{}", field.as_ref().map(|f| format!(" field `{f}`")).unwrap_or_default())]
     Missing { path: PathBuf, topic: String, field: Option<String> },
     #[error("ULog {path:?} has no usable IMU samples")]
@@ -95,6 +99,8 @@ pub struct ReplaySummary {
 pub struct ReplayResult {
     pub rows: Vec<ReplayRow>,
     pub summary: ReplaySummary,
+    /// Where the log broke, when it did before its end: the replay covers what came before.
+    pub log_damage: Option<UlogDamage>,
 }
 
 /// A sensor sample in arrival order.
@@ -160,7 +166,9 @@ pub fn replay_ulog(path: &Path, params: &EkfParams) -> Result<ReplayResult, Repl
     if track.is_empty() {
         return Err(ReplayError::NeverAligned { path: path.to_owned() });
     }
-    compare(&log, &track)
+    let mut result = compare(&log, &track)?;
+    result.log_damage = log.ended_early().cloned();
+    Ok(result)
 }
 
 fn read_events(log: &Log, path: &Path, params: &EkfParams) -> Result<Vec<(u64, Event)>, ReplayError> {
@@ -367,7 +375,7 @@ fn compare(log: &Log, track: &[TrackPoint]) -> Result<ReplayResult, ReplayError>
         });
     }
     let summary = summarise(&rows, track[0].time_us as f64 * 1e-6);
-    Ok(ReplayResult { rows, summary })
+    Ok(ReplayResult { rows, summary, log_damage: None })
 }
 
 fn rms(values: impl Iterator<Item = f64>) -> Option<f64> {
