@@ -72,7 +72,7 @@ fn flight() -> Flight {
             ImuSample {
                 time: t,
                 gyro_rad_s: f.array(),
-                accel_m_s2: [0.1 * i as f64, -0.0, -9.806_65],
+                accel_m_s2: [0.1 * i as f64, -0.0, -kestrel_proto::units::GRAVITY_M_S2],
                 dt_s: 0.0025,
                 gyro_clipped: [false; 3],
                 accel_clipped: [i == 400, false, false],
