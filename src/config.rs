@@ -11,7 +11,7 @@
 //! [actors.sim]
 //! type = "sim"                # which actor implementation (see `kestrel actors`)
 //! critical = false            # a failure past the restart limit escalates to the commander
-//! restart = { max_restarts = 5, window_s = 60.0, backoff_initial_s = 0.1, backoff_max_s = 5.0 }
+//! restart = { policy = "transient", max_restarts = 5, window_s = 60.0, backoff_initial_s = 0.1, backoff_max_s = 5.0 }
 //! params = { vehicle = "vehicles/quad_x.toml", world = "worlds/empty.toml" }
 //! inputs.actuators = { topic = "actuator_outputs", mailbox = "latest" }
 //! outputs.imu = "imu"         # optional renames; an output publishes on its port's name
@@ -172,10 +172,28 @@ impl Default for RecordConfig {
     }
 }
 
+/// When the supervisor restarts an actor, in Erlang's and kameo's words.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Restart {
+    /// Always restarted, after a normal end ([`kestrel_proto::Context::stop`]) too.
+    Permanent,
+    /// Restarted only after an abnormal end (an error or a panic); a normal end is final. The
+    /// default: an actor that ends normally has finished its work, and running it again would
+    /// repeat it, while one that failed should come back.
+    #[default]
+    Transient,
+    /// Never restarted (Erlang's `temporary`): the first failure is final.
+    Never,
+}
+
 /// `restart = {…}`: the supervisor's one-for-one restart policy for an actor.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RestartPolicy {
+    /// When to restart: `"permanent"`, `"transient"` (default) or `"never"`. Whatever it says,
+    /// an actor whose parameters are invalid (`ActorError::Params`) is not restarted.
+    pub policy: Restart,
     /// Restarts allowed within `window_s`; one more and the actor stays stopped.
     pub max_restarts: u32,
     /// The window over which restarts are counted (s).
@@ -188,7 +206,13 @@ pub struct RestartPolicy {
 
 impl Default for RestartPolicy {
     fn default() -> Self {
-        RestartPolicy { max_restarts: 5, window_s: 60.0, backoff_initial_s: 0.1, backoff_max_s: 5.0 }
+        RestartPolicy {
+            policy: Restart::default(),
+            max_restarts: 5,
+            window_s: 60.0,
+            backoff_initial_s: 0.1,
+            backoff_max_s: 5.0,
+        }
     }
 }
 

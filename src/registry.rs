@@ -19,19 +19,21 @@ impl Registry {
         Registry::default()
     }
 
-    /// Every actor type Kestrel ships.
+    /// Every actor type Kestrel ships: [`Registry::flight`] and [`Registry::stand_ins`].
     pub fn standard() -> Registry {
+        Registry::flight().stand_ins()
+    }
+
+    /// The actors a vehicle flies with, on hardware or in a simulated flight: estimation,
+    /// perception, control, the link and the hardware drivers.
+    pub fn flight() -> Registry {
         Registry::new()
-            .with::<kestrel_sim::SimActor>("sim")
-            .with::<kestrel_sim::CameraSimActor>("sim_camera")
             .with::<kestrel_estimator::EstimatorActor>("estimator")
             .with::<kestrel_avoider::AvoiderActor>("avoider")
             .with::<kestrel_vision::CameraActor>("camera")
             .with::<kestrel_vision::StereoActor>("stereo")
             .with::<kestrel_control::CommanderActor>("commander")
             .with::<kestrel_control::ControllerActor>("controller")
-            .with::<kestrel_control::TruthNavActor>("truth_nav")
-            .with::<kestrel_control::PilotScriptActor>("pilot_script")
             .with::<kestrel_link::LinkActor>("link")
             .with::<kestrel_sensors::BaroActor>("ms5611")
             .with::<kestrel_sensors::ImuActor>("mpu9250")
@@ -39,7 +41,18 @@ impl Registry {
             .with::<kestrel_sensors::GpsActor>("ublox_gps")
             .with::<kestrel_sensors::SbusActor>("sbus_rc")
             .with::<kestrel_sensors::RcioActor>("navio2_rcio")
+    }
+
+    /// Adds the actors that stand in for the world in simulations, benches and tests: the
+    /// simulator and its camera, a recorded log (`log_replay`), and the test helpers
+    /// `truth_nav` (ground truth as the navigation state) and `pilot_script` (a pilot on a
+    /// timetable). None of them belongs in a vehicle's graph.
+    pub fn stand_ins(self) -> Registry {
+        self.with::<kestrel_sim::SimActor>("sim")
+            .with::<kestrel_sim::CameraSimActor>("sim_camera")
             .with::<crate::log_replay::LogReplayActor>("log_replay")
+            .with::<kestrel_control::TruthNavActor>("truth_nav")
+            .with::<kestrel_control::PilotScriptActor>("pilot_script")
     }
 
     /// Adds actor type `A` under `name`.
@@ -56,5 +69,20 @@ impl Registry {
     /// All names, sorted.
     pub fn names(&self) -> Vec<&'static str> {
         self.kinds.keys().copied().collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stand_ins_are_registered_apart_from_the_flight_actors() {
+        let flight = Registry::flight().names();
+        for stand_in in ["sim", "sim_camera", "log_replay", "truth_nav", "pilot_script"] {
+            assert!(!flight.contains(&stand_in), "{stand_in} in {flight:?}");
+            assert!(Registry::standard().get(stand_in).is_some(), "{stand_in}");
+        }
+        assert!(flight.iter().all(|name| Registry::standard().get(name).is_some()));
     }
 }

@@ -1,7 +1,9 @@
-//! One-for-one supervision: each actor runs in its own task; when it returns an error or
-//! panics, only it is restarted, after an exponential backoff, until it fails more often than
-//! its restart limit allows within the window (Erlang's and kameo's vocabulary). Every failure
-//! is published on the `supervisor` topic; a flight-critical actor's give-up also goes to the
+//! One-for-one supervision: each actor runs in its own task; when it ends, only it is
+//! restarted, as its restart policy says (Erlang's and kameo's vocabulary: `permanent` always,
+//! `transient` after an error or a panic, `never`), after an exponential backoff, until it
+//! fails more often than its restart limit allows within the window. An actor whose parameters
+//! are invalid is never restarted: building it again from them fails again. Every failure is
+//! published on the `supervisor` topic; a flight-critical actor's events also go to the
 //! escalation hook, which the commander uses to trigger a failsafe.
 
 use std::collections::VecDeque;
@@ -15,7 +17,7 @@ use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
 
 use crate::activity::{Activity, Busy};
-use crate::config::{ActorDecl, ConfigError, RestartPolicy, Source};
+use crate::config::{ActorDecl, ConfigError, Restart, RestartPolicy, Source};
 use crate::graph::{Declared, Graph, InputPort, PortTable, TimerSpec, Wiring};
 use crate::mailbox::Doorbell;
 
@@ -169,7 +171,7 @@ impl<A: Actor> Supervised for Prepared<A> {
 }
 
 impl<A: Actor> Prepared<A> {
-    fn rebuild(&mut self, ctx: &SupervisorContext) -> Result<(A, Declared<A::Input>), String> {
+    fn rebuild(&mut self, ctx: &SupervisorContext) -> Result<(A, Declared<A::Input>), ActorError> {
         let mut wiring = Wiring::rebuild(
             &self.name,
             &self.config_dir,
@@ -180,9 +182,10 @@ impl<A: Actor> Prepared<A> {
         );
         let actor = A::build(&self.params, &mut wiring);
         let declared = wiring.finish();
-        let actor = actor.map_err(|e| e.to_string())?;
-        let declared =
-            declared.map_err(|errs| errs.iter().map(|e| e.message.clone()).collect::<Vec<_>>().join("; "))?;
+        let actor = actor?;
+        let declared = declared.map_err(|errs| {
+            ActorError::Failed(errs.iter().map(|e| e.message.clone()).collect::<Vec<_>>().join("; "))
+        })?;
         Ok((actor, declared))
     }
 
@@ -199,6 +202,7 @@ impl<A: Actor> Prepared<A> {
             SupervisorEventKind::Restarted => {
                 tracing::info!(actor = %self.name, restarts, "actor restarted")
             }
+            SupervisorEventKind::Stopped => tracing::info!(actor = %self.name, "actor stopped"),
             _ => tracing::error!(actor = %self.name, ?kind, reason, "actor failed"),
         }
         if self.critical {
@@ -209,11 +213,37 @@ impl<A: Actor> Prepared<A> {
     }
 }
 
+/// How one incarnation of an actor ended.
+#[derive(Clone, Debug, PartialEq)]
+enum Exit {
+    /// It stopped itself ([`Context::stop`]).
+    Normal,
+    /// It returned an error, panicked, or could not be built again. `mendable` is false for
+    /// invalid parameters, which a restart would only meet again.
+    Abnormal { reason: String, mendable: bool },
+}
+
+impl Exit {
+    fn failed(e: &ActorError, what: &str) -> Exit {
+        Exit::Abnormal { reason: format!("{what}{e}"), mendable: !matches!(e, ActorError::Params(_)) }
+    }
+}
+
+/// Whether an actor that ended with `exit` is restarted under `policy` (before the restart
+/// limit, which counts every restart in the window).
+fn restarts(policy: Restart, exit: &Exit) -> bool {
+    match (policy, exit) {
+        (_, Exit::Abnormal { mendable: false, .. }) | (Restart::Never, _) => false,
+        (Restart::Permanent, _) | (Restart::Transient, Exit::Abnormal { .. }) => true,
+        (Restart::Transient, Exit::Normal) => false,
+    }
+}
+
 async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) {
     let mut failures: VecDeque<Time> = VecDeque::new();
     let mut next = prepared.first.take().map(Ok);
     loop {
-        let reason = match next.take() {
+        let exit = match next.take() {
             Some(Ok((actor, declared))) => {
                 let token = ctx.shutdown.child_token();
                 let actor_ctx =
@@ -237,18 +267,29 @@ async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) 
                 // the backoff could never elapse.
                 declared.inputs.iter().for_each(|port| port.park());
                 match outcome {
-                    Ok(Ok(())) => return,
-                    Ok(Err(e)) => e.to_string(),
-                    Err(e) if e.is_panic() => {
-                        format!("panicked: {}", panic_message(e.into_panic()))
-                    }
+                    Ok(Ok(())) => Exit::Normal,
+                    Ok(Err(e)) => Exit::failed(&e, ""),
+                    Err(e) if e.is_panic() => Exit::Abnormal {
+                        reason: format!("panicked: {}", panic_message(e.into_panic())),
+                        mendable: true,
+                    },
                     Err(_) => return,
                 }
             }
-            Some(Err(build_error)) => format!("restart failed: {build_error}"),
+            Some(Err(build_error)) => Exit::failed(&build_error, "restart failed: "),
             None => return,
         };
         if ctx.shutdown.is_cancelled() {
+            return;
+        }
+        let reason = match &exit {
+            Exit::Normal => "stopped".to_owned(),
+            Exit::Abnormal { reason, .. } => reason.clone(),
+        };
+        if !restarts(prepared.policy.policy, &exit) {
+            let kind =
+                if exit == Exit::Normal { SupervisorEventKind::Stopped } else { SupervisorEventKind::GaveUp };
+            prepared.report(&ctx, kind, &reason, u32::try_from(failures.len()).unwrap_or(u32::MAX));
             return;
         }
         let now = ctx.clock.now();
@@ -261,7 +302,9 @@ async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) 
             prepared.report(&ctx, SupervisorEventKind::GaveUp, &reason, restarts);
             return;
         }
-        prepared.report(&ctx, SupervisorEventKind::Failed, &reason, restarts);
+        let kind =
+            if exit == Exit::Normal { SupervisorEventKind::Stopped } else { SupervisorEventKind::Failed };
+        prepared.report(&ctx, kind, &reason, restarts);
         let wake = now + prepared.policy.backoff(restarts);
         tokio::select! {
             _ = ctx.shutdown.cancelled() => return,
@@ -332,5 +375,39 @@ fn panic_message(payload: Box<dyn std::any::Any + Send>) -> String {
             Ok(s) => (*s).to_owned(),
             Err(_) => "non-text panic payload".to_owned(),
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn failed(mendable: bool) -> Exit {
+        Exit::Abnormal { reason: "x".into(), mendable }
+    }
+
+    #[test]
+    fn each_policy_restarts_as_erlang_and_kameo_say() {
+        use Restart::*;
+        let cases = [
+            (Permanent, Exit::Normal, true),
+            (Permanent, failed(true), true),
+            (Transient, Exit::Normal, false),
+            (Transient, failed(true), true),
+            (Never, Exit::Normal, false),
+            (Never, failed(true), false),
+        ];
+        for (policy, exit, expected) in cases {
+            assert_eq!(restarts(policy, &exit), expected, "{policy:?} after {exit:?}");
+        }
+    }
+
+    #[test]
+    fn invalid_parameters_are_never_restarted() {
+        let exit = Exit::failed(&ActorError::Params("gain < 0".into()), "");
+        assert_eq!(exit, Exit::Abnormal { reason: "invalid parameters: gain < 0".into(), mendable: false });
+        for policy in [Restart::Permanent, Restart::Transient, Restart::Never] {
+            assert!(!restarts(policy, &exit), "{policy:?}");
+        }
     }
 }

@@ -72,7 +72,7 @@ fn flight() -> Flight {
             ImuSample {
                 time: t,
                 gyro_rad_s: f.array(),
-                accel_m_s2: [0.1 * i as f64, -0.0, -9.806_65],
+                accel_m_s2: [0.1 * i as f64, -0.0, -kestrel_proto::units::GRAVITY_M_S2],
                 dt_s: 0.0025,
                 gyro_clipped: [false; 3],
                 accel_clipped: [i == 400, false, false],
@@ -398,15 +398,32 @@ fn a_full_disk_is_reported_by_finish_and_recording_never_panics() {
 }
 
 #[test]
-fn a_corrupt_file_is_an_error_naming_it() {
-    let path = scratch("corrupt.mcap");
+fn a_log_cut_in_half_is_read_up_to_the_cut() {
+    let path = scratch("cut-in-half.mcap");
     record(&path, &flight());
+    let whole = LogReader::open(&path).unwrap();
+    let total: u64 = whole.topics().iter().map(|t| t.message_count).sum();
     let mut bytes = std::fs::read(&path).unwrap();
     bytes.truncate(bytes.len() / 2);
-    std::fs::write(&path, bytes).unwrap();
-    let err = LogReader::open(&path).err().expect("a truncated log must be refused");
-    assert!(matches!(err, RecorderError::Corrupt { .. }), "{err:?}");
-    assert!(err.to_string().contains("corrupt.mcap"), "{err}");
+    std::fs::write(&path, &bytes).unwrap();
+    let log = LogReader::open(&path).expect("a truncated log is read as far as it goes");
+    let damage = log.damage().expect("and says it is damaged");
+    assert!(damage.messages_read < total, "{damage:?}");
+    assert_eq!(log.raw().count() as u64, damage.messages_read, "reads stop where the damage begins");
+    assert_eq!(damage.file_bytes, bytes.len() as u64);
+    assert!(damage.intact_bytes < damage.file_bytes, "{damage:?}");
+    assert!(damage.to_string().contains(&format!("of {}", bytes.len())), "{damage}");
+}
+
+#[test]
+fn an_empty_or_foreign_file_is_not_an_mcap() {
+    for (name, bytes) in [("empty.mcap", &b""[..]), ("ulog.mcap", &b"ULog\x01\x12\x35\x01"[..])] {
+        let path = scratch(name);
+        std::fs::write(&path, bytes).unwrap();
+        let err = LogReader::open(&path).err().expect("refused");
+        assert!(matches!(err, RecorderError::NotMcap { .. }), "{err:?}");
+        assert!(err.to_string().contains(name) && err.to_string().contains("not an MCAP file"), "{err}");
+    }
 }
 
 /// Reads `path` with `tests/python/read_mcap.py` in the repo's venv.

@@ -112,6 +112,41 @@ impl Actor for Quitter {
     }
 }
 
+/// Ends itself normally on its first tick after every start.
+struct Stopper;
+
+impl Actor for Stopper {
+    type Params = toml::Table;
+    type Input = Time;
+
+    fn build(_: &toml::Table, setup: &mut impl Setup<Time>) -> Result<Self, ActorError> {
+        setup.timer("tick", Duration::from_millis(100), |t| t);
+        Ok(Stopper)
+    }
+
+    async fn handle(&mut self, ctx: &Context, _t: Time) -> Result<(), ActorError> {
+        ctx.stop();
+        Ok(())
+    }
+}
+
+/// Finds its parameters unusable on its first tick (as an actor might on opening a device).
+struct Misconfigured;
+
+impl Actor for Misconfigured {
+    type Params = toml::Table;
+    type Input = Time;
+
+    fn build(_: &toml::Table, setup: &mut impl Setup<Time>) -> Result<Self, ActorError> {
+        setup.timer("tick", Duration::from_millis(10), |t| t);
+        Ok(Misconfigured)
+    }
+
+    async fn handle(&mut self, _ctx: &Context, _t: Time) -> Result<(), ActorError> {
+        Err(ActorError::Params("no such device".into()))
+    }
+}
+
 /// Takes battery messages (a type no test actor publishes).
 struct BatteryWatcher;
 
@@ -136,6 +171,8 @@ fn registry() -> Registry {
         .with::<Panicker>("panicker")
         .with::<BatteryWatcher>("battery_watcher")
         .with::<Quitter>("quitter")
+        .with::<Stopper>("stopper")
+        .with::<Misconfigured>("misconfigured")
 }
 
 fn run_text(text: &str, seconds: f64) -> Result<RunReport, RunError> {
@@ -212,6 +249,62 @@ params = { period_ms = 10 }
     assert_eq!(published(&report, "supervisor"), 7, "every event is also published on the supervisor topic");
 }
 
+/// A neighbour that keeps the lockstep clock going once the actor under test is gone.
+const STEADY: &str = "[actors.steady]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n";
+
+fn events_of(text: &str) -> Vec<(SupervisorEventKind, u64)> {
+    let report = run_text(&format!("{text}{STEADY}"), 1.0).unwrap();
+    report.supervisor_events.iter().map(|e| (e.kind, e.time.as_micros())).collect()
+}
+
+const LIMITS: &str = "max_restarts = 2, window_s = 60.0, backoff_initial_s = 0.1, backoff_max_s = 1.0";
+
+#[test]
+fn a_permanent_actor_is_restarted_after_it_stops_normally() {
+    let text = format!("[actors.s]\ntype = \"stopper\"\nrestart = {{ policy = \"permanent\", {LIMITS} }}\n");
+    use SupervisorEventKind::*;
+    // Stops at 100 ms, back at 200 ms, stops at 300 ms, back at 500 ms, stops at 600 ms: the
+    // third stop is past the limit of two restarts.
+    let expected = [
+        (Stopped, 100_000),
+        (Restarted, 200_000),
+        (Stopped, 300_000),
+        (Restarted, 500_000),
+        (GaveUp, 600_000),
+    ];
+    assert_eq!(events_of(&text), expected);
+}
+
+#[test]
+fn a_transient_actor_that_stops_normally_stays_stopped_and_transient_is_the_default() {
+    use SupervisorEventKind::*;
+    for restart in [format!("restart = {{ policy = \"transient\", {LIMITS} }}\n"), String::new()] {
+        let text = format!("[actors.s]\ntype = \"stopper\"\n{restart}");
+        assert_eq!(events_of(&text), [(Stopped, 100_000)], "{text}");
+    }
+}
+
+#[test]
+fn a_never_actor_is_not_restarted_after_a_panic() {
+    let text = format!("[actors.p]\ntype = \"panicker\"\nrestart = {{ policy = \"never\", {LIMITS} }}\n");
+    assert_eq!(events_of(&text), [(SupervisorEventKind::GaveUp, 10_000)]);
+}
+
+#[test]
+fn invalid_parameters_are_not_restarted_even_when_permanent() {
+    let text =
+        format!("[actors.m]\ntype = \"misconfigured\"\nrestart = {{ policy = \"permanent\", {LIMITS} }}\n");
+    let report = run_text(&format!("{text}{STEADY}"), 1.0).unwrap();
+    let events: Vec<_> = report.supervisor_events.iter().map(|e| (e.kind, e.reason.as_str())).collect();
+    assert_eq!(events, [(SupervisorEventKind::GaveUp, "invalid parameters: no such device")]);
+}
+
+#[test]
+fn an_unknown_restart_policy_is_a_config_error() {
+    let err = config_error("[actors.s]\ntype = \"stopper\"\nrestart = { policy = \"sometimes\" }\n");
+    assert!(err.contains("graph.toml:3") && err.contains("permanent"), "{err}");
+}
+
 fn config_error(text: &str) -> String {
     match run_text(text, 0.1) {
         Err(RunError::Config(errors)) => {
@@ -227,7 +320,12 @@ fn unknown_actor_type_is_named_with_file_and_line() {
         "[actors.a]\ntype = \"ticker\"\nparams = { period_ms = 10 }\n\n[actors.b]\ntype = \"warp_drive\"\n",
     );
     assert!(err.starts_with("graph.toml:6: unknown actor type 'warp_drive' for actor 'b'"), "{err}");
-    assert!(err.contains("known types: battery_watcher, counter, panicker, quitter, ticker"), "{err}");
+    assert!(
+        err.contains(
+            "known types: battery_watcher, counter, misconfigured, panicker, quitter, stopper, ticker"
+        ),
+        "{err}"
+    );
 }
 
 #[test]

@@ -124,6 +124,12 @@ impl Context {
         &self.shutdown
     }
 
+    /// Ends this actor normally, its work done: it stops after the handler returns, and its
+    /// supervisor restarts it only if its restart policy is `permanent`.
+    pub fn stop(&self) {
+        self.shutdown.cancel();
+    }
+
     /// Ends the whole run, as Ctrl-C would: every actor stops and the log is closed. For a
     /// scripted flight that is over (`kestrel run --exit-on-land`).
     pub fn end_run(&self) {
@@ -131,7 +137,8 @@ impl Context {
     }
 }
 
-/// Why an actor could not go on. The supervisor logs it and restarts the actor.
+/// Why an actor could not go on. The supervisor logs it and restarts the actor as its restart
+/// policy says, except after [`ActorError::Params`], which a restart cannot mend.
 #[derive(Debug, thiserror::Error)]
 pub enum ActorError {
     /// The actor's parameters are unusable; restarting will not help, so the runtime reports

@@ -1,5 +1,39 @@
-//! Quaternion ↔ Euler angles, for display, telemetry and error reports only: controllers and
-//! the estimator work on quaternions and rotation matrices, never on Euler angles.
+//! Attitude conversions: a message's `[w, x, y, z]` into a rotation, and quaternion ↔ Euler
+//! angles, the latter for display, telemetry and error reports only: controllers and the
+//! estimator work on quaternions and rotation matrices, never on Euler angles.
+
+use nalgebra::{Quaternion, UnitQuaternion};
+
+/// A `[w, x, y, z]` that names no rotation.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+#[error("attitude quaternion {0:?} is not a rotation (non-finite, or shorter than {MIN_NORM})")]
+pub struct NotARotation(pub [f64; 4]);
+
+/// The shortest `[w, x, y, z]` taken as a rotation. Messages carry unit quaternions up to
+/// rounding; one under half a unit long is a zero, an uninitialised or a corrupted value, and
+/// normalising it would turn noise into an arbitrary attitude.
+pub const MIN_NORM: f64 = 0.5;
+
+/// The rotation (body FRD → NED) of a message's `[w, x, y, z]`, normalised.
+///
+/// An error rather than identity for a zero or non-finite quaternion: identity is a level,
+/// north-facing attitude that a controller would fly as if it were true, so each caller decides
+/// what a missing attitude means for it (the controller flies blind and counts it, the
+/// commander ignores the state).
+pub fn unit_quaternion(q: [f64; 4]) -> Result<UnitQuaternion<f64>, NotARotation> {
+    let [w, x, y, z] = q;
+    let raw = Quaternion::new(w, x, y, z);
+    if q.iter().all(|v| v.is_finite()) && raw.norm() >= MIN_NORM {
+        Ok(UnitQuaternion::from_quaternion(raw))
+    } else {
+        Err(NotARotation(q))
+    }
+}
+
+/// A rotation as a message's `[w, x, y, z]`.
+pub fn wxyz(q: &UnitQuaternion<f64>) -> [f64; 4] {
+    [q.w, q.i, q.j, q.k]
+}
 
 /// Roll, pitch, yaw (rad) of the attitude quaternion `[w, x, y, z]` (body FRD → NED), in the
 /// aerospace Z-Y-X convention: yaw about down, then pitch about the new right axis, then roll
@@ -35,6 +69,15 @@ pub fn angle_difference_rad(a: f64, b: f64) -> f64 {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn zero_and_non_finite_quaternions_are_no_rotation() {
+        for q in [[0.0; 4], [0.1, 0.0, 0.0, 0.0], [f64::NAN, 0.0, 0.0, 1.0], [1.0, f64::INFINITY, 0.0, 0.0]] {
+            assert!(unit_quaternion(q).is_err(), "{q:?}");
+        }
+        let q = unit_quaternion([2.0, 0.0, 0.0, 0.0]).expect("a long quaternion is normalised");
+        assert_eq!(wxyz(&q), [1.0, 0.0, 0.0, 0.0]);
+    }
 
     #[test]
     fn a_pure_yaw_of_ninety_degrees() {

@@ -18,6 +18,19 @@ const B: f64 = A * (1.0 - F);
 /// Second eccentricity squared.
 const EP2: f64 = (A * A - B * B) / (B * B);
 
+/// An angle (degrees) in MAVLink's (and u-blox's) integer unit, degrees × 10⁷ (about 1.1 cm
+/// of latitude), rounded to the nearest unit. Values beyond ±214.7° saturate (Rust's
+/// float-to-int cast), which no latitude or longitude reaches.
+pub fn deg_e7(deg: f64) -> i32 {
+    (deg * 1e7).round() as i32
+}
+
+/// An angle in degrees × 10⁷ (MAVLink's `lat`/`lon`, `x`/`y` of `*_INT` messages), in degrees.
+/// Takes `f64` so that COMMAND_INT's `x`/`y`, carried as floats, convert the same way.
+pub fn deg_from_e7(deg_e7: f64) -> f64 {
+    deg_e7 * 1e-7
+}
+
 /// A point on the WGS-84 ellipsoid.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Geodetic {
@@ -110,6 +123,14 @@ mod tests {
     use proptest::prelude::*;
 
     const MORATUWA: Geodetic = Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 };
+
+    #[test]
+    fn degrees_e7_round_to_the_nearest_unit_and_back() {
+        assert_eq!(deg_e7(MORATUWA.lat_deg), 67_971_000);
+        assert_eq!(deg_e7(-33.866_661_4), -338_666_614);
+        assert_eq!(deg_e7(180.0), 1_800_000_000);
+        assert!((deg_from_e7(f64::from(deg_e7(MORATUWA.lon_deg))) - MORATUWA.lon_deg).abs() < 1e-9);
+    }
 
     #[test]
     fn one_arcsecond_north_is_about_thirty_metres() {

@@ -12,15 +12,20 @@
 
 pub mod actor;
 pub mod attitude;
+/// Mutations of valid files for the property tests of every parser (test builds only).
+#[cfg(any(test, feature = "testing"))]
 pub mod bad_input;
 pub mod clock;
+pub mod frame_layout;
 pub mod geo;
 pub mod message;
 pub mod messages;
 pub mod param_def;
+#[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod time;
 pub mod timing;
+pub mod units;
 
 pub use actor::{Actor, ActorError, Context, Publisher, Setup, Sink};
 pub use clock::Clock;

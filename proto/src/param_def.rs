@@ -5,9 +5,10 @@
 //! [`ParamDecl`] it publishes to the link ([`declare`]) and applies each `ParamSet` it receives
 //! ([`apply`]): the range is checked again (the link checked it too, but a bench may publish
 //! `ParamSet` without a link), then the owner's own validation of the whole struct, and the old
-//! value is kept when either refuses.
+//! value is kept when either refuses. [`answer`] is the rest of every owner's `param_set`
+//! handler: what to log, and whether to publish the declaration again.
 
-use crate::messages::{ParamDecl, ParamInfo};
+use crate::messages::{ParamDecl, ParamInfo, ParamSet};
 use crate::time::Time;
 
 /// The longest MAVLink `param_id`.
@@ -100,6 +101,25 @@ pub fn apply<P: Clone, E: std::fmt::Display>(
     validate(&changed).map_err(|e| ParamRefused::Invalid { name: name.to_owned(), reason: e.to_string() })?;
     *params = changed;
     Ok(ParamChange::Applied)
+}
+
+/// What an owner does after trying a `ParamSet` (`outcome`, from [`apply`] and whatever the
+/// owner does with an applied value): logs it, applied or refused and why, and returns whether
+/// to publish its [`ParamDecl`] again. That is yes for every name of its own, applied or refused,
+/// so the link always serves the value really in use; no for another owner's name, which would
+/// only repeat an unchanged declaration.
+pub fn answer<E: std::fmt::Display>(owner: &str, set: &ParamSet, outcome: Result<ParamChange, E>) -> bool {
+    match outcome {
+        Ok(ParamChange::NotMine) => false,
+        Ok(ParamChange::Applied) => {
+            tracing::info!(actor = owner, name = %set.name, value = set.value, "parameter applied");
+            true
+        }
+        Err(e) => {
+            tracing::warn!(actor = owner, name = %set.name, value = set.value, "parameter refused: {e}");
+            true
+        }
+    }
 }
 
 impl ParamDecl {
@@ -195,5 +215,13 @@ mod tests {
         decl.params[1].name = "T_HIGH".into();
         decl.params[1].value = 20.0;
         assert!(matches!(decl.check(), Err(DeclError::OutOfRange { .. })));
+    }
+
+    #[test]
+    fn an_owner_answers_its_own_names_applied_or_refused_and_not_others() {
+        let set = ParamSet { time: Time::ZERO, name: "T_LOW".into(), value: 1.0 };
+        assert!(answer("t", &set, Ok::<_, ParamRefused>(ParamChange::Applied)));
+        assert!(answer("t", &set, Err("out of range")));
+        assert!(!answer("t", &set, Ok::<_, ParamRefused>(ParamChange::NotMine)));
     }
 }

@@ -31,15 +31,17 @@ pub fn run(args: ReplayArgs) -> Result<(), String> {
             let result = replay_ulog(&args.log, &params).map_err(|e| e.to_string())?;
             write_csv(&result, &mut out).map_err(|e| format!("{}: {e}", args.out.display()))?;
             let s = &result.summary;
+            let damage = result.log_damage.as_ref().map(|d| format!("; {d}, replayed what came before"));
             format!(
-                "{} rows; aligned at {:.2} s; RMS vs EKF2: roll {:.2}°, pitch {:.2}°, yaw {:.2}°, height {}, horizontal {}",
+                "{} rows; aligned at {:.2} s; RMS vs EKF2: roll {:.2}°, pitch {:.2}°, yaw {:.2}°, height {}, horizontal {}{}",
                 s.rows,
                 s.aligned_at_s,
                 s.rms_roll_vs_px4_deg,
                 s.rms_pitch_vs_px4_deg,
                 s.rms_yaw_vs_px4_deg,
                 metres(s.rms_height_vs_px4_m),
-                metres(s.rms_horizontal_vs_px4_m)
+                metres(s.rms_horizontal_vs_px4_m),
+                damage.unwrap_or_default()
             )
         }
         "mcap" => replay_mcap(&args.log, params, &mut out)?,
@@ -63,6 +65,8 @@ fn metres(v: Option<f64>) -> String {
 /// ground-truth (or, without it, recorded `nav_state`) sample once the estimator has aligned.
 fn replay_mcap(path: &Path, params: EkfParams, out: &mut impl Write) -> Result<String, String> {
     let log = LogReader::open(path).map_err(|e| e.to_string())?;
+    let damage =
+        log.damage().map(|d| format!("; the log is damaged or cut short, replayed what was readable: {d}"));
     let mut ekf = Ekf::new(params).map_err(|e| e.to_string())?;
     let has_truth = log.topics().iter().any(|t| t.schema_name == GroundTruth::TYPE_NAME);
     let io = |e: std::io::Error| e.to_string();
@@ -126,9 +130,10 @@ fn replay_mcap(path: &Path, params: EkfParams, out: &mut impl Write) -> Result<S
         return Err(format!("{}: the estimator never aligned on this log (no rows written)", path.display()));
     }
     Ok(format!(
-        "{rows} rows against {}; RMS horizontal difference {:.3} m; {rejected} samples rejected",
+        "{rows} rows against {}; RMS horizontal difference {:.3} m; {rejected} samples rejected{}",
         if has_truth { "ground truth" } else { "the recorded nav_state" },
-        (sq_horizontal / rows as f64).sqrt()
+        (sq_horizontal / rows as f64).sqrt(),
+        damage.unwrap_or_default()
     ))
 }
 

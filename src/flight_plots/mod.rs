@@ -92,7 +92,8 @@ pub fn write_report(log: &Path, out_dir: &Path) -> Result<ReportSummary, PlotErr
     if let Some(avoidance) = &avoidance {
         plots.push(chart::draw(out_dir, &avoidance.figure())?);
     }
-    let summary = ReportSummary::new(log, &series, path.as_ref(), avoidance.as_ref(), plots);
+    let damage = reader.damage().cloned();
+    let summary = ReportSummary::new(log, &series, path.as_ref(), avoidance.as_ref(), plots, damage);
     summary.write(&out_dir.join(SUMMARY_FILE))?;
     Ok(summary)
 }

@@ -13,6 +13,7 @@ use super::avoidance::AvoidanceLog;
 use super::flown_path::FlownPath;
 use super::series::FlightSeries;
 use super::{PlotError, PlotFile};
+use crate::recorder::LogDamage;
 
 /// Everything `kestrel report` measured, and the plots it drew.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -40,6 +41,9 @@ pub struct ReportSummary {
     pub avoidance: Option<AvoidanceActivity>,
     /// The PNG files written.
     pub plots: Vec<PlotFile>,
+    /// How much of the log was lost, when it is truncated or damaged (the report covers what
+    /// was readable); `None` for a whole log.
+    pub log_damage: Option<LogDamage>,
 }
 
 /// How close the true path came to the world's obstacles.
@@ -150,6 +154,7 @@ impl ReportSummary {
         path: Option<&FlownPath>,
         avoidance: Option<&AvoidanceLog>,
         plots: Vec<PlotFile>,
+        log_damage: Option<LogDamage>,
     ) -> ReportSummary {
         let latencies: Vec<f64> = series.gps.iter().map(|g| g.arrived_s - g.measured_s).collect();
         ReportSummary {
@@ -165,6 +170,7 @@ impl ReportSummary {
             obstacles: path.map(encounters),
             avoidance: avoidance.map(activity),
             plots,
+            log_damage,
         }
     }
 
@@ -279,6 +285,9 @@ impl fmt::Display for ReportSummary {
             o.lon_deg,
             o.alt_m
         )?;
+        if let Some(damage) = &self.log_damage {
+            writeln!(f, "  the log is damaged or cut short, this report covers what was readable: {damage}")?;
+        }
         if let Some(g) = &self.vs_gps {
             writeln!(
                 f,

@@ -82,6 +82,9 @@ impl LogReplayActor {
             return Err(LogReplayError::NoTopics { path });
         }
         let log = LogReader::open(&path)?;
+        if let Some(damage) = log.damage() {
+            tracing::warn!(log = %path.display(), "the log is damaged or cut short, replaying what was readable: {damage}");
+        }
         let recorded = log.topics();
         let mut kinds: Vec<(Kind, &str)> = Vec::new();
         for (i, topic) in params.topics.iter().enumerate() {

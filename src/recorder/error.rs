@@ -53,7 +53,11 @@ pub enum RecorderError {
     #[error("cannot read flight log {}: {source}", path.display())]
     Open { path: PathBuf, source: std::io::Error },
 
-    /// The file is not a valid MCAP file, or is truncated.
+    /// The file does not start as an MCAP file does (empty, another format).
+    #[error("flight log {} is not an MCAP file (it does not start with the MCAP magic; {bytes} bytes)", path.display())]
+    NotMcap { path: PathBuf, bytes: u64 },
+
+    /// The MCAP reader refused the file where no damage is tolerated.
     #[error("flight log {} is not a valid MCAP file: {source}", path.display())]
     Corrupt { path: PathBuf, source: mcap::McapError },
 

@@ -23,5 +23,5 @@ mod reader;
 mod writer;
 
 pub use error::RecorderError;
-pub use reader::{LogReader, RawRecord, Recorded, TopicInfo};
+pub use reader::{LogDamage, LogReader, RawRecord, Recorded, TopicInfo};
 pub use writer::{RecordChannel, Recorder, RecordingSummary};

@@ -1,10 +1,15 @@
 //! The reading side: [`LogReader`] opens a flight log and reads topics back, typed or raw.
 //!
-//! The whole file is read into memory and scanned once at open, so a corrupt or truncated log
-//! is reported up front (naming the file) and [`LogReader::topics`] is exact even for MCAP
-//! files written without a summary section by other tools.
+//! The whole file is read into memory and scanned once at open, so [`LogReader::topics`] is
+//! exact even for MCAP files written without a summary section by other tools.
+//!
+//! A log cut short (the recorder killed, the disk full) or damaged is read as far as it is
+//! readable, as a stream reader does: every message before the first unreadable record, with a
+//! [`LogDamage`] saying how much that is and where the file stops making sense. Only a file
+//! that is not an MCAP at all (no magic) is refused.
 
 use std::collections::{BTreeMap, BTreeSet};
+use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -21,6 +26,49 @@ pub struct LogReader {
     bytes: Vec<u8>,
     /// Channels that carry messages, by MCAP channel id.
     channels: BTreeMap<u16, ChannelInfo>,
+    /// Where the file stops being readable, if it does before its end.
+    damage: Option<LogDamage>,
+}
+
+/// How much of a damaged or truncated log could be read.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LogDamage {
+    /// Messages read, all of them before the damage.
+    pub messages_read: u64,
+    /// Messages the file's summary says it holds, when the summary survived.
+    pub messages_expected: Option<u64>,
+    /// Log time of the last message read (s), if any was.
+    pub last_log_time_s: Option<f64>,
+    /// End of the last whole record (byte offset): the file is intact up to here.
+    pub intact_bytes: u64,
+    /// The file's size (bytes).
+    pub file_bytes: u64,
+    /// What the MCAP reader found there.
+    pub reason: String,
+}
+
+impl fmt::Display for LogDamage {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "read {} messages", self.messages_read)?;
+        if let Some(expected) = self.messages_expected {
+            write!(f, " of {expected} ({} lost)", expected.saturating_sub(self.messages_read))?;
+        }
+        if let Some(t) = self.last_log_time_s {
+            write!(f, ", up to log time {t:.3} s")?;
+        }
+        if self.intact_bytes < self.file_bytes {
+            write!(
+                f,
+                "; whole records end at byte {} of {} ({} bytes cut short or unreadable)",
+                self.intact_bytes,
+                self.file_bytes,
+                self.file_bytes - self.intact_bytes
+            )?;
+        } else {
+            write!(f, "; all {} bytes are whole records, one of them unreadable", self.file_bytes)?;
+        }
+        write!(f, ": {}", self.reason)
+    }
 }
 
 /// A topic in a log.
@@ -81,10 +129,48 @@ impl LogReader {
     pub fn open(path: &Path) -> Result<LogReader, RecorderError> {
         let bytes =
             std::fs::read(path).map_err(|source| RecorderError::Open { path: path.to_path_buf(), source })?;
-        let mut reader = LogReader { path: path.to_path_buf(), bytes, channels: BTreeMap::new() };
+        LogReader::from_bytes(path, bytes)
+    }
+
+    /// [`LogReader::open`] for a file already in memory (`path` names it in messages).
+    pub fn from_bytes(path: &Path, bytes: Vec<u8>) -> Result<LogReader, RecorderError> {
+        let mut reader =
+            LogReader { path: path.to_path_buf(), bytes, channels: BTreeMap::new(), damage: None };
+        if !reader.bytes.starts_with(mcap::MAGIC) {
+            return Err(RecorderError::NotMcap {
+                path: path.to_path_buf(),
+                bytes: reader.bytes.len() as u64,
+            });
+        }
+        // The `mcap` reader sizes buffers from the lengths inside a chunk before it can check
+        // them, so a damaged chunk could make it allocate exabytes and abort: the stream gets
+        // only the records before the first chunk that does not hold together.
+        let sound = sound_prefix(&reader.bytes);
         let mut channels = BTreeMap::new();
-        for message in reader.messages() {
-            let message = message?;
+        let (mut read, mut last_log_time, mut damage) = (0u64, None, None);
+        for message in reader.messages_in(sound) {
+            let message = match message {
+                Ok(m) => m,
+                Err(e) => {
+                    damage = Some(LogDamage {
+                        messages_read: read,
+                        messages_expected: expected_messages(&reader.bytes),
+                        last_log_time_s: last_log_time.map(|t: Time| t.as_secs_f64()),
+                        intact_bytes: whole_records_end(&reader.bytes[..sound]) as u64,
+                        file_bytes: reader.bytes.len() as u64,
+                        reason: if sound < whole_records_end(&reader.bytes) {
+                            format!(
+                                "the chunk at byte {sound} is damaged (its data is not its stated size and CRC)"
+                            )
+                        } else {
+                            e.to_string()
+                        },
+                    });
+                    break;
+                }
+            };
+            read += 1;
+            last_log_time = Some(from_mcap_ns(message.log_time));
             let channel = &message.channel;
             channels
                 .entry(channel.id)
@@ -101,12 +187,19 @@ impl LogReader {
                 .message_count += 1;
         }
         reader.channels = channels;
+        reader.damage = damage;
         Ok(reader)
     }
 
     /// The file being read.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// How much was lost, when the file is truncated or damaged; every read stops where the
+    /// damage begins.
+    pub fn damage(&self) -> Option<&LogDamage> {
+        self.damage.as_ref()
     }
 
     /// The topics that hold messages, sorted by name.
@@ -205,13 +298,120 @@ impl LogReader {
         Ok(ids)
     }
 
-    /// The file's messages in order, decompressing chunks as it goes.
+    /// The file's messages in order, decompressing chunks as it goes; in a damaged file, only
+    /// those before the damage (the stream is deterministic, so the same ones each time).
     fn messages(&self) -> impl Iterator<Item = Result<mcap::Message<'static>, RecorderError>> + '_ {
+        let end = if self.damage.is_some() { sound_prefix(&self.bytes) } else { self.bytes.len() };
+        self.messages_in(end)
+    }
+
+    /// The messages of the file's first `end` bytes.
+    fn messages_in(
+        &self,
+        end: usize,
+    ) -> impl Iterator<Item = Result<mcap::Message<'static>, RecorderError>> + '_ {
         let corrupt = |source| RecorderError::Corrupt { path: self.path.clone(), source };
-        let (stream, error) = match MessageStream::new(&self.bytes) {
+        let (stream, error) = match MessageStream::new(&self.bytes[..end]) {
             Ok(stream) => (Some(stream), None),
             Err(e) => (None, Some(corrupt(e))),
         };
-        error.map(Err).into_iter().chain(stream.into_iter().flatten().map(move |m| m.map_err(corrupt)))
+        let readable = self
+            .damage
+            .as_ref()
+            .map_or(usize::MAX, |d| usize::try_from(d.messages_read).unwrap_or(usize::MAX));
+        error
+            .map(Err)
+            .into_iter()
+            .chain(stream.into_iter().flatten().map(move |m| m.map_err(corrupt)))
+            .take(readable)
     }
+}
+
+/// Size of an MCAP record's opcode and length fields.
+const RECORD_HEADER_BYTES: usize = 1 + 8;
+
+/// The end of the last whole top-level record (byte offset), walking the records' lengths from
+/// the magic: where a truncated file stops being whole.
+fn whole_records_end(bytes: &[u8]) -> usize {
+    whole_records_end_from(bytes, mcap::MAGIC.len())
+}
+
+/// [`whole_records_end`] from byte `at` on.
+fn whole_records_end_from(bytes: &[u8], mut at: usize) -> usize {
+    while let Some(header) = bytes.get(at..at + RECORD_HEADER_BYTES) {
+        let mut length = [0u8; 8];
+        length.copy_from_slice(&header[1..]);
+        let end = usize::try_from(u64::from_le_bytes(length))
+            .ok()
+            .and_then(|n| (at + RECORD_HEADER_BYTES).checked_add(n))
+            .filter(|&end| end <= bytes.len());
+        match end {
+            Some(end) => at = end,
+            None => break,
+        }
+    }
+    at.min(bytes.len())
+}
+
+/// Decompressed chunks larger than this are taken as damage (our recorder writes 256 KiB).
+const MAX_CHUNK_BYTES: u64 = 256 << 20;
+
+/// The length of the file's prefix that the `mcap` reader can be given: everything up to the
+/// first chunk that does not decompress to its stated size and CRC, or whose records do not
+/// fit in it; the whole file when every chunk holds together.
+fn sound_prefix(bytes: &[u8]) -> usize {
+    let mut at = mcap::MAGIC.len();
+    while let Some(header) = bytes.get(at..at + RECORD_HEADER_BYTES) {
+        let mut length = [0u8; 8];
+        length.copy_from_slice(&header[1..]);
+        let body_start = at + RECORD_HEADER_BYTES;
+        let Some(end) = usize::try_from(u64::from_le_bytes(length))
+            .ok()
+            .and_then(|n| body_start.checked_add(n))
+            .filter(|&end| end <= bytes.len())
+        else {
+            break;
+        };
+        if let Ok(mcap::records::Record::Chunk { header, data }) =
+            mcap::read::parse_record(header[0], &bytes[body_start..end])
+            && !chunk_holds_together(&header, &data)
+        {
+            return at;
+        }
+        at = end;
+    }
+    bytes.len()
+}
+
+/// Whether a chunk decompresses to its stated size (and CRC, when it has one) and its records
+/// each fit in what remains of it.
+fn chunk_holds_together(header: &mcap::records::ChunkHeader, data: &[u8]) -> bool {
+    use std::io::Read;
+    if header.uncompressed_size > MAX_CHUNK_BYTES {
+        return false;
+    }
+    let records = match header.compression.as_str() {
+        "" => data.to_vec(),
+        "zstd" => {
+            let Ok(decoder) = zstd::stream::read::Decoder::new(data) else { return false };
+            let mut out = Vec::new();
+            if decoder.take(header.uncompressed_size + 1).read_to_end(&mut out).is_err() {
+                return false;
+            }
+            out
+        }
+        // The reader refuses what it cannot decompress without sizing anything from it.
+        _ => return true,
+    };
+    if records.len() as u64 != header.uncompressed_size
+        || (header.uncompressed_crc != 0 && crc32fast::hash(&records) != header.uncompressed_crc)
+    {
+        return false;
+    }
+    whole_records_end_from(&records, 0) == records.len()
+}
+
+/// The message count of the file's statistics record, when its summary section is readable.
+fn expected_messages(bytes: &[u8]) -> Option<u64> {
+    mcap::Summary::read(bytes).ok().flatten().and_then(|s| s.stats).map(|s| s.message_count)
 }

@@ -17,7 +17,7 @@
 //! refusal, so a broken camera cannot flood the log.
 
 use kestrel_proto::messages::{AvoidanceCommand, DepthGrid, NavState, ParamDecl, ParamSet, Setpoint};
-use kestrel_proto::param_def::ParamChange;
+use kestrel_proto::param_def::{self, ParamChange};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
 use crate::avoidance::params::AvoiderParams;
@@ -58,19 +58,15 @@ impl AvoiderActor {
     /// the values in use.
     fn on_param(&mut self, ctx: &Context, p: &ParamSet) {
         let mut params = self.avoider.params().clone();
-        match live_params::apply(&mut params, &p.name, p.value) {
-            Ok(ParamChange::NotMine) => return,
-            Ok(ParamChange::Applied) => match self.avoider.retune(params) {
-                Ok(()) => {
-                    tracing::info!(actor = ctx.name(), name = %p.name, value = p.value, "avoider parameter applied")
-                }
-                Err(e) => {
-                    tracing::warn!(actor = ctx.name(), name = %p.name, "avoider parameter refused: {e}")
-                }
-            },
-            Err(e) => tracing::warn!(actor = ctx.name(), name = %p.name, "avoider parameter refused: {e}"),
+        let outcome = match live_params::apply(&mut params, &p.name, p.value) {
+            Ok(ParamChange::Applied) => {
+                self.avoider.retune(params).map(|()| ParamChange::Applied).map_err(|e| e.to_string())
+            }
+            other => other.map_err(|e| e.to_string()),
+        };
+        if param_def::answer(ctx.name(), p, outcome) {
+            self.param_decl.publish(live_params::decl(self.avoider.params(), &self.name, false, ctx.now()));
         }
-        self.param_decl.publish(live_params::decl(self.avoider.params(), &self.name, false, ctx.now()));
     }
 }
 

@@ -10,7 +10,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use kestrel_control::{ControlParams, FlightController, PositionController, PositionGains};
 use kestrel_proto::Time;
 use kestrel_proto::messages::{NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
-use nalgebra::{DMatrix, DVector, UnitQuaternion, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 
 fn nav(i: u64) -> NavState {
     NavState::exact(
@@ -32,8 +32,7 @@ fn target() -> TrajectorySetpoint {
 
 /// The naive cascade: same position loop, Euler-angle P attitude, P rate loop, heap mixer.
 fn naive_step(pos: &mut PositionController, n: &NavState) -> [f64; 4] {
-    let [w, x, y, z] = n.attitude;
-    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+    let Ok(q) = kestrel_proto::attitude::unit_quaternion(n.attitude) else { return [0.0; 4] };
     let out = pos.update(
         &target(),
         &Vector3::from(n.position_ned_m),

@@ -25,8 +25,9 @@ use kestrel_proto::messages::{
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
-use crate::commander::{Commander, CommanderParams, ParamChange};
+use crate::commander::{Commander, CommanderParams};
 use crate::plan::load_plan;
+use kestrel_proto::param_def;
 
 /// How often `auto` retries arming while the pre-arm checks fail (s).
 const AUTO_RETRY_S: f64 = 1.0;
@@ -163,17 +164,11 @@ impl Actor for CommanderActor {
             CommanderInput::Supervisor(e) => self.commander.on_supervisor(&e),
             CommanderInput::Avoidance(cmd) => self.commander.on_avoidance(&cmd),
             CommanderInput::Param(p) => {
-                match self.commander.on_param(&p.name, p.value) {
-                    Ok(ParamChange::Applied) => {
-                        tracing::info!(name = %p.name, value = p.value, "parameter applied")
-                    }
-                    Ok(ParamChange::NotMine) => return Ok(()),
-                    // The link already checked the range; a value the commander still refuses
-                    // is reported and the old one kept, never applied half-way.
-                    Err(e) => tracing::warn!(name = %p.name, value = p.value, "parameter refused: {e}"),
+                // The link already checked the range; a value the commander still refuses is
+                // reported and the old one kept, never applied half-way.
+                if param_def::answer(ctx.name(), &p, self.commander.on_param(&p.name, p.value)) {
+                    self.param_decl.publish(self.commander.param_decl(&self.name, false, ctx.now()));
                 }
-                // Applied or refused, the link learns the value now in use.
-                self.param_decl.publish(self.commander.param_decl(&self.name, false, ctx.now()));
             }
             CommanderInput::Command(cmd) => {
                 // A refusal is reported in the status; it is not an actor failure.

@@ -3,7 +3,7 @@
 //! Ports — inputs `nav` (NavState, mailbox `latest`), `setpoint` (Setpoint, `latest`) and
 //! `param_set` (ParamSet, `queue`); timer `tick` at the loop rate (lockstep only); outputs
 //! `actuators` (ActuatorOutputs), `loop_stats` (ControlLoopStats, about 1 Hz) and `param_decl`
-//! (ParamDecl: the live gains of [`crate::tuning`], at start and after each `param_set` naming
+//! (ParamDecl: the live gains of [`crate::live_params`], at start and after each `param_set` naming
 //! one of them).
 //!
 //! Two ways to run, chosen by `loop_mode`:
@@ -27,14 +27,14 @@
 use std::time::Duration;
 
 use kestrel_proto::messages::{ActuatorOutputs, ControlLoopStats, NavState, ParamDecl, ParamSet, Setpoint};
-use kestrel_proto::param_def::ParamChange;
+use kestrel_proto::param_def::{self, ParamChange};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
 use crate::flight_controller::FlightController;
+use crate::live_params::{Gains, Tuning};
 use crate::params::ControlParams;
 use crate::rt::{ControlThread, LoopStats, Reader, ThreadInputs, ThreadOutput, Writer, triple_buffer};
-use crate::tuning::{Gains, Tuning};
 
 /// How the loop is clocked.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -325,19 +325,17 @@ impl ControllerActor {
     /// the loop (directly in lockstep, through the triple buffer to the thread). Applied or
     /// refused, the link is told the values in use.
     fn on_param(&mut self, ctx: &Context, p: &ParamSet) {
-        match self.tuning.apply(&p.name, p.value) {
-            Ok(ParamChange::NotMine) => return,
-            Ok(ParamChange::Applied) => {
-                tracing::info!(name = %p.name, value = p.value, "gain applied");
-                let gains = self.tuning.gains();
-                match &mut self.inner {
-                    Loop::Lockstep { ctl, .. } => ctl.retune(&gains),
-                    Loop::Thread { gains: to_thread, .. } => to_thread.write(Some(gains)),
-                }
+        let outcome = self.tuning.apply(&p.name, p.value);
+        if outcome == Ok(ParamChange::Applied) {
+            let gains = self.tuning.gains();
+            match &mut self.inner {
+                Loop::Lockstep { ctl, .. } => ctl.retune(&gains),
+                Loop::Thread { gains: to_thread, .. } => to_thread.write(Some(gains)),
             }
-            Err(e) => tracing::warn!(name = %p.name, value = p.value, "gain refused: {e}"),
         }
-        self.param_decl.publish(self.tuning.decl(&self.name, false, ctx.now()));
+        if param_def::answer(ctx.name(), p, outcome) {
+            self.param_decl.publish(self.tuning.decl(&self.name, false, ctx.now()));
+        }
     }
 }
 

@@ -8,16 +8,17 @@
 //! per NavState, the real-time thread once per period.
 
 use kestrel_proto::Time;
+use kestrel_proto::attitude::unit_quaternion;
 use kestrel_proto::messages::{ActuatorOutputs, NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::attitude::AttitudeController;
 use crate::error::{InvalidParam, RejectedInput};
+use crate::live_params::Gains;
 use crate::mixer::{Mixer, Saturation};
 use crate::params::ControlParams;
 use crate::position::{PositionController, yaw_of};
 use crate::rate::RateController;
-use crate::tuning::Gains;
 
 /// Largest step the integrators accept (s): a longer gap (a paused simulation, a stall) is
 /// treated as this long.
@@ -154,10 +155,10 @@ impl FlightController {
     /// One loop iteration at `nav.time`.
     pub fn update(&mut self, nav: &NavState) -> ActuatorOutputs {
         let now = nav.time;
-        if !nav_is_finite(nav) {
+        let Some(q) = unit_quaternion(nav.attitude).ok().filter(|_| nav_is_finite(nav)) else {
             self.counters.rejected_nav += 1;
             return self.fly_blind(now);
-        }
+        };
         if !nav.valid.attitude {
             return self.fly_blind(now);
         }
@@ -165,7 +166,6 @@ impl FlightController {
         let Some(sp) = self.setpoint.filter(|s| s.armed) else {
             return self.idle(now, false);
         };
-        let q = quaternion(&nav.attitude);
         let omega = Vector3::from(nav.angular_velocity_rad_s);
         let lost = now.saturating_since(sp.time).as_secs_f64() > self.params.timing.setpoint_timeout_s;
         let target = if lost {
@@ -185,11 +185,12 @@ impl FlightController {
                 (Vector3::from(rates_frd_rad_s), thrust * full, None)
             }
             SetpointTarget::Attitude { attitude, yaw_rate_rad_s, thrust } => {
-                let q_d = quaternion(&attitude);
+                // `set_setpoint` took only attitudes that are rotations.
+                let Ok(q_d) = unit_quaternion(attitude) else { return self.fly_blind(now) };
                 (self.attitude.rate_setpoint(&q, &q_d, yaw_rate_rad_s), thrust * full, Some(q_d))
             }
             SetpointTarget::Trajectory(traj) => {
-                let traj = self.usable(traj, nav, dt);
+                let traj = self.usable(traj, nav, &q, dt);
                 let pos = Vector3::from(nav.position_ned_m);
                 let vel = Vector3::from(nav.velocity_ned_m_s);
                 let out = self.position.update(&traj, &pos, &vel, yaw_of(&q), dt);
@@ -250,7 +251,13 @@ impl FlightController {
 
     /// Drops the parts of a trajectory setpoint the estimator cannot support, and resolves the
     /// heading to hold.
-    fn usable(&mut self, mut sp: TrajectorySetpoint, nav: &NavState, dt: f64) -> TrajectorySetpoint {
+    fn usable(
+        &mut self,
+        mut sp: TrajectorySetpoint,
+        nav: &NavState,
+        q: &UnitQuaternion<f64>,
+        dt: f64,
+    ) -> TrajectorySetpoint {
         let v = nav.valid;
         if !v.horizontal_position {
             sp.position_ned_m[0] = None;
@@ -267,7 +274,7 @@ impl FlightController {
             sp.velocity_ned_m_s[2] = None;
         }
         if sp.yaw_rad.is_none() {
-            let yaw_now = yaw_of(&quaternion(&nav.attitude));
+            let yaw_now = yaw_of(q);
             let held = self.yaw_hold_rad.unwrap_or(yaw_now) + sp.yaw_rate_rad_s * dt;
             self.yaw_hold_rad = Some(held);
             sp.yaw_rad = Some(held);
@@ -276,22 +283,15 @@ impl FlightController {
     }
 }
 
-/// A unit quaternion from `[w, x, y, z]`; a zero quaternion reads as identity.
-fn quaternion(q: &[f64; 4]) -> UnitQuaternion<f64> {
-    let raw = Quaternion::new(q[0], q[1], q[2], q[3]);
-    if raw.norm() > 1e-9 { UnitQuaternion::from_quaternion(raw) } else { UnitQuaternion::identity() }
-}
-
 fn all_finite<'a>(values: impl IntoIterator<Item = &'a f64>) -> bool {
     values.into_iter().all(|v| v.is_finite())
 }
 
+/// The rest of the state beside the attitude, which `unit_quaternion` checks.
 fn nav_is_finite(nav: &NavState) -> bool {
-    all_finite(&nav.attitude)
-        && all_finite(&nav.angular_velocity_rad_s)
+    all_finite(&nav.angular_velocity_rad_s)
         && all_finite(&nav.velocity_ned_m_s)
         && all_finite(&nav.position_ned_m)
-        && quaternion(&nav.attitude).norm() > 0.5
 }
 
 fn check_setpoint(sp: &Setpoint) -> Result<(), RejectedInput> {
@@ -305,8 +305,7 @@ fn check_setpoint(sp: &Setpoint) -> Result<(), RejectedInput> {
             thrust_ok(*thrust)
         }
         SetpointTarget::Attitude { attitude, yaw_rate_rad_s, thrust } => {
-            let norm = attitude.iter().map(|v| v * v).sum::<f64>().sqrt();
-            finite(all_finite(attitude) && yaw_rate_rad_s.is_finite() && thrust.is_finite() && norm > 1e-6)?;
+            finite(unit_quaternion(*attitude).is_ok() && yaw_rate_rad_s.is_finite() && thrust.is_finite())?;
             thrust_ok(*thrust)
         }
         SetpointTarget::Trajectory(t) => finite(

@@ -10,9 +10,11 @@
 //! short into recovery.
 
 use kestrel_proto::Time;
+use kestrel_proto::attitude::wxyz;
 use kestrel_proto::messages::{NavState, SetpointTarget};
 use nalgebra::{UnitQuaternion, Vector3};
 
+use crate::commander::attitude;
 use crate::position::yaw_of;
 
 /// Roll rate of the flip (rad/s): about 520°/s (ArduPilot rolls at 400°/s with a weaker frame).
@@ -50,7 +52,7 @@ pub struct Flip {
 impl Flip {
     /// Starts a flip at `nav`; `hover_thrust` is the collective share that hovers.
     pub fn start(nav: &NavState, hover_thrust: f64) -> Flip {
-        let q = quaternion(nav);
+        let q = attitude(nav);
         Flip {
             phase: Phase::Climb,
             started: nav.time,
@@ -69,11 +71,11 @@ impl Flip {
     pub fn update(&mut self, nav: &NavState) -> SetpointTarget {
         let dt = nav.time.saturating_since(self.last).as_secs_f64();
         self.last = nav.time;
-        let q = quaternion(nav);
+        let q = attitude(nav);
         let omega = Vector3::from(nav.angular_velocity_rad_s);
         let h = self.hover_thrust;
         let level = SetpointTarget::Attitude {
-            attitude: quat_array(&self.heading),
+            attitude: wxyz(&self.heading),
             yaw_rate_rad_s: 0.0,
             thrust: (h * 1.3).min(0.9),
         };
@@ -84,7 +86,7 @@ impl Flip {
                     return self.update(nav);
                 }
                 SetpointTarget::Attitude {
-                    attitude: quat_array(&self.heading),
+                    attitude: wxyz(&self.heading),
                     yaw_rate_rad_s: 0.0,
                     thrust: (h * 2.1).min(0.9),
                 }
@@ -113,13 +115,4 @@ impl Flip {
             Phase::Done => level,
         }
     }
-}
-
-fn quaternion(nav: &NavState) -> UnitQuaternion<f64> {
-    let [w, x, y, z] = nav.attitude;
-    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
-}
-
-fn quat_array(q: &UnitQuaternion<f64>) -> [f64; 4] {
-    [q.w, q.i, q.j, q.k]
 }

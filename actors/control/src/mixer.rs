@@ -53,18 +53,18 @@ const YAW_BISECTION_STEPS: u32 = 24;
 impl Mixer {
     /// The mixer for a validated airframe.
     pub fn new(airframe: &AirframeParams) -> Mixer {
-        let rotors: Vec<_> = airframe.frame.rotors(airframe.arm_length_m).collect();
+        let rotors: Vec<_> = airframe.frame.motors(airframe.arm_length_m).collect();
         let n = rotors.len();
         let t_max = airframe.max_thrust_per_motor_n;
         // Thrust along body up is -z; torque = r × (0, 0, -T) = (-y·T, x·T, 0) plus the
         // propeller's reaction torque about down.
         let effectiveness = DMatrix::from_fn(4, n, |row, i| {
-            let r = &rotors[i];
+            let r = &rotors[i].position_frd_m;
             t_max
                 * match row {
-                    0 => -r.y_m,
-                    1 => r.x_m,
-                    2 => r.yaw_sign * airframe.torque_to_thrust_m,
+                    0 => -r.y,
+                    1 => r.x,
+                    2 => rotors[i].spin.yaw_sign() * airframe.torque_to_thrust_m,
                     _ => 1.0,
                 }
         });
@@ -149,15 +149,15 @@ fn spread(rp: &[f64], yaw: &[f64], k: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::airframe::Frame;
+    use kestrel_proto::frame_layout::FrameLayout;
 
     /// Torque and thrust the motors actually produce, by the same physics as the simulator.
     fn wrench(airframe: &AirframeParams, motors: &[f64; MAX_MOTORS]) -> (Vector3<f64>, f64) {
         let mut torque = Vector3::zeros();
         let mut thrust = 0.0;
-        for (r, &u) in airframe.frame.rotors(airframe.arm_length_m).zip(motors) {
-            let t = u * airframe.max_thrust_per_motor_n;
-            torque += Vector3::new(-r.y_m * t, r.x_m * t, r.yaw_sign * airframe.torque_to_thrust_m * t);
+        for (m, &u) in airframe.frame.motors(airframe.arm_length_m).zip(motors) {
+            let (r, t) = (m.position_frd_m, u * airframe.max_thrust_per_motor_n);
+            torque += Vector3::new(-r.y * t, r.x * t, m.spin.yaw_sign() * airframe.torque_to_thrust_m * t);
             thrust += t;
         }
         (torque, thrust)
@@ -165,7 +165,7 @@ mod tests {
 
     #[test]
     fn unsaturated_demands_are_met_exactly_on_every_frame() {
-        for frame in [Frame::QuadX, Frame::HexaX, Frame::OctoX] {
+        for frame in [FrameLayout::QuadX, FrameLayout::HexaX, FrameLayout::OctoX] {
             let airframe = AirframeParams { frame, ..AirframeParams::default() };
             let mixer = Mixer::new(&airframe);
             let demand = Vector3::new(0.3, -0.2, 0.05);

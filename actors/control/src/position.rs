@@ -17,8 +17,8 @@ use kestrel_proto::messages::TrajectorySetpoint;
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::airframe::GRAVITY_M_S2;
 use crate::error::{InvalidParam, non_negative, positive, within};
+use kestrel_proto::units::GRAVITY_M_S2;
 
 /// `[position]` gains and limits. Defaults are PX4's multicopter defaults, checked on quad_x.toml.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

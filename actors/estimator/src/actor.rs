@@ -12,7 +12,7 @@
 use kestrel_proto::messages::{
     BaroSample, EstimatorStatus, GpsFix, ImuSample, MagSample, NavState, ParamDecl, ParamSet,
 };
-use kestrel_proto::param_def::ParamChange;
+use kestrel_proto::param_def::{self, ParamChange};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
 use crate::ekf::Ekf;
@@ -73,19 +73,24 @@ impl EstimatorActor {
         }
     }
 
+    /// Samples refused so far (non-finite, out of order, …): counted and logged, never fatal.
+    pub fn rejected_inputs(&self) -> u64 {
+        self.rejected_inputs
+    }
+
     /// Applies a `ParamSet` naming one of our noises or gates; applied or refused, the link is
     /// told the values in use (stamped with the change's own time: the actor reads no clock).
     fn on_param(&mut self, p: &ParamSet) {
         let mut params = self.ekf.params().clone();
-        match live_params::apply(&mut params, &p.name, p.value) {
-            Ok(ParamChange::NotMine) => return,
-            Ok(ParamChange::Applied) => match self.ekf.retune(params) {
-                Ok(()) => tracing::info!(name = %p.name, value = p.value, "estimator parameter applied"),
-                Err(e) => tracing::warn!(name = %p.name, value = p.value, "estimator parameter refused: {e}"),
-            },
-            Err(e) => tracing::warn!(name = %p.name, value = p.value, "estimator parameter refused: {e}"),
+        let outcome = match live_params::apply(&mut params, &p.name, p.value) {
+            Ok(ParamChange::Applied) => {
+                self.ekf.retune(params).map(|()| ParamChange::Applied).map_err(|e| e.to_string())
+            }
+            other => other.map_err(|e| e.to_string()),
+        };
+        if param_def::answer(&self.name, p, outcome) {
+            self.param_decl.publish(live_params::decl(self.ekf.params(), &self.name, false, p.time));
         }
-        self.param_decl.publish(live_params::decl(self.ekf.params(), &self.name, false, p.time));
     }
 }
 

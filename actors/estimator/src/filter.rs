@@ -1,14 +1,13 @@
 //! The filter at the delayed fusion horizon: nominal state, error covariance, the prediction
 //! step (thesis eq. 3.5–3.19) and the correction primitives the aiding sources use.
 
+use kestrel_proto::units::GRAVITY_M_S2;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use crate::covariance::{
     FusionFault, NotFinite, ProcessNoise, SparseRow, Transition, check_finite, fuse_scalar, reset_block,
 };
-use crate::state::{
-    ACCEL_BIAS, ATT, Covariance, ERROR_STATES, GRAVITY_M_S2, GYRO_BIAS, ImuDelta, POS, State, VEL,
-};
+use crate::state::{ACCEL_BIAS, ATT, Covariance, ERROR_STATES, GYRO_BIAS, ImuDelta, POS, State, VEL};
 
 /// Initial standard deviations after alignment.
 const INIT_TILT_RAD: f64 = 0.05;

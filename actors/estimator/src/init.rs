@@ -134,10 +134,11 @@ impl Alignment {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use kestrel_proto::units::GRAVITY_M_S2;
 
     fn still(attitude: UnitQuaternion<f64>, field_ned: Vector3<f64>, params: &EkfParams) -> Aligned {
         let mut a = Alignment::default();
-        let specific_force = attitude.inverse() * Vector3::new(0.0, 0.0, -9.80665);
+        let specific_force = attitude.inverse() * Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
         a.push_mag(&MagSample { time: Time::ZERO, field_gauss: (attitude.inverse() * field_ned).into() });
         for i in 0..1000u64 {
             let s = ImuSample {
@@ -169,7 +170,7 @@ mod tests {
             let s = ImuSample {
                 time,
                 gyro_rad_s: [0.0; 3],
-                accel_m_s2: [0.0, 0.0, -9.80665],
+                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
                 dt_s: 0.0025,
                 gyro_clipped: [false; 3],
                 accel_clipped: [false; 3],

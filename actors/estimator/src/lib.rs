@@ -32,4 +32,4 @@ pub use actor::{EstimatorActor, EstimatorInput};
 pub use ekf::Ekf;
 pub use error::{InputError, ParamError};
 pub use params::EkfParams;
-pub use replay::{ReplayError, ReplayResult, ReplayRow, ReplaySummary, replay_ulog, write_csv};
+pub use replay::{ReplayError, ReplayResult, ReplayRow, ReplaySummary, UlogDamage, replay_ulog, write_csv};

@@ -12,8 +12,9 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::delay_buffer::DelayBuffer;
 use crate::filter::ResetDelta;
-use crate::state::{GRAVITY_M_S2, ImuDelta, State};
+use crate::state::{ImuDelta, State};
 use kestrel_proto::Time;
+use kestrel_proto::units::GRAVITY_M_S2;
 
 /// One output state.
 #[derive(Clone, Copy, Debug, PartialEq)]

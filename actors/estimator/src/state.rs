@@ -29,9 +29,6 @@ pub type Covariance = SMatrix<f64, ERROR_STATES, ERROR_STATES>;
 /// An error-state vector.
 pub type ErrorVector = SVector<f64, ERROR_STATES>;
 
-/// Standard gravity (m/s²), along NED down.
-pub const GRAVITY_M_S2: f64 = 9.806_65;
-
 /// The nominal state at one instant.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct State {

@@ -74,5 +74,19 @@ fn a_bad_sample_is_counted_not_fatal() {
         gyro_clipped: [false; 3],
         accel_clipped: [false; 3],
     };
-    ready(actor.handle(&ctx, EstimatorInput::Imu(bad))).expect("a bad sample does not stop the actor");
+    ready(actor.handle(&ctx, EstimatorInput::Imu(bad.clone())))
+        .expect("a bad sample does not stop the actor");
+    assert_eq!(actor.rejected_inputs(), 1, "the bad sample is counted");
+    let good = kestrel_proto::messages::ImuSample {
+        time: Time::from_micros(5000),
+        gyro_rad_s: [0.0; 3],
+        accel_m_s2: [0.0, 0.0, -9.8],
+        ..bad
+    };
+    ready(actor.handle(&ctx, EstimatorInput::Imu(good))).expect("a good sample is handled");
+    assert_eq!(actor.rejected_inputs(), 1, "a good sample after it is not");
+    assert!(
+        setup.published::<NavState>("nav_state").is_empty(),
+        "nothing published for it (not yet aligned)"
+    );
 }

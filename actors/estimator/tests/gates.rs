@@ -5,6 +5,7 @@ use kestrel_estimator::{Ekf, EkfParams, InputError};
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{BaroSample, GpsFix, GpsFixType, ImuSample, MagSample};
+use kestrel_proto::units::GRAVITY_M_S2;
 use nalgebra::{UnitQuaternion, Vector3};
 
 const HOME: Geodetic = Geodetic { lat_deg: 6.7971, lon_deg: 79.9017, alt_m: 20.0 };
@@ -46,7 +47,7 @@ impl Bench {
             let imu = ImuSample {
                 time,
                 gyro_rad_s: [0.0; 3],
-                accel_m_s2: [0.0, 0.0, -9.80665],
+                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
                 dt_s: 0.0025,
                 gyro_clipped: [false; 3],
                 accel_clipped: [false; 3],
@@ -155,7 +156,7 @@ fn clipped_imu_samples_are_used_and_counted() {
         let imu = ImuSample {
             time: Time::from_micros(bench.t_us),
             gyro_rad_s: [0.0; 3],
-            accel_m_s2: [0.0, 0.0, -9.80665],
+            accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
             dt_s: 0.0025,
             gyro_clipped,
             accel_clipped,

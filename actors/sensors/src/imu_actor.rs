@@ -248,7 +248,7 @@ mod tests {
 
     use super::*;
     use crate::mpu9250::FakeMpu9250;
-    use crate::mpu9250::scale::STANDARD_GRAVITY_M_S2;
+    use kestrel_proto::units::GRAVITY_M_S2;
 
     /// Runs the reader on `fake` until it has published an IMU and a mag sample, then takes a
     /// health report and stops.
@@ -281,7 +281,7 @@ mod tests {
         let setup = run_until_published(fake);
         let imu: Vec<ImuSample> = setup.published("imu");
         assert!(!imu.is_empty());
-        assert!((imu[0].accel_m_s2[2] + STANDARD_GRAVITY_M_S2).abs() < 1e-9, "{:?}", imu[0]);
+        assert!((imu[0].accel_m_s2[2] + GRAVITY_M_S2).abs() < 1e-9, "{:?}", imu[0]);
         assert!(imu.iter().all(|s| !s.is_clipped()), "{:?}", imu[0]);
         assert!(setup.count("mag") > 0);
         let health: Vec<SensorHealth> = setup.published("health");

@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{InvalidParam, positive};
-use crate::frame_layout::{FrameLayout, MotorGeometry};
+use kestrel_proto::frame_layout::{FrameLayout, MotorGeometry};
 
 /// One motor-propeller pair; every motor of a frame is the same.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

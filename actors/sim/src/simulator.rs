@@ -27,9 +27,10 @@ use crate::sensors::imu::Imu;
 use crate::sensors::mag::Mag;
 use crate::sensors::noise::{Stream, rng};
 use crate::sensors::schedule::{Delayed, Periodic, period_us};
-use crate::vehicle::{GRAVITY_M_S2, VehicleParams};
+use crate::vehicle::VehicleParams;
 use crate::wind::Wind;
 use crate::world::World;
+use kestrel_proto::units::GRAVITY_M_S2;
 
 /// The physics must run at least this fast (Hz).
 const MIN_PHYSICS_RATE_HZ: f64 = 400.0;

@@ -2,19 +2,17 @@
 
 use std::path::Path;
 
+use kestrel_proto::frame_layout::FrameLayout;
+use kestrel_proto::units::GRAVITY_M_S2;
 use serde::{Deserialize, Serialize};
 
 use crate::battery::BatteryParams;
 use crate::config_file;
 use crate::drag::DragParams;
 use crate::error::{ConfigError, InvalidParam, positive};
-use crate::frame_layout::FrameLayout;
 use crate::ground::ContactParams;
 use crate::motors::MotorParams;
 use crate::sensors::SensorParams;
-
-/// Standard gravity (m/s²), pointing down in NED.
-pub const GRAVITY_M_S2: f64 = 9.806_65;
 
 /// A multirotor, as `config/vehicles/*.toml` describes it. Defaults are a ~1.5 kg 450-size
 /// quad-X like the thesis's (850 KV motors, 10" propellers, 4S 3300 mAh).

@@ -1,7 +1,6 @@
 //! The simulated stereo camera against geometry worked out by hand.
 
 use std::path::Path;
-use std::time::Instant;
 
 use kestrel_sim::Obstacle;
 use kestrel_sim::World;
@@ -142,29 +141,6 @@ fn rendering_is_deterministic_and_noise_depends_on_the_frame() {
     let b = noisy.render(&scene, &pose.0, &pose.1, 8);
     assert_ne!(a.left, b.left);
     assert_eq!(a.depth, b.depth);
-}
-
-#[test]
-fn a_vga_pair_of_the_obstacle_course_renders_quickly() {
-    let world =
-        World::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/worlds/obstacles.toml"))
-            .unwrap();
-    let scene = Scene::new(&world.obstacles);
-    let cam = camera();
-    let (position, attitude) = (Vector3::new(5.0, 0.0, -2.0), UnitQuaternion::identity());
-    for (what, scene) in [("empty", Scene::new(&[])), ("obstacles", scene.clone())] {
-        let start = Instant::now();
-        std::hint::black_box(cam.render(&scene, &position, &attitude, 0));
-        eprintln!("{what}: {:.1} ms", start.elapsed().as_secs_f64() * 1e3);
-    }
-    let start = Instant::now();
-    let frames = 10;
-    for sequence in 0..frames {
-        std::hint::black_box(cam.render(&scene, &position, &attitude, sequence));
-    }
-    let per_pair_ms = start.elapsed().as_secs_f64() * 1e3 / frames as f64;
-    eprintln!("VGA stereo pair of obstacles.toml: {per_pair_ms:.1} ms");
-    assert!(per_pair_ms < 500.0, "{per_pair_ms} ms per pair");
 }
 
 /// A rig with `exposure_time_s` and `blur_samples`, otherwise the defaults.
@@ -406,11 +382,4 @@ fn blurred_and_gained_renders_are_deterministic() {
     let b = rig.render_moving(&scene, &pose, 4, &mut buffers);
     assert_ne!(a.left, b.left);
     assert_eq!(a.depth, b.depth);
-    let start = Instant::now();
-    let frames = 3;
-    for sequence in 0..frames {
-        std::hint::black_box(rig.render_moving(&scene, &pose, sequence, &mut buffers));
-    }
-    let per_pair_ms = start.elapsed().as_secs_f64() * 1e3 / f64::from(frames as u32);
-    eprintln!("VGA pair of obstacles.toml with 4 blur samples: {per_pair_ms:.1} ms");
 }

@@ -2,7 +2,8 @@
 
 use std::path::{Path, PathBuf};
 
-use kestrel_sim::{ConfigError, FrameLayout, Obstacle, VehicleParams, World, hover_throttle};
+use kestrel_proto::frame_layout::FrameLayout;
+use kestrel_sim::{ConfigError, Obstacle, VehicleParams, World, hover_throttle};
 
 fn config(relative: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config").join(relative)

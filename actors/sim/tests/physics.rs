@@ -2,9 +2,10 @@
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{ActuatorOutputs, MAX_MOTORS};
+use kestrel_proto::units::GRAVITY_M_S2;
 use kestrel_sim::{
-    DragParams, GRAVITY_M_S2, InitialState, Obstacle, RigidBodyState, SimOptions, SimOutput, Simulator,
-    VehicleParams, WindParams, World, hover_throttle,
+    DragParams, InitialState, Obstacle, RigidBodyState, SimOptions, SimOutput, Simulator, VehicleParams,
+    WindParams, World, hover_throttle,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 use proptest::prelude::*;

@@ -106,7 +106,7 @@ fn noise_standard_deviations_match_the_config_over_60_seconds() {
     within_5_percent("gyro noise", std_dev(diffs(|m| m.gyro_rad_s)), sensors.imu.gyro_noise_rad_s);
     within_5_percent("accel noise", std_dev(diffs(|m| m.accel_m_s2)), sensors.imu.accel_noise_m_s2);
     let mean_accel_down = imu.iter().map(|m| m.accel_m_s2[2]).sum::<f64>() / imu.len() as f64;
-    assert!((mean_accel_down + kestrel_sim::GRAVITY_M_S2).abs() < 0.05, "{mean_accel_down}");
+    assert!((mean_accel_down + kestrel_proto::units::GRAVITY_M_S2).abs() < 0.05, "{mean_accel_down}");
 
     let gps: Vec<_> =
         released.iter().filter_map(|(_, o)| if let SimOutput::Gps(m) = o { Some(m) } else { None }).collect();

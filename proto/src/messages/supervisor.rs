@@ -11,8 +11,12 @@ pub enum SupervisorEventKind {
     Failed,
     /// The actor was restarted.
     Restarted,
-    /// The actor failed more often than its restart limit allows; it stays stopped.
+    /// The actor failed more often than its restart limit allows, or in a way restarting
+    /// cannot mend (its parameters), or its policy is `never`; it stays stopped.
     GaveUp,
+    /// The actor ended normally ([`crate::Context::stop`]); restarted only if its policy is
+    /// `permanent`.
+    Stopped,
 }
 
 /// A failure report from the supervisor, published on the runtime's `supervisor` topic so the

@@ -21,6 +21,7 @@ mod modes;
 mod params;
 
 use kestrel_proto::Time;
+use kestrel_proto::attitude::unit_quaternion;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, Command, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState,
@@ -176,15 +177,11 @@ impl Commander {
         self.failsafes.log()
     }
 
-    /// A new navigation state (non-finite ones are ignored: the loop rejects them too).
+    /// A new navigation state (non-finite ones, and attitudes that are no rotation, are
+    /// ignored: the loop rejects them too).
     pub fn on_nav(&mut self, nav: &NavState) {
-        let finite = nav
-            .position_ned_m
-            .iter()
-            .chain(&nav.velocity_ned_m_s)
-            .chain(&nav.attitude)
-            .all(|v| v.is_finite());
-        if !finite {
+        let finite = nav.position_ned_m.iter().chain(&nav.velocity_ned_m_s).all(|v| v.is_finite());
+        if !finite || unit_quaternion(nav.attitude).is_err() {
             return;
         }
         if self.frame.is_none()
@@ -698,9 +695,9 @@ fn descends(target: &SetpointTarget, nav: &NavState) -> bool {
     down_velocity || down_position
 }
 
-fn attitude(nav: &NavState) -> UnitQuaternion<f64> {
-    let [w, x, y, z] = nav.attitude;
-    UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+/// The attitude of a state `on_nav` kept, which is a rotation (identity is never reached).
+pub(crate) fn attitude(nav: &NavState) -> UnitQuaternion<f64> {
+    unit_quaternion(nav.attitude).unwrap_or_else(|_| UnitQuaternion::identity())
 }
 
 fn heading(nav: &NavState) -> f64 {

@@ -9,7 +9,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use super::avoidance::{Blend, Leg, Limits};
 use super::mission_runner::MissionStep;
 use super::{Commander, heading};
-use crate::airframe::GRAVITY_M_S2;
+use kestrel_proto::units::GRAVITY_M_S2;
 
 /// A landing target closer than this is descended onto directly (m); farther, flown to first.
 const LAND_APPROACH_RADIUS_M: f64 = 1.5;

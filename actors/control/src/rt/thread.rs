@@ -17,7 +17,7 @@ use super::loop_stats::LoopStats;
 use super::priority::{RealtimePriority, set_realtime_priority};
 use super::triple_buffer::Reader;
 use crate::flight_controller::FlightController;
-use crate::tuning::Gains;
+use crate::live_params::Gains;
 
 /// What the thread hands out: motor commands every iteration, statistics about once a second.
 /// Called on the real-time thread, so an implementation must not lock or allocate: the actor
@@ -32,7 +32,7 @@ pub trait ThreadOutput: Send + 'static {
 pub struct ThreadInputs {
     pub nav: Reader<Option<NavState>>,
     pub setpoint: Reader<Option<Setpoint>>,
-    /// New gains, already validated by the actor (see [`crate::tuning`]).
+    /// New gains, already validated by the actor (see [`crate::live_params`]).
     pub gains: Reader<Option<Gains>>,
 }
 

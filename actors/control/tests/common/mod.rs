@@ -32,11 +32,7 @@ pub fn airframe_of(vehicle: &VehicleParams) -> kestrel_control::AirframeParams {
         mass_kg: vehicle.mass_kg,
         inertia_frd_kg_m2: vehicle.inertia_frd_kg_m2,
         arm_length_m: vehicle.arm_length_m,
-        frame: match vehicle.frame {
-            kestrel_sim::FrameLayout::QuadX => kestrel_control::Frame::QuadX,
-            kestrel_sim::FrameLayout::HexaX => kestrel_control::Frame::HexaX,
-            kestrel_sim::FrameLayout::OctoX => kestrel_control::Frame::OctoX,
-        },
+        frame: vehicle.frame,
         max_thrust_per_motor_n: m.max_thrust_n(),
         torque_to_thrust_m: m.torque_coefficient_n_m_per_rad2_s2 / m.thrust_coefficient_n_per_rad2_s2,
     }

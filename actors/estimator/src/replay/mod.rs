@@ -13,13 +13,16 @@
 
 mod ulog;
 
+pub use ulog::UlogDamage;
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use kestrel_proto::Time;
-use kestrel_proto::geo::{Geodetic, LocalFrame};
+use kestrel_proto::attitude::{euler_rad, unit_quaternion, wxyz};
+use kestrel_proto::geo::{Geodetic, LocalFrame, deg_from_e7};
 use kestrel_proto::messages::{BaroSample, GpsFix, GpsFixType, ImuSample, MagSample};
-use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::ekf::Ekf;
 use crate::error::ParamError;
@@ -37,6 +40,8 @@ pub enum ReplayError {
         #[source]
         source: std::io::Error,
     },
+    #[error("{path:?} is not a ULog (it does not start with the ULog magic; {bytes} bytes)")]
+    NotUlog { path: PathBuf, bytes: u64 },
     #[error("ULog {path:?} lacks topic `{topic}`{}", field.as_ref().map(|f| format!(" field `{f}`")).unwrap_or_default())]
     Missing { path: PathBuf, topic: String, field: Option<String> },
     #[error("ULog {path:?} has no usable IMU samples")]
@@ -94,6 +99,8 @@ pub struct ReplaySummary {
 pub struct ReplayResult {
     pub rows: Vec<ReplayRow>,
     pub summary: ReplaySummary,
+    /// Where the log broke, when it did before its end: the replay covers what came before.
+    pub log_damage: Option<UlogDamage>,
 }
 
 /// A sensor sample in arrival order.
@@ -144,11 +151,12 @@ pub fn replay_ulog(path: &Path, params: &EkfParams) -> Result<ReplayResult, Repl
         if let Err(e) = result {
             tracing::debug!("replay sample refused: {e}");
         }
-        if let (Event::Imu(_), Some(nav)) = (event, ekf.nav_state()) {
-            let [w, x, y, z] = nav.attitude;
+        if let (Event::Imu(_), Some(nav)) = (event, ekf.nav_state())
+            && let Ok(attitude) = unit_quaternion(nav.attitude)
+        {
             track.push(TrackPoint {
                 time_us: nav.time.as_micros(),
-                attitude: UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
+                attitude,
                 pos_ned_m: Vector3::from(nav.position_ned_m),
                 geodetic: ekf.frame().map(|frame| frame.to_geodetic(nav.position_ned_m)),
                 horizontal_valid: nav.valid.horizontal_position,
@@ -158,7 +166,9 @@ pub fn replay_ulog(path: &Path, params: &EkfParams) -> Result<ReplayResult, Repl
     if track.is_empty() {
         return Err(ReplayError::NeverAligned { path: path.to_owned() });
     }
-    compare(&log, &track)
+    let mut result = compare(&log, &track)?;
+    result.log_damage = log.ended_early().cloned();
+    Ok(result)
 }
 
 fn read_events(log: &Log, path: &Path, params: &EkfParams) -> Result<Vec<(u64, Event)>, ReplayError> {
@@ -242,7 +252,7 @@ fn read_gps(
     let fix = log.column(topic, "fix_type")?;
     let sats = log.column(topic, "satellites_used")?;
     // Older logs carry degrees ×1e7 and millimetres as integers.
-    let lat_scale = if lat_kind == 0 { 1.0 } else { 1e-7 };
+    let degrees = |v: f64| if lat_kind == 0 { v } else { deg_from_e7(v) };
     let alt_scale = if alt_kind == 0 { 1.0 } else { 1e-3 };
     let lag_us = (params.gps_lag_s * 1e6) as u64;
     for i in 0..t.len() {
@@ -258,8 +268,8 @@ fn read_gps(
             time: Time::from_micros(t[i].saturating_sub(lag_us)),
             fix_type,
             satellites: sats[i].clamp(0.0, 255.0) as u8,
-            lat_deg: lat[i] * lat_scale,
-            lon_deg: lon[i] * lat_scale,
+            lat_deg: degrees(lat[i]),
+            lon_deg: degrees(lon[i]),
             alt_msl_m: alt[i] * alt_scale,
             vel_ned_m_s: [vn[i], ve[i], vd[i]],
             h_acc_m: eph[i],
@@ -282,13 +292,8 @@ fn nearest<'a, T>(times: &[u64], items: &'a [T], t: u64, max_gap_us: u64) -> Opt
         .map(|k| &items[k])
 }
 
-fn quat(q: [f64; 4]) -> UnitQuaternion<f64> {
-    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
-}
-
 fn rpy_deg(q: &UnitQuaternion<f64>) -> [f64; 3] {
-    let (r, p, y) = q.euler_angles();
-    [r.to_degrees(), p.to_degrees(), y.to_degrees()]
+    euler_rad(wxyz(q)).map(f64::to_degrees)
 }
 
 fn wrap_deg(a: f64) -> f64 {
@@ -336,7 +341,8 @@ fn compare(log: &Log, track: &[TrackPoint]) -> Result<ReplayResult, ReplayError>
     let mut height_offset: Option<f64> = None;
     for (&t, &q) in att_t.iter().zip(&att_q) {
         let Some(ours) = nearest(&track_t, track, t, 10_000) else { continue };
-        let px4_q = quat(q);
+        // EKF2 logs a zero quaternion before it has aligned: no comparison there.
+        let Ok(px4_q) = unit_quaternion(q) else { continue };
         let px4_local = local.as_ref().and_then(|(lt, lrows)| nearest(lt, lrows, t, 100_000));
         let (ours_ne, horizontal_valid) = match (px4_local, ours.geodetic) {
             (Some((_, true, _, Some(frame))), Some(g)) if ours.horizontal_valid => {
@@ -353,7 +359,10 @@ fn compare(log: &Log, track: &[TrackPoint]) -> Result<ReplayResult, ReplayError>
             _ => height_offset.unwrap_or(0.0),
         };
         let ours_ned_m = [ours_ne[0], ours_ne[1], down + offset];
-        let truth_q = truth.as_ref().and_then(|(tt, tq)| nearest(tt, tq, t, 20_000)).map(|q| quat(*q));
+        let truth_q = truth
+            .as_ref()
+            .and_then(|(tt, tq)| nearest(tt, tq, t, 20_000))
+            .and_then(|q| unit_quaternion(*q).ok());
         rows.push(ReplayRow {
             time_s: t as f64 * 1e-6,
             ours_rpy_deg: rpy_deg(&ours.attitude),
@@ -366,7 +375,7 @@ fn compare(log: &Log, track: &[TrackPoint]) -> Result<ReplayResult, ReplayError>
         });
     }
     let summary = summarise(&rows, track[0].time_us as f64 * 1e-6);
-    Ok(ReplayResult { rows, summary })
+    Ok(ReplayResult { rows, summary, log_damage: None })
 }
 
 fn rms(values: impl Iterator<Item = f64>) -> Option<f64> {

@@ -1,9 +1,14 @@
 //! Reading a PX4 ULog into columns (through the `px4-ulog` crate) and parameters.
+//!
+//! A log cut short or corrupted is read up to where it breaks (px4-ulog keeps the valid
+//! prefix); [`Log::ended_early`] says so and where, from a walk over the messages' lengths
+//! (ULog file format: a 16-byte header, then messages of a `u16` size, a `u8` type and the
+//! payload).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use px4_ulog::full_parser::{MultiId, SomeVec, read_file};
+use px4_ulog::full_parser::{Completeness, MultiId, SomeVec, read_file};
 use px4_ulog::stream_parser::{
     Message, ParameterMessage, SimpleCallbackResult, read_file_with_simple_callback,
 };
@@ -15,14 +20,60 @@ pub struct Log {
     path: PathBuf,
     topics: HashMap<String, HashMap<String, SomeVec>>,
     params: HashMap<String, f64>,
+    ended_early: Option<UlogDamage>,
 }
+
+/// Where a ULog stops being readable.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UlogDamage {
+    /// End of the last whole message (byte offset): the file is intact up to here.
+    pub intact_bytes: u64,
+    /// The file's size (bytes).
+    pub file_bytes: u64,
+    /// What the parser found: the file ends inside a message, or a message does not parse.
+    pub reason: String,
+}
+
+impl std::fmt::Display for UlogDamage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the ULog ends early ({}): whole messages end at byte {} of {} ({} bytes not read)",
+            self.reason,
+            self.intact_bytes,
+            self.file_bytes,
+            self.file_bytes.saturating_sub(self.intact_bytes)
+        )
+    }
+}
+
+/// `ULog` then 0x01 0x12 0x35: the first bytes of every ULog file.
+const MAGIC: [u8; 7] = [b'U', b'L', b'o', b'g', 0x01, 0x12, 0x35];
+/// The magic, a version byte and the start timestamp (µs).
+const HEADER_BYTES: usize = 16;
+/// A message's size (`u16`) and type (`u8`).
+const MESSAGE_HEADER_BYTES: usize = 3;
 
 impl Log {
     /// Reads the whole log.
     pub fn read(path: &Path) -> Result<Log, ReplayError> {
         let name = path.to_str().ok_or_else(|| ReplayError::Path { path: path.to_owned() })?;
         let io = |source| ReplayError::Read { path: path.to_owned(), source };
+        let bytes = std::fs::read(path).map_err(io)?;
+        if bytes.len() < HEADER_BYTES || !bytes.starts_with(&MAGIC) {
+            return Err(ReplayError::NotUlog { path: path.to_owned(), bytes: bytes.len() as u64 });
+        }
         let parsed = read_file(name).map_err(io)?;
+        let ended_early = match &parsed.completeness {
+            Completeness::Complete => None,
+            Completeness::Truncated => Some("it is cut short inside a message".to_owned()),
+            Completeness::MalformedRecord(why) => Some(format!("a message does not parse: {why}")),
+        }
+        .map(|reason| UlogDamage {
+            intact_bytes: whole_messages_end(&bytes) as u64,
+            file_bytes: bytes.len() as u64,
+            reason,
+        });
         let topics = parsed
             .messages
             .into_iter()
@@ -41,7 +92,12 @@ impl Log {
             SimpleCallbackResult::KeepReading
         })
         .map_err(io)?;
-        Ok(Log { path: path.to_owned(), topics, params })
+        Ok(Log { path: path.to_owned(), topics, params, ended_early })
+    }
+
+    /// Where the log breaks, when it does before its end.
+    pub fn ended_early(&self) -> Option<&UlogDamage> {
+        self.ended_early.as_ref()
     }
 
     /// Whether the log has `topic`.
@@ -108,6 +164,20 @@ impl Log {
             field: field.map(str::to_owned),
         }
     }
+}
+
+/// The end of the last whole message (byte offset), walking the messages' sizes from the
+/// header.
+fn whole_messages_end(bytes: &[u8]) -> usize {
+    let mut at = HEADER_BYTES;
+    while let Some(header) = bytes.get(at..at + MESSAGE_HEADER_BYTES) {
+        let end = at + MESSAGE_HEADER_BYTES + usize::from(u16::from_le_bytes([header[0], header[1]]));
+        if end > bytes.len() {
+            break;
+        }
+        at = end;
+    }
+    at.min(bytes.len())
 }
 
 fn to_f64(values: &SomeVec) -> Vec<f64> {

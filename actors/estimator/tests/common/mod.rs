@@ -4,13 +4,12 @@
 
 use kestrel_estimator::{Ekf, EkfParams, InputError};
 use kestrel_proto::Time;
+use kestrel_proto::frame_layout::FrameLayout;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{ActuatorOutputs, GpsFix, GroundTruth, MagSample, NavState};
+use kestrel_proto::units::GRAVITY_M_S2;
 use kestrel_sim::sensors::SensorParams;
-use kestrel_sim::{
-    FrameLayout, GRAVITY_M_S2, RigidBodyState, SimOptions, SimOutput, Simulator, VehicleParams, WindParams,
-    World,
-};
+use kestrel_sim::{RigidBodyState, SimOptions, SimOutput, Simulator, VehicleParams, WindParams, World};
 use nalgebra::{Matrix3, Matrix4, UnitQuaternion, Vector3, Vector4};
 
 /// Seconds the vehicle sits still on the ground before take-off (alignment).
@@ -327,8 +326,7 @@ fn delayed_nees(
     let frame = ekf.frame()?;
     let truth = truths.get(&state.time.as_micros())?;
     let p = ekf.covariance()?;
-    let [w, x, y, z] = truth.attitude;
-    let q_true = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+    let q_true = kestrel_proto::attitude::unit_quaternion(truth.attitude).ok()?;
     let truth_pos = Vector3::from(frame.to_ned(home.to_geodetic(truth.position_ned_m)));
     let mut e = nalgebra::SVector::<f64, 9>::zeros();
     e.fixed_rows_mut::<3>(0).copy_from(&(q_true * state.attitude.inverse()).scaled_axis());
@@ -367,9 +365,8 @@ fn rotated(m: &MagSample) -> MagSample {
 
 /// Roll, pitch, yaw errors (rad) of `est` against `truth`, both `[w, x, y, z]` body→NED.
 pub fn euler_errors(est: &[f64; 4], truth: &[f64; 4]) -> [f64; 3] {
-    let q = |a: &[f64; 4]| UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(a[0], a[1], a[2], a[3]));
-    let (re, pe, ye) = q(est).euler_angles();
-    let (rt, pt, yt) = q(truth).euler_angles();
+    let [re, pe, ye] = kestrel_proto::attitude::euler_rad(*est);
+    let [rt, pt, yt] = kestrel_proto::attitude::euler_rad(*truth);
     let d = kestrel_proto::attitude::angle_difference_rad;
     [d(re, rt), d(pe, pt), d(ye, yt)]
 }

@@ -14,6 +14,7 @@
 use std::time::Duration;
 
 use kestrel_proto::Time;
+use kestrel_proto::geo::deg_from_e7;
 use kestrel_proto::messages::{AltitudeFrame, Command, FlightMode, LandedState, MissionPoint, VehicleStatus};
 use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavCmd, MavFrame, MavMessage, MavResult};
 
@@ -226,15 +227,16 @@ fn home_target(request: &CommandRequest) -> Result<Option<MissionPoint>, MavResu
         Some(false) => {}
         None => return Err(MavResult::MAV_RESULT_DENIED),
     }
-    let (frame, deg) = match request.frame {
-        None => (AltitudeFrame::Amsl, 1.0),
-        Some(MavFrame::MAV_FRAME_GLOBAL | MavFrame::MAV_FRAME_GLOBAL_INT) => (AltitudeFrame::Amsl, 1e-7),
+    let (frame, in_deg_e7) = match request.frame {
+        None => (AltitudeFrame::Amsl, false),
+        Some(MavFrame::MAV_FRAME_GLOBAL | MavFrame::MAV_FRAME_GLOBAL_INT) => (AltitudeFrame::Amsl, true),
         Some(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT | MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT) => {
-            (AltitudeFrame::RelativeHome, 1e-7)
+            (AltitudeFrame::RelativeHome, true)
         }
         Some(_) => return Err(MavResult::MAV_RESULT_DENIED),
     };
-    let (lat_deg, lon_deg, alt_m) = (p[4] * deg, p[5] * deg, p[6]);
+    let deg = |v: f64| if in_deg_e7 { deg_from_e7(v) } else { v };
+    let (lat_deg, lon_deg, alt_m) = (deg(p[4]), deg(p[5]), p[6]);
     if lat_deg == 0.0 && lon_deg == 0.0 {
         return Ok(None);
     }

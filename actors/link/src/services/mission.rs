@@ -15,6 +15,7 @@
 use std::time::Duration;
 
 use kestrel_proto::Time;
+use kestrel_proto::geo::{deg_e7, deg_from_e7};
 use kestrel_proto::messages::{
     AltitudeFrame, Command, MAX_MISSION_ITEMS, Mission, MissionItem, MissionPoint,
 };
@@ -154,7 +155,7 @@ impl MissionService {
     /// MISSION_ITEM (legacy float form): converted and handled as MISSION_ITEM_INT.
     pub fn on_item_float(&mut self, from: Sender, m: &MISSION_ITEM_DATA, now: Time) -> Outputs {
         let global = is_global(m.frame);
-        let scale = |v: f32| if global { (f64::from(v) * 1e7).round() as i32 } else { v as i32 };
+        let scale = |v: f32| if global { deg_e7(f64::from(v)) } else { v as i32 };
         let item = MISSION_ITEM_INT_DATA {
             param1: m.param1,
             param2: m.param2,
@@ -315,7 +316,7 @@ fn int_frame(f: MavFrame) -> MavFrame {
 
 fn to_float(m: &MISSION_ITEM_INT_DATA) -> MISSION_ITEM_DATA {
     let global = is_global(m.frame);
-    let unscale = |v: i32| if global { (f64::from(v) * 1e-7) as f32 } else { v as f32 };
+    let unscale = |v: i32| if global { deg_from_e7(f64::from(v)) as f32 } else { v as f32 };
     MISSION_ITEM_DATA {
         param1: m.param1,
         param2: m.param2,
@@ -343,7 +344,7 @@ fn point(m: &MISSION_ITEM_INT_DATA) -> Result<MissionPoint, MavMissionResult> {
         }
         _ => return Err(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME),
     };
-    let (lat_deg, lon_deg) = (f64::from(m.x) * 1e-7, f64::from(m.y) * 1e-7);
+    let (lat_deg, lon_deg) = (deg_from_e7(f64::from(m.x)), deg_from_e7(f64::from(m.y)));
     if lat_deg.abs() > 90.0 {
         return Err(MavMissionResult::MAV_MISSION_INVALID_PARAM5_X);
     }

@@ -6,7 +6,7 @@
 )]
 
 use kestrel_proto::Time;
-use kestrel_proto::geo::{Geodetic, LocalFrame};
+use kestrel_proto::geo::{Geodetic, LocalFrame, deg_from_e7};
 use kestrel_proto::messages::{Command, ManualControl};
 use mavlink::dialects::ardupilotmega::{
     MANUAL_CONTROL_DATA, MavFrame, MavMessage, POSITION_TARGET_GLOBAL_INT_DATA,
@@ -102,8 +102,8 @@ pub fn global_target(
         return None;
     };
     if !m.type_mask.intersects(POSITION_IGNORED) {
-        let lat_deg = f64::from(m.lat_int) * 1e-7;
-        let lon_deg = f64::from(m.lon_int) * 1e-7;
+        let lat_deg = deg_from_e7(f64::from(m.lat_int));
+        let lon_deg = deg_from_e7(f64::from(m.lon_int));
         let alt = f64::from(m.alt);
         if !(alt.is_finite() && lat_deg.abs() <= 90.0 && lon_deg.abs() <= 180.0) {
             rejects.invalid += 1;

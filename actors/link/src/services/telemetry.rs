@@ -10,7 +10,7 @@ use kestrel_proto::attitude::euler_rad;
 use std::time::Duration;
 
 use kestrel_proto::Time;
-use kestrel_proto::geo::{Geodetic, LocalFrame};
+use kestrel_proto::geo::{Geodetic, LocalFrame, deg_e7};
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, DepthGrid, GpsFix, GpsFixType, LandedState, NavState, OBSTACLE_SECTORS,
     VehicleStatus,
@@ -382,10 +382,6 @@ impl Telemetry {
             ..Default::default()
         }
     }
-}
-
-fn deg_e7(deg: f64) -> i32 {
-    (deg * 1e7).round() as i32
 }
 
 fn heading_cdeg(q: [f64; 4]) -> u16 {

@@ -212,7 +212,7 @@ fn read_register(bus: &mut impl SpiBus, register: u8) -> Result<u8, BusError> {
 mod tests {
     use super::*;
     use crate::mpu9250::fake::FakeMpu9250;
-    use crate::mpu9250::scale::STANDARD_GRAVITY_M_S2;
+    use kestrel_proto::units::GRAVITY_M_S2;
 
     #[test]
     fn configures_ranges_filter_and_magnetometer() {
@@ -223,7 +223,7 @@ mod tests {
         let mut imu = Mpu9250::new(fake, Mpu9250Config::default(), &mut |_| {}).expect("init");
         assert_eq!(imu.mag_adjustment(), Some([1.1875, 1.0, 0.5]));
         let r = imu.read(Time::from_micros(5)).expect("read");
-        assert!((r.accel_frd_m_s2[2] + STANDARD_GRAVITY_M_S2).abs() < 1e-12);
+        assert!((r.accel_frd_m_s2[2] + GRAVITY_M_S2).abs() < 1e-12);
         assert!((r.gyro_frd_rad_s[0] - 10f64.to_radians()).abs() < 1e-12);
         // 200 LSB × 1.1875 × 0.0015 G on mag X = accel Y = body left.
         let mag = r.mag_frd_gauss.expect("mag");

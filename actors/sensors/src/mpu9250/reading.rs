@@ -88,7 +88,7 @@ impl ImuReading {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mpu9250::scale::STANDARD_GRAVITY_M_S2;
+    use kestrel_proto::units::GRAVITY_M_S2;
 
     #[test]
     fn level_and_still_with_a_clipped_roll_rate() {
@@ -106,7 +106,7 @@ mod tests {
             &AxisMap::default(),
             [1.0; 3],
         );
-        assert_eq!(r.accel_frd_m_s2, [0.0, -0.0, -STANDARD_GRAVITY_M_S2]);
+        assert_eq!(r.accel_frd_m_s2, [0.0, -0.0, -GRAVITY_M_S2]);
         assert_eq!(r.gyro_clipped, [true, false, false]);
         assert_eq!(r.accel_clipped, [false; 3]);
         assert!((r.gyro_frd_rad_s[0] - (32_767.0 / 16.4f64).to_radians()).abs() < 1e-12);

@@ -2,8 +2,8 @@
 //! specification PS-MPU-9250A-01 §3.1 "Gyroscope specifications", §3.2 "Accelerometer
 //! specifications", register map §4.5–4.8 and §4.23 for temperature).
 
-/// Standard gravity (m/s²).
-pub const STANDARD_GRAVITY_M_S2: f64 = 9.806_65;
+use kestrel_proto::units::GRAVITY_M_S2;
+
 /// Temperature sensitivity (LSB/°C), with 0 LSB at 21 °C (PS §3.4.2; RM §4.22).
 pub const TEMP_SENSITIVITY_LSB_C: f64 = 333.87;
 /// Temperature at a raw reading of 0 (°C).
@@ -64,7 +64,7 @@ impl AccelRange {
 
     /// Specific force of a raw count (m/s²).
     pub fn m_s2(self, raw: i16) -> f64 {
-        f64::from(raw) / self.lsb_per_g() * STANDARD_GRAVITY_M_S2
+        f64::from(raw) / self.lsb_per_g() * GRAVITY_M_S2
     }
 }
 
@@ -110,7 +110,7 @@ mod tests {
         assert_eq!(AccelRange::G16.lsb_per_g(), 2048.0);
         assert_eq!(AccelRange::G2.lsb_per_g(), 16_384.0);
         assert!((GyroRange::Dps2000.rad_s(164) - 10f64.to_radians()).abs() < 1e-12);
-        assert!((AccelRange::G16.m_s2(2048) - STANDARD_GRAVITY_M_S2).abs() < 1e-12);
+        assert!((AccelRange::G16.m_s2(2048) - GRAVITY_M_S2).abs() < 1e-12);
         // Full scale: 32767 / 16.4 ≈ 1998 °/s, 32767 / 2048 ≈ 16 g.
         assert!((GyroRange::Dps2000.rad_s(i16::MAX).to_degrees() - 1998.0).abs() < 0.1);
         assert_eq!(Dlpf::Hz92.register(), 2);

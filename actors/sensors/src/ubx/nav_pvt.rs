@@ -2,6 +2,7 @@
 //! (0x01 0x07)"), decoded into SI units and mapped onto [`GpsFix`].
 
 use kestrel_proto::Time;
+use kestrel_proto::geo::deg_from_e7;
 use kestrel_proto::messages::{GpsFix, GpsFixType};
 
 use crate::ubx::frame::UbxFrame;
@@ -98,8 +99,8 @@ impl NavPvt {
             diff_soln: p[21] & 0x02 != 0,
             carr_soln: (p[21] >> 6) & 0b11,
             num_sv: p[23],
-            lon_deg: f64::from(i32_at(p, 24)) / 1e7,
-            lat_deg: f64::from(i32_at(p, 28)) / 1e7,
+            lon_deg: deg_from_e7(f64::from(i32_at(p, 24))),
+            lat_deg: deg_from_e7(f64::from(i32_at(p, 28))),
             height_ellipsoid_m: mm(32),
             height_msl_m: mm(36),
             h_acc_m: umm(40),

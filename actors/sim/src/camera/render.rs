@@ -11,8 +11,9 @@
 //! * Gaussian pixel noise, added with the gain and before quantisation.
 
 use kestrel_proto::Time;
+use kestrel_proto::attitude::unit_quaternion;
 use kestrel_proto::messages::{FrameSizeError, GroundTruth, StereoFrame};
-use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal, StandardNormal};
 use rand_pcg::Pcg64;
@@ -75,10 +76,10 @@ pub struct CapturePose {
 impl From<&GroundTruth> for CapturePose {
     /// The simulator's true state as a capture pose.
     fn from(truth: &GroundTruth) -> CapturePose {
-        let [w, x, y, z] = truth.attitude;
         CapturePose {
             position_ned_m: Vector3::from(truth.position_ned_m),
-            attitude: UnitQuaternion::from_quaternion(Quaternion::new(w, x, y, z)),
+            // The simulator's own attitude is a rotation by construction.
+            attitude: unit_quaternion(truth.attitude).unwrap_or_else(|_| UnitQuaternion::identity()),
             velocity_ned_m_s: Vector3::from(truth.velocity_ned_m_s),
             angular_velocity_frd_rad_s: Vector3::from(truth.angular_velocity_rad_s),
         }

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{InvalidParam, finite, non_negative, positive};
 use crate::rigid_body::RigidBodyState;
 use crate::sensors::noise::{RandomWalk, standard_normal3};
-use crate::vehicle::GRAVITY_M_S2;
+use kestrel_proto::units::GRAVITY_M_S2;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]

@@ -2,7 +2,8 @@
 //!
 //! Motor order and spin follow ArduPilot's (and, for quad-X, PX4's) numbering, so a mixer
 //! written against either reads the same: quad-X is 1 front-right CCW, 2 rear-left CCW,
-//! 3 front-left CW, 4 rear-right CW. The controller's mixer must use this same order.
+//! 3 front-left CW, 4 rear-right CW. The simulator's motors and the controller's mixer both
+//! read this one table, so they cannot disagree on where motor 3 is.
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};

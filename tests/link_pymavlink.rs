@@ -104,7 +104,7 @@ impl Actor for StandInCommander {
 }
 
 fn repo_root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
 const GRAPH: &str = r#"

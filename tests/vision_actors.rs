@@ -33,7 +33,7 @@ impl Actor for FaultyStereo {
 }
 
 fn graph(stereo_type: &str) -> String {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/middlebury2003_cones");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("actors/vision/tests/data/middlebury2003_cones");
     format!(
         r#"
 [actors.camera]

@@ -3,6 +3,7 @@
 //! `AvoidanceCommand`. The script: a clear view, an obstacle ahead and to the left, a wall
 //! filling the view, the camera stalling, a clear view again.
 
+#[path = "../actors/avoider/tests/scenes/mod.rs"]
 mod scenes;
 
 use std::path::Path;
