@@ -8,8 +8,8 @@ Usage:
     .venv/bin/python scripts/mavlink_sweep.py --check-run --report FILE.json --record FILE.mcap
         [--log KESTREL.log]
 
-The first form is the sweep. `--target` is the vehicle's UDP server (default
-udp:127.0.0.1:14540, the `udp_in` endpoint of the default graph); only 127.0.0.1 is ever a target.
+The first form is the sweep. `--target` is a vehicle port that answers whoever talks to it
+(default udp:127.0.0.1:14580, the API port of the default graph); only 127.0.0.1 is ever a target.
 Two sockets of our own talk to it, each a peer (a link) of its own: the fuzzer, which sends
 `--frames` datagrams at most `--rate` per second (default 2500/s, some ten times what a busy
 ground station sends: a flood, yet one the vehicle's 1 Hz heartbeat and telemetry can get
@@ -856,7 +856,7 @@ def main():
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--frames", type=int, default=100_000, help="datagrams to send")
     p.add_argument("--seed", type=int, default=14)
-    p.add_argument("--target", default="udp:127.0.0.1:14540")
+    p.add_argument("--target", default="udp:127.0.0.1:14580")
     p.add_argument("--rate", type=float, default=2500.0, help="datagrams per second, at most")
     p.add_argument("--time-limit", type=float, help="seconds of sending, at most")
     p.add_argument("--system-id", type=int, default=1, help="the vehicle's MAVLink system id")

@@ -11,8 +11,8 @@ use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_link::LinkActor;
 use kestrel_proto::geo::Geodetic;
 use kestrel_proto::messages::{
-    Command, FlightMode, Home, LandedState, MissionProgress, NavState, NavValidity, VehicleCommand,
-    VehicleStatus,
+    Command, CommandResult, FlightMode, Home, LandedState, MissionProgress, NavState, NavValidity,
+    VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
@@ -24,6 +24,7 @@ struct NoParams {}
 struct StandInCommander {
     status: VehicleStatus,
     status_out: Publisher<VehicleStatus>,
+    result_out: Publisher<CommandResult>,
     nav_out: Publisher<NavState>,
 }
 
@@ -48,10 +49,13 @@ impl Actor for StandInCommander {
                 failsafe: None,
                 mission: MissionProgress::default(),
                 last_refusal: None,
+                refusals: 0,
+                armable: false,
                 home: None,
                 geofence_enabled: true,
             },
             status_out: setup.output("vehicle_status"),
+            result_out: setup.output("command_result"),
             nav_out: setup.output("nav_state"),
         })
     }
@@ -77,7 +81,15 @@ impl Actor for StandInCommander {
                             .map_or([0.0; 2], |p| [(p.lat_deg - 6.79710) * 110_574.0, -(p.alt_m - 20.0)]);
                         self.status.home = Some(Home { position_ned_m: [north_m, 0.0, down_m], revision });
                     }
-                    _ => return Ok(()),
+                    _ => {}
+                }
+                if c.id != 0 {
+                    self.result_out.publish(CommandResult {
+                        time: now,
+                        id: c.id,
+                        command: c.command,
+                        refusal: None,
+                    });
                 }
                 self.status.time = now;
                 self.status_out.publish(self.status.clone());
@@ -116,6 +128,8 @@ status_period_s = 0.0
 type = "link"
 params = { system_id = 1, gcs_timeout_s = 2.0, param_file = "params.txt", endpoints = [ { type = "udp_out", address = "127.0.0.1:PORT" } ], params = [ { name = "RTL_ALT_M", value = 30.0, min = 5.0, max = 120.0, unit = "m" }, { name = "FS_GCS_ENABLE", value = 1, min = 0, max = 1, kind = "int32" }, { name = "WPNAV_SPEED_MS", value = 5.0, min = 0.5, max = 15.0, unit = "m/s" } ] }
 inputs.vehicle_status = { topic = "vehicle_status", mailbox = "queue(16)" }
+# The commander's answer to each command, which becomes its COMMAND_ACK.
+inputs.command_result = { topic = "command_result", mailbox = "queue(16)" }
 inputs.nav_state = { topic = "nav_state", mailbox = "latest" }
 
 [actors.commander]

@@ -11,6 +11,9 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     let config_path = locate_config(&args.config)?;
     let mut config = LoadedConfig::load(&config_path).map_err(|e| e.to_string())?;
     apply_flight_flags(&mut config, &args)?;
+    if let Some(n) = args.instance {
+        apply_instance(&mut config, n)?;
+    }
     let duration = args
         .duration
         .map(kestrel::config::check_duration_s)
@@ -80,6 +83,24 @@ fn apply_flight_flags(config: &mut LoadedConfig, args: &RunArgs) -> Result<(), S
     }
     if args.exit_on_land {
         params.insert("exit_on_land".into(), toml::Value::Boolean(true));
+    }
+    Ok(())
+}
+
+/// Hands `--instance N` to the graph's links (system id, ports) and simulators (spawn point,
+/// noise seed) as their `instance` parameter; each actor says what it means for it.
+fn apply_instance(config: &mut LoadedConfig, n: u8) -> Result<(), String> {
+    let mut applied = 0;
+    for decl in config.graph.actors.values_mut() {
+        if matches!(decl.kind.get_ref().as_str(), "link" | "sim") {
+            let params =
+                decl.params.get_or_insert_with(|| toml::Spanned::new(0..0, toml::Table::new())).get_mut();
+            params.insert("instance".into(), toml::Value::Integer(i64::from(n)));
+            applied += 1;
+        }
+    }
+    if applied == 0 {
+        return Err(format!("--instance needs a link or sim actor in {}", config.source.path.display()));
     }
     Ok(())
 }

@@ -19,9 +19,10 @@ WRONG_KEY = bytes(b ^ 0xFF for b in KEY)
 
 
 def refused(gcs, label):
-    """GUIDED and ARM sent now must go unanswered, and the vehicle must stay disarmed."""
-    gcs.log(f"-> SET_MODE GUIDED and COMMAND_LONG ARM, {label}")
-    gcs.conn.mav.set_mode_send(VEHICLE[0], mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"])
+    """LOITER and ARM sent now must go unanswered, and the vehicle must stay disarmed in the mode
+    it booted in (GUIDED: no radio)."""
+    gcs.log(f"-> SET_MODE LOITER and COMMAND_LONG ARM, {label}")
+    gcs.conn.mav.set_mode_send(VEHICLE[0], mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["LOITER"])
     gcs.conn.mav.command_long_send(*VEHICLE, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
     try:
         ack = gcs.pump(lambda m: m.get_type() == "COMMAND_ACK", 1.5, "no ack")
@@ -43,7 +44,7 @@ def signing(gcs):
     refused(gcs, "unsigned")
     gcs.conn.setup_signing(WRONG_KEY, sign_outgoing=True)
     refused(gcs, "signed with a wrong key")
-    if gcs.armed or gcs.mode != "STABILIZE":
+    if gcs.armed or gcs.mode != "GUIDED":
         raise Failed("refused", f"the vehicle obeyed: armed={gcs.armed} mode={gcs.mode}")
 
     gcs.conn.setup_signing(KEY, sign_outgoing=True)

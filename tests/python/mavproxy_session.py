@@ -131,6 +131,12 @@ def session(mp, results):
         raise Failed("param set", f"the vehicle reads back RTL_ALT_M = {after} after setting 21")
     results["params"] = {"count": count, "RTL_ALT_M": [before, after]}
 
+    # With no radio the vehicle boots in GUIDED; MAVProxy prints a mode only when it changes.
+    if mode != "GUIDED":
+        raise Failed("mode shown", f"booted in {mode}, not GUIDED")
+    mp.type("mode LOITER")
+    mp.expect(r"^Got COMMAND_ACK: DO_SET_MODE: ACCEPTED", 5.0, "mode LOITER acked")
+    mp.expect(r"^Mode LOITER", 5.0, "mode LOITER shown")
     mp.type("mode GUIDED")
     mp.expect(r"^Got COMMAND_ACK: DO_SET_MODE: ACCEPTED", 5.0, "mode GUIDED acked")
     mp.expect(r"^Mode GUIDED", 5.0, "mode GUIDED shown")
@@ -145,7 +151,7 @@ def session(mp, results):
     mp.expect(r"^Got COMMAND_ACK: DO_SET_MODE: ACCEPTED", 5.0, "mode RTL acked")
     mp.expect(r"^Mode RTL", 5.0, "mode RTL shown")
     mp.expect(r"^DISARMED", 40.0, "landed and disarmed")
-    results["flight"] = {"modes": ["GUIDED", "TAKEOFF", "RTL"], "climbed_m": climbed, "disarmed": True}
+    results["flight"] = {"modes": ["LOITER", "GUIDED", "TAKEOFF", "RTL"], "climbed_m": climbed, "disarmed": True}
 
 
 def wait_altitude(mp, alt_m, timeout_s, step):

@@ -7,7 +7,8 @@
 //! on AUTO/GUIDED legs and POSHOLD's forward sticks blend its correction in and hold when it
 //! goes stale); timer `tick` at `tick_rate_hz`;
 //! input `param_set` (ParamSet, `queue`); outputs `setpoint` (Setpoint), `status`
-//! (VehicleStatus) and `param_decl` (ParamDecl: the live parameters, at start and after every
+//! (VehicleStatus), `command_result` (CommandResult: the answer to each command with an id, at
+//! once) and `param_decl` (ParamDecl: the live parameters, at start and after every
 //! `param_set` naming one of them, so the link serves the value really in use).
 //!
 //! The state machine runs on every NavState (so a flip's setpoints follow the vehicle at the
@@ -19,8 +20,8 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, Command, FlightMode, LandedState, ManualControl, Mission, NavState,
-    ParamDecl, ParamSet, Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, Command, CommandResult, FlightMode, LandedState, ManualControl, Mission,
+    NavState, ParamDecl, ParamSet, Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -82,6 +83,7 @@ pub struct CommanderActor {
     commander: Commander,
     setpoint: Publisher<Setpoint>,
     status: Publisher<VehicleStatus>,
+    command_result: Publisher<CommandResult>,
     param_decl: Publisher<ParamDecl>,
     /// Our name in the config: the owner named in `param_decl`.
     name: String,
@@ -129,6 +131,7 @@ impl Actor for CommanderActor {
             commander,
             setpoint: setup.output("setpoint"),
             status: setup.output("status"),
+            command_result: setup.output("command_result"),
             param_decl: setup.output("param_decl"),
             name: setup.name().to_owned(),
             auto: params.auto,
@@ -171,8 +174,16 @@ impl Actor for CommanderActor {
                 }
             }
             CommanderInput::Command(cmd) => {
-                // A refusal is reported in the status; it is not an actor failure.
-                let _ = self.commander.on_command(&cmd);
+                // A refusal is answered and shown in the status; it is not an actor failure.
+                let result = self.commander.on_command(&cmd);
+                if cmd.id != 0 {
+                    self.command_result.publish(CommandResult {
+                        time: ctx.now(),
+                        id: cmd.id,
+                        command: cmd.command,
+                        refusal: result.err().map(|r| r.0),
+                    });
+                }
                 self.step(ctx, ctx.now());
             }
             CommanderInput::Mission(mission) => {
@@ -221,7 +232,7 @@ impl CommanderActor {
             return;
         }
         self.last_auto_try = Some(now);
-        let command = |command| VehicleCommand { time: now, command };
+        let command = |command| VehicleCommand { id: 0, time: now, command };
         let result = self
             .commander
             .on_command(&command(Command::SetMode(FlightMode::Auto)))

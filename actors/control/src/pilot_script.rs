@@ -140,7 +140,7 @@ impl Actor for PilotScriptActor {
             s.throttle = step.throttle.unwrap_or(s.throttle);
             if let Some(command) = step.command {
                 tracing::info!(at_s = step.at_s, ?command, "pilot script");
-                self.command.publish(VehicleCommand { time: now, command });
+                self.command.publish(VehicleCommand { id: 0, time: now, command });
             }
             self.next += 1;
         }
@@ -226,7 +226,7 @@ mod tests {
         let commands: Vec<VehicleCommand> = setup.published("command");
         assert_eq!(
             commands,
-            vec![VehicleCommand { time: at(200), command: Command::SetMode(FlightMode::PosHold) }]
+            vec![VehicleCommand { id: 0, time: at(200), command: Command::SetMode(FlightMode::PosHold) }]
         );
     }
 }

@@ -135,9 +135,9 @@ fn refused_transitions_say_why() {
     assert!(why(f.command(Command::SetMode(FlightMode::Acro))).contains("manual"));
     assert!(why(f.command(Command::Flip)).contains("ACRO"));
     assert!(why(f.command(Command::Takeoff { altitude_m: 5.0 })).contains("not armed"));
-    assert!(why(f.command(Command::GotoNed { position_ned_m: [0.0; 3] })).contains("GUIDED"));
     f.commander.on_manual(&ManualControl { time: f.now(), throttle: 0.6, ..ManualControl::default() });
     f.command(Command::SetMode(FlightMode::Stabilize)).expect("stabilize");
+    assert!(why(f.command(Command::GotoNed { position_ned_m: [0.0; 3] })).contains("GUIDED"));
     assert!(why(f.command(Command::Arm)).contains("throttle"));
     let empty = Mission { time: Time::ZERO, items: vec![], cruise_speed_m_s: 5.0 };
     assert!(f.commander.on_mission(empty).is_err());

@@ -7,8 +7,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, DepthGrid, GpsFix, ManualControl, Mission, NavState, ParamDecl,
-    ParamSet, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CommandResult, DepthGrid, GpsFix, ManualControl, Mission, NavState,
+    ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -30,6 +30,8 @@ pub enum LinkInput {
     Gps(GpsFix),
     Battery(BatteryStatus),
     Status(VehicleStatus),
+    /// The commander's answer to a command (port `command_result`): its COMMAND_ACK.
+    CommandResult(CommandResult),
     Depth(DepthGrid),
     /// The obstacle avoider's newest correction (port `avoidance`), sent as DEBUG_VECT.
     Avoidance(AvoidanceCommand),
@@ -53,7 +55,12 @@ impl LinkOutputs {
     pub fn publish(&self, out: Vec<ToGraph>, now: Time) {
         for o in out {
             match o {
-                ToGraph::Command(command) => self.command.publish(VehicleCommand { time: now, command }),
+                ToGraph::Command(command) => {
+                    self.command.publish(VehicleCommand { id: 0, time: now, command })
+                }
+                ToGraph::Request { id, command } => {
+                    self.command.publish(VehicleCommand { id, time: now, command })
+                }
                 ToGraph::Mission(m) => self.mission.publish(m),
                 ToGraph::Manual(m) => self.manual.publish(m),
                 ToGraph::Param(p) => self.param.publish(p),
@@ -117,6 +124,7 @@ impl Actor for LinkActor {
     type Input = LinkInput;
 
     fn build(params: &LinkParams, setup: &mut impl Setup<LinkInput>) -> Result<Self, ActorError> {
+        let params = &params.for_instance().map_err(ActorError::Params)?;
         if params.system_id == 0 {
             return Err(ActorError::Params("system_id must be 1..=255".into()));
         }
@@ -128,6 +136,7 @@ impl Actor for LinkActor {
         setup.input("gps", LinkInput::Gps);
         setup.input("battery", LinkInput::Battery);
         setup.input("vehicle_status", LinkInput::Status);
+        setup.input("command_result", LinkInput::CommandResult);
         setup.input("depth_grid", LinkInput::Depth);
         setup.input("avoidance", LinkInput::Avoidance);
         setup.input("param_decl", LinkInput::ParamDecl);
@@ -205,6 +214,10 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Status(s) => {
                     let out = hub.vehicle().on_status(s);
+                    hub.dispatch(out)
+                }
+                LinkInput::CommandResult(r) => {
+                    let out = hub.vehicle().on_command_result(&r);
                     hub.dispatch(out)
                 }
                 LinkInput::ParamDecl(d) => {

@@ -7,8 +7,11 @@
 //! params.gcs_timeout_s = 5.0
 //! params.param_file = "link_params.txt"   # NAME=VALUE lines, rewritten atomically on PARAM_SET
 //! params.endpoints = [
-//!   { type = "udp_out", address = "127.0.0.1:14550" },   # to QGroundControl / MAVProxy
-//!   { type = "udp_in", bind = "0.0.0.0:14540", max_peers = 8 },  # MAVSDK, scripts: answers whoever talks
+//!   # PX4 SITL's ports: to QGroundControl / MAVProxy from local port 18570, and to MAVSDK /
+//!   # MAVROS / scripts, which listen on 14540, from local port 14580 (which accepts as well).
+//!   { type = "udp_out", address = "127.0.0.1:14550", bind = "127.0.0.1:18570" },
+//!   { type = "udp_out", address = "127.0.0.1:14540", bind = "127.0.0.1:14580", per_instance = true },
+//!   { type = "udp_in", bind = "0.0.0.0:14560", max_peers = 8 },  # answers whoever talks
 //!   { type = "tcp_in", bind = "0.0.0.0:5760" },
 //!   { type = "serial", device = "/dev/ttyUSB0", baud = 57600, flow_control = false,
 //!     signing_key_file = "radio.key" },
@@ -25,7 +28,8 @@ use std::path::PathBuf;
 use serde::Deserialize;
 
 /// Everything the link actor is configured with; every field has a default, so `params = {}`
-/// gives PX4-SITL-like behaviour: MAVLink to UDP 127.0.0.1:14550 and a UDP server on 14540.
+/// gives PX4 SITL's ports: MAVLink to UDP 127.0.0.1:14550 from local port 18570, and to
+/// 127.0.0.1:14540 from local port 14580.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LinkParams {
@@ -48,6 +52,13 @@ pub struct LinkParams {
     /// (the commander's own data-link timer decides the failsafe).
     #[serde(default = "default_gcs_timeout_s")]
     pub gcs_timeout_s: f64,
+    /// Which of several vehicles on one machine this is (`kestrel run --instance N`), as PX4's
+    /// multi-vehicle SITL numbers them: the system id becomes `system_id + N`, every local
+    /// port (`bind`) moves up by N, and so does the `address` port of endpoints marked
+    /// `per_instance` (the API port 14540 + N); the ground station's 14550 stays, so one
+    /// ground station sees every vehicle. See [`LinkParams::for_instance`].
+    #[serde(default)]
+    pub instance: u8,
 }
 
 impl Default for LinkParams {
@@ -58,7 +69,43 @@ impl Default for LinkParams {
             params: Vec::new(),
             param_file: None,
             gcs_timeout_s: default_gcs_timeout_s(),
+            instance: 0,
         }
+    }
+}
+
+impl LinkParams {
+    /// The parameters with `instance` applied (system id and ports moved; `instance` then 0), or
+    /// why that is impossible: a system id past 255 or a port past 65535.
+    pub fn for_instance(&self) -> Result<LinkParams, String> {
+        let n = self.instance;
+        let system_id = u8::try_from(u16::from(self.system_id) + u16::from(n))
+            .map_err(|_| format!("instance {n}: system id {} + {n} is past 255", self.system_id))?;
+        let shift = |a: SocketAddr| -> Result<SocketAddr, String> {
+            let port = a.port();
+            if port == 0 {
+                return Ok(a);
+            }
+            let moved = u16::try_from(u32::from(port) + u32::from(n))
+                .map_err(|_| format!("instance {n}: port {port} + {n} is past 65535"))?;
+            Ok(SocketAddr::new(a.ip(), moved))
+        };
+        let mut endpoints = self.endpoints.clone();
+        for e in &mut endpoints {
+            match &mut e.kind {
+                EndpointKind::UdpOut { address, bind, per_instance } => {
+                    if let Some(b) = bind {
+                        *b = shift(*b)?;
+                    }
+                    if *per_instance {
+                        *address = shift(*address)?;
+                    }
+                }
+                EndpointKind::UdpIn { bind, .. } | EndpointKind::TcpIn { bind } => *bind = shift(*bind)?,
+                EndpointKind::Serial { .. } => {}
+            }
+        }
+        Ok(LinkParams { system_id, endpoints, instance: 0, ..self.clone() })
     }
 }
 
@@ -73,13 +120,18 @@ fn default_gcs_timeout_s() -> f64 {
 fn default_endpoints() -> Vec<EndpointConfig> {
     vec![
         EndpointConfig {
-            kind: EndpointKind::UdpOut { address: SocketAddr::from(([127, 0, 0, 1], 14550)) },
+            kind: EndpointKind::UdpOut {
+                address: SocketAddr::from(([127, 0, 0, 1], 14550)),
+                bind: Some(SocketAddr::from(([127, 0, 0, 1], 18570))),
+                per_instance: false,
+            },
             signing_key_file: None,
         },
         EndpointConfig {
-            kind: EndpointKind::UdpIn {
-                bind: SocketAddr::from(([0, 0, 0, 0], 14540)),
-                max_peers: default_max_peers(),
+            kind: EndpointKind::UdpOut {
+                address: SocketAddr::from(([127, 0, 0, 1], 14540)),
+                bind: Some(SocketAddr::from(([127, 0, 0, 1], 14580))),
+                per_instance: true,
             },
             signing_key_file: None,
         },
@@ -101,10 +153,16 @@ pub struct EndpointConfig {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum EndpointKind {
-    /// UDP client: sends to `address` from an ephemeral port and hears replies on it.
+    /// UDP client: sends to `address`, from `bind` (a fixed local port, as PX4 SITL's 18570 and
+    /// 14580) or else an ephemeral one, and hears every frame arriving there, from anyone.
     UdpOut {
         #[serde(deserialize_with = "address")]
         address: SocketAddr,
+        #[serde(default, deserialize_with = "optional_bind")]
+        bind: Option<SocketAddr>,
+        /// `--instance N` adds N to `address`'s port too (the API port, 14540 + N).
+        #[serde(default)]
+        per_instance: bool,
     },
     /// UDP server: listens on `bind` and answers every peer that has sent it a valid MAVLink
     /// frame, at most `max_peers` at once (a newcomer to a full table replaces a peer silent
@@ -139,6 +197,11 @@ fn address<'de, D: serde::Deserializer<'de>>(d: D) -> Result<SocketAddr, D::Erro
 /// An endpoint's `bind`, refused with the field and the text when it is not `IP:PORT`.
 fn bind<'de, D: serde::Deserializer<'de>>(d: D) -> Result<SocketAddr, D::Error> {
     socket_address("bind", d)
+}
+
+/// A `udp_out`'s optional `bind`.
+fn optional_bind<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<SocketAddr>, D::Error> {
+    socket_address("bind", d).map(Some)
 }
 
 fn socket_address<'de, D: serde::Deserializer<'de>>(field: &str, d: D) -> Result<SocketAddr, D::Error> {

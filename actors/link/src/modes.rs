@@ -10,7 +10,7 @@
 //! | AltHold | 2 | ALT_HOLD |
 //! | Auto | 3 | AUTO |
 //! | Guided, Takeoff | 4 | GUIDED (ArduCopter takes off in GUIDED) |
-//! | PosHold | 16 | POSHOLD (LOITER, 5, is accepted inbound as POSHOLD) |
+//! | PosHold | 5 | LOITER: stick velocity, centred holds position, as ours (POSHOLD, 16, is accepted inbound too; MAVSDK's `hold` asks for 5 and reads 5 back as HOLD) |
 //! | ReturnToLaunch | 6 | RTL |
 //! | Land | 9 | LAND |
 
@@ -24,7 +24,7 @@ pub fn custom_mode(mode: FlightMode) -> u32 {
         FlightMode::AltHold => 2,
         FlightMode::Auto => 3,
         FlightMode::Guided | FlightMode::Takeoff => 4,
-        FlightMode::PosHold => 16,
+        FlightMode::PosHold => 5,
         FlightMode::ReturnToLaunch => 6,
         FlightMode::Land => 9,
     }
@@ -54,7 +54,7 @@ pub fn mode_name(mode: FlightMode) -> &'static str {
         FlightMode::Auto => "AUTO",
         FlightMode::Guided => "GUIDED",
         FlightMode::Takeoff => "TAKEOFF",
-        FlightMode::PosHold => "POSHOLD",
+        FlightMode::PosHold => "LOITER",
         FlightMode::ReturnToLaunch => "RTL",
         FlightMode::Land => "LAND",
     }

@@ -9,7 +9,8 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, Command, DepthGrid, GpsFix, NavState, ParamDecl, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, Command, CommandResult, DepthGrid, GpsFix, NavState, ParamDecl,
+    VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -261,6 +262,16 @@ impl Vehicle {
                 out.mav.extend(self.mission_current_if_shown(index));
                 out
             }
+            MavCmd::MAV_CMD_DO_REPOSITION => {
+                self.commands.reposition(request, home(&self.telemetry.snapshot), now)
+            }
+            MavCmd::MAV_CMD_GET_HOME_POSITION => match self.telemetry.build(HOME_POSITION_DATA::ID, now) {
+                Some(home) => Outputs {
+                    mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), home],
+                    graph: Vec::new(),
+                },
+                None => Outputs::send(ack(&request, MavResult::MAV_RESULT_TEMPORARILY_REJECTED)),
+            },
             _ => match self.commands.handle(request, now) {
                 Some(out) => out,
                 None => Outputs::send(ack(&request, MavResult::MAV_RESULT_UNSUPPORTED)),
@@ -290,7 +301,6 @@ impl Vehicle {
     pub fn on_status(&mut self, status: VehicleStatus) -> Outputs {
         let old = self.telemetry.snapshot.status.take();
         let mut mav = status_changes(old.as_ref(), &status);
-        mav.extend(self.commands.on_status(&status));
         let reached_before = old.as_ref().map_or(0, |o| o.mission.reached);
         let newly = status.mission.reached.saturating_sub(reached_before);
         if let Some(last) = status.mission.last_reached.filter(|_| newly > 0) {
@@ -312,6 +322,11 @@ impl Vehicle {
             }
         }
         Outputs { mav, graph: Vec::new() }
+    }
+
+    /// The commander's answer to a command: its COMMAND_ACK.
+    pub fn on_command_result(&mut self, result: &CommandResult) -> Outputs {
+        Outputs { mav: self.commands.on_result(result).into_iter().collect(), graph: Vec::new() }
     }
 
     /// The estimator's latest state.
@@ -420,6 +435,8 @@ mod tests {
                 completed: false,
             },
             last_refusal: None,
+            refusals: 0,
+            armable: false,
             home: None,
             geofence_enabled: true,
         }
@@ -536,18 +553,20 @@ mod tests {
         v.on_tick(Time::ZERO);
         v.on_status(status(0));
         let out = v.on_message(GCS, &set_current_command(3.0), Time::ZERO);
-        assert_eq!(out.graph, vec![ToGraph::Command(Command::SetMissionCurrent { index: 2 })]);
-        assert_eq!(ack_result(&out), None, "acknowledged once the status shows it");
+        let command = Command::SetMissionCurrent { index: 2 };
+        assert_eq!(out.graph, vec![ToGraph::Request { id: 1, command }]);
+        assert_eq!(ack_result(&out), None, "acknowledged once the commander answers");
         for bad in [4.0, 1.5, -3.0, f32::NAN] {
             let out = v.on_message(GCS, &set_current_command(bad), Time::ZERO);
             assert_eq!(ack_result(&out), Some(MavResult::MAV_RESULT_FAILED), "{bad}");
             assert!(out.graph.is_empty());
         }
         // The commander moves to item 2: ACCEPTED, and MISSION_CURRENT at once with our seq 3.
+        let answer = CommandResult { time: Time::ZERO, id: 1, command, refusal: None };
+        assert_eq!(ack_result(&v.on_command_result(&answer)), Some(MavResult::MAV_RESULT_ACCEPTED));
         let mut moved = status(0);
         moved.mission.current = 2;
         let out = v.on_status(moved);
-        assert_eq!(ack_result(&out), Some(MavResult::MAV_RESULT_ACCEPTED));
         assert!(out.mav.iter().any(|m| matches!(m, MavMessage::MISSION_CURRENT(c) if c.seq == 3)));
         // The message: the same item again is answered with MISSION_CURRENT though nothing
         // changes; an item we do not have gets a STATUSTEXT.

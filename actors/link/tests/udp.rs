@@ -24,7 +24,10 @@ fn loopback0() -> SocketAddr {
 }
 
 fn udp_out(to: SocketAddr) -> EndpointConfig {
-    EndpointConfig { kind: EndpointKind::UdpOut { address: to }, signing_key_file: None }
+    EndpointConfig {
+        kind: EndpointKind::UdpOut { address: to, bind: None, per_instance: false },
+        signing_key_file: None,
+    }
 }
 
 fn udp_in() -> EndpointConfig {
@@ -130,8 +133,14 @@ async fn commands_are_acknowledged_and_unknown_ones_unsupported_at_once() {
 
     gcs.send(vehicle, &command_long(MavCmd::MAV_CMD_DO_PARACHUTE, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])).await;
     // Answered by the link itself ("at once"): nothing goes to the graph to wait on.
-    let commands_to_graph =
-        || link.graph.lock().expect("graph").iter().filter(|g| matches!(g, ToGraph::Command(_))).count();
+    let commands_to_graph = || {
+        link.graph
+            .lock()
+            .expect("graph")
+            .iter()
+            .filter(|g| matches!(g, ToGraph::Command(_) | ToGraph::Request { .. }))
+            .count()
+    };
     let ack = |cmd: MavCmd| {
         move |_: &mavlink::MavHeader, m: &MavMessage| match m {
             MavMessage::COMMAND_ACK(a) if a.command == cmd => Some(a.result),
@@ -150,7 +159,14 @@ async fn commands_are_acknowledged_and_unknown_ones_unsupported_at_once() {
     .await;
     let (r, _) = gcs.recv_until(WAIT, ack(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM)).await.expect("ack");
     assert_eq!(r, MavResult::MAV_RESULT_DENIED);
-    assert!(link.graph.lock().expect("graph").contains(&ToGraph::Command(Command::Arm)));
+    let asked = |want: Command| {
+        link.graph
+            .lock()
+            .expect("graph")
+            .iter()
+            .any(|g| matches!(g, ToGraph::Request { command, .. } if *command == want))
+    };
+    assert!(asked(Command::Arm));
 
     gcs.send(vehicle, &command_long(MavCmd::MAV_CMD_REQUEST_MESSAGE, [148.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]))
         .await;
@@ -180,8 +196,14 @@ async fn home_fence_and_mission_current_commands_reach_the_commander_or_are_refu
     };
     // Refused by the link itself ("at once": nothing goes to the graph to wait on), each with the
     // result the spec gives it.
-    let commands_to_graph =
-        || link.graph.lock().expect("graph").iter().filter(|g| matches!(g, ToGraph::Command(_))).count();
+    let commands_to_graph = || {
+        link.graph
+            .lock()
+            .expect("graph")
+            .iter()
+            .filter(|g| matches!(g, ToGraph::Command(_) | ToGraph::Request { .. }))
+            .count()
+    };
     let refused = [
         (
             MavCmd::MAV_CMD_DO_FENCE_ENABLE,
@@ -221,8 +243,11 @@ async fn home_fence_and_mission_current_commands_reach_the_commander_or_are_refu
     let (r, _) = gcs.recv_until(WAIT, ack(MavCmd::MAV_CMD_DO_SET_HOME)).await.expect("ack");
     assert_eq!(r, MavResult::MAV_RESULT_DENIED);
     let graph = link.graph.lock().expect("graph").clone();
-    assert!(graph.contains(&ToGraph::Command(Command::SetGeofence { enabled: false })), "{graph:?}");
-    assert!(graph.contains(&ToGraph::Command(Command::SetHome { point: None })), "{graph:?}");
+    let asked = |want: Command| {
+        graph.iter().any(|g| matches!(g, ToGraph::Request { command, .. } if *command == want))
+    };
+    assert!(asked(Command::SetGeofence { enabled: false }), "{graph:?}");
+    assert!(asked(Command::SetHome { point: None }), "{graph:?}");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -356,7 +381,7 @@ async fn with_signing_on_unsigned_commands_are_refused_and_signed_ones_served() 
     std::fs::write(dir.join("key.bin"), key).expect("key file");
     let mut gcs = Peer::bind(255).await;
     let endpoint = EndpointConfig {
-        kind: EndpointKind::UdpOut { address: gcs.addr() },
+        kind: EndpointKind::UdpOut { address: gcs.addr(), bind: None, per_instance: false },
         signing_key_file: Some("key.bin".into()),
     };
     let link = Harness::start(&[endpoint], 0, &dir).await;

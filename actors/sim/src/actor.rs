@@ -34,7 +34,15 @@ pub struct SimActorParams {
     pub battery_rate_hz: f64,
     /// Start position, north/east/down from home (m); down ≤ 0.
     pub initial_position_ned_m: [f64; 3],
+    /// Which of several vehicles on one machine this is (`kestrel run --instance N`): it starts
+    /// [`INSTANCE_SPACING_M`]·N east of `initial_position_ned_m` (PX4's multi-vehicle SITL
+    /// spawns them a few metres apart too) and draws its noise from `seed + N`.
+    pub instance: u8,
 }
+
+/// East spacing of vehicles started with `--instance` (m): far enough that two vehicles
+/// taking off side by side do not touch (rotor span 0.45 m), near enough to share a field.
+pub const INSTANCE_SPACING_M: f64 = 5.0;
 
 impl Default for SimActorParams {
     fn default() -> SimActorParams {
@@ -47,6 +55,7 @@ impl Default for SimActorParams {
             ground_truth_rate_hz: options.ground_truth_rate_hz,
             battery_rate_hz: options.battery_rate_hz,
             initial_position_ned_m: [0.0; 3],
+            instance: 0,
         }
     }
 }
@@ -95,17 +104,16 @@ impl Actor for SimActor {
         let world = World::load(&dir.join(&params.world)).map_err(|e| ActorError::Params(e.to_string()))?;
         let tick_us = period_us(vehicle.sensors.imu.rate_hz);
         let now = setup.clock().now();
+        let mut initial = params.initial_position_ned_m;
+        initial[1] += INSTANCE_SPACING_M * f64::from(params.instance);
         let options = SimOptions {
-            seed: params.seed,
+            seed: params.seed.wrapping_add(u64::from(params.instance)),
             physics_substeps: params.physics_substeps,
             ground_truth_rate_hz: params.ground_truth_rate_hz,
             battery_rate_hz: params.battery_rate_hz,
             start_time: Time(now.0 / tick_us * tick_us),
             initial: InitialState {
-                body: RigidBodyState {
-                    position_ned_m: params.initial_position_ned_m.into(),
-                    ..RigidBodyState::default()
-                },
+                body: RigidBodyState { position_ned_m: initial.into(), ..RigidBodyState::default() },
                 actuators: ActuatorOutputs::default(),
             },
         };

@@ -45,7 +45,7 @@ pub use sensor_health::SensorHealth;
 pub use setpoint::{Setpoint, SetpointTarget, TrajectorySetpoint};
 pub use stereo_frame::{FrameSizeError, StereoFrame};
 pub use supervisor::{SupervisorEvent, SupervisorEventKind};
-pub use vehicle_command::{Command, VehicleCommand};
+pub use vehicle_command::{Command, CommandResult, VehicleCommand};
 pub use vehicle_status::{
     Failsafe, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState, MissionProgress, VehicleStatus,
 };

@@ -7,7 +7,8 @@ use super::mission::MissionPoint;
 use super::vehicle_status::FlightMode;
 use crate::time::Time;
 
-/// One command; the commander answers in `VehicleStatus` (`last_command`, `last_refusal`).
+/// One command; the commander answers a command that carries an id with a [`CommandResult`],
+/// and every refusal also shows in `VehicleStatus::last_refusal`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum Command {
@@ -49,7 +50,26 @@ pub enum Command {
 /// A timestamped [`Command`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct VehicleCommand {
+    /// Who waits for the answer: the link numbers the MAVLink commands it passes on (from 1) so
+    /// that each COMMAND_ACK goes to the command it answers, retries and concurrent ground
+    /// stations included. 0: nobody waits (heartbeats, scripts, the CLI) and no result is sent.
+    #[serde(default)]
+    pub id: u32,
     pub time: Time,
     pub command: Command,
 }
 crate::impl_message!(VehicleCommand);
+
+/// The commander's answer to the [`VehicleCommand`] with `id`, published as soon as it has
+/// handled it: a ground station's command is acknowledged within one graph step, so a client's
+/// retry timer (MAVSDK waits 0.5 s before it resends) never runs out while a refusal that reads
+/// like the last one goes unnoticed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct CommandResult {
+    pub time: Time,
+    pub id: u32,
+    pub command: Command,
+    /// `None`: carried out (armed, mode entered, target taken); otherwise why not.
+    pub refusal: Option<String>,
+}
+crate::impl_message!(CommandResult);

@@ -126,6 +126,14 @@ pub struct VehicleStatus {
     pub mission: MissionProgress,
     /// Why the last refused command or mode change was refused (for STATUSTEXT).
     pub last_refusal: Option<String>,
+    /// Refusals so far: each one is announced, also when it reads like the one before (a
+    /// ground station retrying a command it is refused).
+    #[serde(default)]
+    pub refusals: u32,
+    /// Disarmed and the vehicle's own pre-arm checks pass (whatever the mode): SYS_STATUS's
+    /// pre-arm bit, which MAVSDK's `is_armable` and ground stations' "ready" read.
+    #[serde(default)]
+    pub armable: bool,
     /// Home, once the vehicle armed or a ground station set it.
     #[serde(default)]
     pub home: Option<Home>,

@@ -36,7 +36,7 @@ const BATTERY_FRESH_S: f64 = 2.0;
 /// Largest tilt at which the vehicle may arm (rad): it must stand on its legs.
 const MAX_ARM_TILT_RAD: f64 = 0.5;
 /// Throttle below which the sticks count as "low" for arming.
-const LOW_THROTTLE: f64 = 0.1;
+pub(crate) const LOW_THROTTLE: f64 = 0.1;
 
 impl Commander {
     /// Whether `mode` can be flown with what the commander knows now.
@@ -75,11 +75,28 @@ impl Commander {
         Ok(())
     }
 
-    /// The pre-arm checks, first failure first.
+    /// The pre-arm checks, first failure first: the vehicle's own, then the mode's.
     pub(crate) fn prearm(&self, now: Time) -> Result<(), Refusal> {
         if self.armed {
             return refuse("already armed");
         }
+        self.vehicle_ready(now)?;
+        if matches!(self.mode, FlightMode::ReturnToLaunch | FlightMode::Land) {
+            // ArduCopter's RTL and LAND do not allow arming: the vehicle would take off only to
+            // come straight back down, or sit armed waiting for the land detector.
+            return refuse(format!("arming refused: not in {:?} (choose GUIDED, LOITER or AUTO)", self.mode));
+        }
+        self.mode_allowed(now, self.mode).map_err(|r| Refusal(format!("arming refused: {r}")))?;
+        if needs_sticks(self.mode) && self.sticks(now).is_some_and(|m| m.throttle > LOW_THROTTLE) {
+            return refuse("arming refused: throttle not low");
+        }
+        Ok(())
+    }
+
+    /// The checks of the vehicle itself, whatever the mode: what ArduPilot's pre-arm checks
+    /// report in SYS_STATUS (`MAV_SYS_STATUS_PREARM_CHECK`, MAVSDK's `is_armable`); a ground
+    /// station's arming switches to a mode that may arm first.
+    pub(crate) fn vehicle_ready(&self, now: Time) -> Result<(), Refusal> {
         let Some(nav) = self.fresh_nav(now) else {
             return refuse("arming refused: no fresh navigation state");
         };
@@ -91,10 +108,6 @@ impl Commander {
         }
         if self.landed != LandedState::OnGround {
             return refuse("arming refused: not on the ground");
-        }
-        self.mode_allowed(now, self.mode).map_err(|r| Refusal(format!("arming refused: {r}")))?;
-        if needs_sticks(self.mode) && self.sticks(now).is_some_and(|m| m.throttle > LOW_THROTTLE) {
-            return refuse("arming refused: throttle not low");
         }
         if self.params.require_battery {
             match &self.battery {

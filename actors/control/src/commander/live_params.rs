@@ -112,6 +112,15 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.stick_climb_m_s = v,
     },
     ParamDef {
+        name: "DISARM_DELAY",
+        unit: "s",
+        min: 0.0,
+        max: 127.0,
+        description: "Armed on the ground this long without taking off disarms; 0 = never",
+        get: |p| p.disarm_delay_s,
+        set: |p, v| p.disarm_delay_s = v,
+    },
+    ParamDef {
         name: "FS_GCS_TIMEOUT_S",
         unit: "s",
         min: 1.0,

@@ -41,7 +41,7 @@ pub use params::{CommanderParams, FailsafeParams, FeasibilityParams, GeofencePar
 use crate::error::InvalidParam;
 use crate::flip::Flip;
 use crate::position::yaw_of;
-use arming::refuse;
+use arming::{LOW_THROTTLE, refuse};
 use modes::{Hold, RtlPhase};
 
 /// Height above home at which the vehicle counts as airborne (m).
@@ -58,6 +58,12 @@ pub struct Commander {
     params: CommanderParams,
     armed: bool,
     mode: FlightMode,
+    /// The mode is still the one chosen at boot (GUIDED, which needs no sticks, so a ground
+    /// station without a radio can arm): the first sticks heard while disarmed switch to
+    /// STABILIZE, as a vehicle with a radio boots. A mode set by anyone ends the choice.
+    boot_mode: bool,
+    /// Armed and on the ground since then without a take-off (`disarm_delay_s`).
+    idle_on_ground_since: Option<Time>,
     landed: LandedState,
     nav: Option<NavState>,
     frame: Option<LocalFrame>,
@@ -95,6 +101,8 @@ pub struct Commander {
     applied_action: Option<FailsafeAction>,
     critical_failure: bool,
     last_refusal: Option<String>,
+    /// Refusals so far (`VehicleStatus::refusals`).
+    refusals: u32,
     last_update: Option<Time>,
     avoidance: avoidance::AvoidanceLoop,
 }
@@ -106,7 +114,9 @@ impl Commander {
             takeoff_height_m: params.takeoff_altitude_m,
             params,
             armed: false,
-            mode: FlightMode::Stabilize,
+            mode: FlightMode::Guided,
+            boot_mode: true,
+            idle_on_ground_since: None,
             landed: LandedState::OnGround,
             nav: None,
             frame: None,
@@ -133,6 +143,7 @@ impl Commander {
             applied_action: None,
             critical_failure: false,
             last_refusal: None,
+            refusals: 0,
             last_update: None,
             avoidance: avoidance::AvoidanceLoop::default(),
         })
@@ -221,6 +232,11 @@ impl Commander {
                 ..*m
             });
             self.last_link = Some(m.time);
+            if self.boot_mode && !self.armed {
+                tracing::info!("sticks heard: booting in Stabilize");
+                self.boot_mode = false;
+                self.enter(FlightMode::Stabilize);
+            }
         }
     }
 
@@ -335,15 +351,26 @@ impl Commander {
         self.refused(result)
     }
 
+    /// Records `text` as the newest refusal (or notice) for the status and its STATUSTEXT.
+    pub(crate) fn announce(&mut self, text: String) {
+        self.refusals = self.refusals.wrapping_add(1);
+        self.last_refusal = Some(text);
+    }
+
     fn refused<T>(&mut self, result: Result<T, Refusal>) -> Result<T, Refusal> {
         if let Err(r) = &result {
             tracing::info!(reason = %r, "refused");
-            self.last_refusal = Some(r.0.clone());
+            self.announce(r.0.clone());
         }
         result
     }
 
     fn arm(&mut self, now: Time) -> Result<(), Refusal> {
+        if self.armed {
+            // Already armed is done, as in ArduPilot and PX4: a ground station whose ACK was lost
+            // retries, and must hear ACCEPTED, not a refusal of what it asked for.
+            return Ok(());
+        }
         self.prearm(now)?;
         let nav = self.fresh_nav(now).cloned();
         self.armed = true;
@@ -368,6 +395,7 @@ impl Commander {
             tracing::info!(why, "disarmed");
         }
         self.armed = false;
+        self.idle_on_ground_since = None;
         self.flip = None;
         self.landed = LandedState::OnGround;
         // As PX4: failsafes belong to a flight. Latched causes (battery, estimator, critical
@@ -377,6 +405,7 @@ impl Commander {
 
     fn set_mode(&mut self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
         self.mode_allowed(now, mode)?;
+        self.boot_mode = false;
         if mode == FlightMode::Auto && (self.runner.is_none() || self.mode != FlightMode::Auto) {
             self.runner = self.new_runner();
         }
@@ -491,6 +520,7 @@ impl Commander {
         let dt_s = self.last_update.map_or(0.0, |t| now.saturating_since(t).as_secs_f64().min(0.1));
         self.last_update = Some(now);
         self.track_landed(now);
+        self.disarm_if_idle(now);
         self.check_failsafes(now);
         let target = if self.armed { self.fly(now, dt_s) } else { SetpointTarget::MotorsOff };
         self.descent_demanded = self.nav.as_ref().is_some_and(|n| descends(&target, n));
@@ -512,6 +542,8 @@ impl Commander {
             failsafe: self.failsafes.worst(),
             mission: self.runner.as_ref().map_or(self.last_progress, MissionRunner::progress),
             last_refusal: self.last_refusal.clone(),
+            refusals: self.refusals,
+            armable: !self.armed && self.vehicle_ready(now).is_ok(),
             home: self
                 .home_ned
                 .map(|h| Home { position_ned_m: [h.x, h.y, h.z], revision: self.home_revision }),
@@ -632,7 +664,7 @@ impl Commander {
                 }
                 if touching {
                     tracing::warn!(mode = ?self.mode, "on the ground outside a landing: disarming");
-                    self.last_refusal = Some(format!("{:?}: ground contact, landed", self.mode));
+                    self.announce(format!("{:?}: ground contact, landed", self.mode));
                     self.touched_down();
                 }
             }
@@ -658,6 +690,24 @@ impl Commander {
                 self.touched_down();
             }
             _ => {}
+        }
+    }
+
+    /// Armed on the ground for `disarm_delay_s` without taking off: disarm (ArduCopter's
+    /// `DISARM_DELAY`). A pilot's throttle above low in a stick mode restarts the wait.
+    fn disarm_if_idle(&mut self, now: Time) {
+        let throttle_up =
+            needs_sticks(self.mode) && self.sticks(now).is_some_and(|m| m.throttle > LOW_THROTTLE);
+        let idle = self.armed && self.landed == LandedState::OnGround && !throttle_up;
+        if !idle || self.params.disarm_delay_s <= 0.0 {
+            self.idle_on_ground_since = None;
+            return;
+        }
+        let since = *self.idle_on_ground_since.get_or_insert(now);
+        if now.saturating_since(since).as_secs_f64() >= self.params.disarm_delay_s {
+            let why = format!("no take-off within DISARM_DELAY ({} s)", self.params.disarm_delay_s);
+            self.announce(format!("disarmed: {why}"));
+            self.disarm(&why);
         }
     }
 

@@ -303,7 +303,7 @@ impl Commander {
             Some(true) => {
                 let why = "avoidance stale: slowing and holding position";
                 tracing::warn!(mode = ?self.mode, "{why}");
-                self.last_refusal = Some(why.to_owned());
+                self.announce(why.to_owned());
             }
             Some(false) => tracing::info!(mode = ?self.mode, "avoidance hold over: flying the leg"),
             None => {}

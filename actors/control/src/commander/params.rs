@@ -55,6 +55,10 @@ pub struct CommanderParams {
     pub guided_speed_m_s: f64,
     /// Arming needs a battery report; false for benches without a power module.
     pub require_battery: bool,
+    /// Armed on the ground this long without taking off disarms (s); 0 = never. ArduCopter's
+    /// `DISARM_DELAY` and PX4's `COM_DISARM_PRFLT` (both 10 s): a vehicle armed from a ground
+    /// station and forgotten must not sit with its motors live.
+    pub disarm_delay_s: f64,
     pub failsafe: FailsafeParams,
     pub geofence: GeofenceParams,
     pub feasibility: FeasibilityParams,
@@ -85,6 +89,7 @@ impl Default for CommanderParams {
             avoidance_timeout_s: 0.5,
             guided_speed_m_s: 5.0,
             require_battery: true,
+            disarm_delay_s: 10.0,
             failsafe: FailsafeParams::default(),
             geofence: GeofenceParams::default(),
             feasibility: FeasibilityParams::default(),
@@ -218,6 +223,7 @@ impl CommanderParams {
             positive(name, v)?;
         }
         within("rtl_loiter_s", self.rtl_loiter_s, 0.0, 600.0)?;
+        within("disarm_delay_s", self.disarm_delay_s, 0.0, 127.0)?;
         within("feasibility.min_height_m", self.feasibility.min_height_m, -100.0, 100.0)?;
         within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
         within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;

@@ -67,7 +67,7 @@ fn full_battery(time: Time) -> BatteryStatus {
 }
 
 fn cmd(c: &mut Commander, command: Command) -> Result<(), String> {
-    c.on_command(&VehicleCommand { time: Time(1000), command }).map_err(|r| r.0)
+    c.on_command(&VehicleCommand { id: 0, time: Time(1000), command }).map_err(|r| r.0)
 }
 
 #[test]
@@ -136,11 +136,16 @@ fn arming_checks_refuse_with_reasons() {
     assert!(cmd(&mut c, Command::Arm).expect_err("tilted").contains("level"));
     c.on_nav(&nav(Time(1000), 0.0, true));
     assert_eq!(cmd(&mut c, Command::Arm), Ok(()));
-    assert!(cmd(&mut c, Command::Arm).expect_err("twice").contains("already"));
+    assert_eq!(cmd(&mut c, Command::Arm), Ok(()), "arming again is done: a retry hears ACCEPTED");
     // Stale navigation is refused too.
     let mut c = ready(true);
-    c.on_command(&VehicleCommand { time: Time(1_000_000), command: Command::SetMode(FlightMode::Land) }).ok();
-    let late = c.on_command(&VehicleCommand { time: Time(1_000_000), command: Command::Arm });
+    c.on_command(&VehicleCommand {
+        id: 0,
+        time: Time(1_000_000),
+        command: Command::SetMode(FlightMode::Land),
+    })
+    .ok();
+    let late = c.on_command(&VehicleCommand { id: 0, time: Time(1_000_000), command: Command::Arm });
     assert!(late.expect_err("stale").0.contains("navigation"));
 }
 
@@ -168,7 +173,8 @@ fn in_the_air_every_mode_switch_works_and_landing_disarms() {
         c.on_nav(&nav(Time(2000), -5.0, true));
         c.update(Time(2000));
         assert_eq!(c.landed(), LandedState::InAir);
-        c.on_command(&VehicleCommand { time: Time(2000), command: Command::SetMode(mode) }).expect("switch");
+        c.on_command(&VehicleCommand { id: 0, time: Time(2000), command: Command::SetMode(mode) })
+            .expect("switch");
         let sp = c.update(Time(2000));
         assert!(sp.armed, "{mode:?}");
         assert_ne!(sp.target, SetpointTarget::MotorsOff, "{mode:?}");
@@ -178,7 +184,7 @@ fn in_the_air_every_mode_switch_works_and_landing_disarms() {
     cmd(&mut c, Command::Arm).expect("arm");
     c.on_nav(&nav(Time(2000), -5.0, true));
     c.update(Time(2000));
-    c.on_command(&VehicleCommand { time: Time(2000), command: Command::Land }).expect("land");
+    c.on_command(&VehicleCommand { id: 0, time: Time(2000), command: Command::Land }).expect("land");
     let mut t = 2000;
     while c.armed() && t < 3_000_000 {
         t += 2500;
@@ -263,7 +269,7 @@ fn hovering() -> Commander {
 }
 
 fn at(c: &mut Commander, t: u64, command: Command) -> Result<(), String> {
-    c.on_command(&VehicleCommand { time: Time(t), command }).map_err(|r| r.0)
+    c.on_command(&VehicleCommand { id: 0, time: Time(t), command }).map_err(|r| r.0)
 }
 
 #[test]
@@ -805,8 +811,11 @@ fn set_home_refuses_what_it_cannot_place_and_says_why() {
         assert_eq!(c.home_ned(), None);
     }
     // "Here" needs a fresh position.
-    let stale =
-        c.on_command(&VehicleCommand { time: Time(1_000_000), command: Command::SetHome { point: None } });
+    let stale = c.on_command(&VehicleCommand {
+        id: 0,
+        time: Time(1_000_000),
+        command: Command::SetHome { point: None },
+    });
     assert!(stale.expect_err("stale").0.contains("position estimate"));
 }
 

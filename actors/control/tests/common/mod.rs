@@ -177,7 +177,7 @@ impl Flight {
         &mut self,
         command: kestrel_proto::messages::Command,
     ) -> Result<(), kestrel_control::Refusal> {
-        let cmd = kestrel_proto::messages::VehicleCommand { time: self.now(), command };
+        let cmd = kestrel_proto::messages::VehicleCommand { id: 0, time: self.now(), command };
         self.commander.on_command(&cmd)
     }
 

@@ -63,7 +63,7 @@ pub fn status_changes(old: Option<&VehicleStatus>, new: &VehicleStatus) -> Vec<M
         _ => {}
     }
     if let Some(refusal) = &new.last_refusal
-        && old.and_then(|o| o.last_refusal.as_ref()) != Some(refusal)
+        && old.is_none_or(|o| o.refusals != new.refusals || o.last_refusal.as_ref() != Some(refusal))
     {
         out.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, refusal));
     }
@@ -96,6 +96,8 @@ mod tests {
             failsafe: None,
             mission: MissionProgress::default(),
             last_refusal: None,
+            refusals: 0,
+            armable: false,
             home: None,
             geofence_enabled: true,
         };
@@ -109,6 +111,8 @@ mod tests {
                 since: Time::ZERO,
             }),
             last_refusal: Some("Arm: no GPS fix".into()),
+            refusals: 0,
+            armable: false,
             ..a.clone()
         };
         let texts: Vec<String> = status_changes(Some(&a), &b).iter().map(text).collect();

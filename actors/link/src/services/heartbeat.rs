@@ -112,6 +112,8 @@ mod tests {
             failsafe: None,
             mission: MissionProgress::default(),
             last_refusal: None,
+            refusals: 0,
+            armable: false,
             home: None,
             geofence_enabled: true,
         }

@@ -32,7 +32,13 @@ impl Sender {
 /// What the link hands to the rest of the graph.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ToGraph {
+    /// A command nobody waits on (a heartbeat, an offboard target, MISSION_SET_CURRENT).
     Command(Command),
+    /// A command whose `CommandResult` for `id` becomes its COMMAND_ACK.
+    Request {
+        id: u32,
+        command: Command,
+    },
     Mission(Mission),
     Manual(ManualControl),
     Param(ParamSet),

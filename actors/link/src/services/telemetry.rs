@@ -344,26 +344,45 @@ impl Telemetry {
         })
     }
 
+    /// SYS_STATUS: what is present and healthy, as ArduPilot reports it — the IMU, compass and
+    /// AHRS healthy once the attitude estimate is, the barometer and GPS once their parts of
+    /// the position are, the battery once reported, the depth camera once a grid came, and the
+    /// pre-arm bit while the commander's pre-arm checks pass (MAVSDK's `is_armable`).
     fn sys_status(&self) -> SYS_STATUS_DATA {
+        type S = MavSysStatusSensor;
         let snap = &self.snapshot;
-        let present = MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
-            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
-            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG
-            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
-            | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
-        let mut health = MavSysStatusSensor::empty();
+        let mut present = S::MAV_SYS_STATUS_SENSOR_3D_GYRO
+            | S::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+            | S::MAV_SYS_STATUS_SENSOR_3D_MAG
+            | S::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE
+            | S::MAV_SYS_STATUS_SENSOR_GPS
+            | S::MAV_SYS_STATUS_AHRS
+            | S::MAV_SYS_STATUS_PREARM_CHECK;
+        let mut health = S::empty();
         if let Some(v) = snap.nav.as_ref().map(|n| n.valid) {
             if v.attitude {
-                health |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_GYRO
-                    | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_ACCEL
-                    | MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_3D_MAG;
+                health |= S::MAV_SYS_STATUS_SENSOR_3D_GYRO
+                    | S::MAV_SYS_STATUS_SENSOR_3D_ACCEL
+                    | S::MAV_SYS_STATUS_SENSOR_3D_MAG
+                    | S::MAV_SYS_STATUS_AHRS;
             }
             if v.vertical_position {
-                health |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE;
+                health |= S::MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE;
             }
             if v.horizontal_position {
-                health |= MavSysStatusSensor::MAV_SYS_STATUS_SENSOR_GPS;
+                health |= S::MAV_SYS_STATUS_SENSOR_GPS;
             }
+        }
+        if snap.battery.is_some() {
+            present |= S::MAV_SYS_STATUS_SENSOR_BATTERY;
+            health |= S::MAV_SYS_STATUS_SENSOR_BATTERY;
+        }
+        if snap.depth.is_some() {
+            present |= S::MAV_SYS_STATUS_SENSOR_PROXIMITY;
+            health |= S::MAV_SYS_STATUS_SENSOR_PROXIMITY;
+        }
+        if snap.status.as_ref().is_some_and(|s| s.armable || s.armed) {
+            health |= S::MAV_SYS_STATUS_PREARM_CHECK;
         }
         let (voltage, current, remaining) = snap.battery.as_ref().map_or((u16::MAX, -1, -1), |b| {
             (
@@ -544,6 +563,8 @@ mod tests {
             failsafe: None,
             mission: MissionProgress::default(),
             last_refusal: None,
+            refusals: 0,
+            armable: false,
             home: Some(Home { position_ned_m: [110.6, 0.0, -5.0], revision: 2 }),
             geofence_enabled: true,
         });
@@ -577,6 +598,8 @@ mod tests {
                 completed: reached >= 6,
             },
             last_refusal: None,
+            refusals: 0,
+            armable: false,
             home: None,
             geofence_enabled: true,
         };

@@ -138,7 +138,9 @@ async fn open_one(
         None => None,
     };
     match &e.kind {
-        EndpointKind::UdpOut { address } => udp::open_client(*address, signing, shared).await,
+        EndpointKind::UdpOut { address, bind, .. } => {
+            udp::open_client(*address, *bind, signing, shared).await
+        }
         EndpointKind::UdpIn { bind, max_peers } => udp::open_server(*bind, *max_peers, signing, shared).await,
         EndpointKind::TcpIn { bind } => tcp::open_server(*bind, signing, shared).await,
         EndpointKind::Serial { device, baud, flow_control } => {

@@ -1,7 +1,8 @@
 //! UDP endpoints. The client sends to a fixed address (where a ground station listens) from an
 //! ephemeral port and hears replies there; the server answers every peer that has sent it a
 //! valid frame (see [`super::udp_peers`]), each peer a link of its own, so routing never echoes
-//! a peer's frames back to it.
+//! a peer's frames back to it. A client with a fixed local port is both, as PX4 SITL's ports
+//! are: it sends to its address from the start and answers whoever else talks to that port.
 
 use std::net::{Ipv4Addr, SocketAddr};
 use std::sync::{Arc, Mutex};
@@ -23,12 +24,20 @@ const DATAGRAM: usize = 65_536;
 /// new port would otherwise leave its old address collecting telemetry forever.
 const PEER_TIMEOUT: Duration = Duration::from_secs(30);
 
-/// Opens the UDP client endpoint towards `address`.
+/// Peers a client with a fixed local port answers besides its own address.
+const CLIENT_EXTRA_PEERS: usize = 8;
+
+/// Opens the UDP client endpoint towards `address`: from an ephemeral port, or from `bind` as a
+/// server that always has `address` for a peer.
 pub async fn open_client(
     address: SocketAddr,
+    bind: Option<SocketAddr>,
     signing: Option<Arc<SigningData>>,
     shared: &Shared,
 ) -> Result<OpenEndpoint, EndpointError> {
+    if let Some(bind) = bind {
+        return serve(bind, CLIENT_EXTRA_PEERS, Some(address), signing, shared).await;
+    }
     let bind: SocketAddr = if address.ip().is_loopback() {
         (Ipv4Addr::LOCALHOST, 0).into()
     } else {
@@ -68,14 +77,34 @@ pub async fn open_server(
     if max_peers == 0 {
         return Err(EndpointError::NoPeers { bind });
     }
+    serve(bind, max_peers, None, signing, shared).await
+}
+
+/// A server on `bind` for up to `max_peers` peers that talk first, and `fixed`, a peer it
+/// sends to from the start and never forgets.
+async fn serve(
+    bind: SocketAddr,
+    max_peers: usize,
+    fixed: Option<SocketAddr>,
+    signing: Option<Arc<SigningData>>,
+    shared: &Shared,
+) -> Result<OpenEndpoint, EndpointError> {
     let socket = bind_socket(bind, "UDP server").await?;
     let local = socket.local_addr().ok();
-    let name = format!("udp server {bind}");
+    let name = match fixed {
+        Some(address) => format!("udp client {bind} -> {address}"),
+        None => format!("udp server {bind}"),
+    };
+    let fixed = fixed.map(|address| {
+        let tx = Tx::Udp { socket: Arc::clone(&socket), peer: address };
+        (address, shared.hub().add_link(name.clone(), tx, signing.clone()), FrameParser::new())
+    });
     let peer_stats = Arc::new(Mutex::new(PeerStats::default()));
     let published = Arc::clone(&peer_stats);
     let shared = shared.clone();
     let server = name.clone();
     tokio::spawn(async move {
+        let mut fixed = fixed;
         let mut peers = PeerTable::new(max_peers);
         let mut buf = vec![0u8; DATAGRAM];
         let mut expiry = tokio::time::interval(PEER_TIMEOUT / 3);
@@ -94,6 +123,12 @@ pub async fn open_server(
                 r = socket.recv_from(&mut buf) => r,
             };
             let Ok((n, peer)) = received else { continue };
+            if let Some((address, id, parser)) = &mut fixed
+                && *address == peer
+            {
+                feed(&shared, *id, parser, &buf[..n]);
+                continue;
+            }
             let now = Instant::now();
             if let Some((id, parser)) = peers.heard(peer, now) {
                 feed(&shared, id, parser, &buf[..n]);

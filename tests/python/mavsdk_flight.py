@@ -1,0 +1,262 @@
+"""Flies `kestrel run` (config/sim.toml, unchanged) with MAVSDK as its users run it: PyPI `mavsdk`,
+whose wheel carries the C++ MAVSDK core, on its default connection `udpin://0.0.0.0:14540`.
+
+Usage: mavsdk_flight.py SCENARIO [PLAN.plan]   (run by tests/mavsdk.rs)
+
+    takeoff_land   arm, take off to 8 m, land: in air, 8 m, on the ground, disarmed
+    mission        import a QGroundControl .plan with MAVSDK's importer, upload it, download it
+                   identical, arm, start, follow the progress to the end, land near home
+    offboard       Offboard velocity: a 10 m square in NED, back within 2 m of the start
+    goto_hold_rtl  goto_location 20 m north, hold there, RTL: landed near home, disarmed
+
+Every check reads what MAVSDK reports (telemetry, action and mission results), never the
+vehicle's log. One line per step goes to stdout (`wall_s step: detail`); the exit code is 0
+when every check held, 1 with `FAILED step: why` otherwise.
+"""
+
+import asyncio
+import math
+import sys
+import time
+
+from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
+from mavsdk.asyncio.plugins.action import ActionAsync
+from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
+from mavsdk.asyncio.plugins.offboard import OffboardAsync
+from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
+from mavsdk.plugins.offboard import VelocityNedYaw
+from mavsdk.plugins.telemetry import FlightMode, LandedState
+
+CONNECTION = "udpin://0.0.0.0:14540"
+START = time.monotonic()
+
+
+class Failed(Exception):
+    pass
+
+
+def log(step, detail=""):
+    print(f"{time.monotonic() - START:7.2f} {step}: {detail}", flush=True)
+
+
+def distance_m(a, b):
+    """Horizontal distance between two telemetry positions (flat earth, m)."""
+    north = (b.latitude_deg - a.latitude_deg) * 110_574.0
+    east = (b.longitude_deg - a.longitude_deg) * 111_320.0 * math.cos(math.radians(a.latitude_deg))
+    return math.hypot(north, east)
+
+
+async def until(step, probe, timeout_s, period_s=0.1):
+    """Polls `probe()` (an awaitable factory) until it returns something truthy."""
+    end = time.monotonic() + timeout_s
+    last = None
+    while time.monotonic() < end:
+        last = await probe()
+        if last:
+            log(step, "ok")
+            return last
+        await asyncio.sleep(period_s)
+    raise Failed(f"{step}: not within {timeout_s} s (last {last!r})")
+
+
+class Vehicle:
+    def __init__(self, system):
+        self.action = ActionAsync(system)
+        self.telemetry = TelemetryAsync(system)
+        self.mission = MissionRawAsync(system)
+        self.offboard = OffboardAsync(system)
+
+    async def ready(self):
+        health = await until("health: armable, global position, home",
+                             self._armable, 60.0, 0.5)
+        log("health", f"{health}")
+        return await self.telemetry.position()
+
+    async def _armable(self):
+        h = await self.telemetry.health()
+        ok = h.is_armable and h.is_global_position_ok and h.is_home_position_ok
+        return h if ok else None
+
+    async def arm(self):
+        await self.action.arm()
+        await until("armed (telemetry)", self.telemetry.armed, 5.0)
+
+    async def relative_altitude(self):
+        return (await self.telemetry.position()).relative_altitude_m
+
+    async def landed_and_disarmed(self, timeout_s):
+        async def down():
+            state = await self.telemetry.landed_state()
+            return state == LandedState.ON_GROUND and not await self.telemetry.armed()
+        await until("on the ground and disarmed", down, timeout_s, 0.2)
+
+
+async def takeoff_land(v):
+    await v.ready()
+    await v.action.set_takeoff_altitude(8.0)
+    await v.arm()
+    await v.action.takeoff()
+    log("takeoff", "accepted")
+    await until("in air", v.telemetry.in_air, 20.0)
+
+    async def at_8():
+        alt = await v.relative_altitude()
+        return alt if abs(alt - 8.0) < 0.5 else None
+    alt = await until("at 8 m", at_8, 40.0)
+    log("altitude", f"{alt:.2f} m")
+    await asyncio.sleep(2.0)
+    await v.action.land()
+    log("land", "accepted")
+    await v.landed_and_disarmed(60.0)
+
+
+def item_key(i):
+    return (i.seq, i.frame, i.command, i.current, i.autocontinue, round(i.param1, 4), round(i.param2, 4),
+            round(i.param3, 4), i.x, i.y, round(i.z, 3), i.mission_type)
+
+
+async def mission(v, plan):
+    home = await v.ready()
+    imported = await v.mission.import_qgroundcontrol_mission(plan)
+    items = imported.mission_items
+    log("import", f"{len(items)} items from {plan}")
+    await v.mission.upload_mission(items)
+    log("upload", "accepted")
+    downloaded = await v.mission.download_mission()
+    if [item_key(i) for i in downloaded] != [item_key(i) for i in items]:
+        raise Failed(f"download: differs\n up {[item_key(i) for i in items]}\n down {[item_key(i) for i in downloaded]}")
+    log("download", f"{len(downloaded)} items, identical")
+    await v.arm()
+    await v.mission.start_mission()
+    log("start_mission", "accepted")
+    await until("in air", v.telemetry.in_air, 20.0)
+    seen = []
+
+    async def finished():
+        p = await v.mission.mission_progress()
+        if not seen or (p.current, p.total) != seen[-1]:
+            seen.append((p.current, p.total))
+            log("progress", f"{p.current}/{p.total}")
+        return await v.mission.is_mission_finished()
+    await until("mission finished", finished, 150.0, 0.2)
+    currents = [c for c, _ in seen]
+    if currents != sorted(currents) or max(currents) < len(items) - 1:
+        raise Failed(f"progress: {seen} does not advance to {len(items) - 1}")
+    await v.landed_and_disarmed(90.0)
+    end = await v.telemetry.position()
+    off = distance_m(home, end)
+    log("landed", f"{off:.2f} m from home")
+    if off > 3.0:
+        raise Failed(f"landed {off:.2f} m from home")
+
+
+async def offboard(v):
+    await v.ready()
+    await v.action.set_takeoff_altitude(8.0)
+    await v.arm()
+    await v.action.takeoff()
+
+    async def up():
+        return await v.relative_altitude() > 7.5
+    await until("at take-off height", up, 40.0)
+    await asyncio.sleep(2.0)
+    start = (await v.telemetry.position_velocity_ned()).position
+    log("start", f"N {start.north_m:.2f} E {start.east_m:.2f} D {start.down_m:.2f}")
+    await v.offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.0, 0.0, 0.0))
+    await v.offboard.start()
+    await until("flight mode OFFBOARD", lambda: _mode_is(v, FlightMode.OFFBOARD), 5.0)
+    corners = []
+    for north, east in [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)]:
+        await v.offboard.set_velocity_ned(VelocityNedYaw(north * 2.0, east * 2.0, 0.0, 0.0))
+        await asyncio.sleep(5.0)
+        p = (await v.telemetry.position_velocity_ned()).position
+        corners.append((p.north_m - start.north_m, p.east_m - start.east_m))
+        log("corner", f"N {corners[-1][0]:.2f} E {corners[-1][1]:.2f}")
+    await v.offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.0, 0.0, 0.0))
+    await asyncio.sleep(3.0)
+    await v.offboard.stop()
+    end = (await v.telemetry.position_velocity_ned()).position
+    off = math.hypot(end.north_m - start.north_m, end.east_m - start.east_m)
+    log("square", f"ended {off:.2f} m from its start")
+    # The square's corners as flown: each side about 10 m (2 m/s for 5 s).
+    expected = [(10, 0), (10, 10), (0, 10), (0, 0)]
+    for (n, e), (en, ee) in zip(corners, expected):
+        if math.hypot(n - en, e - ee) > 3.0:
+            raise Failed(f"square: corner N {n:.2f} E {e:.2f}, expected near N {en} E {ee}")
+    if off > 2.0:
+        raise Failed(f"square: ended {off:.2f} m from its start")
+    await v.action.land()
+    await v.landed_and_disarmed(60.0)
+
+
+async def _mode_is(v, mode):
+    return await v.telemetry.flight_mode() == mode
+
+
+async def goto_hold_rtl(v):
+    home = await v.ready()
+    await v.action.set_takeoff_altitude(10.0)
+    await v.arm()
+    await v.action.takeoff()
+
+    async def up():
+        return await v.relative_altitude() > 9.5
+    await until("at take-off height", up, 40.0)
+    target_lat = home.latitude_deg + 20.0 / 110_574.0
+    await v.action.goto_location(target_lat, home.longitude_deg, home.absolute_altitude_m + 12.0, 0.0)
+    log("goto_location", "accepted")
+
+    async def there():
+        p = await v.telemetry.position()
+        north = (p.latitude_deg - home.latitude_deg) * 110_574.0
+        return p if abs(north - 20.0) < 1.0 and abs(p.relative_altitude_m - 12.0) < 1.0 else None
+    p = await until("at the goto target", there, 60.0)
+    await v.action.hold()
+    await until("flight mode HOLD", lambda: _mode_is(v, FlightMode.HOLD), 5.0)
+    await asyncio.sleep(5.0)
+    held = await v.telemetry.position()
+    drift = distance_m(p, held)
+    log("hold", f"drifted {drift:.2f} m in 5 s")
+    if drift > 1.5:
+        raise Failed(f"hold: drifted {drift:.2f} m")
+    await v.action.return_to_launch()
+    await until("flight mode RETURN_TO_LAUNCH", lambda: _mode_is(v, FlightMode.RETURN_TO_LAUNCH), 5.0)
+    await v.landed_and_disarmed(120.0)
+    end = await v.telemetry.position()
+    off = distance_m(home, end)
+    log("landed", f"{off:.2f} m from home")
+    if off > 3.0:
+        raise Failed(f"RTL landed {off:.2f} m from home")
+
+
+SCENARIOS = {"takeoff_land": takeoff_land, "mission": mission, "offboard": offboard,
+             "goto_hold_rtl": goto_hold_rtl}
+
+
+async def run(name, args):
+    config = Configuration.create_with_component_type(ComponentType.GROUND_STATION)
+    async with Mavsdk(config) as mavsdk:
+        await mavsdk.add_any_connection(CONNECTION)
+        log("connect", CONNECTION)
+        system = await mavsdk.first_autopilot(timeout_s=30.0)
+        if system is None:
+            raise Failed("connect: no autopilot within 30 s")
+        log("autopilot", f"{await system.autopilot_type()} system {await system.get_system_id()}")
+        await SCENARIOS[name](Vehicle(system), *args)
+
+
+def main():
+    name = sys.argv[1]
+    try:
+        asyncio.run(run(name, sys.argv[2:]))
+    except Failed as e:
+        print(f"FAILED {e}", flush=True)
+        sys.exit(1)
+    except Exception as e:  # a MAVSDK error (ActionError, MissionRawError...) is a failed check
+        print(f"FAILED {type(e).__name__}: {e}", flush=True)
+        sys.exit(1)
+    log("done", name)
+
+
+if __name__ == "__main__":
+    main()
