@@ -20,6 +20,8 @@ use std::time::{Duration, Instant};
 
 use sim_vehicle::{Proc, python, root, tail, temp_dir};
 
+/// Simulated seconds per wall second (`kestrel run --speedup`).
+const SPEEDUP: &str = "2";
 /// Wall-clock bound on one scenario.
 const LIMIT: Duration = Duration::from_secs(240);
 
@@ -32,7 +34,7 @@ fn fly(scenario: &str, args: &[&str]) -> Vec<String> {
     // SIGTERM to the vehicle as an operator stops it, and both exit codes on the last line.
     let script = r#"
         ip link set lo up || exit 90
-        "$KESTREL" run --speedup 2 --duration 900 --quiet > "$KESTREL_LOG" 2>&1 &
+        "$KESTREL" run --speedup "$KESTREL_SPEEDUP" --duration 900 --quiet > "$KESTREL_LOG" 2>&1 &
         vehicle=$!
         "$PYTHON" "$CLIENT" "$@"
         client=$?
@@ -46,6 +48,7 @@ fn fly(scenario: &str, args: &[&str]) -> Vec<String> {
             .args(args)
             .env("KESTREL", env!("CARGO_BIN_EXE_kestrel"))
             .env("KESTREL_LOG", &log)
+            .env("KESTREL_SPEEDUP", SPEEDUP)
             .env("PYTHON", python())
             .env("CLIENT", root().join("tests/python/mavsdk_flight.py"))
             .env("PYTHONUNBUFFERED", "1")

@@ -16,6 +16,7 @@ when every check held, 1 with `FAILED step: why` otherwise.
 
 import asyncio
 import math
+import os
 import sys
 import time
 
@@ -29,6 +30,9 @@ from mavsdk.plugins.telemetry import FlightMode, LandedState
 
 CONNECTION = "udpin://0.0.0.0:14540"
 START = time.monotonic()
+# Simulated seconds per wall second of the vehicle (`kestrel run --speedup`): the offboard
+# square's legs are timed in vehicle seconds, so each side is 10 m at any speed-up.
+SPEEDUP = float(os.environ.get("KESTREL_SPEEDUP", "1"))
 
 
 class Failed(Exception):
@@ -168,17 +172,17 @@ async def offboard(v):
     corners = []
     for north, east in [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)]:
         await v.offboard.set_velocity_ned(VelocityNedYaw(north * 2.0, east * 2.0, 0.0, 0.0))
-        await asyncio.sleep(5.0)
+        await asyncio.sleep(5.0 / SPEEDUP)
         p = (await v.telemetry.position_velocity_ned()).position
         corners.append((p.north_m - start.north_m, p.east_m - start.east_m))
         log("corner", f"N {corners[-1][0]:.2f} E {corners[-1][1]:.2f}")
     await v.offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.0, 0.0, 0.0))
-    await asyncio.sleep(3.0)
+    await asyncio.sleep(3.0 / SPEEDUP)
     await v.offboard.stop()
     end = (await v.telemetry.position_velocity_ned()).position
     off = math.hypot(end.north_m - start.north_m, end.east_m - start.east_m)
     log("square", f"ended {off:.2f} m from its start")
-    # The square's corners as flown: each side about 10 m (2 m/s for 5 s).
+    # The square's corners as flown: each side about 10 m (2 m/s for 5 vehicle seconds).
     expected = [(10, 0), (10, 10), (0, 10), (0, 0)]
     for (n, e), (en, ee) in zip(corners, expected):
         if math.hypot(n - en, e - ee) > 3.0:

@@ -71,6 +71,8 @@ fn low_battery_returns_and_critical_battery_lands() {
 fn geofence_breach_returns_home() {
     let mut params = CommanderParams::default();
     params.geofence.max_radius_m = 15.0;
+    // One velocity target, flown on until the fence stops it (not dropped after GUIDED_TIMEOUT).
+    params.guided_timeout_s = 30.0;
     let mut f = airborne(params, 6.0);
     f.command(Command::SetMode(FlightMode::Guided)).expect("guided");
     let why = f.command(Command::GotoNed { position_ned_m: [30.0, 0.0, -6.0] }).expect_err("outside");

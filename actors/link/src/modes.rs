@@ -10,7 +10,7 @@
 //! | AltHold | 2 | ALT_HOLD |
 //! | Auto | 3 | AUTO |
 //! | Guided, Takeoff | 4 | GUIDED (ArduCopter takes off in GUIDED) |
-//! | PosHold | 5 | LOITER: stick velocity, centred holds position, as ours (POSHOLD, 16, is accepted inbound too; MAVSDK's `hold` asks for 5 and reads 5 back as HOLD) |
+//! | PosHold | 5 | LOITER: stick velocity, centred holds position, as ours (POSHOLD, 16, and BRAKE, 17, which MAVSDK's `hold` asks for, are accepted inbound too) |
 //! | ReturnToLaunch | 6 | RTL |
 //! | Land | 9 | LAND |
 
@@ -38,7 +38,9 @@ pub fn flight_mode(custom_mode: u32) -> Option<FlightMode> {
         2 => FlightMode::AltHold,
         3 => FlightMode::Auto,
         4 => FlightMode::Guided,
-        5 | 16 => FlightMode::PosHold,
+        // LOITER, POSHOLD and BRAKE all hold position with the sticks centred, as ours does;
+        // MAVSDK 4's `hold` asks for BRAKE.
+        5 | 16 | 17 => FlightMode::PosHold,
         6 => FlightMode::ReturnToLaunch,
         9 => FlightMode::Land,
         _ => return None,

@@ -225,6 +225,7 @@ impl Vehicle {
 
     fn on_command(&mut self, request: CommandRequest, now: Time) -> Outputs {
         let p = request.params;
+        tracing::debug!(command = ?request.command, params = ?p, frame = ?request.frame, from = ?request.sender, "command");
         match request.command {
             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
                 Outputs::send(ack(&request, self.telemetry.set_interval(p[0], p[1], now)))

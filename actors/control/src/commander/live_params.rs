@@ -121,6 +121,15 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.disarm_delay_s = v,
     },
     ParamDef {
+        name: "GUID_TIMEOUT_S",
+        unit: "s",
+        min: 0.1,
+        max: 30.0,
+        description: "A GUIDED velocity target not repeated within this time is dropped: hold",
+        get: |p| p.guided_timeout_s,
+        set: |p, v| p.guided_timeout_s = v,
+    },
+    ParamDef {
         name: "FS_GCS_TIMEOUT_S",
         unit: "s",
         min: 1.0,

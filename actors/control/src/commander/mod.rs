@@ -89,6 +89,8 @@ pub struct Commander {
     rtl: RtlPhase,
     flip: Option<Flip>,
     guided: modes::GuidedTarget,
+    /// When the GUIDED target last came: a velocity stream that stops is held (`guided_timeout_s`).
+    guided_at: Option<Time>,
     takeoff_height_m: f64,
     land_detector: LandDetector,
     /// The land detector outside the landing modes: still for a while although the setpoint
@@ -136,6 +138,7 @@ impl Commander {
             rtl: RtlPhase::Climb,
             flip: None,
             guided: modes::GuidedTarget::Hold,
+            guided_at: None,
             land_detector: LandDetector::default(),
             ground_contact: LandDetector::default(),
             descent_demanded: false,
@@ -330,10 +333,10 @@ impl Commander {
             }),
             Command::Flip => self.start_flip(now),
             Command::GotoNed { position_ned_m } => {
-                self.guided_command(modes::GuidedTarget::Position(position_ned_m))
+                self.guided_command(now, modes::GuidedTarget::Position(position_ned_m))
             }
             Command::VelocityNed { velocity_ned_m_s } => {
-                self.guided_command(modes::GuidedTarget::Velocity(velocity_ned_m_s))
+                self.guided_command(now, modes::GuidedTarget::Velocity(velocity_ned_m_s))
             }
             Command::SetHome { point } => self.set_home(now, point),
             Command::SetGeofence { enabled } => {
@@ -448,7 +451,7 @@ impl Commander {
         Ok(())
     }
 
-    fn guided_command(&mut self, target: modes::GuidedTarget) -> Result<(), Refusal> {
+    fn guided_command(&mut self, now: Time, target: modes::GuidedTarget) -> Result<(), Refusal> {
         if self.mode != FlightMode::Guided {
             return refuse("position/velocity targets are accepted in GUIDED only");
         }
@@ -476,6 +479,7 @@ impl Commander {
             modes::GuidedTarget::Hold => {}
         }
         self.guided = target;
+        self.guided_at = Some(now);
         Ok(())
     }
 

@@ -248,6 +248,20 @@ impl Commander {
                 None => self.avoidance.reset(),
             }
         }
+        if matches!(self.guided, GuidedTarget::Velocity(_))
+            && self
+                .guided_at
+                .is_some_and(|t| now.saturating_since(t).as_secs_f64() > self.params.guided_timeout_s)
+        {
+            // ArduCopter's GUIDED_TIMEOUT, PX4's COM_OF_LOSS_T: a velocity nobody repeats is not
+            // flown on for ever; hold where the stream stopped.
+            self.guided = GuidedTarget::Hold;
+            self.hold = Hold::default();
+            self.announce(format!(
+                "GUIDED: no velocity target for {} s, holding",
+                self.params.guided_timeout_s
+            ));
+        }
         match self.guided {
             GuidedTarget::Hold if on_ground => SetpointTarget::MotorsOff,
             GuidedTarget::Hold => self.hold_here(nav),

@@ -59,6 +59,9 @@ pub struct CommanderParams {
     /// `DISARM_DELAY` and PX4's `COM_DISARM_PRFLT` (both 10 s): a vehicle armed from a ground
     /// station and forgotten must not sit with its motors live.
     pub disarm_delay_s: f64,
+    /// A GUIDED velocity target not repeated within this time is dropped and the vehicle holds
+    /// (s). ArduCopter's `GUIDED_TIMEOUT` is 3 s; MAVSDK's Offboard repeats its setpoint at 20 Hz.
+    pub guided_timeout_s: f64,
     pub failsafe: FailsafeParams,
     pub geofence: GeofenceParams,
     pub feasibility: FeasibilityParams,
@@ -90,6 +93,7 @@ impl Default for CommanderParams {
             guided_speed_m_s: 5.0,
             require_battery: true,
             disarm_delay_s: 10.0,
+            guided_timeout_s: 3.0,
             failsafe: FailsafeParams::default(),
             geofence: GeofenceParams::default(),
             feasibility: FeasibilityParams::default(),
@@ -212,6 +216,7 @@ impl CommanderParams {
             ("status_rate_hz", self.status_rate_hz),
             ("avoidance_timeout_s", self.avoidance_timeout_s),
             ("guided_speed_m_s", self.guided_speed_m_s),
+            ("guided_timeout_s", self.guided_timeout_s),
             ("failsafe.link_timeout_s", self.failsafe.link_timeout_s),
             ("failsafe.manual_timeout_s", self.failsafe.manual_timeout_s),
             ("feasibility.max_distance_m", self.feasibility.max_distance_m),

@@ -941,3 +941,82 @@ fn land_in_the_take_off_climb_disarms_on_the_ground_below_and_above_the_airborne
         assert!(t > 1_000_000, "LAND at {land_at_m} m disarmed at {t} µs, before touching down");
     }
 }
+
+/// Runs the commander on the ground (fresh NavStates every 10 ms) from `from_us` to `to_us`.
+fn idle_on_the_ground(c: &mut Commander, from_us: u64, to_us: u64) {
+    let mut t = from_us;
+    while t < to_us {
+        t += 10_000;
+        c.on_nav(&nav(Time(t), 0.0, true));
+        c.on_battery(&full_battery(Time(t)));
+        c.update(Time(t));
+    }
+}
+
+#[test]
+fn without_sticks_it_boots_in_guided_and_a_ground_station_may_arm_there() {
+    let mut c = ready(true);
+    assert_eq!(c.mode(), FlightMode::Guided, "no radio heard: a mode that needs no sticks");
+    assert!(c.status(Time(1000)).armable, "the pre-arm checks pass");
+    assert_eq!(cmd(&mut c, Command::Arm), Ok(()));
+    assert!(!c.status(Time(1000)).armable, "armed is not armable");
+    // With a radio: the first sticks heard while disarmed switch to STABILIZE, as ArduCopter boots.
+    let mut c = ready(true);
+    c.on_manual(&ManualControl { time: Time(1000), ..ManualControl::default() });
+    assert_eq!(c.mode(), FlightMode::Stabilize);
+    // A mode chosen by a ground station is kept when sticks come later.
+    let mut c = ready(true);
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("loiter");
+    c.on_manual(&ManualControl { time: Time(1000), ..ManualControl::default() });
+    assert_eq!(c.mode(), FlightMode::PosHold);
+}
+
+#[test]
+fn arming_is_refused_in_rtl_and_land_with_a_reason() {
+    for mode in [FlightMode::ReturnToLaunch, FlightMode::Land] {
+        let mut c = ready(true);
+        cmd(&mut c, Command::SetMode(mode)).expect("mode");
+        let why = cmd(&mut c, Command::Arm).expect_err("refused");
+        assert!(why.contains("not in") && why.contains("GUIDED"), "{mode:?}: {why}");
+        assert!(c.status(Time(1000)).armable, "the vehicle itself is ready: MAVSDK switches mode first");
+    }
+}
+
+#[test]
+fn armed_on_the_ground_without_a_take_off_disarms_after_disarm_delay() {
+    let mut c = ready(true);
+    cmd(&mut c, Command::Arm).expect("arm");
+    idle_on_the_ground(&mut c, 1000, 9_900_000);
+    assert!(c.armed(), "before DISARM_DELAY (10 s)");
+    idle_on_the_ground(&mut c, 9_900_000, 10_200_000);
+    assert!(!c.armed(), "10 s armed on the ground without a take-off");
+    let status = c.status(Time(10_200_000));
+    assert!(status.last_refusal.as_deref().is_some_and(|r| r.contains("DISARM_DELAY")), "{status:?}");
+    // 0 switches it off.
+    let mut c =
+        Commander::new(CommanderParams { disarm_delay_s: 0.0, ..CommanderParams::default() }).expect("valid");
+    c.on_nav(&nav(Time(1000), 0.0, true));
+    c.on_battery(&full_battery(Time(1000)));
+    cmd(&mut c, Command::Arm).expect("arm");
+    idle_on_the_ground(&mut c, 1000, 30_000_000);
+    assert!(c.armed());
+}
+
+#[test]
+fn a_guided_velocity_not_repeated_within_the_timeout_is_dropped_for_a_hold() {
+    let mut c = hovering();
+    at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
+    at(&mut c, 2000, Command::VelocityNed { velocity_ned_m_s: [3.0, 0.0, 0.0] }).expect("velocity");
+    let flies = |c: &mut Commander, t: u64| {
+        c.on_nav(&nav(Time(t), -5.0, true));
+        trajectory(c.update(Time(t)).target)
+    };
+    assert_eq!(velocity(&flies(&mut c, 2_900_000))[0], 3.0, "within GUIDED_TIMEOUT (3 s)");
+    let refusals = c.status(Time(2_900_000)).refusals;
+    let held = flies(&mut c, 3_100_000);
+    assert_eq!(held.velocity_ned_m_s, [None; 3], "the stream stopped: no velocity flown");
+    assert_eq!(held.position_ned_m, [Some(0.0), Some(0.0), Some(-5.0)], "held where it was");
+    let status = c.status(Time(3_100_000));
+    assert_eq!(status.refusals, refusals + 1);
+    assert!(status.last_refusal.as_deref().is_some_and(|r| r.contains("holding")), "{status:?}");
+}

@@ -89,6 +89,7 @@ impl CommandService {
                     return refuse(MavResult::MAV_RESULT_DENIED);
                 };
                 let Some(mode) = (base & 1 == 1).then(|| flight_mode(custom)).flatten() else {
+                    tracing::info!(base, custom, "DO_SET_MODE refused: not a custom mode we fly");
                     return refuse(MavResult::MAV_RESULT_FAILED);
                 };
                 Command::SetMode(mode)

@@ -247,12 +247,13 @@ impl MissionService {
         let Some(item) = self.plan(t).and_then(|p| p.get(usize::from(seq))).cloned() else {
             return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_INVALID_SEQUENCE));
         };
-        let mut item = MISSION_ITEM_INT_DATA {
+        // Every field as uploaded, `current` too: a ground station (MAVSDK, QGroundControl)
+        // checks that what it downloads is what it sent; which item is being flown, MISSION_CURRENT says.
+        let item = MISSION_ITEM_INT_DATA {
             target_system: from.target_system(),
             target_component: from.component_id,
             ..item
         };
-        item.current = u8::from(seq == 0 && t == MavMissionType::MAV_MISSION_TYPE_MISSION);
         if legacy {
             return Outputs::send(MavMessage::MISSION_ITEM(to_float(&item)));
         }

@@ -12,8 +12,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_e7};
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, DepthGrid, GpsFix, GpsFixType, LandedState, NavState, OBSTACLE_SECTORS,
-    VehicleStatus,
+    AvoidanceCommand, BatteryStatus, DepthGrid, FailsafeCause, GpsFix, GpsFixType, LandedState, NavState,
+    OBSTACLE_SECTORS, VehicleStatus,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
@@ -384,6 +384,18 @@ impl Telemetry {
         if snap.status.as_ref().is_some_and(|s| s.armable || s.armed) {
             health |= S::MAV_SYS_STATUS_PREARM_CHECK;
         }
+        // The geofence: enabled as switched, healthy unless breached (MAVProxy says "fence
+        // breach" when the bit is present and enabled but not healthy).
+        present |= S::MAV_SYS_STATUS_GEOFENCE;
+        let mut enabled = present;
+        if let Some(s) = &snap.status {
+            if !s.geofence_enabled {
+                enabled.remove(S::MAV_SYS_STATUS_GEOFENCE);
+            }
+            if s.failsafe.is_none_or(|f| f.cause != FailsafeCause::GeofenceBreach) {
+                health |= S::MAV_SYS_STATUS_GEOFENCE;
+            }
+        }
         let (voltage, current, remaining) = snap.battery.as_ref().map_or((u16::MAX, -1, -1), |b| {
             (
                 (b.voltage_v * 1000.0).clamp(0.0, 65_534.0) as u16,
@@ -393,7 +405,7 @@ impl Telemetry {
         });
         SYS_STATUS_DATA {
             onboard_control_sensors_present: present,
-            onboard_control_sensors_enabled: present,
+            onboard_control_sensors_enabled: enabled,
             onboard_control_sensors_health: health,
             voltage_battery: voltage,
             current_battery: current,
