@@ -315,3 +315,29 @@ fn perception_chain_turns_rendered_frames_into_grids_and_avoidance_commands() {
     let trunk = last.regions[1][1].nearest_m.expect("the centre region sees the tree");
     assert!((10.0..17.0).contains(&trunk), "tree ranged at {trunk} m");
 }
+
+/// `kestrel run` on the default config prints no warning and no error from start to a clean
+/// stop: what a new user sees first is quiet. Run in a network namespace of its own (`unshare
+/// --net` through a user namespace), so the default config's fixed UDP ports (18570, 14580) are
+/// not taken by another vehicle of the suite running beside it.
+#[test]
+fn a_clean_start_of_the_default_graph_prints_no_warning() {
+    let out = Command::new("unshare")
+        .args([
+            "--net",
+            "--map-root-user",
+            "sh",
+            "-c",
+            "ip link set lo up && exec \"$0\" run --duration 20 --speedup 0 --quiet",
+        ])
+        .arg(env!("CARGO_BIN_EXE_kestrel"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env_remove("RUST_LOG")
+        .output()
+        .expect("unshare (util-linux)");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let loud: Vec<&str> = stderr.lines().filter(|l| l.contains(" WARN ") || l.contains(" ERROR ")).collect();
+    assert!(loud.is_empty(), "a clean start warned:\n{}", loud.join("\n"));
+    assert!(stderr.contains("estimator aligned"), "the run did not get as far as alignment:\n{stderr}");
+}

@@ -185,6 +185,19 @@ fn fly_with_env(
 }
 
 #[test]
+fn a_ground_station_that_arms_first_then_sends_mission_start_flies_the_mission() {
+    let dir = temp_dir("mission-start");
+    let plan = root().join("config/missions/square.plan");
+    let plan = plan.to_str().expect("utf-8 path");
+    let flight = fly(&dir, "mission-start", "gcs_flight.py", &[plan, "--mission-start"], |port| {
+        link_params(port, "", "")
+    });
+    let result = flight.transcript.last().expect("result");
+    assert!(result.contains("\"reached\": [1, 2, 3, 4, 5"), "{result}");
+    assert!(flight.landed(), "{:#}", flight.report);
+}
+
+#[test]
 fn a_ground_station_flies_the_square_mission_through_telemetry_alone() {
     let dir = temp_dir("flight");
     let plan = root().join("config/missions/square.plan");

@@ -1,12 +1,15 @@
 """Flies a QGroundControl .plan on `kestrel run` as a ground station does, seeing only telemetry.
 
-Usage: gcs_flight.py PLAN.plan   (run by tests/gcs.rs; see gcs_common.py for the transcript)
+Usage: gcs_flight.py PLAN.plan [--mission-start]   (run by tests/gcs.rs; see gcs_common.py for
+the transcript)
 
 1. identify the vehicle from its HEARTBEAT (and AUTOPILOT_VERSION);
 2. fetch every parameter, set one (PARAM_VALUE echo, read back), have an out-of-range set refused;
 3. upload the plan (home as item 0, MISSION_ITEM_INT) and download it back identical;
-4. GUIDED, arm, AUTO (each ACKed ACCEPTED), then follow the flight: climb to the take-off
-   height, MISSION_CURRENT / MISSION_ITEM_REACHED advancing, RTL, landed and disarmed near home.
+4. GUIDED, arm, AUTO (each ACKed ACCEPTED) — or with `--mission-start`, as operators start
+   ArduPilot and PX4 SITL: arm in the mode it booted in, then MAV_CMD_MISSION_START — then
+   follow the flight: climb to the take-off height, MISSION_CURRENT / MISSION_ITEM_REACHED
+   advancing, RTL, landed and disarmed near home.
 """
 
 import sys
@@ -14,6 +17,7 @@ import sys
 from gcs_common import ACM_MODES, Failed, distance_m, main, mav, plan_items, upload_and_download
 
 PLAN = sys.argv[1]
+MISSION_START = "--mission-start" in sys.argv[2:]
 TAKEOFF_M = 10.0
 
 
@@ -43,9 +47,13 @@ def flight(gcs):
     gcs.wait_type("MISSION_CURRENT", 5.0, "mission current", lambda m: m.total == len(items) - 1)
 
     gcs.wait_ready()
-    gcs.set_mode_message("GUIDED", "guided")
-    gcs.arm()
-    gcs.set_mode_command("AUTO", "auto")
+    if MISSION_START:
+        gcs.arm()
+        gcs.command(mav.MAV_CMD_MISSION_START, [0, 0], "mission start")
+    else:
+        gcs.set_mode_message("GUIDED", "guided")
+        gcs.arm()
+        gcs.set_mode_command("AUTO", "auto")
     gcs.log("following the flight through telemetry")
 
     gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 0.5,

@@ -43,6 +43,9 @@ struct Running {
     filter: Filter,
     output: OutputPredictor,
     last_no_aiding_fusion: Option<Time>,
+    /// When the filter began: lagged samples measured before it (still in flight at alignment)
+    /// are not fused, as samples before alignment are not, and are no fault to report.
+    aligned_at: Time,
 }
 
 /// The 16-state EKF with its delay buffers, aiding logic and output predictor.
@@ -188,7 +191,8 @@ impl Ekf {
                 }
                 let filter = Filter::aligned(state, aligned.mag_earth_ned_gauss.is_some());
                 tracing::info!(time = %aligned.time, "estimator aligned");
-                self.running = Some(Running { filter, output, last_no_aiding_fusion: None });
+                self.running =
+                    Some(Running { filter, output, last_no_aiding_fusion: None, aligned_at: aligned.time });
             }
             return Ok(());
         };
@@ -251,7 +255,8 @@ impl Ekf {
     }
 
     /// Once aligned: the time a lagged sample measured at `measured` is fused at, or the
-    /// refusal (counted in `sensor`'s arrivals) when it cannot be used. `None` before alignment.
+    /// refusal (counted in `sensor`'s arrivals) when it cannot be used. `None` before alignment
+    /// and for samples measured before it.
     fn admit(
         &mut self,
         sensor: impl FnOnce(&mut DroppedSamples<Arrivals>) -> &mut Arrivals,
@@ -261,6 +266,9 @@ impl Ekf {
         let (Some(running), Some(newest_imu)) = (self.running.as_ref(), self.newest_imu) else {
             return Ok(None);
         };
+        if measured < running.aligned_at {
+            return Ok(None);
+        }
         let horizon = self.params.lag_compensation.then_some(running.filter.state.time);
         sensor(&mut self.arrivals).admit(name, measured, horizon, newest_imu)?;
         Ok(Some(self.fusion_time(measured)))
