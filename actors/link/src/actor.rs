@@ -254,7 +254,10 @@ impl Actor for LinkActor {
                 Err(e) => tracing::error!(error = %e, "parameter file writer did not finish"),
             }
         }
-        let hub = self.hub();
+        let mut hub = self.hub();
+        // A last HEARTBEAT with the final state: a run that ends itself (`--exit-on-land` at
+        // the disarm) would otherwise leave ground stations showing the vehicle armed.
+        hub.send_heartbeat();
         for (name, stats) in hub.link_stats() {
             tracing::info!(link = %name, ?stats, "MAVLink link counters");
         }
