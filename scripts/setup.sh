@@ -11,8 +11,10 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 
 # Debian packages: a C toolchain for crates with C parts (zstd), pkg-config, OpenCV 4.6 with
 # clang/libclang for the `opencv` crate's bindings (stereo vision), python3-venv for the test
-# references, socat for the serial-link tests (two joined pseudo-terminals).
-packages=(build-essential pkg-config python3 python3-venv clang libclang-dev libopencv-dev socat)
+# references, socat for the serial-link tests (two joined pseudo-terminals), util-linux's
+# `unshare` and iproute2's `ip` for the tests that fly the default config on its fixed UDP ports,
+# each in a network namespace of its own (tests/mavsdk.rs, tests/instances.rs).
+packages=(build-essential pkg-config python3 python3-venv clang libclang-dev libopencv-dev socat util-linux iproute2)
 
 missing=()
 for p in "${packages[@]}"; do

@@ -33,10 +33,6 @@ use crate::services::{Outputs, Sender, ToGraph};
 /// Our component id (MAV_COMP_ID_AUTOPILOT1).
 pub const COMPONENT_ID: u8 = 1;
 
-/// PARAM_VALUEs sent per scheduler tick while a parameter list is streaming: a burst of hundreds
-/// of datagrams overflows a ground station's socket buffer, 25 per 20 ms (1250/s) does not.
-pub const PARAMS_PER_TICK: usize = 25;
-
 /// What we claim in AUTOPILOT_VERSION: only what this crate implements (not FTP: requests are
 /// only refused, see `services::ftp`).
 pub fn capabilities() -> MavProtocolCapability {
@@ -64,8 +60,6 @@ pub struct Vehicle {
     pub unhandled: u64,
     /// Set when a parameter changed and should be persisted.
     params_changed: bool,
-    /// Next index of a PARAM_REQUEST_LIST being streamed.
-    param_cursor: Option<usize>,
 }
 
 impl Vehicle {
@@ -81,7 +75,6 @@ impl Vehicle {
             offboard_rejects: OffboardRejects::default(),
             unhandled: 0,
             params_changed: false,
-            param_cursor: None,
         }
     }
 
@@ -158,8 +151,7 @@ impl Vehicle {
                 Outputs::none()
             }
             MavMessage::PARAM_REQUEST_LIST(_) => {
-                self.param_cursor = Some(0);
-                self.next_params()
+                Outputs { mav: self.params.request_list(), graph: Vec::new() }
             }
             MavMessage::PARAM_REQUEST_READ(r) => {
                 let name = r.param_id.to_str().unwrap_or_default().trim_end_matches('\0');
@@ -280,14 +272,6 @@ impl Vehicle {
         }
     }
 
-    fn next_params(&mut self) -> Outputs {
-        let Some(start) = self.param_cursor else { return Outputs::none() };
-        let end = (start + PARAMS_PER_TICK).min(self.params.len());
-        let mav = (start..end).filter_map(|i| self.params.read("", i16::try_from(i).ok()?)).collect();
-        self.param_cursor = (end < self.params.len()).then_some(end);
-        Outputs { mav, graph: Vec::new() }
-    }
-
     /// MISSION_CURRENT now, when the commander already shows item `index` current: the spec
     /// wants one after every set-current request, changed or not (a change sends its own from
     /// `on_status`).
@@ -361,7 +345,6 @@ impl Vehicle {
         let mut out = Outputs { mav: self.commands.on_tick(now), graph: Vec::new() };
         out.mav.extend(self.params.on_tick(now));
         out.extend(self.missions.on_tick(now));
-        out.extend(self.next_params());
         if self.gcs.check(now) == Some(GcsEvent::Lost) {
             out.mav.push(statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "GCS heartbeat lost"));
         }
@@ -654,7 +637,7 @@ mod tests {
         let list =
             MavMessage::PARAM_REQUEST_LIST(PARAM_REQUEST_LIST_DATA { target_system: 7, target_component: 1 });
         let mut n = v.on_message(GCS, &list, Time::ZERO).mav.len();
-        assert_eq!(n, PARAMS_PER_TICK);
+        assert_eq!(n, crate::services::params::PARAMS_PER_TICK);
         for _ in 0..5 {
             n += v
                 .on_tick(Time::ZERO)

@@ -76,7 +76,13 @@ pub struct ParamTable {
     pending: BTreeMap<String, f64>,
     /// Sets sent to owners and not yet confirmed.
     awaiting: Vec<Awaiting>,
+    /// Next index of a PARAM_REQUEST_LIST being streamed.
+    list_cursor: Option<usize>,
 }
+
+/// PARAM_VALUEs sent per scheduler tick while a parameter list is streaming: a burst of hundreds
+/// of datagrams overflows a ground station's socket buffer, 25 per 20 ms (1250/s) does not.
+pub const PARAMS_PER_TICK: usize = 25;
 
 /// What a declaration changed.
 #[derive(Debug, Default)]
@@ -112,7 +118,7 @@ impl ParamTable {
         let mut entries: Vec<Entry> =
             specs.into_iter().map(|spec| Entry { spec, owner: None, persist: false }).collect();
         entries.sort_by(|a, b| a.spec.name.cmp(&b.spec.name));
-        Ok(ParamTable { entries, pending: BTreeMap::new(), awaiting: Vec::new() })
+        Ok(ParamTable { entries, pending: BTreeMap::new(), awaiting: Vec::new(), list_cursor: None })
     }
 
     /// The number of parameters.
@@ -300,6 +306,20 @@ impl ParamTable {
         }))
     }
 
+    /// PARAM_REQUEST_LIST: the first [`PARAMS_PER_TICK`] parameters now, the rest from
+    /// `on_tick` (a new request starts over).
+    pub fn request_list(&mut self) -> Vec<MavMessage> {
+        self.list_cursor = Some(0);
+        self.next_chunk()
+    }
+
+    fn next_chunk(&mut self) -> Vec<MavMessage> {
+        let Some(start) = self.list_cursor else { return Vec::new() };
+        let end = (start + PARAMS_PER_TICK).min(self.entries.len());
+        self.list_cursor = (end < self.entries.len()).then_some(end);
+        (start..end).filter_map(|i| self.value_msg(i)).collect()
+    }
+
     /// Every parameter, in index order.
     pub fn list(&self) -> Vec<MavMessage> {
         (0..self.entries.len()).filter_map(|i| self.value_msg(i)).collect()
@@ -345,9 +365,10 @@ impl ParamTable {
         Outputs { mav: self.value_msg(i).into_iter().collect(), graph: vec![ToGraph::Param(set)] }
     }
 
-    /// Sets whose owner did not answer in time: the old value stays, and is echoed with why.
+    /// The next part of a parameter list being streamed, and the sets whose owner did not
+    /// answer in time: the old value stays, and is echoed with why.
     pub fn on_tick(&mut self, now: Time) -> Vec<MavMessage> {
-        let mut out = Vec::new();
+        let mut out = self.next_chunk();
         let (expired, waiting): (Vec<_>, Vec<_>) =
             std::mem::take(&mut self.awaiting).into_iter().partition(|a| now >= a.deadline);
         self.awaiting = waiting;
