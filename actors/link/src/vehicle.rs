@@ -255,6 +255,17 @@ impl Vehicle {
                 out.mav.extend(self.mission_current_if_shown(index));
                 out
             }
+            // A first item (param1 > 0) starts there; the last item (param2) must be 0 or the
+            // plan's last, as we fly to the end: other ranges are DENIED, not flown differently.
+            MavCmd::MAV_CMD_MISSION_START if !(p[0] == 0.0 && p[1] == 0.0) => {
+                let item = |v: f64| whole(v, u16::MAX.into()).and_then(|s| u16::try_from(s).ok());
+                let last = self.missions.mission_len().saturating_sub(1);
+                let to_end = item(p[1]).is_some_and(|l| l == 0 || usize::from(l) == last);
+                match item(p[0]).and_then(|s| self.missions.commander_index(s.max(1))) {
+                    Some(index) if to_end => self.commands.mission_start_at(request, index, now),
+                    _ => Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)),
+                }
+            }
             MavCmd::MAV_CMD_DO_REPOSITION => {
                 self.commands.reposition(request, home(&self.telemetry.snapshot), now)
             }
@@ -629,6 +640,37 @@ mod tests {
         );
         assert_eq!(v.unhandled, 0);
         assert!(!capabilities().contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
+    }
+
+    #[test]
+    fn mission_start_from_a_first_item_makes_it_current_then_starts() {
+        let mut v = vehicle(0);
+        with_mission(&mut v, 3);
+        let start = |v: &mut Vehicle, first: f32, last: f32| {
+            let msg = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+                command: MavCmd::MAV_CMD_MISSION_START,
+                param1: first,
+                param2: last,
+                target_system: 7,
+                target_component: 1,
+                ..Default::default()
+            });
+            v.on_message(GCS, &msg, Time::ZERO)
+        };
+        let out = start(&mut v, 2.0, 0.0);
+        assert_eq!(
+            out.graph,
+            vec![
+                ToGraph::Command(Command::SetMissionCurrent { index: 1 }),
+                ToGraph::Request { id: 1, command: Command::MissionStart }
+            ]
+        );
+        assert_eq!(start(&mut v, 1.0, 3.0).graph.len(), 2, "to the last item is to the end");
+        for (first, last) in [(2.0, 1.0), (9.0, 0.0), (1.5, 0.0), (f32::NAN, 0.0)] {
+            let out = start(&mut v, first, last);
+            assert!(out.graph.is_empty(), "{first} {last}");
+            assert_eq!(ack_result(&out), Some(MavResult::MAV_RESULT_DENIED), "{first} {last}");
+        }
     }
 
     #[test]

@@ -42,6 +42,14 @@ pub enum Command {
     /// a running mission flies there next, otherwise the next AUTO starts there. `index` counts
     /// the commander's items, so the ground station's item 0 (home) is not one of them.
     SetMissionCurrent { index: u32 },
+    /// In AUTO: fly the mission's legs at this horizontal speed from now on (m/s), as a
+    /// DO_CHANGE_SPEED mission item does (MAV_CMD_DO_CHANGE_SPEED).
+    ChangeSpeed { speed_m_s: f64 },
+    /// In AUTO: stop where the vehicle is and hold, keeping the mission's place
+    /// (MAV_CMD_DO_PAUSE_CONTINUE 0, QGroundControl's "Pause").
+    PauseMission,
+    /// In AUTO: go on with the paused mission from where it stopped (DO_PAUSE_CONTINUE 1).
+    ContinueMission,
     /// The ground station is alive. Heartbeats and sticks (not other commands, which scripts
     /// send too) establish and refresh the data link whose loss is a failsafe.
     Heartbeat,

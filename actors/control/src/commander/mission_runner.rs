@@ -55,6 +55,11 @@ impl MissionRunner {
         }
     }
 
+    /// Flies the legs from now on at `speed_m_s` (m/s), as a DO_CHANGE_SPEED item does.
+    pub fn set_cruise(&mut self, speed_m_s: f64) {
+        self.cruise_m_s = speed_m_s;
+    }
+
     /// Makes item `index` current: flown next, from wherever the vehicle is (the items between
     /// are skipped, as MAVLink's MISSION_SET_CURRENT asks). `false`, and nothing changed, when
     /// there is no such item.

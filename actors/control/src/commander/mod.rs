@@ -89,6 +89,8 @@ pub struct Commander {
     rtl: RtlPhase,
     flip: Option<Flip>,
     guided: modes::GuidedTarget,
+    /// AUTO is paused (DO_PAUSE_CONTINUE): hold where the vehicle stopped, the mission's place kept.
+    paused: bool,
     /// When the GUIDED target last came: a velocity stream that stops is held (`guided_timeout_s`).
     guided_at: Option<Time>,
     takeoff_height_m: f64,
@@ -139,6 +141,7 @@ impl Commander {
             flip: None,
             guided: modes::GuidedTarget::Hold,
             guided_at: None,
+            paused: false,
             land_detector: LandDetector::default(),
             ground_contact: LandDetector::default(),
             descent_demanded: false,
@@ -350,6 +353,27 @@ impl Commander {
                 Ok(())
             }
             Command::SetMissionCurrent { index } => self.set_mission_current(index),
+            Command::ChangeSpeed { speed_m_s } => self.change_speed(speed_m_s),
+            Command::PauseMission | Command::ContinueMission
+                if self.mode != FlightMode::Auto || self.runner.is_none() =>
+            {
+                refuse("pause/continue refused: no mission is being flown in AUTO")
+            }
+            Command::PauseMission => {
+                if !self.paused {
+                    tracing::info!("mission paused");
+                    self.hold = modes::Hold::default();
+                }
+                self.paused = true;
+                Ok(())
+            }
+            Command::ContinueMission => {
+                if self.paused {
+                    tracing::info!("mission continued");
+                }
+                self.paused = false;
+                Ok(())
+            }
         };
         self.refused(result)
     }
@@ -430,6 +454,7 @@ impl Commander {
         self.rtl = RtlPhase::Climb;
         self.flip = None;
         self.guided = modes::GuidedTarget::Hold;
+        self.paused = false;
         self.land_detector.reset();
         self.avoidance.reset();
     }
@@ -449,6 +474,21 @@ impl Commander {
         }
         self.flip = Some(Flip::start(&nav, self.params.hover_thrust));
         Ok(())
+    }
+
+    /// DO_CHANGE_SPEED: the running mission's leg speed (m/s), within the feasibility limit.
+    fn change_speed(&mut self, speed_m_s: f64) -> Result<(), Refusal> {
+        let max = self.params.feasibility.max_velocity_m_s;
+        if !(speed_m_s.is_finite() && speed_m_s > 0.0 && speed_m_s <= max) {
+            return refuse(format!("speed {speed_m_s} m/s refused: 0 < speed <= {max} m/s"));
+        }
+        match (&mut self.runner, self.mode) {
+            (Some(runner), FlightMode::Auto) => {
+                runner.set_cruise(speed_m_s);
+                Ok(())
+            }
+            _ => refuse("DO_CHANGE_SPEED refused: flown in AUTO only"),
+        }
     }
 
     fn guided_command(&mut self, now: Time, target: modes::GuidedTarget) -> Result<(), Refusal> {

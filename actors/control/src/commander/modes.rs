@@ -271,6 +271,10 @@ impl Commander {
     }
 
     fn auto(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
+        if self.paused {
+            self.avoidance.reset();
+            return self.hold_here(nav);
+        }
         let (Some(frame), Some(runner)) = (self.frame, self.runner.as_mut()) else {
             self.avoidance.reset();
             return self.hold_here(nav);

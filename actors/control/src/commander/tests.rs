@@ -1020,3 +1020,37 @@ fn a_guided_velocity_not_repeated_within_the_timeout_is_dropped_for_a_hold() {
     assert_eq!(status.refusals, refusals + 1);
     assert!(status.last_refusal.as_deref().is_some_and(|r| r.contains("holding")), "{status:?}");
 }
+
+#[test]
+fn a_paused_mission_holds_where_it_stopped_and_continues_to_the_same_item() {
+    let mut c = ready(true);
+    c.on_mission(three_waypoints()).expect("mission");
+    assert!(at(&mut c, 1000, Command::PauseMission).is_err(), "nothing to pause outside AUTO");
+    cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect("auto");
+    cmd(&mut c, Command::Arm).expect("arm");
+    assert!((north_target(hover_at(&mut c, 2000, [0.0, 0.0, -10.0])) - 20.0).abs() < 0.5);
+    at(&mut c, 2000, Command::PauseMission).expect("pause");
+    let held = trajectory(hover_at(&mut c, 3000, [5.0, 0.0, -10.0]));
+    assert_eq!(held.position_ned_m, [Some(5.0), Some(0.0), Some(-10.0)], "holds where it was paused");
+    assert_eq!(c.mode(), FlightMode::Auto, "still AUTO, as ArduCopter's pause");
+    at(&mut c, 3000, Command::ContinueMission).expect("continue");
+    let resumed = north_target(hover_at(&mut c, 4000, [5.0, 0.0, -10.0]));
+    assert!((resumed - 20.0).abs() < 0.5, "the same item: {resumed}");
+}
+
+#[test]
+fn change_speed_sets_the_missions_leg_speed_within_the_limit() {
+    let mut c = ready(true);
+    c.on_mission(three_waypoints()).expect("mission");
+    assert!(at(&mut c, 1000, Command::ChangeSpeed { speed_m_s: 3.0 }).is_err(), "AUTO only");
+    cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect("auto");
+    cmd(&mut c, Command::Arm).expect("arm");
+    let speed = |c: &mut Commander, t| trajectory(hover_at(c, t, [0.0, 0.0, -10.0])).max_horizontal_speed_m_s;
+    assert_eq!(speed(&mut c, 2000), Some(5.0), "the mission's cruise speed");
+    at(&mut c, 2000, Command::ChangeSpeed { speed_m_s: 2.5 }).expect("change");
+    assert_eq!(speed(&mut c, 3000), Some(2.5));
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY, 50.0] {
+        assert!(at(&mut c, 3000, Command::ChangeSpeed { speed_m_s: bad }).is_err(), "{bad}");
+    }
+    assert_eq!(speed(&mut c, 4000), Some(2.5), "a refused change keeps the speed");
+}

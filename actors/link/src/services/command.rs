@@ -105,10 +105,21 @@ impl CommandService {
             // ArduCopter loiters where it is: LOITER, our PosHold (radius and yaw are not flown).
             MavCmd::MAV_CMD_NAV_LOITER_UNLIM => Command::SetMode(FlightMode::PosHold),
             MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH => Command::ReturnToLaunch,
-            // param1/param2 (first and last item) must be numbers; 0 and 0 fly the whole mission,
-            // the only form we fly, and other ranges are DENIED rather than flown differently.
+            // param1/param2 (first and last item): 0 and 0 fly the whole mission; a first item
+            // is the caller's to map onto the plan (`Vehicle`), and nothing else reaches here.
             MavCmd::MAV_CMD_MISSION_START if p[0] == 0.0 && p[1] == 0.0 => Command::MissionStart,
             MavCmd::MAV_CMD_MISSION_START => return refuse(MavResult::MAV_RESULT_DENIED),
+            // param2 the speed (m/s; param1's airspeed/ground speed is one to a multirotor);
+            // -1 and -2 (no change, default) are DENIED rather than read as a speed.
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED if p[1].is_finite() && p[1] > 0.0 => {
+                Command::ChangeSpeed { speed_m_s: p[1] }
+            }
+            MavCmd::MAV_CMD_DO_CHANGE_SPEED => return refuse(MavResult::MAV_RESULT_DENIED),
+            MavCmd::MAV_CMD_DO_PAUSE_CONTINUE => match switch(p[0]) {
+                Some(false) => Command::PauseMission,
+                Some(true) => Command::ContinueMission,
+                None => return refuse(MavResult::MAV_RESULT_DENIED),
+            },
             MavCmd::MAV_CMD_DO_SET_HOME => match home_target(&request) {
                 Ok(point) => Command::SetHome { point },
                 Err(result) => return refuse(result),
@@ -153,6 +164,15 @@ impl CommandService {
             out.graph.push(ToGraph::Command(Command::SetMode(FlightMode::Guided)));
         }
         out.extend(self.submit(request, Command::GotoNed { position_ned_m: ned }, now));
+        out
+    }
+
+    /// MAV_CMD_MISSION_START from the commander's item `index` (the caller mapped param1, the
+    /// ground station's first item, onto the stored plan): that item made current, then the start.
+    pub fn mission_start_at(&mut self, request: CommandRequest, index: u32, now: Time) -> Outputs {
+        let mut out = Outputs::none();
+        out.graph.push(ToGraph::Command(Command::SetMissionCurrent { index }));
+        out.extend(self.submit(request, Command::MissionStart, now));
         out
     }
 
@@ -472,5 +492,33 @@ mod tests {
             assert_eq!(result(&out.mav[0]).1, want);
             assert!(out.graph.is_empty());
         }
+    }
+
+    #[test]
+    fn change_speed_and_pause_continue_take_their_parameters_exactly() {
+        let mut s = CommandService::new();
+        let speed = |s: &mut CommandService, p2: f64| {
+            s.handle(
+                request(MavCmd::MAV_CMD_DO_CHANGE_SPEED, [1.0, p2, -1.0, 0.0, 0.0, 0.0, 0.0]),
+                Time::ZERO,
+            )
+            .expect("handled")
+        };
+        assert_eq!(graph(&speed(&mut s, 3.5)), Some(Command::ChangeSpeed { speed_m_s: 3.5 }));
+        for bad in [-1.0, -2.0, 0.0, f64::NAN, f64::INFINITY] {
+            let out = speed(&mut s, bad);
+            assert!(out.graph.is_empty(), "{bad}");
+            assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{bad}");
+        }
+        let pause = |s: &mut CommandService, p1: f64| {
+            s.handle(
+                request(MavCmd::MAV_CMD_DO_PAUSE_CONTINUE, [p1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                Time::ZERO,
+            )
+            .expect("handled")
+        };
+        assert_eq!(graph(&pause(&mut s, 0.0)), Some(Command::PauseMission));
+        assert_eq!(graph(&pause(&mut s, 1.0)), Some(Command::ContinueMission));
+        assert_eq!(result(&pause(&mut s, 0.5).mav[0]).1, MavResult::MAV_RESULT_DENIED);
     }
 }
