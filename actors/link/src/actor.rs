@@ -7,8 +7,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, CommandResult, DepthGrid, GpsFix, ManualControl, Mission, NavState,
-    ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CommandResult, DepthGrid, EstimatorStatus, GpsFix, ManualControl,
+    Mission, NavState, ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -32,6 +32,9 @@ pub enum LinkInput {
     Status(VehicleStatus),
     /// The commander's answer to a command (port `command_result`): its COMMAND_ACK.
     CommandResult(CommandResult),
+    /// The estimator's innovations and health (port `estimator_status`; optional): the test
+    /// ratios in EKF_STATUS_REPORT.
+    Estimator(Box<EstimatorStatus>),
     Depth(DepthGrid),
     /// The obstacle avoider's newest correction (port `avoidance`), sent as DEBUG_VECT.
     Avoidance(AvoidanceCommand),
@@ -137,6 +140,7 @@ impl Actor for LinkActor {
         setup.input("battery", LinkInput::Battery);
         setup.input("vehicle_status", LinkInput::Status);
         setup.input("command_result", LinkInput::CommandResult);
+        setup.input("estimator_status", |s| LinkInput::Estimator(Box::new(s)));
         setup.input("depth_grid", LinkInput::Depth);
         setup.input("avoidance", LinkInput::Avoidance);
         setup.input("param_decl", LinkInput::ParamDecl);
@@ -198,6 +202,10 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Gps(g) => {
                     hub.vehicle().on_gps(g);
+                    Vec::new()
+                }
+                LinkInput::Estimator(s) => {
+                    hub.vehicle().on_estimator(*s);
                     Vec::new()
                 }
                 LinkInput::Battery(b) => {

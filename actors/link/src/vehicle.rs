@@ -9,8 +9,8 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, Command, CommandResult, DepthGrid, GpsFix, NavState, ParamDecl,
-    VehicleStatus,
+    AvoidanceCommand, BatteryStatus, Command, CommandResult, DepthGrid, EstimatorStatus, GpsFix, NavState,
+    ParamDecl, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -328,6 +328,11 @@ impl Vehicle {
     /// The estimator's latest state.
     pub fn on_nav(&mut self, nav: NavState) {
         self.telemetry.snapshot.nav = Some(nav);
+    }
+
+    /// The estimator's latest innovations and health (EKF_STATUS_REPORT).
+    pub fn on_estimator(&mut self, status: EstimatorStatus) {
+        self.telemetry.snapshot.estimator = Some(status);
     }
 
     /// The latest GPS fix.

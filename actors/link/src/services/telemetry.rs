@@ -12,16 +12,16 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_e7};
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, DepthGrid, FailsafeCause, GpsFix, GpsFixType, LandedState, NavState,
-    OBSTACLE_SECTORS, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, DepthGrid, EstimatorStatus, FailsafeCause, GpsFix, GpsFixType,
+    Innovation, LandedState, NavState, OBSTACLE_SECTORS, VehicleStatus,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
-    ATTITUDE_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA,
-    GPS_RAW_INT_DATA, GpsFixType as MavFix, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA,
-    MISSION_CURRENT_DATA, MavBatteryFunction, MavBatteryType, MavDataStream, MavDistanceSensor, MavFrame,
-    MavLandedState, MavMessage, MavResult, MavSysStatusSensor, MavVtolState, MissionState,
-    OBSTACLE_DISTANCE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
+    ATTITUDE_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA,
+    EkfStatusFlags, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType as MavFix, HOME_POSITION_DATA,
+    LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavBatteryFunction, MavBatteryType, MavDataStream,
+    MavDistanceSensor, MavFrame, MavLandedState, MavMessage, MavResult, MavSysStatusSensor, MavVtolState,
+    MissionState, OBSTACLE_DISTANCE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
 };
 
 /// The graph's latest state, as telemetry needs it.
@@ -33,6 +33,8 @@ pub struct Snapshot {
     pub status: Option<VehicleStatus>,
     pub depth: Option<DepthGrid>,
     pub avoidance: Option<AvoidanceCommand>,
+    /// The estimator's innovations and health (for EKF_STATUS_REPORT's test ratios).
+    pub estimator: Option<EstimatorStatus>,
     /// Whether a flight mission is stored (for MISSION_CURRENT).
     pub mission_items: u16,
 }
@@ -64,6 +66,7 @@ fn default_streams() -> Vec<Stream> {
         (BATTERY_STATUS_DATA::ID, hz(1.0)),
         (HOME_POSITION_DATA::ID, hz(0.5)),
         (EXTENDED_SYS_STATE_DATA::ID, hz(1.0)),
+        (EKF_STATUS_REPORT_DATA::ID, hz(1.0)),
         (MISSION_CURRENT_DATA::ID, hz(1.0)),
         (OBSTACLE_DISTANCE_DATA::ID, hz(5.0)),
         (DEBUG_VECT_DATA::ID, hz(5.0)),
@@ -168,6 +171,9 @@ impl Telemetry {
         let boot_ms = (now.as_micros() / 1000) as u32;
         Some(match id {
             SYS_STATUS_DATA::ID => MavMessage::SYS_STATUS(self.sys_status()),
+            EKF_STATUS_REPORT_DATA::ID => {
+                MavMessage::EKF_STATUS_REPORT(ekf_status(snap.nav.as_ref()?, snap.estimator.as_ref()))
+            }
             ATTITUDE_DATA::ID => {
                 let nav = snap.nav.as_ref()?;
                 let [roll, pitch, yaw] = euler_rad(nav.attitude);
@@ -415,6 +421,47 @@ impl Telemetry {
     }
 }
 
+/// EKF_STATUS_REPORT as ArduPilot fills it: flags for what the estimate is good for, from the
+/// NavState's validity, and "variances" that are the square roots of the innovation test ratios
+/// (below 1 the observations pass their gates; ground stations turn the bars amber at 0.5 and
+/// red at 0.8), the largest of each group, 0 until the estimator reports any.
+fn ekf_status(nav: &NavState, estimator: Option<&EstimatorStatus>) -> EKF_STATUS_REPORT_DATA {
+    type F = EkfStatusFlags;
+    let v = nav.valid;
+    let mut flags = F::empty();
+    for (good, flag) in [
+        (v.attitude, F::EKF_ATTITUDE),
+        (v.horizontal_velocity, F::EKF_VELOCITY_HORIZ),
+        (v.vertical_velocity, F::EKF_VELOCITY_VERT),
+        (v.horizontal_position, F::EKF_POS_HORIZ_REL | F::EKF_PRED_POS_HORIZ_REL),
+        (v.horizontal_position && nav.origin.is_some(), F::EKF_POS_HORIZ_ABS | F::EKF_PRED_POS_HORIZ_ABS),
+        (v.vertical_position, F::EKF_POS_VERT_ABS),
+    ] {
+        if good {
+            flags |= flag;
+        }
+    }
+    if v.attitude && !v.horizontal_position {
+        flags |= F::EKF_CONST_POS_MODE;
+    }
+    if !v.attitude {
+        flags |= F::EKF_UNINITIALIZED;
+    }
+    let root = |ratios: &[Innovation]| ratios.iter().map(|i| i.test_ratio).fold(0.0, f64::max).sqrt() as f32;
+    let (velocity, horizontal, vertical, compass) = estimator.map_or((0.0, 0.0, 0.0, 0.0), |e| {
+        (root(&e.gps_velocity_ned), root(&e.gps_position_ne), root(&[e.baro_height]), root(&e.mag_field))
+    });
+    EKF_STATUS_REPORT_DATA {
+        velocity_variance: velocity,
+        pos_horiz_variance: horizontal,
+        pos_vert_variance: vertical,
+        compass_variance: compass,
+        terrain_alt_variance: 0.0,
+        flags,
+        airspeed_variance: 0.0,
+    }
+}
+
 fn heading_cdeg(q: [f64; 4]) -> u16 {
     let yaw_deg = euler_rad(q)[2].to_degrees().rem_euclid(360.0);
     ((yaw_deg * 100.0).round() as u16) % 36_000
@@ -619,5 +666,47 @@ mod tests {
         assert_eq!(current(&t), (1, 6, MissionState::MISSION_STATE_ACTIVE));
         t.snapshot.status = Some(status(6, 6));
         assert_eq!(current(&t), (6, 6, MissionState::MISSION_STATE_COMPLETE), "finished: on the last item");
+    }
+
+    #[test]
+    fn ekf_status_report_flags_what_the_estimate_is_good_for_and_roots_the_test_ratios() {
+        let mut good = nav();
+        good.valid = NavValidity {
+            attitude: true,
+            horizontal_velocity: true,
+            vertical_velocity: true,
+            horizontal_position: true,
+            vertical_position: true,
+        };
+        let report = ekf_status(&good, None);
+        assert!(report.flags.contains(
+            EkfStatusFlags::EKF_ATTITUDE
+                | EkfStatusFlags::EKF_VELOCITY_HORIZ
+                | EkfStatusFlags::EKF_POS_HORIZ_ABS
+                | EkfStatusFlags::EKF_PRED_POS_HORIZ_ABS
+                | EkfStatusFlags::EKF_POS_VERT_ABS
+        ));
+        assert!(
+            !report.flags.intersects(EkfStatusFlags::EKF_CONST_POS_MODE | EkfStatusFlags::EKF_UNINITIALIZED)
+        );
+        let ratio = |r| Innovation { innovation: 0.0, variance: 1.0, test_ratio: r };
+        let status = EstimatorStatus {
+            gps_position_ne: [ratio(0.25), ratio(0.04)],
+            gps_velocity_ned: [ratio(0.0), ratio(0.81), ratio(0.0)],
+            baro_height: ratio(1.44),
+            mag_field: [ratio(0.09); 3],
+            ..EstimatorStatus::default()
+        };
+        let report = ekf_status(&good, Some(&status));
+        let near = |a: f32, b: f32| (a - b).abs() < 1e-6;
+        assert!(near(report.pos_horiz_variance, 0.5) && near(report.velocity_variance, 0.9), "{report:?}");
+        assert!(near(report.pos_vert_variance, 1.2) && near(report.compass_variance, 0.3), "{report:?}");
+        let mut lost = good.clone();
+        lost.valid.horizontal_position = false;
+        let report = ekf_status(&lost, None);
+        assert!(report.flags.contains(EkfStatusFlags::EKF_CONST_POS_MODE));
+        assert!(
+            !report.flags.intersects(EkfStatusFlags::EKF_POS_HORIZ_ABS | EkfStatusFlags::EKF_POS_HORIZ_REL)
+        );
     }
 }
