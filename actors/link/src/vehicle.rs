@@ -266,6 +266,9 @@ impl Vehicle {
                     _ => Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)),
                 }
             }
+            MavCmd::MAV_CMD_DO_SET_ROI_LOCATION => {
+                self.commands.region_of_interest(request, home(&self.telemetry.snapshot), now)
+            }
             MavCmd::MAV_CMD_DO_REPOSITION => {
                 self.commands.reposition(request, home(&self.telemetry.snapshot), now)
             }

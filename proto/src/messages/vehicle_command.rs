@@ -50,6 +50,12 @@ pub enum Command {
     PauseMission,
     /// In AUTO: go on with the paused mission from where it stopped (DO_PAUSE_CONTINUE 1).
     ContinueMission,
+    /// In GUIDED and AUTO: point the nose at `heading_deg` (from north, clockwise) or turn it by
+    /// `relative_deg` (clockwise positive) — exactly one of the two (MAV_CMD_CONDITION_YAW).
+    Yaw { heading_deg: Option<f64>, relative_deg: Option<f64> },
+    /// In GUIDED and AUTO: keep the nose on this point, NED from the estimator's origin (m), or
+    /// stop doing so (`None`) (MAV_CMD_DO_SET_ROI_LOCATION, DO_SET_ROI_NONE).
+    RegionOfInterest { position_ned_m: Option<[f64; 3]> },
     /// The ground station is alive. Heartbeats and sticks (not other commands, which scripts
     /// send too) establish and refresh the data link whose loss is a failsafe.
     Heartbeat,

@@ -89,6 +89,9 @@ pub struct Commander {
     rtl: RtlPhase,
     flip: Option<Flip>,
     guided: modes::GuidedTarget,
+    /// Where the nose points in GUIDED and AUTO (CONDITION_YAW, DO_SET_ROI_LOCATION); cleared
+    /// by a mode change and DO_SET_ROI_NONE.
+    yaw_target: Option<modes::YawTarget>,
     /// AUTO is paused (DO_PAUSE_CONTINUE): hold where the vehicle stopped, the mission's place kept.
     paused: bool,
     /// When the GUIDED target last came: a velocity stream that stops is held (`guided_timeout_s`).
@@ -142,6 +145,7 @@ impl Commander {
             guided: modes::GuidedTarget::Hold,
             guided_at: None,
             paused: false,
+            yaw_target: None,
             land_detector: LandDetector::default(),
             ground_contact: LandDetector::default(),
             descent_demanded: false,
@@ -354,6 +358,37 @@ impl Commander {
             }
             Command::SetMissionCurrent { index } => self.set_mission_current(index),
             Command::ChangeSpeed { speed_m_s } => self.change_speed(speed_m_s),
+            Command::Yaw { .. } | Command::RegionOfInterest { .. }
+                if !matches!(self.mode, FlightMode::Guided | FlightMode::Auto) =>
+            {
+                refuse("yaw and region of interest are flown in GUIDED and AUTO only")
+            }
+            Command::Yaw { heading_deg, relative_deg } => {
+                let current = self.nav.as_ref().map_or(0.0, heading);
+                let yaw = match (heading_deg, relative_deg) {
+                    (Some(h), None) if h.is_finite() => Some(h.to_radians()),
+                    (None, Some(r)) if r.is_finite() => Some(current + r.to_radians()),
+                    _ => None,
+                };
+                match yaw {
+                    Some(yaw) => {
+                        self.yaw_target = Some(modes::YawTarget::Heading(yaw));
+                        Ok(())
+                    }
+                    None => refuse("yaw refused: give one finite heading or turn"),
+                }
+            }
+            Command::RegionOfInterest { position_ned_m: Some(p) } if p.iter().all(|v| v.is_finite()) => {
+                self.yaw_target = Some(modes::YawTarget::Towards(p));
+                Ok(())
+            }
+            Command::RegionOfInterest { position_ned_m: Some(_) } => {
+                refuse("region of interest is not finite")
+            }
+            Command::RegionOfInterest { position_ned_m: None } => {
+                self.yaw_target = None;
+                Ok(())
+            }
             Command::PauseMission | Command::ContinueMission
                 if self.mode != FlightMode::Auto || self.runner.is_none() =>
             {
@@ -455,6 +490,7 @@ impl Commander {
         self.flip = None;
         self.guided = modes::GuidedTarget::Hold;
         self.paused = false;
+        self.yaw_target = None;
         self.land_detector.reset();
         self.avoidance.reset();
     }

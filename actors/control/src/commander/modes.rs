@@ -45,6 +45,15 @@ pub(crate) enum RtlPhase {
     Land,
 }
 
+/// Where GUIDED and AUTO point the nose instead of holding the heading they have.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum YawTarget {
+    /// A heading (rad, from north, clockwise).
+    Heading(f64),
+    /// A region of interest, NED from the estimator's origin (m).
+    Towards([f64; 3]),
+}
+
 /// GUIDED's target.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum GuidedTarget {
@@ -84,6 +93,12 @@ impl Commander {
         let sticks =
             self.sticks(now).copied().unwrap_or(ManualControl { throttle: 0.5, ..ManualControl::default() });
         let on_ground = self.landed == LandedState::OnGround;
+        if matches!(self.mode, FlightMode::Guided | FlightMode::Auto)
+            && !self.avoidance.active()
+            && let Some(yaw) = self.aimed_yaw(&nav)
+        {
+            self.hold.yaw_rad = Some(yaw);
+        }
         match self.mode {
             FlightMode::Stabilize => self.stabilize(&nav, &sticks, dt_s),
             FlightMode::Acro => self.acro(&sticks),
@@ -112,6 +127,18 @@ impl Commander {
             FlightMode::Land => {
                 let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
                 self.land_at(&nav, Some([p.x, p.y]))
+            }
+        }
+    }
+
+    /// The heading CONDITION_YAW or DO_SET_ROI_LOCATION asks for (rad), if any: a fixed one, or
+    /// towards the region of interest (kept while the vehicle is within a metre of it).
+    fn aimed_yaw(&self, nav: &NavState) -> Option<f64> {
+        match self.yaw_target? {
+            YawTarget::Heading(yaw_rad) => Some(yaw_rad),
+            YawTarget::Towards(roi) => {
+                let (north, east) = (roi[0] - nav.position_ned_m[0], roi[1] - nav.position_ned_m[1]);
+                (north.hypot(east) > 1.0).then(|| east.atan2(north)).or(self.hold.yaw_rad)
             }
         }
     }
@@ -234,20 +261,6 @@ impl Commander {
     }
 
     fn guided(&mut self, now: Time, dt_s: f64, nav: &NavState, on_ground: bool) -> SetpointTarget {
-        let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
-        if self.avoidance.active() {
-            let leg = match self.guided {
-                GuidedTarget::Hold => None,
-                GuidedTarget::Position(p) => {
-                    Some(Leg::To { target: Vector3::from(p), speed_m_s: self.params.guided_speed_m_s })
-                }
-                GuidedTarget::Velocity(v) => Some(Leg::Velocity(Vector3::from(v))),
-            };
-            match leg {
-                Some(leg) => return SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint),
-                None => self.avoidance.reset(),
-            }
-        }
         if matches!(self.guided, GuidedTarget::Velocity(_))
             && self
                 .guided_at
@@ -261,6 +274,20 @@ impl Commander {
                 "GUIDED: no velocity target for {} s, holding",
                 self.params.guided_timeout_s
             ));
+        }
+        let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        if self.avoidance.active() {
+            let leg = match self.guided {
+                GuidedTarget::Hold => None,
+                GuidedTarget::Position(p) => {
+                    Some(Leg::To { target: Vector3::from(p), speed_m_s: self.params.guided_speed_m_s })
+                }
+                GuidedTarget::Velocity(v) => Some(Leg::Velocity(Vector3::from(v))),
+            };
+            match leg {
+                Some(leg) => return SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint),
+                None => self.avoidance.reset(),
+            }
         }
         match self.guided {
             GuidedTarget::Hold if on_ground => SetpointTarget::MotorsOff,

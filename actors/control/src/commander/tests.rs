@@ -419,6 +419,10 @@ fn guided_velocity_blends_the_rotated_correction_and_honours_the_climb() {
     let mut sp = TrajectorySetpoint::default();
     while t < 4_000_000 {
         t += 2500;
+        if (t - 2000) % 500_000 == 0 {
+            // Repeated at 2 Hz, as a ground station streams it (GUIDED_TIMEOUT is 3 s).
+            at(&mut c, t, Command::VelocityNed { velocity_ned_m_s: [3.0, 0.0, 0.0] }).expect("velocity");
+        }
         c.on_nav(&nav_heading(t, -5.0, east));
         c.on_avoidance(&avoidance(t, [0.0, 1.0, -0.5], false));
         let before = sp;
@@ -1053,4 +1057,30 @@ fn change_speed_sets_the_missions_leg_speed_within_the_limit() {
         assert!(at(&mut c, 3000, Command::ChangeSpeed { speed_m_s: bad }).is_err(), "{bad}");
     }
     assert_eq!(speed(&mut c, 4000), Some(2.5), "a refused change keeps the speed");
+}
+
+#[test]
+fn condition_yaw_and_a_region_of_interest_point_the_nose_in_guided() {
+    let mut c = hovering();
+    assert!(
+        at(&mut c, 2000, Command::Yaw { heading_deg: Some(90.0), relative_deg: None }).is_err(),
+        "LOITER"
+    );
+    at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
+    at(&mut c, 2000, Command::Yaw { heading_deg: Some(90.0), relative_deg: None }).expect("yaw");
+    let yaw = |c: &mut Commander, t| trajectory(hover_at(c, t, [0.0, 0.0, -5.0])).yaw_rad.expect("yaw");
+    assert!((yaw(&mut c, 3000) - 90f64.to_radians()).abs() < 1e-9);
+    // A point to the south-west: the nose turns there (atan2(east, north)).
+    at(&mut c, 3000, Command::RegionOfInterest { position_ned_m: Some([-10.0, -10.0, 0.0]) }).expect("roi");
+    assert!((yaw(&mut c, 4000) - (-135f64).to_radians()).abs() < 1e-9);
+    for bad in [
+        Command::Yaw { heading_deg: Some(f64::NAN), relative_deg: None },
+        Command::Yaw { heading_deg: Some(10.0), relative_deg: Some(10.0) },
+        Command::RegionOfInterest { position_ned_m: Some([f64::INFINITY, 0.0, 0.0]) },
+    ] {
+        assert!(at(&mut c, 4000, bad).is_err(), "{bad:?}");
+    }
+    at(&mut c, 4000, Command::RegionOfInterest { position_ned_m: None }).expect("roi none");
+    let kept = yaw(&mut c, 5000);
+    assert!((kept - (-135f64).to_radians()).abs() < 1e-9, "the last heading is held: {kept}");
 }

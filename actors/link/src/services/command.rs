@@ -115,6 +115,19 @@ impl CommandService {
                 Command::ChangeSpeed { speed_m_s: p[1] }
             }
             MavCmd::MAV_CMD_DO_CHANGE_SPEED => return refuse(MavResult::MAV_RESULT_DENIED),
+            // param1 the angle (deg), param3 the direction (-1 counter-clockwise, else clockwise)
+            // for a relative turn, param4 relative (1) or absolute (0); param2's rate is the
+            // controller's yaw rate limit here.
+            MavCmd::MAV_CMD_CONDITION_YAW if p[0].is_finite() => match switch(p[3]) {
+                Some(false) => Command::Yaw { heading_deg: Some(p[0].rem_euclid(360.0)), relative_deg: None },
+                Some(true) => {
+                    let sign = if p[2] == -1.0 { -1.0 } else { 1.0 };
+                    Command::Yaw { heading_deg: None, relative_deg: Some(sign * p[0]) }
+                }
+                None => return refuse(MavResult::MAV_RESULT_DENIED),
+            },
+            MavCmd::MAV_CMD_CONDITION_YAW => return refuse(MavResult::MAV_RESULT_DENIED),
+            MavCmd::MAV_CMD_DO_SET_ROI_NONE => Command::RegionOfInterest { position_ned_m: None },
             MavCmd::MAV_CMD_DO_PAUSE_CONTINUE => match switch(p[0]) {
                 Some(false) => Command::PauseMission,
                 Some(true) => Command::ContinueMission,
@@ -131,6 +144,24 @@ impl CommandService {
             _ => return None,
         };
         Some(self.submit(request, command, now))
+    }
+
+    /// MAV_CMD_DO_SET_ROI_LOCATION: keep the nose on a point (params 5-7 as DO_REPOSITION reads
+    /// them), converted to NED around the estimator's `origin`.
+    pub fn region_of_interest(
+        &mut self,
+        request: CommandRequest,
+        origin: Option<Geodetic>,
+        now: Time,
+    ) -> Outputs {
+        let Ok(Some(point)) = reposition_target(&request) else {
+            return Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED));
+        };
+        let Some(origin) = origin else {
+            return Outputs::send(ack(&request, MavResult::MAV_RESULT_TEMPORARILY_REJECTED));
+        };
+        let ned = to_ned(origin, &point);
+        self.submit(request, Command::RegionOfInterest { position_ned_m: Some(ned) }, now)
     }
 
     /// MAV_CMD_DO_REPOSITION (QGroundControl's "Go to location", MAVSDK's `goto_location`): fly
@@ -150,15 +181,7 @@ impl CommandService {
         let Some(origin) = origin else {
             return Outputs::send(ack(&request, MavResult::MAV_RESULT_TEMPORARILY_REJECTED));
         };
-        let alt_m = match point.frame {
-            AltitudeFrame::RelativeHome => origin.alt_m + point.alt_m,
-            _ => point.alt_m,
-        };
-        let ned = LocalFrame::new(origin).to_ned(Geodetic {
-            lat_deg: point.lat_deg,
-            lon_deg: point.lon_deg,
-            alt_m,
-        });
+        let ned = to_ned(origin, &point);
         let mut out = Outputs::none();
         if change_mode {
             out.graph.push(ToGraph::Command(Command::SetMode(FlightMode::Guided)));
@@ -257,6 +280,15 @@ fn home_target(request: &CommandRequest) -> Result<Option<MissionPoint>, MavResu
         return Err(MavResult::MAV_RESULT_DENIED);
     }
     Ok(Some(MissionPoint { lat_deg, lon_deg, alt_m, frame }))
+}
+
+/// `point` in NED around `origin` (m); a relative altitude is above the origin.
+fn to_ned(origin: Geodetic, point: &MissionPoint) -> [f64; 3] {
+    let alt_m = match point.frame {
+        AltitudeFrame::RelativeHome => origin.alt_m + point.alt_m,
+        _ => point.alt_m,
+    };
+    LocalFrame::new(origin).to_ned(Geodetic { lat_deg: point.lat_deg, lon_deg: point.lon_deg, alt_m })
 }
 
 /// DO_REPOSITION's point: params 5-7 as DO_SET_HOME reads them (degrees or degE7 by message,
@@ -520,5 +552,15 @@ mod tests {
         assert_eq!(graph(&pause(&mut s, 0.0)), Some(Command::PauseMission));
         assert_eq!(graph(&pause(&mut s, 1.0)), Some(Command::ContinueMission));
         assert_eq!(result(&pause(&mut s, 0.5).mav[0]).1, MavResult::MAV_RESULT_DENIED);
+        let yaw = |s: &mut CommandService, p: [f64; 7]| {
+            s.handle(request(MavCmd::MAV_CMD_CONDITION_YAW, p), Time::ZERO).expect("handled")
+        };
+        let absolute = yaw(&mut s, [450.0, 20.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(graph(&absolute), Some(Command::Yaw { heading_deg: Some(90.0), relative_deg: None }));
+        let left = yaw(&mut s, [30.0, 20.0, -1.0, 1.0, 0.0, 0.0, 0.0]);
+        assert_eq!(graph(&left), Some(Command::Yaw { heading_deg: None, relative_deg: Some(-30.0) }));
+        for bad in [[f64::NAN, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0], [10.0, 0.0, 1.0, 0.5, 0.0, 0.0, 0.0]] {
+            assert_eq!(result(&yaw(&mut s, bad).mav[0]).1, MavResult::MAV_RESULT_DENIED, "{bad:?}");
+        }
     }
 }
