@@ -14,11 +14,11 @@ use kestrel_proto::messages::{
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
-    MISSION_ITEM_REACHED_DATA, MavCmd, MavMessage, MavProtocolCapability, MavResult, MavSeverity, MavType,
+    MISSION_ITEM_REACHED_DATA, MavMessage, MavProtocolCapability, MavSeverity, MavType,
 };
 use mavlink::{Message, MessageData};
 
-use crate::services::command::{CommandRequest, CommandService, ack, whole};
+use crate::services::command::{self, CommandRequest, CommandService};
 use crate::services::events::{status_changes, statustext};
 use crate::services::ftp;
 use crate::services::heartbeat::{GcsEvent, GcsWatch, vehicle_heartbeat};
@@ -178,7 +178,7 @@ impl Vehicle {
             MavMessage::MISSION_SET_CURRENT(m) => {
                 let mut out = self.missions.set_current(m.seq);
                 if let Some(index) = self.missions.commander_index(m.seq) {
-                    out.mav.extend(self.mission_current_if_shown(index));
+                    out.mav.extend(self.telemetry.mission_current_if_shown(index));
                 }
                 out
             }
@@ -216,82 +216,13 @@ impl Vehicle {
     }
 
     fn on_command(&mut self, request: CommandRequest, now: Time) -> Outputs {
-        let p = request.params;
-        tracing::debug!(command = ?request.command, params = ?p, frame = ?request.frame, from = ?request.sender, "command");
-        match request.command {
-            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
-                Outputs::send(ack(&request, self.telemetry.set_interval(p[0], p[1], now)))
-            }
-            MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES => Outputs {
-                mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), self.autopilot_version()],
-                graph: Vec::new(),
-            },
-            MavCmd::MAV_CMD_REQUEST_MESSAGE => {
-                let msg = match whole(p[0], u32::MAX) {
-                    Some(AUTOPILOT_VERSION_DATA::ID) => Some(self.autopilot_version()),
-                    Some(0) => Some(self.heartbeat()),
-                    Some(id) => self.telemetry.build(id, now),
-                    None => None,
-                };
-                match msg {
-                    Some(m) => Outputs {
-                        mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), m],
-                        graph: Vec::new(),
-                    },
-                    None => Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)),
-                }
-            }
-            MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT => {
-                // -1 keeps the item and only resets jump counters, which we do not keep.
-                if p[0] == -1.0 {
-                    return Outputs::send(ack(&request, MavResult::MAV_RESULT_ACCEPTED));
-                }
-                let seq = whole(p[0], u16::MAX.into()).and_then(|s| u16::try_from(s).ok());
-                // Out of range (no mission included) is FAILED, as the command's definition says.
-                let Some(index) = seq.and_then(|s| self.missions.commander_index(s)) else {
-                    return Outputs::send(ack(&request, MavResult::MAV_RESULT_FAILED));
-                };
-                let mut out = self.commands.mission_current(request, index, now);
-                out.mav.extend(self.mission_current_if_shown(index));
-                out
-            }
-            // A first item (param1 > 0) starts there; the last item (param2) must be 0 or the
-            // plan's last, as we fly to the end: other ranges are DENIED, not flown differently.
-            MavCmd::MAV_CMD_MISSION_START if !(p[0] == 0.0 && p[1] == 0.0) => {
-                let item = |v: f64| whole(v, u16::MAX.into()).and_then(|s| u16::try_from(s).ok());
-                let last = self.missions.mission_len().saturating_sub(1);
-                let to_end = item(p[1]).is_some_and(|l| l == 0 || usize::from(l) == last);
-                match item(p[0]).and_then(|s| self.missions.commander_index(s.max(1))) {
-                    Some(index) if to_end => self.commands.mission_start_at(request, index, now),
-                    _ => Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)),
-                }
-            }
-            MavCmd::MAV_CMD_DO_SET_ROI_LOCATION => {
-                self.commands.region_of_interest(request, home(&self.telemetry.snapshot), now)
-            }
-            MavCmd::MAV_CMD_DO_REPOSITION => {
-                self.commands.reposition(request, home(&self.telemetry.snapshot), now)
-            }
-            MavCmd::MAV_CMD_GET_HOME_POSITION => match self.telemetry.build(HOME_POSITION_DATA::ID, now) {
-                Some(home) => Outputs {
-                    mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), home],
-                    graph: Vec::new(),
-                },
-                None => Outputs::send(ack(&request, MavResult::MAV_RESULT_TEMPORARILY_REJECTED)),
-            },
-            _ => match self.commands.handle(request, now) {
-                Some(out) => out,
-                None => Outputs::send(ack(&request, MavResult::MAV_RESULT_UNSUPPORTED)),
-            },
-        }
-    }
-
-    /// MISSION_CURRENT now, when the commander already shows item `index` current: the spec
-    /// wants one after every set-current request, changed or not (a change sends its own from
-    /// `on_status`).
-    fn mission_current_if_shown(&self, index: u32) -> Option<MavMessage> {
-        let shown = self.telemetry.snapshot.status.as_ref().is_some_and(|s| s.mission.current == index);
-        shown.then(|| self.telemetry.build(MISSION_CURRENT_DATA::ID, Time::ZERO)).flatten()
+        let ctx = command::Context {
+            autopilot_version: self.autopilot_version(),
+            heartbeat: self.heartbeat(),
+            telemetry: &mut self.telemetry,
+            missions: &self.missions,
+        };
+        self.commands.on_command(request, ctx, now)
     }
 
     /// The commander's new status: STATUSTEXTs and ACKs for what changed, MISSION_ITEM_REACHED
@@ -402,7 +333,7 @@ fn command_int(from: Sender, c: &COMMAND_INT_DATA) -> CommandRequest {
 #[cfg(test)]
 mod tests {
     use kestrel_proto::messages::{FlightMode, LandedState, MissionProgress};
-    use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, PARAM_REQUEST_LIST_DATA};
+    use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MavCmd, MavResult, PARAM_REQUEST_LIST_DATA};
 
     use super::*;
     use crate::config::{ParamKind, ParamSpec};

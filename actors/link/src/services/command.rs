@@ -18,8 +18,13 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_from_e7};
 use kestrel_proto::messages::{AltitudeFrame, Command, CommandResult, FlightMode, MissionPoint};
-use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavCmd, MavFrame, MavMessage, MavResult};
+use mavlink::MessageData;
+use mavlink::dialects::ardupilotmega::{
+    AUTOPILOT_VERSION_DATA, COMMAND_ACK_DATA, HOME_POSITION_DATA, MavCmd, MavFrame, MavMessage, MavResult,
+};
 
+use super::mission::MissionService;
+use super::telemetry::{Telemetry, home};
 use super::{Outputs, Sender, ToGraph};
 use crate::modes::flight_mode;
 
@@ -67,10 +72,93 @@ pub fn ack(request: &CommandRequest, result: MavResult) -> MavMessage {
     })
 }
 
+/// What the link's own commands read and change: the telemetry (message intervals, messages on
+/// request, the origin), the stored plan (mission items by the ground station's numbers), and
+/// the vehicle's identity messages.
+pub struct Context<'a> {
+    pub telemetry: &'a mut Telemetry,
+    pub missions: &'a MissionService,
+    pub autopilot_version: MavMessage,
+    pub heartbeat: MavMessage,
+}
+
 impl CommandService {
     /// No command pending.
     pub fn new() -> CommandService {
         CommandService::default()
+    }
+
+    /// Every COMMAND_LONG and COMMAND_INT: the one place MAV_CMDs are handled. The link's own
+    /// (message intervals and requests, home, mission items by the plan's numbers, points
+    /// converted around the origin) are answered here; the flight commands go to the commander
+    /// ([`CommandService::handle`]); anything else is UNSUPPORTED.
+    pub fn on_command(&mut self, request: CommandRequest, ctx: Context, now: Time) -> Outputs {
+        let p = request.params;
+        tracing::debug!(command = ?request.command, params = ?p, frame = ?request.frame, from = ?request.sender, "command");
+        match request.command {
+            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => {
+                Outputs::send(ack(&request, ctx.telemetry.set_interval(p[0], p[1], now)))
+            }
+            MavCmd::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES => Outputs {
+                mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), ctx.autopilot_version.clone()],
+                graph: Vec::new(),
+            },
+            MavCmd::MAV_CMD_REQUEST_MESSAGE => {
+                let msg = match whole(p[0], u32::MAX) {
+                    Some(AUTOPILOT_VERSION_DATA::ID) => Some(ctx.autopilot_version.clone()),
+                    Some(0) => Some(ctx.heartbeat.clone()),
+                    Some(id) => ctx.telemetry.build(id, now),
+                    None => None,
+                };
+                match msg {
+                    Some(m) => Outputs {
+                        mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), m],
+                        graph: Vec::new(),
+                    },
+                    None => Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)),
+                }
+            }
+            MavCmd::MAV_CMD_DO_SET_MISSION_CURRENT => {
+                // -1 keeps the item and only resets jump counters, which we do not keep.
+                if p[0] == -1.0 {
+                    return Outputs::send(ack(&request, MavResult::MAV_RESULT_ACCEPTED));
+                }
+                let seq = whole(p[0], u16::MAX.into()).and_then(|s| u16::try_from(s).ok());
+                // Out of range (no mission included) is FAILED, as the command's definition says.
+                let Some(index) = seq.and_then(|s| ctx.missions.commander_index(s)) else {
+                    return Outputs::send(ack(&request, MavResult::MAV_RESULT_FAILED));
+                };
+                let mut out = self.mission_current(request, index, now);
+                out.mav.extend(ctx.telemetry.mission_current_if_shown(index));
+                out
+            }
+            // A first item (param1 > 0) starts there; the last item (param2) must be 0 or the
+            // plan's last, as we fly to the end: other ranges are DENIED, not flown differently.
+            MavCmd::MAV_CMD_MISSION_START if !(p[0] == 0.0 && p[1] == 0.0) => {
+                let item = |v: f64| whole(v, u16::MAX.into()).and_then(|s| u16::try_from(s).ok());
+                let last = ctx.missions.mission_len().saturating_sub(1);
+                let to_end = item(p[1]).is_some_and(|l| l == 0 || usize::from(l) == last);
+                match item(p[0]).and_then(|s| ctx.missions.commander_index(s.max(1))) {
+                    Some(index) if to_end => self.mission_start_at(request, index, now),
+                    _ => Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED)),
+                }
+            }
+            MavCmd::MAV_CMD_DO_SET_ROI_LOCATION => {
+                self.region_of_interest(request, home(&ctx.telemetry.snapshot), now)
+            }
+            MavCmd::MAV_CMD_DO_REPOSITION => self.reposition(request, home(&ctx.telemetry.snapshot), now),
+            MavCmd::MAV_CMD_GET_HOME_POSITION => match ctx.telemetry.build(HOME_POSITION_DATA::ID, now) {
+                Some(home) => Outputs {
+                    mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), home],
+                    graph: Vec::new(),
+                },
+                None => Outputs::send(ack(&request, MavResult::MAV_RESULT_TEMPORARILY_REJECTED)),
+            },
+            _ => match self.handle(request, now) {
+                Some(out) => out,
+                None => Outputs::send(ack(&request, MavResult::MAV_RESULT_UNSUPPORTED)),
+            },
+        }
     }
 
     /// Handles a flight command; `None` when `request.command` is not a flight command.

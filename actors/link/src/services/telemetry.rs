@@ -495,6 +495,16 @@ fn gps_raw(g: &GpsFix) -> GPS_RAW_INT_DATA {
     }
 }
 
+impl Telemetry {
+    /// MISSION_CURRENT now, when the commander already shows item `index` current: the spec
+    /// wants one after every set-current request, changed or not (a change sends its own when
+    /// the status shows it).
+    pub fn mission_current_if_shown(&self, index: u32) -> Option<MavMessage> {
+        let shown = self.snapshot.status.as_ref().is_some_and(|s| s.mission.current == index);
+        shown.then(|| self.build(MISSION_CURRENT_DATA::ID, Time::ZERO)).flatten()
+    }
+}
+
 /// Where home is, if the estimator has anchored its frame.
 pub fn home(snapshot: &Snapshot) -> Option<Geodetic> {
     snapshot.nav.as_ref().and_then(|n| n.origin)
