@@ -28,7 +28,7 @@ use crate::services::offboard::{
 };
 use crate::services::params::ParamTable;
 use crate::services::telemetry::{Telemetry, home};
-use crate::services::{Outputs, Sender, ToGraph};
+use crate::services::{Outputs, Sender, Service, ToGraph};
 
 /// Our component id (MAV_COMP_ID_AUTOPILOT1).
 pub const COMPONENT_ID: u8 = 1;
@@ -98,7 +98,8 @@ impl Vehicle {
 
     /// True once after each change the parameter file must follow.
     pub fn take_params_changed(&mut self) -> bool {
-        std::mem::take(&mut self.params_changed)
+        let set = self.params.take_changed();
+        std::mem::take(&mut self.params_changed) || set
     }
 
     /// Whether `msg` is for us: no target, broadcast, or our system (and component 0 or ours).
@@ -129,6 +130,12 @@ impl Vehicle {
 
     /// Handles a message from `from` (already known to be for us).
     pub fn on_message(&mut self, from: Sender, msg: &MavMessage, now: Time) -> Outputs {
+        let services: [&mut dyn Service; 2] = [&mut self.params, &mut self.missions];
+        for service in services {
+            if let Some(out) = service.on_message(from, msg, now) {
+                return out;
+            }
+        }
         match msg {
             MavMessage::HEARTBEAT(hb) if hb.mavtype == MavType::MAV_TYPE_GCS => {
                 let mut out = Outputs { mav: Vec::new(), graph: vec![ToGraph::Command(Command::Heartbeat)] };
@@ -150,41 +157,12 @@ impl Vehicle {
                 );
                 Outputs::none()
             }
-            MavMessage::PARAM_REQUEST_LIST(_) => {
-                Outputs { mav: self.params.request_list(), graph: Vec::new() }
-            }
-            MavMessage::PARAM_REQUEST_READ(r) => {
-                let name = r.param_id.to_str().unwrap_or_default().trim_end_matches('\0');
-                Outputs {
-                    mav: self.params.read(name, r.param_index).into_iter().collect(),
-                    graph: Vec::new(),
-                }
-            }
-            MavMessage::PARAM_SET(s) => {
-                let name = s.param_id.to_str().unwrap_or_default().trim_end_matches('\0').to_owned();
-                let out = self.params.set(&name, s.param_value, now);
-                self.params_changed |= !out.graph.is_empty();
-                out
-            }
-            MavMessage::MISSION_COUNT(m) => self.missions.on_count(from, m, now),
-            MavMessage::MISSION_ITEM_INT(m) => self.missions.on_item(from, m, now),
-            MavMessage::MISSION_ITEM(m) => self.missions.on_item_float(from, m, now),
-            MavMessage::MISSION_REQUEST_LIST(m) => self.missions.on_request_list(from, m.mission_type),
-            MavMessage::MISSION_REQUEST_INT(m) => {
-                self.missions.on_request(from, m.seq, m.mission_type, false)
-            }
-            MavMessage::MISSION_REQUEST(m) => self.missions.on_request(from, m.seq, m.mission_type, true),
-            MavMessage::MISSION_CLEAR_ALL(m) => self.missions.clear(from, m.mission_type, now),
             MavMessage::MISSION_SET_CURRENT(m) => {
                 let mut out = self.missions.set_current(m.seq);
                 if let Some(index) = self.missions.commander_index(m.seq) {
                     out.mav.extend(self.telemetry.mission_current_if_shown(index));
                 }
                 out
-            }
-            MavMessage::MISSION_ACK(_) => {
-                self.missions.on_ack(from);
-                Outputs::none()
             }
             MavMessage::FILE_TRANSFER_PROTOCOL(m) => {
                 Outputs { mav: ftp::answer(from, m).into_iter().collect(), graph: Vec::new() }
@@ -293,7 +271,7 @@ impl Vehicle {
     /// due now (kept apart so radio links can thin telemetry only).
     pub fn on_tick(&mut self, now: Time) -> (Outputs, Vec<MavMessage>) {
         let mut out = Outputs { mav: self.commands.on_tick(now), graph: Vec::new() };
-        out.mav.extend(self.params.on_tick(now));
+        out.extend(self.params.on_tick(now));
         out.extend(self.missions.on_tick(now));
         if self.gcs.check(now) == Some(GcsEvent::Lost) {
             out.mav.push(statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "GCS heartbeat lost"));

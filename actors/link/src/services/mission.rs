@@ -25,7 +25,7 @@ use mavlink::dialects::ardupilotmega::{
 };
 
 use super::events::statustext;
-use super::{Outputs, Sender, ToGraph};
+use super::{Outputs, Sender, Service, ToGraph};
 
 /// Most items a plan of any type may hold (home included); larger uploads are refused with
 /// NO_SPACE. The one limit for missions however they arrive (`MAX_MISSION_ITEMS`).
@@ -278,7 +278,7 @@ impl MissionService {
     }
 
     /// Repeats an unanswered request, or cancels the upload after [`RETRIES`].
-    pub fn on_tick(&mut self, now: Time) -> Outputs {
+    fn tick(&mut self, now: Time) -> Outputs {
         let Some(up) = self.upload.as_mut().filter(|u| now >= u.deadline) else {
             return Outputs::none();
         };
@@ -422,6 +422,32 @@ pub fn to_mission(items: &[MISSION_ITEM_INT_DATA], now: Time) -> Result<Mission,
     Ok(Mission { time: now, items: out, cruise_speed_m_s: DEFAULT_CRUISE_M_S })
 }
 
+/// The mission protocol: uploads (COUNT, ITEM_INT or legacy ITEM, ACK), downloads
+/// (REQUEST_LIST, REQUEST_INT or legacy REQUEST, ACK) and CLEAR_ALL, with retries on ticks.
+/// MISSION_SET_CURRENT needs the commander's status too, and is `Vehicle`'s.
+impl Service for MissionService {
+    fn on_message(&mut self, from: Sender, msg: &MavMessage, now: Time) -> Option<Outputs> {
+        Some(match msg {
+            MavMessage::MISSION_COUNT(m) => self.on_count(from, m, now),
+            MavMessage::MISSION_ITEM_INT(m) => self.on_item(from, m, now),
+            MavMessage::MISSION_ITEM(m) => self.on_item_float(from, m, now),
+            MavMessage::MISSION_REQUEST_LIST(m) => self.on_request_list(from, m.mission_type),
+            MavMessage::MISSION_REQUEST_INT(m) => self.on_request(from, m.seq, m.mission_type, false),
+            MavMessage::MISSION_REQUEST(m) => self.on_request(from, m.seq, m.mission_type, true),
+            MavMessage::MISSION_CLEAR_ALL(m) => self.clear(from, m.mission_type, now),
+            MavMessage::MISSION_ACK(_) => {
+                self.on_ack(from);
+                Outputs::none()
+            }
+            _ => return None,
+        })
+    }
+
+    fn on_tick(&mut self, now: Time) -> Outputs {
+        self.tick(now)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -561,7 +587,7 @@ mod tests {
         let mut now = 0.0;
         loop {
             now += 1.6;
-            let out = s.on_tick(t(now));
+            let out = s.tick(t(now));
             if let Some(r) = ack_result(&out) {
                 assert_eq!(r, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED);
                 break;
@@ -579,8 +605,8 @@ mod tests {
         assert_eq!(requested(&s.on_count(GCS, &count(3), t(0.0))), Some(0));
         assert_eq!(requested(&s.on_item(GCS, &items[0], t(0.1))), Some(1));
         // Item 1 is lost on the way: nothing until the timeout, then the same request again.
-        assert!(s.on_tick(t(1.5)).mav.is_empty(), "re-requested before the timeout");
-        assert_eq!(requested(&s.on_tick(t(1.7))), Some(1));
+        assert!(s.tick(t(1.5)).mav.is_empty(), "re-requested before the timeout");
+        assert_eq!(requested(&s.tick(t(1.7))), Some(1));
         assert_eq!(requested(&s.on_item(GCS, &items[1], t(1.8))), Some(2));
         let out = s.on_item(GCS, &items[2], t(1.9));
         assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
@@ -597,7 +623,7 @@ mod tests {
         let (mut now, mut requests, mut cancelled) = (10.1, 0, None);
         while now < 30.0 && cancelled.is_none() {
             now += 0.02;
-            let out = s.on_tick(t(now));
+            let out = s.tick(t(now));
             requests += out
                 .mav
                 .iter()
@@ -616,7 +642,7 @@ mod tests {
         let out = s.on_request(GCS, 1, MISSION, false);
         let MavMessage::MISSION_ITEM_INT(kept) = &out.mav[0] else { panic!("no item") };
         assert_eq!((kept.x, kept.command), (old[1].x, old[1].command));
-        assert!(s.on_tick(t(60.0)).mav.is_empty());
+        assert!(s.tick(t(60.0)).mav.is_empty());
         // A late item of the dead upload is ignored, not taken as a new one.
         assert!(s.on_item(GCS, &item(1, MavCmd::MAV_CMD_NAV_WAYPOINT), t(61.0)).mav.is_empty());
         assert_eq!(s.mission_len(), 2);

@@ -11,8 +11,21 @@ pub mod offboard;
 pub mod params;
 pub mod telemetry;
 
+use kestrel_proto::Time;
 use kestrel_proto::messages::{Command, ManualControl, Mission, ParamSet};
 use mavlink::dialects::ardupilotmega::MavMessage;
+
+/// The shape of a microservice that owns a protocol (as mini-redis's commands share one): it
+/// keeps its own state, takes the messages of its protocol and the scheduler's ticks, and
+/// answers both with the same [`Outputs`]. `Vehicle` offers each message to its services in
+/// turn and handles what none of them speaks.
+pub trait Service {
+    /// `msg` from `from`, answered if it belongs to this service's protocol; `None` otherwise.
+    fn on_message(&mut self, from: Sender, msg: &MavMessage, now: Time) -> Option<Outputs>;
+
+    /// Periodic work at `now`: timeouts, retries, streams.
+    fn on_tick(&mut self, now: Time) -> Outputs;
+}
 
 /// Who sent a message.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

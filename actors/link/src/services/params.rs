@@ -29,7 +29,7 @@ use kestrel_proto::messages::{ParamDecl, ParamSet};
 use mavlink::dialects::ardupilotmega::{MavMessage, MavParamType, MavSeverity, PARAM_VALUE_DATA};
 
 use super::events::statustext;
-use super::{Outputs, ToGraph};
+use super::{Outputs, Sender, Service, ToGraph};
 use crate::config::{ParamKind, ParamSpec};
 
 /// Why a parameter table could not be built.
@@ -78,6 +78,8 @@ pub struct ParamTable {
     awaiting: Vec<Awaiting>,
     /// Next index of a PARAM_REQUEST_LIST being streamed.
     list_cursor: Option<usize>,
+    /// A value changed that the parameter file must follow (`take_changed`).
+    changed: bool,
 }
 
 /// PARAM_VALUEs sent per scheduler tick while a parameter list is streaming: a burst of hundreds
@@ -118,7 +120,13 @@ impl ParamTable {
         let mut entries: Vec<Entry> =
             specs.into_iter().map(|spec| Entry { spec, owner: None, persist: false }).collect();
         entries.sort_by(|a, b| a.spec.name.cmp(&b.spec.name));
-        Ok(ParamTable { entries, pending: BTreeMap::new(), awaiting: Vec::new(), list_cursor: None })
+        Ok(ParamTable {
+            entries,
+            pending: BTreeMap::new(),
+            awaiting: Vec::new(),
+            list_cursor: None,
+            changed: false,
+        })
     }
 
     /// The number of parameters.
@@ -334,6 +342,11 @@ impl ParamTable {
         self.value_msg(i)
     }
 
+    /// True once after each PARAM_SET that went to an owner: the parameter file must follow.
+    pub fn take_changed(&mut self) -> bool {
+        std::mem::take(&mut self.changed)
+    }
+
     /// PARAM_SET.
     pub fn set(&mut self, name: &str, value: f32, now: Time) -> Outputs {
         let Some(i) = self.entries.iter().position(|e| e.spec.name == name) else {
@@ -367,7 +380,7 @@ impl ParamTable {
 
     /// The next part of a parameter list being streamed, and the sets whose owner did not
     /// answer in time: the old value stays, and is echoed with why.
-    pub fn on_tick(&mut self, now: Time) -> Vec<MavMessage> {
+    fn tick(&mut self, now: Time) -> Vec<MavMessage> {
         let mut out = self.next_chunk();
         let (expired, waiting): (Vec<_>, Vec<_>) =
             std::mem::take(&mut self.awaiting).into_iter().partition(|a| now >= a.deadline);
@@ -410,6 +423,31 @@ fn quantise(kind: ParamKind, value: f64) -> f64 {
     match kind {
         ParamKind::Real32 => f64::from(value as f32),
         ParamKind::Int32 | ParamKind::Uint8 => value.round(),
+    }
+}
+
+/// The parameter protocol: PARAM_REQUEST_LIST (streamed over ticks), PARAM_REQUEST_READ and
+/// PARAM_SET; ticks also expire sets whose owner did not confirm.
+impl Service for ParamTable {
+    fn on_message(&mut self, _from: Sender, msg: &MavMessage, now: Time) -> Option<Outputs> {
+        Some(match msg {
+            MavMessage::PARAM_REQUEST_LIST(_) => Outputs { mav: self.request_list(), graph: Vec::new() },
+            MavMessage::PARAM_REQUEST_READ(r) => {
+                let name = r.param_id.to_str().unwrap_or_default().trim_end_matches('\0');
+                Outputs { mav: self.read(name, r.param_index).into_iter().collect(), graph: Vec::new() }
+            }
+            MavMessage::PARAM_SET(s) => {
+                let name = s.param_id.to_str().unwrap_or_default().trim_end_matches('\0').to_owned();
+                let out = self.set(&name, s.param_value, now);
+                self.changed |= !out.graph.is_empty();
+                out
+            }
+            _ => return None,
+        })
+    }
+
+    fn on_tick(&mut self, now: Time) -> Outputs {
+        Outputs { mav: self.tick(now), graph: Vec::new() }
     }
 }
 
@@ -622,7 +660,7 @@ mod tests {
         assert_eq!(texts(&done.out.mav), 0);
         assert!(done.persist_changed);
         assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=20\n");
-        assert!(t.on_tick(Time::from_secs_f64(5.0)).is_empty(), "confirmed: nothing expires");
+        assert!(t.tick(Time::from_secs_f64(5.0)).is_empty(), "confirmed: nothing expires");
     }
 
     #[test]
@@ -631,11 +669,11 @@ mod tests {
         t.declare(&decl("commander", true, &[("BATT_CRT_FRAC", 10.0)]), Time::ZERO);
         let out = t.set("BATT_CRT_FRAC", 20.0, Time::ZERO);
         assert!(out.mav.is_empty());
-        assert!(t.on_tick(Time::from_secs_f64(0.5)).is_empty(), "still within the timeout");
-        let late = t.on_tick(Time::from_secs_f64(1.0));
+        assert!(t.tick(Time::from_secs_f64(0.5)).is_empty(), "still within the timeout");
+        let late = t.tick(Time::from_secs_f64(1.0));
         assert_eq!(values(&late), [("BATT_CRT_FRAC".to_owned(), 10.0)]);
         assert_eq!(texts(&late), 1);
         assert_eq!(render_param_file(&t), "");
-        assert!(t.on_tick(Time::from_secs_f64(2.0)).is_empty(), "said once");
+        assert!(t.tick(Time::from_secs_f64(2.0)).is_empty(), "said once");
     }
 }
