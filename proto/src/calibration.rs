@@ -15,9 +15,13 @@ use serde::{Deserialize, Serialize};
 pub enum InvalidCalibration {
     #[error("{field} must be finite, got {value:?}")]
     NotFinite { field: &'static str, value: Vec<f64> },
-    #[error("soft_iron {matrix:?} is singular or mirrors (determinant {determinant}); it must be invertible with a positive determinant")]
+    #[error(
+        "soft_iron {matrix:?} is singular or mirrors (determinant {determinant}); it must be invertible with a positive determinant"
+    )]
     SoftIronSingular { matrix: [[f64; 3]; 3], determinant: f64 },
-    #[error("accel_scale[{axis}] = {scale} is outside 0.5..=2: not a scale error, a wrong range or a broken axis")]
+    #[error(
+        "accel_scale[{axis}] = {scale} is outside 0.5..=2: not a scale error, a wrong range or a broken axis"
+    )]
     AccelScale { axis: usize, scale: f64 },
 }
 
@@ -63,14 +67,17 @@ impl MagCalibration {
     }
 
     /// Checks `hard_iron_gauss` (finite) and `soft_iron` (finite, invertible, not mirroring).
-    pub fn new(hard_iron_gauss: [f64; 3], soft_iron: [[f64; 3]; 3]) -> Result<MagCalibration, InvalidCalibration> {
+    pub fn new(
+        hard_iron_gauss: [f64; 3],
+        soft_iron: [[f64; 3]; 3],
+    ) -> Result<MagCalibration, InvalidCalibration> {
         finite("hard_iron_gauss", &hard_iron_gauss)?;
         finite("soft_iron", soft_iron.as_flattened())?;
         let matrix = matrix3(&soft_iron);
         let determinant = matrix.determinant();
         let singular = InvalidCalibration::SoftIronSingular { matrix: soft_iron, determinant };
         // Soft iron changes the field by tens of percent; a determinant near zero is a typo.
-        if !(determinant > 1e-3) {
+        if determinant.is_nan() || determinant <= 1e-3 {
             return Err(singular);
         }
         let soft_iron_inverse = matrix.try_inverse().ok_or(singular)?;
@@ -135,14 +142,20 @@ pub struct AccelCalibrationValues {
 impl AccelCalibration {
     /// No correction.
     pub fn identity() -> AccelCalibration {
-        AccelCalibration { values: AccelCalibrationValues { accel_offset_m_s2: [0.0; 3], accel_scale: [1.0; 3] } }
+        AccelCalibration {
+            values: AccelCalibrationValues { accel_offset_m_s2: [0.0; 3], accel_scale: [1.0; 3] },
+        }
     }
 
     /// Checks that offsets are finite and each scale lies within 0.5..=2.
-    pub fn new(accel_offset_m_s2: [f64; 3], accel_scale: [f64; 3]) -> Result<AccelCalibration, InvalidCalibration> {
+    pub fn new(
+        accel_offset_m_s2: [f64; 3],
+        accel_scale: [f64; 3],
+    ) -> Result<AccelCalibration, InvalidCalibration> {
         finite("accel_offset_m_s2", &accel_offset_m_s2)?;
         finite("accel_scale", &accel_scale)?;
-        if let Some((axis, &scale)) = accel_scale.iter().enumerate().find(|(_, s)| !(0.5..=2.0).contains(*s)) {
+        if let Some((axis, &scale)) = accel_scale.iter().enumerate().find(|(_, s)| !(0.5..=2.0).contains(*s))
+        {
             return Err(InvalidCalibration::AccelScale { axis, scale });
         }
         Ok(AccelCalibration { values: AccelCalibrationValues { accel_offset_m_s2, accel_scale } })

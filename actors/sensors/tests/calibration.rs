@@ -99,11 +99,16 @@ fn six_orientations(
     seed: u64,
 ) -> Vec<(VehicleOrientation, Vec<ImuSample>)> {
     let mut rng = Pcg64::seed_from_u64(seed);
-    VehicleOrientation::ALL.map(|o| (o, still_imu(800, o.expected_m_s2(), errors, noise_m_s2, &mut rng))).into()
+    VehicleOrientation::ALL
+        .map(|o| (o, still_imu(800, o.expected_m_s2(), errors, noise_m_s2, &mut rng)))
+        .into()
 }
 
 fn captures(windows: &[(VehicleOrientation, Vec<ImuSample>)]) -> Vec<OrientationSamples<'_>> {
-    windows.iter().map(|(orientation, samples)| OrientationSamples { orientation: *orientation, samples }).collect()
+    windows
+        .iter()
+        .map(|(orientation, samples)| OrientationSamples { orientation: *orientation, samples })
+        .collect()
 }
 
 fn max_abs_diff(a: &Matrix3<f64>, b: &Matrix3<f64>) -> f64 {
@@ -151,7 +156,8 @@ fn mag_data_that_cannot_support_a_fit_is_refused_with_its_reason() {
     let mut rng = Pcg64::seed_from_u64(3);
     let one: Vec<MagSample> = (0..600)
         .map(|i| {
-            let m = Vector3::new(0.4, 0.0, -0.05) + Vector3::from(HARD_IRON_GAUSS) + normal3(&mut rng) * 0.005;
+            let m =
+                Vector3::new(0.4, 0.0, -0.05) + Vector3::from(HARD_IRON_GAUSS) + normal3(&mut rng) * 0.005;
             MagSample { time: stamp(i, 10_000), field_gauss: m.into() }
         })
         .collect();
@@ -173,7 +179,8 @@ fn mag_data_that_cannot_support_a_fit_is_refused_with_its_reason() {
     assert!(matches!(err, MagCalError::NoSpread { .. }), "{err}");
 
     // Only the upper half of the sphere.
-    let half: Vec<MagSample> = good.iter().cloned().filter(|s| s.field_gauss[2] > HARD_IRON_GAUSS[2]).collect();
+    let half: Vec<MagSample> =
+        good.iter().filter(|s| s.field_gauss[2] > HARD_IRON_GAUSS[2]).cloned().collect();
     let err = calibrate_mag(&half, &settings).unwrap_err();
     eprintln!("one hemisphere: {err}");
     assert!(matches!(err, MagCalError::CoverageTooLow { .. }), "{err}");
@@ -244,7 +251,13 @@ fn accel_data_that_is_not_still_or_not_on_its_axis_is_refused_naming_the_orienta
     let err = calibrate_accel(&captures(&windows), &settings).unwrap_err();
     eprintln!("moving: {err}");
     assert!(
-        matches!(err, AccelCalError::NotStill { orientation: VehicleOrientation::NoseUp, source: NotStill::Moving { .. } }),
+        matches!(
+            err,
+            AccelCalError::NotStill {
+                orientation: VehicleOrientation::NoseUp,
+                source: NotStill::Moving { .. }
+            }
+        ),
         "{err}"
     );
     assert!(err.to_string().contains("nose up"), "{err}");
@@ -254,17 +267,29 @@ fn accel_data_that_is_not_still_or_not_on_its_axis_is_refused_naming_the_orienta
     windows[nose_up].1 = still_imu(800, VehicleOrientation::Level.expected_m_s2(), errors, 0.05, &mut rng);
     let err = calibrate_accel(&captures(&windows), &settings).unwrap_err();
     eprintln!("off axis: {err}");
-    assert!(matches!(err, AccelCalError::OffAxis { orientation: VehicleOrientation::NoseUp, angle_deg, .. } if angle_deg > 80.0), "{err}");
+    assert!(
+        matches!(err, AccelCalError::OffAxis { orientation: VehicleOrientation::NoseUp, angle_deg, .. } if angle_deg > 80.0),
+        "{err}"
+    );
 
     windows[nose_up].1 = original;
     windows[0].1[3].accel_m_s2[0] = f64::NAN;
     let err = calibrate_accel(&captures(&windows), &settings).unwrap_err();
     assert!(
-        matches!(err, AccelCalError::NotStill { orientation: VehicleOrientation::Level, source: NotStill::NonFinite { index: 3, .. } }),
+        matches!(
+            err,
+            AccelCalError::NotStill {
+                orientation: VehicleOrientation::Level,
+                source: NotStill::NonFinite { index: 3, .. }
+            }
+        ),
         "{err}"
     );
     let doubled: Vec<_> = captures(&windows[1..]).into_iter().chain(captures(&windows[1..2])).collect();
-    assert!(matches!(calibrate_accel(&doubled, &settings), Err(AccelCalError::Missing(VehicleOrientation::Level))));
+    assert!(matches!(
+        calibrate_accel(&doubled, &settings),
+        Err(AccelCalError::Missing(VehicleOrientation::Level))
+    ));
 
     let bad_scale = six_orientations((&[0.0; 3], &[1.0, 1.3, 1.0], [0.0; 3]), 0.05, 10);
     let err = calibrate_accel(&captures(&bad_scale), &settings).unwrap_err();
@@ -276,8 +301,9 @@ fn gyro_offset_at_rest_and_refusals_when_moving() {
     let mut rng = Pcg64::seed_from_u64(11);
     let offset = Vector3::new(0.01, -0.02, 0.015);
     let level = Vector3::new(0.0, 0.0, -GRAVITY_M_S2);
-    let still: Vec<ImuSample> =
-        (0..800).map(|i| imu(i, level + normal3(&mut rng) * 0.05, offset + normal3(&mut rng) * 0.003)).collect();
+    let still: Vec<ImuSample> = (0..800)
+        .map(|i| imu(i, level + normal3(&mut rng) * 0.05, offset + normal3(&mut rng) * 0.003))
+        .collect();
     let fit = calibrate_gyro(&still, &GyroSettings::default()).expect("still");
     let error = (Vector3::from(fit.calibration.gyro_offset_rad_s) - offset).abs().max();
     eprintln!(
@@ -291,10 +317,14 @@ fn gyro_offset_at_rest_and_refusals_when_moving() {
         .collect();
     let err = calibrate_gyro(&rocking, &GyroSettings::default()).unwrap_err();
     eprintln!("rocking: {err}");
-    assert!(matches!(err, GyroCalError::NotStill(NotStill::Moving { sensor: "gyro", axis: "forward", .. })), "{err}");
+    assert!(
+        matches!(err, GyroCalError::NotStill(NotStill::Moving { sensor: "gyro", axis: "forward", .. })),
+        "{err}"
+    );
 
-    let carried: Vec<ImuSample> =
-        (0..800).map(|i| imu(i, level + normal3(&mut rng) * 0.6, offset + normal3(&mut rng) * 0.003)).collect();
+    let carried: Vec<ImuSample> = (0..800)
+        .map(|i| imu(i, level + normal3(&mut rng) * 0.6, offset + normal3(&mut rng) * 0.003))
+        .collect();
     let err = calibrate_gyro(&carried, &GyroSettings::default()).unwrap_err();
     eprintln!("carried: {err}");
     assert!(matches!(err, GyroCalError::NotStill(NotStill::Moving { sensor: "accelerometer", .. })), "{err}");
@@ -305,7 +335,10 @@ fn gyro_offset_at_rest_and_refusals_when_moving() {
 
     let mut nan = still.clone();
     nan[5].gyro_rad_s[2] = f64::INFINITY;
-    assert!(matches!(calibrate_gyro(&nan, &GyroSettings::default()), Err(GyroCalError::NotStill(NotStill::NonFinite { index: 5, .. }))));
+    assert!(matches!(
+        calibrate_gyro(&nan, &GyroSettings::default()),
+        Err(GyroCalError::NotStill(NotStill::NonFinite { index: 5, .. }))
+    ));
 }
 
 #[test]
@@ -318,20 +351,37 @@ fn board_level_recovers_a_3_degree_tilt_after_accel_calibration() {
     let level = still_imu(800, VehicleOrientation::Level.expected_m_s2(), errors, 0.05, &mut rng);
     let fit = calibrate_level(&level, &accel, &LevelSettings::default()).expect("level ground");
     let (roll, pitch) = (fit.level.roll_deg(), fit.level.pitch_deg());
-    eprintln!("level: roll {roll:.4}°, pitch {pitch:.4}° (truth {BOARD_ROTATION_DEG:?}), tilt {:.4}°", fit.tilt_deg);
+    eprintln!(
+        "level: roll {roll:.4}°, pitch {pitch:.4}° (truth {BOARD_ROTATION_DEG:?}), tilt {:.4}°",
+        fit.tilt_deg
+    );
     assert!((roll - BOARD_ROTATION_DEG[0]).abs() < 0.05 * 2.0, "{roll}");
     assert!((pitch - BOARD_ROTATION_DEG[1]).abs() < 0.05 * 2.24, "{pitch}");
     assert!((fit.tilt_deg - 3.0).abs() < 0.15, "{}", fit.tilt_deg);
 
     // Uncalibrated, the offsets alone tilt the reading by ~1.7°: calibration matters.
-    let raw = calibrate_level(&level, &AccelCalibration::identity(), &LevelSettings::default()).expect("level");
-    eprintln!("level without accel calibration: roll {:.3}°, pitch {:.3}°", raw.level.roll_deg(), raw.level.pitch_deg());
+    let raw =
+        calibrate_level(&level, &AccelCalibration::identity(), &LevelSettings::default()).expect("level");
+    eprintln!(
+        "level without accel calibration: roll {:.3}°, pitch {:.3}°",
+        raw.level.roll_deg(),
+        raw.level.pitch_deg()
+    );
     assert!((raw.level.roll_deg() - BOARD_ROTATION_DEG[0]).abs() > 1.0);
 
-    let slope = still_imu(800, VehicleOrientation::Level.expected_m_s2(), (&[0.0; 3], &[1.0; 3], [12.0, 0.0, 0.0]), 0.05, &mut rng);
+    let slope = still_imu(
+        800,
+        VehicleOrientation::Level.expected_m_s2(),
+        (&[0.0; 3], &[1.0; 3], [12.0, 0.0, 0.0]),
+        0.05,
+        &mut rng,
+    );
     let err = calibrate_level(&slope, &AccelCalibration::identity(), &LevelSettings::default()).unwrap_err();
     eprintln!("slope: {err}");
-    assert!(matches!(err, LevelCalError::NotLevel { tilt_deg, .. } if (tilt_deg - 12.0).abs() < 0.2), "{err}");
+    assert!(
+        matches!(err, LevelCalError::NotLevel { tilt_deg, .. } if (tilt_deg - 12.0).abs() < 0.2),
+        "{err}"
+    );
 
     let mut shaken = level.clone();
     shaken.iter_mut().enumerate().for_each(|(i, s)| s.accel_m_s2[2] += (i as f64 * 0.2).sin());
@@ -470,7 +520,9 @@ fn numpy_fits_the_same_ellipsoid() {
         let (h, s) = numpy_fit(&samples, FIELD_GAUSS, tag);
         let dh = (Vector3::from(ours.calibration.hard_iron_gauss()) - h).abs().max();
         let ds = max_abs_diff(&matrix3(&ours.calibration.soft_iron()), &s);
-        eprintln!("numpy vs ours ({tag}, noise {noise} G): hard iron differs by {dh:.2e} G, soft iron by {ds:.2e}");
+        eprintln!(
+            "numpy vs ours ({tag}, noise {noise} G): hard iron differs by {dh:.2e} G, soft iron by {ds:.2e}"
+        );
         let tolerance = if noise == 0.0 { 1e-9 } else { 1e-3 };
         assert!(dh < tolerance && ds < tolerance, "{tag}: numpy {h:?} {s:?}, ours {:?}", ours.calibration);
     }

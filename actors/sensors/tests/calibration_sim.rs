@@ -9,8 +9,8 @@ use kestrel_proto::Time;
 use kestrel_proto::calibration::{AccelCalibration, BoardLevel, GyroCalibration, MagCalibration, matrix3};
 use kestrel_proto::messages::{ImuSample, MagSample};
 use kestrel_sensors::calibration::{
-    AccelSettings, GyroSettings, LevelSettings, MagCalError, MagSettings, OrientationSamples, VehicleOrientation,
-    calibrate_accel, calibrate_gyro, calibrate_level, calibrate_mag,
+    AccelSettings, GyroSettings, LevelSettings, MagCalError, MagSettings, OrientationSamples,
+    VehicleOrientation, calibrate_accel, calibrate_gyro, calibrate_level, calibrate_mag,
 };
 use kestrel_sim::{InitialState, RigidBodyState, SimOptions, SimOutput, Simulator, VehicleParams, World};
 use nalgebra::{UnitQuaternion, Vector3};
@@ -39,10 +39,18 @@ fn vehicle() -> VehicleParams {
 }
 
 /// What the sensors release over `seconds` with the vehicle resting at `attitude`.
-fn rest(vehicle: &VehicleParams, attitude: UnitQuaternion<f64>, seconds: f64, seed: u64) -> (Vec<ImuSample>, Vec<MagSample>) {
+fn rest(
+    vehicle: &VehicleParams,
+    attitude: UnitQuaternion<f64>,
+    seconds: f64,
+    seed: u64,
+) -> (Vec<ImuSample>, Vec<MagSample>) {
     let options = SimOptions {
         seed,
-        initial: InitialState { body: RigidBodyState { attitude, ..Default::default() }, ..Default::default() },
+        initial: InitialState {
+            body: RigidBodyState { attitude, ..Default::default() },
+            ..Default::default()
+        },
         ..SimOptions::default()
     };
     let mut sim = Simulator::new(vehicle.clone(), World::default(), options).expect("valid simulator");
@@ -78,7 +86,8 @@ fn tumble(count: usize) -> impl Iterator<Item = UnitQuaternion<f64>> {
         let z = 1.0 - 2.0 * (i as f64 + 0.5) / count as f64;
         let r = (1.0 - z * z).sqrt();
         let down = Vector3::new(r * (golden * i as f64).cos(), r * (golden * i as f64).sin(), z);
-        let tilt = UnitQuaternion::rotation_between(&Vector3::z(), &down).unwrap_or_else(UnitQuaternion::identity);
+        let tilt =
+            UnitQuaternion::rotation_between(&Vector3::z(), &down).unwrap_or_else(UnitQuaternion::identity);
         tilt * UnitQuaternion::from_euler_angles(0.0, 0.0, i as f64 * 2.4)
     })
 }
@@ -111,8 +120,10 @@ fn calibrate(vehicle: &VehicleParams) -> Calibrations {
         .enumerate()
         .map(|(i, &o)| (o, rest(vehicle, attitude_of(o), 2.0, 10 + i as u64).0))
         .collect();
-    let captures: Vec<OrientationSamples<'_>> =
-        windows.iter().map(|(orientation, samples)| OrientationSamples { orientation: *orientation, samples }).collect();
+    let captures: Vec<OrientationSamples<'_>> = windows
+        .iter()
+        .map(|(orientation, samples)| OrientationSamples { orientation: *orientation, samples })
+        .collect();
     let accel = calibrate_accel(&captures, &AccelSettings::default()).expect("accelerometer calibration");
     let (offset, scale) = (accel.calibration.offset_m_s2(), accel.calibration.scale());
     let imu = &vehicle.sensors.imu;
@@ -132,7 +143,8 @@ fn calibrate(vehicle: &VehicleParams) -> Calibrations {
     eprintln!("sim gyro: offset {g:?} rad/s (max error {g_error:.6})");
     assert!(g_error < 0.05 * 0.01, "{g:?}");
 
-    let level = calibrate_level(&level_samples, &accel.calibration, &LevelSettings::default()).expect("level");
+    let level =
+        calibrate_level(&level_samples, &accel.calibration, &LevelSettings::default()).expect("level");
     let [roll, pitch, _] = vehicle.sensors.board_rotation_deg;
     eprintln!(
         "sim level: roll {:.4}° pitch {:.4}° (file {roll}°, {pitch}°), tilt {:.4}°",
@@ -142,7 +154,12 @@ fn calibrate(vehicle: &VehicleParams) -> Calibrations {
     );
     assert!((level.level.roll_deg() - roll).abs() < 0.05 * roll.abs(), "{:?}", level.level);
     assert!((level.level.pitch_deg() - pitch).abs() < 0.05 * pitch.abs(), "{:?}", level.level);
-    Calibrations { mag: mag.calibration, accel: accel.calibration, gyro: gyro.calibration, level: level.level }
+    Calibrations {
+        mag: mag.calibration,
+        accel: accel.calibration,
+        gyro: gyro.calibration,
+        level: level.level,
+    }
 }
 
 #[test]
@@ -156,15 +173,18 @@ fn the_simulators_sensor_errors_are_recovered_and_calibrated_readings_are_true()
     let attitude = UnitQuaternion::from_euler_angles(0.2, -0.15, 1.0);
     let (imu, mag) = rest(&vehicle, attitude, 1.0, 30);
     let field_body = attitude.inverse_transform_vector(&World::default().magnetic_field.ned_gauss());
-    let mean = |v: &[[f64; 3]]| v.iter().fold(Vector3::zeros(), |a, x| a + Vector3::from(*x)) / v.len() as f64;
+    let mean =
+        |v: &[[f64; 3]]| v.iter().fold(Vector3::zeros(), |a, x| a + Vector3::from(*x)) / v.len() as f64;
     let raw_mag = mean(&mag.iter().map(|m| m.field_gauss).collect::<Vec<_>>());
     let calibrated_mag =
         mean(&mag.iter().map(|m| cal.level.apply(cal.mag.apply(m.field_gauss))).collect::<Vec<_>>());
-    let gravity_body = attitude.inverse_transform_vector(&Vector3::new(0.0, 0.0, -kestrel_proto::units::GRAVITY_M_S2));
+    let gravity_body =
+        attitude.inverse_transform_vector(&Vector3::new(0.0, 0.0, -kestrel_proto::units::GRAVITY_M_S2));
     let raw_accel = mean(&imu.iter().map(|s| s.accel_m_s2).collect::<Vec<_>>());
     let calibrated_accel =
         mean(&imu.iter().map(|s| cal.level.apply(cal.accel.apply(s.accel_m_s2))).collect::<Vec<_>>());
-    let calibrated_gyro = mean(&imu.iter().map(|s| cal.level.apply(cal.gyro.apply(s.gyro_rad_s))).collect::<Vec<_>>());
+    let calibrated_gyro =
+        mean(&imu.iter().map(|s| cal.level.apply(cal.gyro.apply(s.gyro_rad_s))).collect::<Vec<_>>());
     let deg = |a: &Vector3<f64>, b: &Vector3<f64>| a.angle(b).to_degrees();
     eprintln!(
         "field direction error: raw {:.2}°, calibrated {:.3}°; |field| raw {:.4} G, calibrated {:.4} G, true {:.4} G",
@@ -204,10 +224,16 @@ fn the_default_vehicle_needs_no_calibration() {
     assert_eq!(vehicle.sensors.mag.soft_iron, MagCalibration::identity().soft_iron());
     let windows: Vec<(VehicleOrientation, Vec<ImuSample>)> =
         VehicleOrientation::ALL.iter().map(|&o| (o, rest(&vehicle, attitude_of(o), 1.0, 50).0)).collect();
-    let captures: Vec<OrientationSamples<'_>> =
-        windows.iter().map(|(orientation, samples)| OrientationSamples { orientation: *orientation, samples }).collect();
+    let captures: Vec<OrientationSamples<'_>> = windows
+        .iter()
+        .map(|(orientation, samples)| OrientationSamples { orientation: *orientation, samples })
+        .collect();
     let fit = calibrate_accel(&captures, &AccelSettings::default()).expect("accelerometer calibration");
-    eprintln!("default vehicle: offset {:?}, scale {:?}", fit.calibration.offset_m_s2(), fit.calibration.scale());
+    eprintln!(
+        "default vehicle: offset {:?}, scale {:?}",
+        fit.calibration.offset_m_s2(),
+        fit.calibration.scale()
+    );
     assert!(fit.calibration.offset_m_s2().iter().all(|o| o.abs() < 0.01));
     assert!(fit.calibration.scale().iter().all(|s| (s - 1.0).abs() < 0.001));
 }

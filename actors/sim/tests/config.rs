@@ -58,7 +58,10 @@ fn an_out_of_range_field_names_the_file_and_the_field() {
     let text = VehicleParams::load(&path).unwrap_err().to_string();
     assert!(text.contains("sensors.gps.rate_hz"), "{text}");
 
-    let path = scratch("flat_iron.toml", "[sensors.mag]\nsoft_iron = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]\n");
+    let path = scratch(
+        "flat_iron.toml",
+        "[sensors.mag]\nsoft_iron = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]\n",
+    );
     let text = VehicleParams::load(&path).unwrap_err().to_string();
     assert!(text.contains("sensors.mag.soft_iron") && text.contains("singular"), "{text}");
 

@@ -197,8 +197,10 @@ fn board_rotation_soft_iron_and_accel_errors_follow_their_documented_models() {
     let mut sim = Simulator::new(vehicle.clone(), World::default(), options).expect("valid");
     sim.advance_to(Time::from_secs_f64(0.1));
     let outputs: Vec<SimOutput> = sim.drain().collect();
-    let imu = outputs.iter().rev().find_map(|o| if let SimOutput::Imu(m) = o { Some(m) } else { None }).unwrap();
-    let mag = outputs.iter().rev().find_map(|o| if let SimOutput::Mag(m) = o { Some(m) } else { None }).unwrap();
+    let imu =
+        outputs.iter().rev().find_map(|o| if let SimOutput::Imu(m) = o { Some(m) } else { None }).unwrap();
+    let mag =
+        outputs.iter().rev().find_map(|o| if let SimOutput::Mag(m) = o { Some(m) } else { None }).unwrap();
 
     let [r, p, y] = [3.0f64, -2.0, 10.0].map(f64::to_radians);
     let board = nalgebra::Rotation3::from_euler_angles(r, p, y);

@@ -9,7 +9,7 @@ use kestrel_proto::messages::ImuSample;
 use kestrel_proto::units::GRAVITY_M_S2;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
-use crate::calibration::still::{AXES, NotStill, StillLimits, StillWindow, still_window};
+use crate::calibration::still::{AXES, NotStill, StillLimits, StillWindow, exceeds, still_window};
 
 /// How the vehicle is set down, numbered as MAVLink's `ACCELCAL_VEHICLE_POS` (1..=6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -179,8 +179,12 @@ pub fn calibrate_accel(
         let mean = Vector3::from(window.accel_mean_m_s2);
         let expected = Vector3::from(orientation.expected_m_s2());
         let angle_deg = mean.angle(&expected).to_degrees();
-        if !(angle_deg <= settings.max_axis_error_deg) {
-            return Err(AccelCalError::OffAxis { orientation, angle_deg, max_deg: settings.max_axis_error_deg });
+        if exceeds(angle_deg, settings.max_axis_error_deg) {
+            return Err(AccelCalError::OffAxis {
+                orientation,
+                angle_deg,
+                max_deg: settings.max_axis_error_deg,
+            });
         }
         windows.push((orientation, window, angle_deg));
     }
@@ -200,14 +204,14 @@ pub fn calibrate_accel(
     let scale: [f64; 3] = std::array::from_fn(|i| t.row(i).norm());
 
     for axis in 0..3 {
-        if !(offset[axis].abs() <= settings.max_offset_m_s2) {
+        if exceeds(offset[axis].abs(), settings.max_offset_m_s2) {
             return Err(AccelCalError::OffsetTooLarge {
                 axis: AXES[axis],
                 offset_m_s2: offset[axis],
                 max_m_s2: settings.max_offset_m_s2,
             });
         }
-        if !((scale[axis] - 1.0).abs() <= settings.max_scale_error) {
+        if exceeds((scale[axis] - 1.0).abs(), settings.max_scale_error) {
             return Err(AccelCalError::ScaleOutOfRange {
                 axis: AXES[axis],
                 scale: scale[axis],
@@ -224,12 +228,13 @@ pub fn calibrate_accel(
         let mean = Vector3::from(window.accel_mean_m_s2);
         let predicted = t * Vector3::from(orientation.expected_m_s2()) + Vector3::from(offset);
         residual_sq += (mean - predicted).norm_squared();
-        let gravity_error_m_s2 = Vector3::from(calibration.apply(window.accel_mean_m_s2)).norm() - GRAVITY_M_S2;
+        let gravity_error_m_s2 =
+            Vector3::from(calibration.apply(window.accel_mean_m_s2)).norm() - GRAVITY_M_S2;
         gravity_sq += gravity_error_m_s2 * gravity_error_m_s2;
         orientations.push(OrientationFigure { orientation, axis_error_deg, gravity_error_m_s2, window });
     }
     let residual_m_s2 = (residual_sq / 6.0).sqrt();
-    if !(residual_m_s2 <= settings.max_residual_m_s2) {
+    if exceeds(residual_m_s2, settings.max_residual_m_s2) {
         return Err(AccelCalError::ResidualTooHigh { residual_m_s2, max_m_s2: settings.max_residual_m_s2 });
     }
     let unscaled = Matrix3::from_diagonal(&Vector3::from(scale.map(|s| 1.0 / s))) * t;

@@ -54,7 +54,8 @@ impl Coverage {
         let mut counts = [0u32; REGIONS];
         for d in directions {
             let Some(unit) = d.try_normalize(1e-12) else { continue };
-            let nearest = (0..REGIONS).max_by(|&a, &b| centres[a].dot(&unit).total_cmp(&centres[b].dot(&unit)));
+            let nearest =
+                (0..REGIONS).max_by(|&a, &b| centres[a].dot(&unit).total_cmp(&centres[b].dot(&unit)));
             if let Some(i) = nearest {
                 counts[i] += 1;
             }
@@ -69,7 +70,11 @@ impl Coverage {
 
     /// Bit i set when region i holds at least `min_samples` (for progress reports).
     pub fn mask(&self, min_samples: u32) -> u32 {
-        self.counts.iter().enumerate().filter(|(_, c)| **c >= min_samples.max(1)).fold(0, |m, (i, _)| m | 1 << i)
+        self.counts
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c >= min_samples.max(1))
+            .fold(0, |m, (i, _)| m | 1 << i)
     }
 }
 
@@ -81,7 +86,12 @@ mod tests {
     fn the_regions_are_distinct_and_evenly_spread() {
         let centres = region_centres();
         for (i, a) in centres.iter().enumerate() {
-            let nearest = centres.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, b)| a.angle(b)).fold(f64::MAX, f64::min);
+            let nearest = centres
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(_, b)| a.angle(b))
+                .fold(f64::MAX, f64::min);
             // Vertex to neighbouring face centre is 37.4°, face centre to face centre 41.8°.
             assert!((nearest.to_degrees() - 37.38).abs() < 0.1, "{i}: {}", nearest.to_degrees());
         }

@@ -6,7 +6,7 @@ use kestrel_proto::calibration::{AccelCalibration, BoardLevel};
 use kestrel_proto::messages::ImuSample;
 use kestrel_proto::units::GRAVITY_M_S2;
 
-use crate::calibration::still::{NotStill, StillLimits, StillWindow, still_window};
+use crate::calibration::still::{NotStill, StillLimits, StillWindow, exceeds, still_window};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LevelSettings {
@@ -39,7 +39,9 @@ pub struct LevelFit {
 pub enum LevelCalError {
     #[error("level calibration needs the vehicle at rest: {0}")]
     NotStill(#[from] NotStill),
-    #[error("the board is tilted {tilt_deg:.1}° from level, more than {max_deg}°: stand the vehicle on level ground")]
+    #[error(
+        "the board is tilted {tilt_deg:.1}° from level, more than {max_deg}°: stand the vehicle on level ground"
+    )]
     NotLevel { tilt_deg: f64, max_deg: f64 },
     #[error(
         "the calibrated accelerometer reads {gravity_m_s2:.3} m/s² at rest, not 1 g ({GRAVITY_M_S2}): calibrate the accelerometer first"
@@ -60,7 +62,7 @@ pub fn calibrate_level(
     // The calibration is affine, so the mean of the corrected samples is the corrected mean.
     let [x, y, z] = accel.apply(window.accel_mean_m_s2);
     let gravity_m_s2 = (x * x + y * y + z * z).sqrt();
-    if !((gravity_m_s2 / GRAVITY_M_S2 - 1.0).abs() <= settings.max_gravity_error) {
+    if exceeds((gravity_m_s2 / GRAVITY_M_S2 - 1.0).abs(), settings.max_gravity_error) {
         return Err(LevelCalError::NotGravity { gravity_m_s2 });
     }
     let tilt_deg = (-z / gravity_m_s2).clamp(-1.0, 1.0).acos().to_degrees();

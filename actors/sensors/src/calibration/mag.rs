@@ -14,7 +14,7 @@ use kestrel_proto::messages::MagSample;
 use nalgebra::{Matrix3, SMatrix, SVector, SymmetricEigen, Vector3};
 
 use crate::calibration::coverage::{Coverage, REGIONS};
-use crate::calibration::still::AXES;
+use crate::calibration::still::{AXES, exceeds};
 
 type Vector9 = SVector<f64, 9>;
 type Matrix9 = SMatrix<f64, 9, 9>;
@@ -112,7 +112,9 @@ pub enum MagCalError {
         "the fitted field is {fitted_gauss:.3} G, {ratio:.2}× the expected {expected_gauss:.3} G (allowed {min}..{max}×): magnetic interference or a wrong expected field"
     )]
     FieldStrength { fitted_gauss: f64, expected_gauss: f64, ratio: f64, min: f64, max: f64 },
-    #[error("{axis} hard-iron offset {offset_gauss:.3} G exceeds {max_gauss} G: a magnet or current next to the compass")]
+    #[error(
+        "{axis} hard-iron offset {offset_gauss:.3} G exceeds {max_gauss} G: a magnet or current next to the compass"
+    )]
     OffsetTooLarge { axis: &'static str, offset_gauss: f64, max_gauss: f64 },
     #[error("the soft iron distorts the field {ratio:.2}:1 (at most {max}:1): iron too close to the compass")]
     SoftIronTooStrong { ratio: f64, max: f64 },
@@ -130,18 +132,24 @@ pub fn calibrate_mag(samples: &[MagSample], settings: &MagSettings) -> Result<Ma
     if samples.len() < settings.min_samples.max(10) {
         return Err(MagCalError::TooFewSamples { got: samples.len(), need: settings.min_samples.max(10) });
     }
-    if let Some((index, s)) = samples.iter().enumerate().find(|(_, s)| !s.field_gauss.iter().all(|v| v.is_finite())) {
+    if let Some((index, s)) =
+        samples.iter().enumerate().find(|(_, s)| !s.field_gauss.iter().all(|v| v.is_finite()))
+    {
         return Err(MagCalError::NonFinite { index, field_gauss: s.field_gauss });
     }
     let n = samples.len() as f64;
     let centre = samples.iter().fold(Vector3::zeros(), |a, s| a + Vector3::from(s.field_gauss)) / n;
     // Work in units of the expected field around the readings' centre, for conditioning.
-    let points: Vec<Vector3<f64>> = samples.iter().map(|s| (Vector3::from(s.field_gauss) - centre) / field).collect();
+    let points: Vec<Vector3<f64>> =
+        samples.iter().map(|s| (Vector3::from(s.field_gauss) - centre) / field).collect();
 
     let covariance = points.iter().fold(Matrix3::zeros(), |a, p| a + p * p.transpose()) / n;
     let flattest = SymmetricEigen::new(covariance).eigenvalues.min().max(0.0).sqrt();
     if flattest < settings.min_spread {
-        return Err(MagCalError::NoSpread { std_gauss: flattest * field, need_gauss: settings.min_spread * field });
+        return Err(MagCalError::NoSpread {
+            std_gauss: flattest * field,
+            need_gauss: settings.min_spread * field,
+        });
     }
 
     let (mut offset, mut gain) = algebraic_fit(&points)?;
@@ -157,7 +165,7 @@ pub fn calibrate_mag(samples: &[MagSample], settings: &MagSettings) -> Result<Ma
         return Err(MagCalError::CoverageTooLow { covered: regions_covered, regions: REGIONS, need });
     }
     let residual_gauss = field * (corrected.iter().map(|c| (c.norm() - 1.0).powi(2)).sum::<f64>() / n).sqrt();
-    if !(residual_gauss <= settings.max_residual_gauss) {
+    if exceeds(residual_gauss, settings.max_residual_gauss) {
         return Err(MagCalError::ResidualTooHigh { residual_gauss, max_gauss: settings.max_residual_gauss });
     }
     let eigen = SymmetricEigen::new(soft_iron).eigenvalues;
@@ -165,7 +173,13 @@ pub fn calibrate_mag(samples: &[MagSample], settings: &MagSettings) -> Result<Ma
     let ratio = fitted_field_gauss / field;
     let (min, max) = settings.field_ratio;
     if !(min..=max).contains(&ratio) {
-        return Err(MagCalError::FieldStrength { fitted_gauss: fitted_field_gauss, expected_gauss: field, ratio, min, max });
+        return Err(MagCalError::FieldStrength {
+            fitted_gauss: fitted_field_gauss,
+            expected_gauss: field,
+            ratio,
+            min,
+            max,
+        });
     }
     let hard_iron = centre + offset * field;
     if let Some(axis) = (0..3).find(|&i| hard_iron[i].abs() > settings.max_offset_gauss) {
@@ -176,7 +190,7 @@ pub fn calibrate_mag(samples: &[MagSample], settings: &MagSettings) -> Result<Ma
         });
     }
     let anisotropy = eigen.max() / eigen.min();
-    if !(anisotropy <= settings.max_anisotropy) {
+    if exceeds(anisotropy, settings.max_anisotropy) {
         return Err(MagCalError::SoftIronTooStrong { ratio: anisotropy, max: settings.max_anisotropy });
     }
     let first = samples.iter().map(|s| s.time).fold(samples[0].time, std::cmp::min);
@@ -202,7 +216,17 @@ fn algebraic_fit(points: &[Vector3<f64>]) -> Result<(Vector3<f64>, Matrix3<f64>)
     let mut rhs = Vector9::zeros();
     for p in points {
         let (x, y, z) = (p.x, p.y, p.z);
-        let row = Vector9::from([x * x, y * y, z * z, 2.0 * x * y, 2.0 * x * z, 2.0 * y * z, 2.0 * x, 2.0 * y, 2.0 * z]);
+        let row = Vector9::from([
+            x * x,
+            y * y,
+            z * z,
+            2.0 * x * y,
+            2.0 * x * z,
+            2.0 * y * z,
+            2.0 * x,
+            2.0 * y,
+            2.0 * z,
+        ]);
         normal += row * row.transpose();
         rhs += row;
     }

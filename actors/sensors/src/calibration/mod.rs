@@ -15,7 +15,9 @@ pub mod level;
 pub mod mag;
 pub mod still;
 
-pub use accel::{AccelCalError, AccelFit, AccelSettings, OrientationSamples, VehicleOrientation, calibrate_accel};
+pub use accel::{
+    AccelCalError, AccelFit, AccelSettings, OrientationSamples, VehicleOrientation, calibrate_accel,
+};
 pub use gyro::{GyroCalError, GyroFit, GyroSettings, calibrate_gyro};
 pub use level::{LevelCalError, LevelFit, LevelSettings, calibrate_level};
 pub use mag::{MagCalError, MagFit, MagSettings, calibrate_mag};

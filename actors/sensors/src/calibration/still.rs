@@ -22,7 +22,12 @@ pub struct StillLimits {
 
 impl Default for StillLimits {
     fn default() -> StillLimits {
-        StillLimits { min_samples: 200, min_duration_s: 0.5, max_accel_std_m_s2: 0.2, max_gyro_std_rad_s: 0.02 }
+        StillLimits {
+            min_samples: 200,
+            min_duration_s: 0.5,
+            max_accel_std_m_s2: 0.2,
+            max_gyro_std_rad_s: 0.02,
+        }
     }
 }
 
@@ -55,6 +60,11 @@ pub enum NotStill {
         "the vehicle moved: the {sensor} {axis} axis varied by {std:.4} {unit} (1σ), at most {max} allowed"
     )]
     Moving { sensor: &'static str, axis: &'static str, std: f64, max: f64, unit: &'static str },
+}
+
+/// Whether `value` is beyond the limit `max`; NaN is beyond every limit.
+pub fn exceeds(value: f64, max: f64) -> bool {
+    value.is_nan() || value > max
 }
 
 /// Mean and 1σ (sample standard deviation) per axis.
@@ -98,7 +108,7 @@ pub fn still_window(samples: &[ImuSample], limits: &StillLimits) -> Result<Still
         ("gyro", gyro_std_rad_s, limits.max_gyro_std_rad_s, "rad/s"),
     ];
     for (sensor, std, max, unit) in checks {
-        if let Some(axis) = (0..3).find(|&i| !(std[i] <= max)) {
+        if let Some(axis) = (0..3).find(|&i| exceeds(std[i], max)) {
             return Err(NotStill::Moving { sensor, axis: AXES[axis], std: std[axis], max, unit });
         }
     }

@@ -130,7 +130,8 @@ impl Imu {
             ),
         };
         let p = &self.params;
-        let force_read = force_board.component_mul(&Vector3::from(p.accel_scale)) + Vector3::from(p.accel_offset_m_s2);
+        let force_read =
+            force_board.component_mul(&Vector3::from(p.accel_scale)) + Vector3::from(p.accel_offset_m_s2);
         let gyro = rate_board + gyro_bias + standard_normal3(&mut self.rng) * p.gyro_noise_rad_s;
         let accel = force_read + accel_bias + standard_normal3(&mut self.rng) * p.accel_noise_m_s2;
         // The simulated IMU does not saturate (ground-contact spikes at touchdown exceed ±16 g and

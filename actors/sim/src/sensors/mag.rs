@@ -4,8 +4,8 @@
 //! `kestrel_proto::calibration::MagCalibration` undoes.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::MagSample;
 use kestrel_proto::calibration::{MagCalibration, matrix3};
+use kestrel_proto::messages::MagSample;
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
