@@ -10,6 +10,8 @@
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use serde::{Deserialize, Serialize};
 
+use crate::messages::{ImuSample, MagSample};
+
 /// A calibration value that cannot be applied.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum InvalidCalibration {
@@ -277,6 +279,33 @@ impl TryFrom<BoardLevelValues> for BoardLevel {
 impl From<BoardLevel> for BoardLevelValues {
     fn from(c: BoardLevel) -> BoardLevelValues {
         c.values
+    }
+}
+
+/// Every calibration of one sensor board, applied in the one order drivers and the simulator
+/// share: each sensor's own correction in the board's axes, then the board level.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SensorCalibration {
+    pub gyro: GyroCalibration,
+    pub accel: AccelCalibration,
+    pub mag: MagCalibration,
+    pub level: BoardLevel,
+}
+
+impl SensorCalibration {
+    /// `sample` with calibrated gyro and accelerometer, in the airframe's FRD.
+    pub fn apply_imu(&self, sample: &ImuSample) -> ImuSample {
+        ImuSample {
+            gyro_rad_s: self.level.apply(self.gyro.apply(sample.gyro_rad_s)),
+            accel_m_s2: self.level.apply(self.accel.apply(sample.accel_m_s2)),
+            ..*sample
+        }
+    }
+
+    /// `sample` with the calibrated field, in the airframe's FRD.
+    pub fn apply_mag(&self, sample: &MagSample) -> MagSample {
+        MagSample { field_gauss: self.level.apply(self.mag.apply(sample.field_gauss)), ..*sample }
     }
 }
 

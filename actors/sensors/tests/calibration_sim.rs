@@ -6,7 +6,7 @@
 //! airframe's true field and specific force.
 
 use kestrel_proto::Time;
-use kestrel_proto::calibration::{AccelCalibration, BoardLevel, GyroCalibration, MagCalibration, matrix3};
+use kestrel_proto::calibration::{MagCalibration, SensorCalibration, matrix3};
 use kestrel_proto::messages::{ImuSample, MagSample};
 use kestrel_sensors::calibration::{
     AccelSettings, GyroSettings, LevelSettings, MagCalError, MagSettings, OrientationSamples,
@@ -45,6 +45,17 @@ fn rest(
     seconds: f64,
     seed: u64,
 ) -> (Vec<ImuSample>, Vec<MagSample>) {
+    rest_calibrated(vehicle, attitude, seconds, seed, None)
+}
+
+/// The same, with `calibration` applied by the simulator's sensor path.
+fn rest_calibrated(
+    vehicle: &VehicleParams,
+    attitude: UnitQuaternion<f64>,
+    seconds: f64,
+    seed: u64,
+    calibration: Option<&SensorCalibration>,
+) -> (Vec<ImuSample>, Vec<MagSample>) {
     let options = SimOptions {
         seed,
         initial: InitialState {
@@ -54,6 +65,9 @@ fn rest(
         ..SimOptions::default()
     };
     let mut sim = Simulator::new(vehicle.clone(), World::default(), options).expect("valid simulator");
+    if let Some(calibration) = calibration {
+        sim.set_calibration(calibration.clone());
+    }
     sim.advance_to(Time::from_secs_f64(seconds));
     let (mut imu, mut mag) = (Vec::new(), Vec::new());
     for output in sim.drain() {
@@ -92,14 +106,7 @@ fn tumble(count: usize) -> impl Iterator<Item = UnitQuaternion<f64>> {
     })
 }
 
-struct Calibrations {
-    mag: MagCalibration,
-    accel: AccelCalibration,
-    gyro: GyroCalibration,
-    level: BoardLevel,
-}
-
-fn calibrate(vehicle: &VehicleParams) -> Calibrations {
+fn calibrate(vehicle: &VehicleParams) -> SensorCalibration {
     let field = World::default().magnetic_field.total_intensity_gauss;
     let mag_samples: Vec<MagSample> =
         tumble(400).enumerate().flat_map(|(i, q)| rest(vehicle, q, 0.025, 100 + i as u64).1).collect();
@@ -154,7 +161,7 @@ fn calibrate(vehicle: &VehicleParams) -> Calibrations {
     );
     assert!((level.level.roll_deg() - roll).abs() < 0.05 * roll.abs(), "{:?}", level.level);
     assert!((level.level.pitch_deg() - pitch).abs() < 0.05 * pitch.abs(), "{:?}", level.level);
-    Calibrations {
+    SensorCalibration {
         mag: mag.calibration,
         accel: accel.calibration,
         gyro: gyro.calibration,
@@ -205,6 +212,14 @@ fn the_simulators_sensor_errors_are_recovered_and_calibrated_readings_are_true()
     assert!((calibrated_mag.norm() / field_body.norm() - 1.0).abs() < 0.02);
     assert!(deg(&calibrated_accel, &gravity_body) < 0.1);
     assert!(calibrated_gyro.norm() < 0.001);
+
+    // The simulator's sensor path applies the same calibration the same way.
+    let (sim_imu, sim_mag) = rest_calibrated(&vehicle, attitude, 1.0, 30, Some(&cal));
+    assert_eq!(sim_imu, imu.iter().map(|s| cal.apply_imu(s)).collect::<Vec<_>>());
+    assert_eq!(sim_mag, mag.iter().map(|m| cal.apply_mag(m)).collect::<Vec<_>>());
+    assert!(
+        sim_mag.iter().all(|m| (Vector3::from(m.field_gauss).norm() / field_body.norm() - 1.0).abs() < 0.1)
+    );
 }
 
 #[test]
