@@ -6,10 +6,12 @@
 //! * [`accel`] — six-orientation offsets and scales;
 //! * [`gyro`] — gyro offset at rest;
 //! * [`level`] — the board's roll and pitch against the airframe;
+//! * [`esc`] — each output's pulse range from a recorded ramp;
 //! * [`still`] — the at-rest check the last three share.
 
 pub mod accel;
 pub mod coverage;
+pub mod esc;
 pub mod gyro;
 pub mod level;
 pub mod mag;
@@ -18,6 +20,7 @@ pub mod still;
 pub use accel::{
     AccelCalError, AccelFit, AccelSettings, OrientationSamples, VehicleOrientation, calibrate_accel,
 };
+pub use esc::{EscCalError, EscRange, EscSample, EscSettings, calibrate_esc};
 pub use gyro::{GyroCalError, GyroFit, GyroSettings, calibrate_gyro};
 pub use level::{LevelCalError, LevelFit, LevelSettings, calibrate_level};
 pub use mag::{MagCalError, MagFit, MagSettings, calibrate_mag};
