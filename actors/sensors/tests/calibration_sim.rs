@@ -45,11 +45,23 @@ fn rest(
     seconds: f64,
     seed: u64,
 ) -> (Vec<ImuSample>, Vec<MagSample>) {
-    rest_calibrated(vehicle, attitude, seconds, seed, None)
+    rest_in(&World::default(), vehicle, attitude, seconds, seed, None)
 }
 
 /// The same, with `calibration` applied by the simulator's sensor path.
 fn rest_calibrated(
+    vehicle: &VehicleParams,
+    attitude: UnitQuaternion<f64>,
+    seconds: f64,
+    seed: u64,
+    calibration: Option<&SensorCalibration>,
+) -> (Vec<ImuSample>, Vec<MagSample>) {
+    rest_in(&World::default(), vehicle, attitude, seconds, seed, calibration)
+}
+
+/// The same in `world`.
+fn rest_in(
+    world: &World,
     vehicle: &VehicleParams,
     attitude: UnitQuaternion<f64>,
     seconds: f64,
@@ -64,7 +76,7 @@ fn rest_calibrated(
         },
         ..SimOptions::default()
     };
-    let mut sim = Simulator::new(vehicle.clone(), World::default(), options).expect("valid simulator");
+    let mut sim = Simulator::new(vehicle.clone(), world.clone(), options).expect("valid simulator");
     if let Some(calibration) = calibration {
         sim.set_calibration(calibration.clone());
     }
@@ -251,4 +263,22 @@ fn the_default_vehicle_needs_no_calibration() {
     );
     assert!(fit.calibration.offset_m_s2().iter().all(|o| o.abs() < 0.01));
     assert!(fit.calibration.scale().iter().all(|s| (s - 1.0).abs() < 0.001));
+}
+
+#[test]
+fn a_simulated_field_three_times_the_earths_is_refused() {
+    let mut world = World::default();
+    world.magnetic_field.total_intensity_gauss *= 3.0;
+    let vehicle = vehicle();
+    let samples: Vec<MagSample> = tumble(300)
+        .enumerate()
+        .flat_map(|(i, q)| rest_in(&world, &vehicle, q, 0.025, 200 + i as u64, None).1)
+        .collect();
+    let expected = World::default().magnetic_field.total_intensity_gauss;
+    let err = calibrate_mag(&samples, &MagSettings::new(expected)).unwrap_err();
+    eprintln!(
+        "a field of {:.2} G against {expected} G expected: {err}",
+        world.magnetic_field.total_intensity_gauss
+    );
+    assert!(matches!(err, MagCalError::FieldStrength { ratio, .. } if ratio > 2.5), "{err}");
 }
