@@ -189,7 +189,8 @@ fn board_rotation_soft_iron_and_accel_errors_follow_their_documented_models() {
     let mag = &mut vehicle.sensors.mag;
     mag.noise_gauss = 0.0;
     mag.hard_iron_gauss = [0.15, -0.1, 0.2];
-    mag.soft_iron = [[1.1, 0.05, -0.05], [0.05, 0.9, 0.05], [-0.05, 0.05, 1.05]];
+    // Not symmetric, so a transposed matrix would show.
+    mag.soft_iron = [[1.1, 0.05, -0.05], [0.02, 0.9, 0.05], [-0.03, 0.08, 1.05]];
     let options = SimOptions {
         initial: kestrel_sim::InitialState { body, ..Default::default() },
         ..SimOptions::default()
@@ -210,7 +211,7 @@ fn board_rotation_soft_iron_and_accel_errors_follow_their_documented_models() {
     let expected_accel = force_board.component_mul(&nalgebra::Vector3::new(1.02, 0.98, 1.02))
         + nalgebra::Vector3::new(0.3, -0.3, 0.3);
     let field_board = board.transpose() * (attitude.inverse() * World::default().magnetic_field.ned_gauss());
-    let soft = nalgebra::Matrix3::new(1.1, 0.05, -0.05, 0.05, 0.9, 0.05, -0.05, 0.05, 1.05);
+    let soft = nalgebra::Matrix3::new(1.1, 0.05, -0.05, 0.02, 0.9, 0.05, -0.03, 0.08, 1.05);
     let expected_mag = soft * field_board + nalgebra::Vector3::new(0.15, -0.1, 0.2);
     for i in 0..3 {
         assert!((imu.accel_m_s2[i] - expected_accel[i]).abs() < 1e-9, "{imu:?} vs {expected_accel}");
