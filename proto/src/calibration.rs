@@ -370,5 +370,20 @@ mod tests {
         assert_eq!(serde_json::from_str::<MagCalibration>(&json).expect("parse"), mag);
         let bad = json.replace("1.1", "0.0");
         assert!(serde_json::from_str::<MagCalibration>(&bad).is_err(), "{bad}");
+
+        // A whole board's calibration persists and reloads as it was; missing parts default
+        // to no correction.
+        let board = SensorCalibration {
+            gyro: GyroCalibration { gyro_offset_rad_s: [0.01, -0.02, 0.03] },
+            accel: AccelCalibration::new([0.3, -0.3, 0.3], [1.02, 0.98, 1.02]).expect("valid"),
+            mag,
+            level: BoardLevel::new(2.0, -2.24).expect("valid"),
+        };
+        let json = serde_json::to_string(&board).expect("serialise");
+        assert_eq!(serde_json::from_str::<SensorCalibration>(&json).expect("parse"), board);
+        let partial: SensorCalibration =
+            serde_json::from_str(r#"{"level": {"roll_deg": 1.0, "pitch_deg": 0.0}}"#)
+                .expect("parse a partial calibration");
+        assert_eq!((partial.mag, partial.level.roll_deg()), (MagCalibration::identity(), 1.0));
     }
 }
