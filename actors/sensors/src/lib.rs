@@ -16,6 +16,7 @@
 //!   one receiver's decoder, and its UBX set-up sequence.
 //! * [`sbus`] — SBUS RC frames → `ManualControl`; [`rcio`] — Navio2's RC input and power
 //!   module through the `rcio` driver's sysfs files.
+//! * [`calibration`] — compass, accelerometer, gyro and board-level calibration fits.
 //! * [`health`] — per-driver `SensorHealth` reports (rate, errors, IMU clipping).
 //! * [`mpu9250`], [`ak8963`], [`axis_map`], [`imu_decimator`] — the IMU, its magnetometer, chip
 //!   → body FRD axes, and the 1 kHz → 400 Hz averaging.
@@ -30,6 +31,7 @@ pub mod altitude;
 pub mod axis_map;
 pub mod baro_actor;
 pub mod bus;
+pub mod calibration;
 pub mod gps;
 pub mod gps_actor;
 pub mod health;

@@ -9,6 +9,7 @@
 use std::time::Duration;
 
 use kestrel_proto::Time;
+use kestrel_proto::calibration::SensorCalibration;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
     ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample,
@@ -116,6 +117,9 @@ pub struct Simulator {
     tick_us: u64,
     substeps: u32,
     accel_ned_m_s2: Vector3<f64>,
+    /// Applied to IMU and magnetometer samples as a driver would; `None` until set, so an
+    /// uncalibrated run does no arithmetic it did not do before.
+    calibration: Option<SensorCalibration>,
     outputs: Vec<SimOutput>,
 }
 
@@ -149,10 +153,10 @@ impl Simulator {
             collisions,
             frame: LocalFrame::new(world.home.geodetic()),
             field_ned_gauss: world.magnetic_field.ned_gauss(),
-            imu: Imu::new(&sensors.imu, rng(seed, Stream::Imu)),
+            imu: Imu::new(&sensors.imu, sensors.board_rotation(), rng(seed, Stream::Imu)),
             gps: Gps::new(&sensors.gps, rng(seed, Stream::Gps)),
             baro: Baro::new(&sensors.baro, rng(seed, Stream::Baro)),
-            mag: Mag::new(&sensors.mag, rng(seed, Stream::Mag)),
+            mag: Mag::new(&sensors.mag, sensors.board_rotation(), rng(seed, Stream::Mag)),
             gps_due: Periodic::new(sensors.gps.rate_hz, start),
             baro_due: Periodic::new(sensors.baro.rate_hz, start),
             mag_due: Periodic::new(sensors.mag.rate_hz, start),
@@ -165,6 +169,7 @@ impl Simulator {
             tick_us: period_us(sensors.imu.rate_hz),
             substeps: options.physics_substeps,
             accel_ned_m_s2: Vector3::zeros(),
+            calibration: None,
             outputs: Vec::with_capacity(64),
             vehicle,
             world,
@@ -189,6 +194,17 @@ impl Simulator {
     /// The world it flies in.
     pub fn world(&self) -> &World {
         &self.world
+    }
+
+    /// Corrects every IMU and magnetometer sample measured from now on with `calibration`, as
+    /// the hardware drivers do: the sensor path of a simulated vehicle whose calibration ran.
+    pub fn set_calibration(&mut self, calibration: SensorCalibration) {
+        self.calibration = Some(calibration);
+    }
+
+    /// The calibration applied to sensor samples, if one was set.
+    pub fn calibration(&self) -> Option<&SensorCalibration> {
+        self.calibration.as_ref()
     }
 
     /// Sets the motor commands used from now on.
@@ -235,7 +251,10 @@ impl Simulator {
 
     fn sample_sensors(&mut self, tick_s: f64) {
         let now = self.time;
-        let imu = self.imu.measure(now, tick_s, &self.state, &self.accel_ned_m_s2);
+        let mut imu = self.imu.measure(now, tick_s, &self.state, &self.accel_ned_m_s2);
+        if let Some(calibration) = &self.calibration {
+            imu = calibration.apply_imu(&imu);
+        }
         self.outputs.push(SimOutput::Imu(imu));
         if self.gps_due.due(now) {
             let fix = self.gps.measure(now, &self.state, &self.frame);
@@ -247,7 +266,10 @@ impl Simulator {
             self.baro_pending.push(now, sample);
         }
         if self.mag_due.due(now) {
-            let sample = self.mag.measure(now, &self.state, &self.field_ned_gauss);
+            let mut sample = self.mag.measure(now, &self.state, &self.field_ned_gauss);
+            if let Some(calibration) = &self.calibration {
+                sample = calibration.apply_mag(&sample);
+            }
             self.mag_pending.push(now, sample);
         }
         self.gps_pending.release(now, |m| self.outputs.push(SimOutput::Gps(m)));

@@ -58,6 +58,21 @@ fn an_out_of_range_field_names_the_file_and_the_field() {
     let text = VehicleParams::load(&path).unwrap_err().to_string();
     assert!(text.contains("sensors.gps.rate_hz"), "{text}");
 
+    let path = scratch(
+        "flat_iron.toml",
+        "[sensors.mag]\nsoft_iron = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 0.0]]\n",
+    );
+    let text = VehicleParams::load(&path).unwrap_err().to_string();
+    assert!(text.contains("sensors.mag.soft_iron") && text.contains("singular"), "{text}");
+
+    let path = scratch("dead_axis.toml", "[sensors.imu]\naccel_scale = [1.0, 0.0, 1.0]\n");
+    let text = VehicleParams::load(&path).unwrap_err().to_string();
+    assert!(text.contains("sensors.imu.accel_scale"), "{text}");
+
+    let path = scratch("board.toml", "[sensors]\nboard_rotation_deg = [0.0, 200.0, 0.0]\n");
+    let text = VehicleParams::load(&path).unwrap_err().to_string();
+    assert!(text.contains("sensors.board_rotation_deg"), "{text}");
+
     let path = scratch("weak.toml", "mass_kg = 10.0\n");
     let text = VehicleParams::load(&path).unwrap_err().to_string();
     assert!(text.contains("not enough to lift"), "{text}");

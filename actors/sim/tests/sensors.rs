@@ -171,3 +171,58 @@ fn the_magnetometer_sees_the_field_turn_with_the_body() {
     assert!((sample.field_gauss[1] + field.x).abs() < 1e-12, "{sample:?}");
     assert!((sample.field_gauss[2] - field.z).abs() < 1e-12, "{sample:?}");
 }
+
+#[test]
+fn board_rotation_soft_iron_and_accel_errors_follow_their_documented_models() {
+    // measured_accel = scale ⊙ (R_boardᵀ · f_airframe) + offset; measured_mag = soft_iron ·
+    // (R_boardᵀ · B_airframe) + hard_iron; gyro = R_boardᵀ · ω; here without noise or bias walk.
+    let attitude = nalgebra::UnitQuaternion::from_euler_angles(0.3, -0.2, 1.1);
+    let body = kestrel_sim::RigidBodyState { attitude, ..Default::default() };
+    let mut vehicle = VehicleParams::default();
+    vehicle.sensors.board_rotation_deg = [3.0, -2.0, 10.0];
+    let imu = &mut vehicle.sensors.imu;
+    (imu.gyro_noise_rad_s, imu.accel_noise_m_s2) = (0.0, 0.0);
+    (imu.gyro_bias_walk_rad_s_per_sqrt_s, imu.accel_bias_walk_m_s2_per_sqrt_s) = (0.0, 0.0);
+    imu.gyro_bias_initial_rad_s = [0.01, 0.02, 0.03];
+    imu.accel_offset_m_s2 = [0.3, -0.3, 0.3];
+    imu.accel_scale = [1.02, 0.98, 1.02];
+    let mag = &mut vehicle.sensors.mag;
+    mag.noise_gauss = 0.0;
+    mag.hard_iron_gauss = [0.15, -0.1, 0.2];
+    // Not symmetric, so a transposed matrix would show.
+    mag.soft_iron = [[1.1, 0.05, -0.05], [0.02, 0.9, 0.05], [-0.03, 0.08, 1.05]];
+    let options = SimOptions {
+        initial: kestrel_sim::InitialState { body, ..Default::default() },
+        ..SimOptions::default()
+    };
+    let mut sim = Simulator::new(vehicle.clone(), World::default(), options).expect("valid");
+    sim.advance_to(Time::from_secs_f64(0.1));
+    let outputs: Vec<SimOutput> = sim.drain().collect();
+    let imu =
+        outputs.iter().rev().find_map(|o| if let SimOutput::Imu(m) = o { Some(m) } else { None }).unwrap();
+    let mag =
+        outputs.iter().rev().find_map(|o| if let SimOutput::Mag(m) = o { Some(m) } else { None }).unwrap();
+
+    let [r, p, y] = [3.0f64, -2.0, 10.0].map(f64::to_radians);
+    let board = nalgebra::Rotation3::from_euler_angles(r, p, y);
+    let g = kestrel_proto::units::GRAVITY_M_S2;
+    // Resting on the ground: specific force 1 g up, no rotation.
+    let force_board = board.transpose() * (attitude.inverse() * nalgebra::Vector3::new(0.0, 0.0, -g));
+    let expected_accel = force_board.component_mul(&nalgebra::Vector3::new(1.02, 0.98, 1.02))
+        + nalgebra::Vector3::new(0.3, -0.3, 0.3);
+    let field_board = board.transpose() * (attitude.inverse() * World::default().magnetic_field.ned_gauss());
+    let soft = nalgebra::Matrix3::new(1.1, 0.05, -0.05, 0.02, 0.9, 0.05, -0.03, 0.08, 1.05);
+    let expected_mag = soft * field_board + nalgebra::Vector3::new(0.15, -0.1, 0.2);
+    for i in 0..3 {
+        assert!((imu.accel_m_s2[i] - expected_accel[i]).abs() < 1e-9, "{imu:?} vs {expected_accel}");
+        assert!((mag.field_gauss[i] - expected_mag[i]).abs() < 1e-12, "{mag:?} vs {expected_mag}");
+        assert!((imu.gyro_rad_s[i] - [0.01, 0.02, 0.03][i]).abs() < 1e-12, "{imu:?}");
+    }
+    // Level and aligned, the same vehicle without the board rotation reads exactly −g·scale + offset.
+    vehicle.sensors.board_rotation_deg = [0.0; 3];
+    let mut sim = Simulator::new(vehicle, World::default(), SimOptions::default()).expect("valid");
+    sim.advance_to(Time::from_secs_f64(0.01));
+    let imu = sim.drain().find_map(|o| if let SimOutput::Imu(m) = o { Some(m) } else { None }).unwrap();
+    assert!((imu.accel_m_s2[2] - (-g * 1.02 + 0.3)).abs() < 1e-9, "{imu:?}");
+    assert!((imu.accel_m_s2[0] - 0.3).abs() < 1e-9, "{imu:?}");
+}

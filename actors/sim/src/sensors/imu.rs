@@ -1,5 +1,10 @@
-//! The inertial measurement unit: gyro and accelerometer in body FRD, each with white noise and
-//! a bias that random-walks.
+//! The inertial measurement unit: gyro and accelerometer in the sensor board's FRD, each with
+//! white noise and a bias that random-walks; the accelerometer also with a fixed offset and
+//! per-axis scale error (what six-orientation calibration removes).
+//!
+//! The board may sit rotated against the airframe (`[sensors] board_rotation_deg`): both
+//! sensors then read the airframe's rate and specific force turned into the board's axes.
+//! `measured_accel = accel_scale ⊙ (R_boardᵀ · true) + accel_offset_m_s2 + bias + noise`.
 //!
 //! The accelerometer reports the *specific force* averaged over the sample interval:
 //! (Δv/Δt − g) rotated into the body, which is what a delta-velocity IMU integrates. At rest it
@@ -7,7 +12,7 @@
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::ImuSample;
-use nalgebra::Vector3;
+use nalgebra::{UnitQuaternion, Vector3};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
@@ -31,8 +36,12 @@ pub struct ImuParams {
     pub accel_bias_walk_m_s2_per_sqrt_s: f64,
     /// Gyro bias at start, body FRD (rad/s).
     pub gyro_bias_initial_rad_s: [f64; 3],
-    /// Accelerometer bias at start, body FRD (m/s²).
+    /// Accelerometer bias at start, board FRD (m/s²).
     pub accel_bias_initial_m_s2: [f64; 3],
+    /// Fixed accelerometer offset, board FRD (m/s²): what six-orientation calibration finds.
+    pub accel_offset_m_s2: [f64; 3],
+    /// Accelerometer reading per unit of true specific force, per board axis (1 = exact).
+    pub accel_scale: [f64; 3],
 }
 
 impl Default for ImuParams {
@@ -46,6 +55,8 @@ impl Default for ImuParams {
             accel_bias_walk_m_s2_per_sqrt_s: 3e-4,
             gyro_bias_initial_rad_s: [0.0; 3],
             accel_bias_initial_m_s2: [0.0; 3],
+            accel_offset_m_s2: [0.0; 3],
+            accel_scale: [1.0; 3],
         }
     }
 }
@@ -61,7 +72,12 @@ impl ImuParams {
         non_negative("gyro_bias_walk_rad_s_per_sqrt_s", self.gyro_bias_walk_rad_s_per_sqrt_s)?;
         non_negative("accel_bias_walk_m_s2_per_sqrt_s", self.accel_bias_walk_m_s2_per_sqrt_s)?;
         finite("gyro_bias_initial_rad_s", &self.gyro_bias_initial_rad_s)?;
-        finite("accel_bias_initial_m_s2", &self.accel_bias_initial_m_s2)
+        finite("accel_bias_initial_m_s2", &self.accel_bias_initial_m_s2)?;
+        finite("accel_offset_m_s2", &self.accel_offset_m_s2)?;
+        match self.accel_scale.iter().find(|s| !(0.5..=2.0).contains(*s)) {
+            None => Ok(()),
+            Some(s) => Err(InvalidParam::new("accel_scale", format!("must lie within 0.5..=2, got {s}"))),
+        }
     }
 }
 
@@ -69,15 +85,18 @@ impl ImuParams {
 #[derive(Clone, Debug)]
 pub(crate) struct Imu {
     params: ImuParams,
+    /// Board → airframe, when the board is not aligned with it.
+    board: Option<UnitQuaternion<f64>>,
     gyro_bias: RandomWalk,
     accel_bias: RandomWalk,
     rng: Pcg64,
 }
 
 impl Imu {
-    pub(crate) fn new(params: &ImuParams, rng: Pcg64) -> Imu {
+    pub(crate) fn new(params: &ImuParams, board: Option<UnitQuaternion<f64>>, rng: Pcg64) -> Imu {
         Imu {
             params: params.clone(),
+            board,
             gyro_bias: RandomWalk::new(
                 params.gyro_bias_initial_rad_s,
                 params.gyro_bias_walk_rad_s_per_sqrt_s,
@@ -103,11 +122,18 @@ impl Imu {
         let accel_bias = self.accel_bias.advance(dt_s, &mut self.rng);
         let specific_force_ned = accel_ned_m_s2 - Vector3::new(0.0, 0.0, GRAVITY_M_S2);
         let specific_force_frd = state.attitude.inverse_transform_vector(&specific_force_ned);
-        let gyro = state.angular_velocity_frd_rad_s
-            + gyro_bias
-            + standard_normal3(&mut self.rng) * self.params.gyro_noise_rad_s;
-        let accel =
-            specific_force_frd + accel_bias + standard_normal3(&mut self.rng) * self.params.accel_noise_m_s2;
+        let (rate_board, force_board) = match &self.board {
+            None => (state.angular_velocity_frd_rad_s, specific_force_frd),
+            Some(board) => (
+                board.inverse_transform_vector(&state.angular_velocity_frd_rad_s),
+                board.inverse_transform_vector(&specific_force_frd),
+            ),
+        };
+        let p = &self.params;
+        let force_read =
+            force_board.component_mul(&Vector3::from(p.accel_scale)) + Vector3::from(p.accel_offset_m_s2);
+        let gyro = rate_board + gyro_bias + standard_normal3(&mut self.rng) * p.gyro_noise_rad_s;
+        let accel = force_read + accel_bias + standard_normal3(&mut self.rng) * p.accel_noise_m_s2;
         // The simulated IMU does not saturate (ground-contact spikes at touchdown exceed ±16 g and
         // would need a softer contact model first), so it never flags clipping.
         ImuSample {

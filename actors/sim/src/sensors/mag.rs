@@ -1,9 +1,12 @@
-//! The magnetometer: the Earth's field at home rotated into the body, plus a hard-iron offset
-//! (fields of the airframe itself, fixed in the body) and white noise.
+//! The magnetometer: the Earth's field at home rotated into the sensor board, bent by soft iron
+//! and offset by hard iron (the airframe's own iron and currents, fixed in the body), plus white
+//! noise: `measured = soft_iron · (R_boardᵀ · field_body) + hard_iron_gauss + noise`, the model
+//! `kestrel_proto::calibration::MagCalibration` undoes.
 
 use kestrel_proto::Time;
+use kestrel_proto::calibration::{MagCalibration, matrix3};
 use kestrel_proto::messages::MagSample;
-use nalgebra::Vector3;
+use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use rand_pcg::Pcg64;
 use serde::{Deserialize, Serialize};
 
@@ -20,14 +23,23 @@ pub struct MagParams {
     pub lag_s: f64,
     /// 1σ white noise of each axis (gauss).
     pub noise_gauss: f64,
-    /// Constant offset in body FRD from magnetised parts and currents (gauss).
+    /// Constant offset in board FRD from magnetised parts and currents (gauss).
     pub hard_iron_gauss: [f64; 3],
+    /// Soft iron: how the airframe's iron bends and scales the field (rows: board FRD axes);
+    /// identity for none. Positive determinant; a symmetric matrix is what a fit recovers.
+    pub soft_iron: [[f64; 3]; 3],
 }
 
 impl Default for MagParams {
     /// The MPU-9250's AK8963 at 100 Hz.
     fn default() -> MagParams {
-        MagParams { rate_hz: 100.0, lag_s: 0.0, noise_gauss: 0.005, hard_iron_gauss: [0.0; 3] }
+        MagParams {
+            rate_hz: 100.0,
+            lag_s: 0.0,
+            noise_gauss: 0.005,
+            hard_iron_gauss: [0.0; 3],
+            soft_iron: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        }
     }
 }
 
@@ -39,7 +51,10 @@ impl MagParams {
             return Err(InvalidParam::new("lag_s", "must not exceed 10 s"));
         }
         non_negative("noise_gauss", self.noise_gauss)?;
-        finite("hard_iron_gauss", &self.hard_iron_gauss)
+        finite("hard_iron_gauss", &self.hard_iron_gauss)?;
+        MagCalibration::new(self.hard_iron_gauss, self.soft_iron)
+            .map(|_| ())
+            .map_err(|e| InvalidParam::new("soft_iron", e.to_string()))
     }
 }
 
@@ -47,12 +62,15 @@ impl MagParams {
 #[derive(Clone, Debug)]
 pub(crate) struct Mag {
     params: MagParams,
+    soft_iron: Matrix3<f64>,
+    /// Board → airframe, when the board is not aligned with it.
+    board: Option<UnitQuaternion<f64>>,
     rng: Pcg64,
 }
 
 impl Mag {
-    pub(crate) fn new(params: &MagParams, rng: Pcg64) -> Mag {
-        Mag { params: params.clone(), rng }
+    pub(crate) fn new(params: &MagParams, board: Option<UnitQuaternion<f64>>, rng: Pcg64) -> Mag {
+        Mag { params: params.clone(), soft_iron: matrix3(&params.soft_iron), board, rng }
     }
 
     /// A sample at `time` in the Earth field `field_ned_gauss`.
@@ -62,7 +80,12 @@ impl Mag {
         state: &RigidBodyState,
         field_ned_gauss: &Vector3<f64>,
     ) -> MagSample {
-        let field = state.attitude.inverse_transform_vector(field_ned_gauss)
+        let field_body = state.attitude.inverse_transform_vector(field_ned_gauss);
+        let field_board = match &self.board {
+            None => field_body,
+            Some(board) => board.inverse_transform_vector(&field_body),
+        };
+        let field = self.soft_iron * field_board
             + Vector3::from(self.params.hard_iron_gauss)
             + standard_normal3(&mut self.rng) * self.params.noise_gauss;
         MagSample { time, field_gauss: field.into() }

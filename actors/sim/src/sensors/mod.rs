@@ -17,9 +17,10 @@ pub mod mag;
 pub(crate) mod noise;
 pub(crate) mod schedule;
 
+use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
 
-use crate::error::InvalidParam;
+use crate::error::{InvalidParam, finite};
 
 pub use baro::BaroParams;
 pub use gps::GpsParams;
@@ -30,6 +31,11 @@ pub use mag::MagParams;
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct SensorParams {
+    /// `[sensors] board_rotation_deg = [roll, pitch, yaw]`: the sensor board (IMU and
+    /// magnetometer) against the airframe, aerospace Z-Y-X angles (degrees) of the rotation
+    /// that turns board axes into airframe axes; the sensors read airframe vectors turned into
+    /// the board. Default level, `[0, 0, 0]`.
+    pub board_rotation_deg: [f64; 3],
     /// `[sensors.imu]`
     pub imu: ImuParams,
     /// `[sensors.gps]`
@@ -42,9 +48,20 @@ pub struct SensorParams {
 
 impl SensorParams {
     pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
+        finite("board_rotation_deg", &self.board_rotation_deg)?;
+        if self.board_rotation_deg.iter().any(|a| a.abs() > 180.0) {
+            return Err(InvalidParam::new("board_rotation_deg", "angles must lie within ±180°"));
+        }
         self.imu.validate().map_err(|e| e.within("imu"))?;
         self.gps.validate().map_err(|e| e.within("gps"))?;
         self.baro.validate().map_err(|e| e.within("baro"))?;
         self.mag.validate().map_err(|e| e.within("mag"))
+    }
+
+    /// Board → airframe, `None` for a board aligned with the airframe (so the default path does
+    /// no arithmetic it did not do before).
+    pub(crate) fn board_rotation(&self) -> Option<UnitQuaternion<f64>> {
+        let [roll, pitch, yaw] = self.board_rotation_deg.map(f64::to_radians);
+        (self.board_rotation_deg != [0.0; 3]).then(|| UnitQuaternion::from_euler_angles(roll, pitch, yaw))
     }
 }
