@@ -17,7 +17,8 @@ pub enum SimFaultPhase {
 /// One start or end of a fault the simulator injects (a world file's `[[faults]]` entry).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct SimFault {
-    /// The simulated time it took effect (a tick of the simulator).
+    /// The simulated time it took effect: the first tick of the simulator at or after its
+    /// scheduled start (or end).
     pub time: Time,
     /// Position of the entry in the world file's `[[faults]]` array, from 0.
     pub index: u32,
