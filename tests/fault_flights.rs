@@ -218,3 +218,51 @@ fn imu_stopping_for_half_a_second_in_hover_does_not_stall_the_lockstep_clock_and
     assert_eq!((cause.as_str(), action.as_str()), ("nav_state_stale", "land"), "{fired:?}");
     println!("imu_stop: failsafe {cause}/{action} {:.3} s after the stop", t_s - 30.0);
 }
+
+#[test]
+fn the_estimator_panicking_once_in_hover_is_restarted_and_the_vehicle_lands() {
+    let dir = scratch("estimator-panic");
+    let graph = graph_with_faults(
+        &dir,
+        "[[faults]]\nat_s = 30.0\nfor_s = 0.01\nkind = \"actor_panic\"\nactor = \"estimator\"\n",
+    );
+    let report = fly("actor_panic", &graph, &hover_plan(&dir, 60.0), None);
+    assert_eq!(fault_events(&report)[0], (30.0, "started".to_owned(), "actor_panic".to_owned()));
+    assert_landed_intact("actor_panic", &report);
+    let fired = failsafes(&report);
+    let (t_s, cause, action) = fired.first().expect("a failsafe fired").clone();
+    assert!((30.0..30.1).contains(&t_s), "{fired:?}");
+    assert_eq!((cause.as_str(), action.as_str()), ("critical_actor_failed", "land"), "{fired:?}");
+    // Restarted, it aligns again and flies the landing on its own estimate.
+    assert!(f64_at(&report, "estimator", "max_horizontal_m") < 3.0);
+    println!(
+        "actor_panic: failsafe {cause}/{action} {:.3} s after the panic; landed {:.2} m from home",
+        t_s - 30.0,
+        f64_at(&report, "flight", "landing_distance_from_home_m")
+    );
+}
+
+#[test]
+fn an_actor_panic_naming_no_actor_of_the_graph_is_refused_at_start_up() {
+    let dir = scratch("panic-nobody");
+    let graph =
+        graph_with_faults(&dir, "[[faults]]\nat_s = 30.0\nkind = \"actor_panic\"\nactor = \"stereo\"\n");
+    let out = Command::new(env!("CARGO_BIN_EXE_kestrel"))
+        .current_dir(repo())
+        .env_remove("RUST_LOG")
+        .args(["run", "--speedup", "0", "--quiet", "--config"])
+        .arg(&graph)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    let world = dir.join("world.toml");
+    let line = std::fs::read_to_string(&world).unwrap().lines().position(|l| l == "[[faults]]").unwrap() + 1;
+    assert!(
+        stderr.contains(&format!(
+            "{}:{line}: `faults[0].actor` \"stereo\" is not an actor of the graph",
+            world.display()
+        )),
+        "{stderr}"
+    );
+}

@@ -89,12 +89,11 @@ fn typos_and_missing_files_are_errors_naming_the_file() {
 }
 
 #[test]
-fn the_fault_example_holds_every_kind_but_actor_panic_and_bad_entries_name_file_line_and_field() {
+fn the_fault_example_holds_every_kind_and_bad_entries_name_file_line_and_field() {
     let world = World::load(&config("worlds/faults-example.toml")).expect("faults-example");
     let mut kinds: Vec<&str> = world.faults.iter().map(|f| f.kind.name()).collect();
     kinds.sort_unstable();
-    let mut expected: Vec<&str> =
-        kestrel_sim::faults::KINDS.iter().copied().filter(|k| *k != "actor_panic").collect();
+    let mut expected: Vec<&str> = kestrel_sim::faults::KINDS.to_vec();
     expected.sort_unstable();
     assert_eq!(kinds, expected);
     assert_eq!(
