@@ -268,9 +268,10 @@ impl Fault {
         Time(micros(self.at_s))
     }
 
-    /// The first tick it is no longer active on; `None`: never.
+    /// The first tick it is no longer active on; `None`: never. A positive `for_s` lasts at
+    /// least a microsecond.
     pub fn end(&self) -> Option<Time> {
-        self.for_s.map(|for_s| Time(micros(self.at_s).saturating_add(micros(for_s))))
+        self.for_s.map(|for_s| Time(micros(self.at_s).saturating_add(micros(for_s).max(1))))
     }
 
     /// Whether it is active at `time`: `start ≤ time < end`.
