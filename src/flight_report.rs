@@ -1,6 +1,7 @@
 //! The machine-readable flight report (`kestrel run --report FILE.json`): did the mission
 //! complete, did the vehicle hit anything, how far was the estimate from the truth, how
-//! regular was the control loop, which failsafes fired.
+//! regular was the control loop, which failsafes fired, and which simulated faults were
+//! injected when (the simulator's `sim_fault`).
 //!
 //! It is an ordinary actor fed through queue mailboxes, so under lockstep it sees every
 //! message and the report of a simulated flight is as repeatable as the flight itself. Each
@@ -13,8 +14,8 @@ use std::time::Instant;
 use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
-    AvoidanceCommand, ControlLoopStats, GroundTruth, NavState, Setpoint, SetpointTarget, StereoFrame,
-    VehicleStatus,
+    AvoidanceCommand, ControlLoopStats, GroundTruth, NavState, Setpoint, SetpointTarget, SimFault,
+    StereoFrame, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use serde::{Deserialize, Serialize};
@@ -32,7 +33,7 @@ pub struct FlightReportParams {
 
 /// The topics the report reads, with their message types, so the runtime can route the ones
 /// a graph has.
-pub const REPORT_INPUTS: [(&str, &str); 7] = [
+pub const REPORT_INPUTS: [(&str, &str); 8] = [
     ("ground_truth", <GroundTruth as kestrel_proto::Message>::TYPE_NAME),
     ("nav_state", <NavState as kestrel_proto::Message>::TYPE_NAME),
     ("vehicle_status", <VehicleStatus as kestrel_proto::Message>::TYPE_NAME),
@@ -40,6 +41,7 @@ pub const REPORT_INPUTS: [(&str, &str); 7] = [
     ("setpoint", <Setpoint as kestrel_proto::Message>::TYPE_NAME),
     ("stereo_frame", <StereoFrame as kestrel_proto::Message>::TYPE_NAME),
     ("avoidance_command", <AvoidanceCommand as kestrel_proto::Message>::TYPE_NAME),
+    ("sim_fault", <SimFault as kestrel_proto::Message>::TYPE_NAME),
 ];
 
 /// What the report actor handles.
@@ -52,6 +54,7 @@ pub enum ReportInput {
     Setpoint(Setpoint),
     Frame(StereoFrame),
     Avoidance(AvoidanceCommand),
+    Fault(SimFault),
 }
 
 /// The report, in the field layout other tools rely on (docs/design.md).
@@ -63,6 +66,23 @@ pub struct FlightReport {
     pub control: Option<ControlSection>,
     pub avoidance: Option<AvoidanceSection>,
     pub failsafes: Vec<FailsafeEntry>,
+    /// Every start and end of a simulated fault (world file `[[faults]]`), in order; empty
+    /// without a simulator or faults.
+    #[serde(default)]
+    pub faults: Vec<FaultEntry>,
+}
+
+/// A simulated fault starting or ending.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FaultEntry {
+    /// Graph time it took effect (s).
+    pub t_s: f64,
+    /// `started` or `ended`.
+    pub phase: String,
+    /// The world file's `kind`.
+    pub kind: String,
+    /// The kind's values as the world file spells them.
+    pub values: String,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -105,6 +125,10 @@ pub struct EstimatorSection {
     pub rms_velocity_m_s: f64,
     pub rms_roll_pitch_deg: f64,
     pub rms_yaw_deg: f64,
+    /// Largest horizontal position error (m): how far a fault (a GPS jump or loss) took the
+    /// estimate from the truth at worst.
+    #[serde(default)]
+    pub max_horizontal_m: f64,
     /// Ground-truth samples compared.
     pub samples: u64,
 }
@@ -138,6 +162,8 @@ pub struct FailsafeEntry {
 #[derive(Default)]
 struct ErrorSums {
     horizontal: f64,
+    /// Largest horizontal error (m), not squared.
+    horizontal_max: f64,
     vertical: f64,
     velocity: f64,
     roll_pitch: f64,
@@ -200,6 +226,7 @@ pub struct FlightReportActor {
     status: Option<VehicleStatus>,
     loop_stats: Option<ControlLoopStats>,
     failsafes: Vec<FailsafeEntry>,
+    faults: Vec<FaultEntry>,
     frame_latency: FrameLatency,
     /// Horizontal true path while airborne (m) and its first and latest points (NED, m).
     path_length_m: f64,
@@ -255,6 +282,7 @@ impl FlightReportActor {
         let (est, tru) = (euler_rad(nav.attitude), euler_rad(truth.attitude));
         let e = &mut self.errors;
         e.horizontal += d(0).powi(2) + d(1).powi(2);
+        e.horizontal_max = e.horizontal_max.max(d(0).hypot(d(1)));
         e.vertical += d(2).powi(2);
         e.velocity += dv(0).powi(2) + dv(1).powi(2) + dv(2).powi(2);
         e.roll_pitch += (angle_difference_rad(est[0], tru[0]).powi(2)
@@ -305,6 +333,7 @@ impl FlightReportActor {
             rms_velocity_m_s: rms(e.velocity),
             rms_roll_pitch_deg: rms(e.roll_pitch).to_degrees(),
             rms_yaw_deg: rms(e.yaw).to_degrees(),
+            max_horizontal_m: e.horizontal_max,
             samples: e.samples,
         });
         FlightReport {
@@ -327,6 +356,7 @@ impl FlightReportActor {
                 samples: self.frame_latency.samples(),
             }),
             failsafes: self.failsafes.clone(),
+            faults: self.faults.clone(),
         }
     }
 }
@@ -343,6 +373,7 @@ impl Actor for FlightReportActor {
         setup.input("setpoint", ReportInput::Setpoint);
         setup.input("stereo_frame", ReportInput::Frame);
         setup.input("avoidance_command", ReportInput::Avoidance);
+        setup.input("sim_fault", ReportInput::Fault);
         Ok(FlightReportActor {
             out: params.out.clone(),
             first: None,
@@ -356,6 +387,7 @@ impl Actor for FlightReportActor {
             status: None,
             loop_stats: None,
             failsafes: Vec::new(),
+            faults: Vec::new(),
             frame_latency: FrameLatency::default(),
             path_length_m: 0.0,
             airborne_first: None,
@@ -379,6 +411,15 @@ impl Actor for FlightReportActor {
                     },
                     _ => None,
                 })
+            }
+            ReportInput::Fault(f) => {
+                self.seen(f.time);
+                self.faults.push(FaultEntry {
+                    t_s: f.time.as_secs_f64(),
+                    phase: serde_name(&f.phase),
+                    kind: f.kind,
+                    values: f.values,
+                });
             }
             ReportInput::Loop(l) => {
                 self.seen(l.time);

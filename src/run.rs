@@ -14,6 +14,7 @@ use tokio_util::sync::CancellationToken;
 use crate::activity::Activity;
 use crate::clock::{LockstepClock, LockstepDriver, MonotonicClock};
 use crate::config::{ActorDecl, ClockKind, ConfigError, LoadedConfig, Route};
+use crate::fault_injection::PanicSchedule;
 use crate::flight_report::{FlightReportActor, REPORT_INPUTS};
 use crate::graph::Graph;
 use crate::mailbox::{Doorbell, MailboxKind};
@@ -99,6 +100,7 @@ async fn run_graph(
     options: RunOptions,
 ) -> Result<RunReport, RunError> {
     config.validate().map_err(|e| RunError::Config(vec![e]))?;
+    let panics = Arc::new(PanicSchedule::from_config(config).map_err(RunError::Config)?);
     if let Some(Err(m)) = options.speedup.map(crate::config::check_speedup) {
         return Err(RunError::Config(vec![config.source.error(format!("the run's {m}"))]));
     }
@@ -167,6 +169,7 @@ async fn run_graph(
             })
         }),
         log: Arc::clone(&log),
+        panics,
     };
     let supervisors: Vec<_> = prepared.into_iter().map(|p| p.spawn(supervisor_ctx.clone())).collect();
     tokio::spawn(cancel_on_signal(shutdown.clone()));

@@ -18,6 +18,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::activity::{Activity, Busy};
 use crate::config::{ActorDecl, ConfigError, Restart, RestartPolicy, Source};
+use crate::fault_injection::PanicSchedule;
 use crate::graph::{Declared, Graph, InputPort, PortTable, TimerSpec, Wiring};
 use crate::mailbox::Doorbell;
 
@@ -34,6 +35,8 @@ pub struct SupervisorContext {
     pub escalate: EscalationHook,
     /// Every event, for the run report.
     pub log: Arc<Mutex<Vec<SupervisorEvent>>>,
+    /// The world file's `actor_panic` faults.
+    pub panics: Arc<PanicSchedule>,
 }
 
 /// An actor type the config can name.
@@ -241,6 +244,7 @@ fn restarts(policy: Restart, exit: &Exit) -> bool {
 
 async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) {
     let mut failures: VecDeque<Time> = VecDeque::new();
+    let panics = ctx.panics.windows_of(&prepared.name);
     let mut next = prepared.first.take().map(Ok);
     loop {
         let exit = match next.take() {
@@ -260,6 +264,7 @@ async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) 
                     Arc::clone(&prepared.doorbell),
                     actor_ctx,
                     starting,
+                    panics.clone(),
                 ))
                 .await;
                 token.cancel();
@@ -321,13 +326,15 @@ async fn supervise<A: Actor>(mut prepared: Prepared<A>, ctx: SupervisorContext) 
 
 /// One incarnation of an actor: start, handle inputs in arrival order, stop. When the run
 /// ends, what had already arrived is still handled before `stop`, so that the last messages of
-/// a run (the final status before `--exit-on-land` ends it) reach reports and logs.
+/// a run (the final status before `--exit-on-land` ends it) reach reports and logs. While one of
+/// `panics` is active it panics instead of handling a message (the `actor_panic` fault).
 async fn run_incarnation<A: Actor>(
     mut actor: A,
     inputs: Vec<Arc<dyn InputPort<A::Input>>>,
     doorbell: Arc<Doorbell>,
     ctx: Context,
     starting: Busy,
+    panics: Vec<(Time, Option<Time>)>,
 ) -> Result<(), ActorError> {
     let result = async {
         actor.start(&ctx).await?;
@@ -336,6 +343,10 @@ async fn run_incarnation<A: Actor>(
             let oldest =
                 inputs.iter().filter_map(|p| p.oldest_arrival().map(|a| (a, p))).min_by_key(|(a, _)| *a);
             if let Some((input, busy)) = oldest.and_then(|(_, port)| port.take()) {
+                if PanicSchedule::due(&panics, ctx.now()) {
+                    drop(busy);
+                    panic!("injected fault: actor_panic at {} (world file [[faults]])", ctx.now());
+                }
                 actor.handle(&ctx, input).await?;
                 drop(busy);
                 continue;

@@ -6,6 +6,7 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap,
+    SimFault, SimFaultPhase,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -69,7 +70,8 @@ pub enum SimInput {
     Step(Time),
 }
 
-/// The simulator actor. Outputs: `imu`, `gps`, `baro`, `mag`, `ground_truth`, `battery`, and
+/// The simulator actor. Outputs: `imu`, `gps`, `baro`, `mag`, `ground_truth`, `battery`,
+/// `sim_fault` (each start and end of a world-file fault, also logged at INFO), and
 /// `obstacle_map` once, on the first step.
 pub struct SimActor {
     sim: Simulator,
@@ -80,6 +82,8 @@ pub struct SimActor {
     ground_truth: Publisher<GroundTruth>,
     battery: Publisher<BatteryStatus>,
     obstacle_map: Publisher<ObstacleMap>,
+    /// Each start and end of a world-file fault, as it takes effect.
+    sim_fault: Publisher<SimFault>,
     /// Whether the map has gone out. It waits for the first step rather than going out from
     /// `build`, because the recorder and subscribers are attached only after every actor is
     /// built, and a log must carry it.
@@ -117,7 +121,15 @@ impl Actor for SimActor {
                 actuators: ActuatorOutputs::default(),
             },
         };
-        let sim = Simulator::new(vehicle, world, options).map_err(|e| ActorError::Params(e.to_string()))?;
+        let world_path = dir.join(&params.world);
+        let sim = Simulator::new(vehicle, world, options).map_err(|e| {
+            // Faults are checked against the vehicle here, so name the world file they are in.
+            if e.field.starts_with("faults[") {
+                ActorError::Params(format!("invalid {}: {e}", world_path.display()))
+            } else {
+                ActorError::Params(e.to_string())
+            }
+        })?;
         setup.input("actuators", SimInput::Actuators);
         setup.timer("step", Duration::from_micros(tick_us), SimInput::Step);
         Ok(SimActor {
@@ -129,6 +141,7 @@ impl Actor for SimActor {
             ground_truth: setup.output("ground_truth"),
             battery: setup.output("battery"),
             obstacle_map: setup.output("obstacle_map"),
+            sim_fault: setup.output("sim_fault"),
             map_published: false,
         })
     }
@@ -150,6 +163,17 @@ impl Actor for SimActor {
                         SimOutput::Mag(m) => self.mag.publish(m),
                         SimOutput::GroundTruth(m) => self.ground_truth.publish(m),
                         SimOutput::Battery(m) => self.battery.publish(m),
+                        SimOutput::Fault(m) => {
+                            let what = if m.phase == SimFaultPhase::Started { "started" } else { "ended" };
+                            tracing::info!(
+                                at = %m.time,
+                                index = m.index,
+                                kind = %m.kind,
+                                values = %m.values,
+                                "simulated fault {what}"
+                            );
+                            self.sim_fault.publish(m);
+                        }
                     }
                 }
             }

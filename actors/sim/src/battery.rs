@@ -43,6 +43,13 @@ impl BatteryParams {
     }
 }
 
+/// What the active faults do to the pack (see [`FaultKind`](crate::faults::FaultKind)).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BatteryFaults {
+    /// `battery_sag`: subtracted from the terminal voltage (V); the current is left alone.
+    pub sag_v: f64,
+}
+
 /// The pack's state.
 #[derive(Clone, Debug)]
 pub(crate) struct Battery {
@@ -50,12 +57,19 @@ pub(crate) struct Battery {
     consumed_mah: f64,
     voltage_v: f64,
     current_a: f64,
+    /// The active sag (V).
+    sag_v: f64,
 }
 
 impl Battery {
     pub(crate) fn new(params: &BatteryParams) -> Battery {
         let voltage_v = FULL_CELL_V * f64::from(params.cells);
-        Battery { params: params.clone(), consumed_mah: 0.0, voltage_v, current_a: 0.0 }
+        Battery { params: params.clone(), consumed_mah: 0.0, voltage_v, current_a: 0.0, sag_v: 0.0 }
+    }
+
+    /// Applies the battery faults active from now on.
+    pub(crate) fn set_faults(&mut self, faults: &BatteryFaults) {
+        self.sag_v = faults.sag_v;
     }
 
     /// Draws `load_power_w` (electrical, motors) plus avionics for `dt_s`.
@@ -79,8 +93,9 @@ impl Battery {
         (1.0 - self.consumed_mah / self.params.capacity_mah).clamp(0.0, 1.0)
     }
 
+    /// Terminal voltage (V), lowered by an active `battery_sag` (never below 0).
     pub(crate) fn voltage_v(&self) -> f64 {
-        self.voltage_v
+        (self.voltage_v - self.sag_v).max(0.0)
     }
 
     pub(crate) fn current_a(&self) -> f64 {
@@ -107,5 +122,19 @@ mod tests {
         let sag = (idle_v - pack.voltage_v()) / pack.current_a();
         assert!((sag - 0.06).abs() < 0.01, "{sag}");
         assert!((pack.consumed_mah() - pack.current_a() * 36.0 / 3.6).abs() < 1.0 && pack.remaining() < 0.95);
+    }
+
+    #[test]
+    fn a_sag_lowers_the_terminal_voltage_by_its_volts_and_no_further_than_zero() {
+        let mut pack = Battery::new(&BatteryParams::default());
+        pack.draw(200.0, 1.0);
+        let (healthy_v, healthy_a) = (pack.voltage_v(), pack.current_a());
+        pack.set_faults(&BatteryFaults { sag_v: 1.5 });
+        assert_eq!(pack.voltage_v(), healthy_v - 1.5);
+        assert_eq!(pack.current_a(), healthy_a);
+        pack.set_faults(&BatteryFaults { sag_v: 100.0 });
+        assert_eq!(pack.voltage_v(), 0.0);
+        pack.set_faults(&BatteryFaults::default());
+        assert_eq!(pack.voltage_v(), healthy_v);
     }
 }

@@ -26,6 +26,11 @@
 //!   is skipped (logged and counted, and as deterministic as the rest), as a camera drops a
 //!   frame it has no buffer for, so a slow host or an extreme configuration never queues
 //!   without bound.
+//! * **Faults**: the world file's `camera_*` faults (`faults.rs`), by the capture instant:
+//!   `camera_stop` skips the capture (nothing is published); `camera_black` publishes the frame
+//!   on time with every pixel 0; `camera_frozen` publishes the pixels of the last frame before
+//!   the fault with the new stamp and sequence number. The simulator actor logs and publishes
+//!   their start and end (`sim_fault`); the camera only applies them.
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
@@ -40,6 +45,7 @@ use crate::camera::{
     CapturePose, DepthImage, RenderBuffers, Scene, StereoCamera, StereoCameraParams, StereoRender,
 };
 use crate::error::InvalidParam;
+use crate::faults::{CameraFaults, FaultSchedule};
 use crate::world::World;
 
 /// Renders started but not yet published, at most.
@@ -99,6 +105,8 @@ struct Pending {
     /// Publish with the first sample at or after this time.
     deliver_at: Time,
     sequence: u64,
+    /// The camera faults active at capture.
+    faults: CameraFaults,
     /// The render, and the working memory it borrowed, back when it is done.
     render: JoinHandle<(StereoRender, RenderBuffers)>,
 }
@@ -125,6 +133,10 @@ pub struct CameraSimActor {
     spare: Vec<RenderBuffers>,
     /// True depth of the last published frame's left image.
     last_depth: Option<DepthImage>,
+    /// The world's faults; only the camera's apply here.
+    faults: FaultSchedule,
+    /// The last frame published healthy, which `camera_frozen` repeats.
+    last_frame: Option<StereoFrame>,
     out: Publisher<StereoFrame>,
 }
 
@@ -152,6 +164,10 @@ impl CameraSimActor {
 
     /// Starts rendering the frame captured at `truth` on the blocking pool.
     fn capture(&mut self, truth: &GroundTruth) {
+        let faults = self.faults.effects_at(truth.time).camera;
+        if faults.stop {
+            return;
+        }
         if self.pending.len() >= MAX_IN_FLIGHT {
             self.skipped += 1;
             tracing::warn!(
@@ -172,6 +188,7 @@ impl CameraSimActor {
             capture: truth.time,
             deliver_at: Time(truth.time.0.saturating_add(self.latency_us)),
             sequence,
+            faults,
             render,
         });
         self.sequence += 1;
@@ -189,10 +206,40 @@ impl CameraSimActor {
             let (frame, depth) = render
                 .into_frame(next.capture, next.sequence)
                 .map_err(|e| ActorError::Failed(e.to_string()))?;
+            let frame = self.apply_faults(frame, next.faults)?;
             self.out.publish(frame);
             self.last_depth = Some(depth);
         }
         Ok(())
+    }
+}
+
+impl CameraSimActor {
+    /// `frame` as the camera faults active at its capture leave it (stopped frames are never
+    /// captured): black pixels, or the last healthy frame's pixels under `frame`'s stamp.
+    fn apply_faults(&mut self, frame: StereoFrame, faults: CameraFaults) -> Result<StereoFrame, ActorError> {
+        if faults.black {
+            let pixels = frame.width as usize * frame.height as usize;
+            return StereoFrame::new(
+                frame.time,
+                frame.sequence,
+                frame.width,
+                frame.height,
+                vec![0; pixels],
+                vec![0; pixels],
+            )
+            .map_err(|e| ActorError::Failed(e.to_string()));
+        }
+        if faults.frozen
+            && let Some(last) = &self.last_frame
+        {
+            let mut repeated = last.clone();
+            repeated.time = frame.time;
+            repeated.sequence = frame.sequence;
+            return Ok(repeated);
+        }
+        self.last_frame = Some(frame.clone());
+        Ok(frame)
     }
 }
 
@@ -222,6 +269,8 @@ impl Actor for CameraSimActor {
             skipped: 0,
             spare: Vec::with_capacity(MAX_IN_FLIGHT),
             last_depth: None,
+            faults: FaultSchedule::new(&world.faults),
+            last_frame: None,
             out: setup.output("stereo_frame"),
         })
     }

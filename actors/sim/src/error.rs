@@ -45,6 +45,14 @@ pub enum ConfigError {
         #[source]
         source: InvalidParam,
     },
+    /// A bad entry of an array of tables (`[[faults]]`), at the line of its header (1-based).
+    #[error("invalid {}:{line}: {source}", path.display())]
+    InvalidAt {
+        path: PathBuf,
+        line: usize,
+        #[source]
+        source: InvalidParam,
+    },
 }
 
 /// Checks that `value` is finite and strictly positive.

@@ -20,6 +20,7 @@ mod camera_actor;
 mod config_file;
 mod drag;
 mod error;
+pub mod faults;
 pub mod forest;
 mod ground;
 mod motors;
@@ -36,6 +37,7 @@ pub use battery::BatteryParams;
 pub use camera_actor::{CameraSimActor, CameraSimParams};
 pub use drag::DragParams;
 pub use error::{ConfigError, InvalidParam};
+pub use faults::{Fault, FaultEffects, FaultKind, FaultSchedule};
 
 pub use ground::ContactParams;
 pub use motors::MotorParams;

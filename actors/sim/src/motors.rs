@@ -67,6 +67,21 @@ impl MotorParams {
     }
 }
 
+/// What the active faults do to the motors (see [`FaultKind`](crate::faults::FaultKind)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotorFaults {
+    /// Per motor in mixer order: thrust and drag torque (and so shaft power) at a given speed
+    /// are `k_f·k·ω²` and `k_m·k·ω²`; 1 healthy, 0 lost (`motor_lost`), `thrust` for
+    /// `motor_weak`.
+    pub thrust_scale: [f64; MAX_MOTORS],
+}
+
+impl Default for MotorFaults {
+    fn default() -> MotorFaults {
+        MotorFaults { thrust_scale: [1.0; MAX_MOTORS] }
+    }
+}
+
 /// The motors of one frame and their current speeds.
 #[derive(Clone, Debug)]
 pub(crate) struct Motors {
@@ -74,6 +89,8 @@ pub(crate) struct Motors {
     geometry: Vec<MotorGeometry>,
     speed_rad_s: [f64; MAX_MOTORS],
     target_rad_s: [f64; MAX_MOTORS],
+    /// Thrust and torque scale of each motor, from the faults active this tick.
+    scale: [f64; MAX_MOTORS],
 }
 
 impl Motors {
@@ -83,7 +100,13 @@ impl Motors {
             geometry: layout.motors(arm_length_m).collect(),
             speed_rad_s: [0.0; MAX_MOTORS],
             target_rad_s: [0.0; MAX_MOTORS],
+            scale: [1.0; MAX_MOTORS],
         }
+    }
+
+    /// Applies the motor faults active from now on.
+    pub(crate) fn set_faults(&mut self, faults: &MotorFaults) {
+        self.scale = faults.thrust_scale;
     }
 
     /// Takes new commands; a disarmed output stops every motor.
@@ -110,8 +133,8 @@ impl Motors {
     pub(crate) fn force_torque_frd(&self) -> (Vector3<f64>, Vector3<f64>) {
         let mut force = Vector3::zeros();
         let mut torque = Vector3::zeros();
-        for (motor, &speed) in self.geometry.iter().zip(&self.speed_rad_s) {
-            let w2 = speed * speed;
+        for ((motor, &speed), &scale) in self.geometry.iter().zip(&self.speed_rad_s).zip(&self.scale) {
+            let w2 = speed * speed * scale;
             let thrust = Vector3::new(0.0, 0.0, -self.params.thrust_coefficient_n_per_rad2_s2 * w2);
             force += thrust;
             torque += motor.position_frd_m.cross(&thrust);
@@ -123,7 +146,8 @@ impl Motors {
     /// Mechanical power the propellers absorb (W): drag torque times speed.
     pub(crate) fn shaft_power_w(&self) -> f64 {
         let k_m = self.params.torque_coefficient_n_m_per_rad2_s2;
-        self.speed_rad_s[..self.geometry.len()].iter().map(|w| k_m * w.powi(3)).sum()
+        let n = self.geometry.len();
+        self.speed_rad_s[..n].iter().zip(&self.scale[..n]).map(|(w, scale)| k_m * scale * w.powi(3)).sum()
     }
 
     /// Current speeds of the frame's motors, in mixer order (rad/s).
@@ -145,5 +169,44 @@ mod tests {
         assert_eq!(p.commanded_speed_rad_s(f64::NAN), 0.0);
         assert_eq!(p.commanded_speed_rad_s(-1.0), 0.0);
         assert_eq!(p.commanded_speed_rad_s(7.0), p.max_speed_rad_s);
+    }
+
+    #[test]
+    fn a_weak_motor_gives_its_share_of_thrust_and_torque_and_a_lost_one_none() {
+        let p = MotorParams::default();
+        let mut motors = Motors::new(&p, FrameLayout::QuadX, 0.225);
+        let mut hover = ActuatorOutputs { armed: true, ..ActuatorOutputs::default() };
+        hover.motors[..4].fill(0.4);
+        motors.command(&hover);
+        motors.settle();
+        let (healthy_force, _) = motors.force_torque_frd();
+        let per_motor_n = 0.4 * p.max_thrust_n();
+        assert!((healthy_force.z + 4.0 * per_motor_n).abs() < 1e-9, "{healthy_force}");
+        let healthy_power = motors.shaft_power_w();
+
+        let mut faults = MotorFaults::default();
+        faults.thrust_scale[0] = 0.5;
+        motors.set_faults(&faults);
+        let (force, torque) = motors.force_torque_frd();
+        // Motor 1 gives half its thrust: 3.5 motors' worth, and a roll/pitch/yaw moment of the
+        // missing half at motor 1's place.
+        assert!((force.z + 3.5 * per_motor_n).abs() < 1e-9, "{force}");
+        let m1 = &motors.geometry[0];
+        let missing = Vector3::new(0.0, 0.0, -0.5 * per_motor_n);
+        let expected = -m1.position_frd_m.cross(&missing)
+            - Vector3::new(
+                0.0,
+                0.0,
+                m1.spin.yaw_sign() * 0.5 * per_motor_n * p.torque_coefficient_n_m_per_rad2_s2
+                    / p.thrust_coefficient_n_per_rad2_s2,
+            );
+        assert!((torque - expected).norm() < 1e-9, "{torque} vs {expected}");
+        assert!((motors.shaft_power_w() - 0.875 * healthy_power).abs() < 1e-9);
+
+        faults.thrust_scale[0] = 0.0;
+        motors.set_faults(&faults);
+        assert!((motors.force_torque_frd().0.z + 3.0 * per_motor_n).abs() < 1e-9);
+        motors.set_faults(&MotorFaults::default());
+        assert_eq!(motors.force_torque_frd().0, healthy_force);
     }
 }

@@ -5,6 +5,10 @@
 //! due and releases every sample whose lag has elapsed into an output buffer the caller drains.
 //! The buffer and the lag queues keep their capacity, so steady-state stepping does not
 //! allocate. Everything is deterministic given the seed.
+//!
+//! The world's `[[faults]]` are a [`FaultSchedule`]: each tick takes the effects of the faults
+//! active at its time and hands each model its part (the models apply them to their own output),
+//! and releases a [`SimOutput::Fault`] for every start and end.
 
 use std::time::Duration;
 
@@ -12,12 +16,13 @@ use kestrel_proto::Time;
 use kestrel_proto::calibration::SensorCalibration;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample,
+    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, SimFault,
 };
 use nalgebra::Vector3;
 
 use crate::battery::Battery;
 use crate::error::{InvalidParam, finite, rate};
+use crate::faults::{FaultEffects, FaultSchedule, check_for_vehicle};
 use crate::ground::Ground;
 use crate::motors::Motors;
 use crate::obstacles::Collisions;
@@ -85,6 +90,8 @@ pub enum SimOutput {
     Mag(MagSample),
     GroundTruth(GroundTruth),
     Battery(BatteryStatus),
+    /// A fault started or ended at this tick (released before the tick's samples).
+    Fault(SimFault),
 }
 
 /// A simulated multirotor in its world.
@@ -113,6 +120,9 @@ pub struct Simulator {
     gps_pending: Delayed<GpsFix>,
     baro_pending: Delayed<BaroSample>,
     mag_pending: Delayed<MagSample>,
+    faults: FaultSchedule,
+    /// What the faults active at the last tick did.
+    effects: FaultEffects,
     time: Time,
     tick_us: u64,
     substeps: u32,
@@ -129,6 +139,7 @@ impl Simulator {
         vehicle.validate()?;
         world.validate()?;
         validate_options(&options, vehicle.sensors.imu.rate_hz)?;
+        check_for_vehicle(&world.faults, vehicle.frame.motor_count())?;
         let seed = options.seed;
         let start = options.start_time;
         let sensors = &vehicle.sensors;
@@ -165,6 +176,8 @@ impl Simulator {
             gps_pending: Delayed::new(sensors.gps.lag_s, sensors.gps.rate_hz),
             baro_pending: Delayed::new(sensors.baro.lag_s, sensors.baro.rate_hz),
             mag_pending: Delayed::new(sensors.mag.lag_s, sensors.mag.rate_hz),
+            faults: FaultSchedule::new(&world.faults),
+            effects: FaultEffects::default(),
             time: start,
             tick_us: period_us(sensors.imu.rate_hz),
             substeps: options.physics_substeps,
@@ -219,12 +232,24 @@ impl Simulator {
         }
     }
 
-    /// Runs one tick: physics, then sensors, then releases.
+    /// The fault schedule (the world's `[[faults]]`, and any added since).
+    pub fn faults(&self) -> &FaultSchedule {
+        &self.faults
+    }
+
+    /// What the faults active at the last tick did.
+    pub fn fault_effects(&self) -> &FaultEffects {
+        &self.effects
+    }
+
+    /// Runs one tick: faults, physics, then sensors, then releases.
     pub fn step(&mut self) {
         let tick_s = self.tick_us as f64 * 1e-6;
         let dt_s = tick_s / f64::from(self.substeps);
+        let tick_time = Time(self.time.0 + self.tick_us);
+        self.apply_faults(tick_time);
         let velocity_before = self.state.velocity_ned_m_s;
-        let air_ned_m_s = self.wind.advance(tick_s);
+        let air_ned_m_s = self.wind.advance(tick_s, self.effects.wind.as_ref());
         let weight_ned_n = Vector3::new(0.0, 0.0, self.body.mass_kg * GRAVITY_M_S2);
         for _ in 0..self.substeps {
             self.motors.advance(dt_s);
@@ -238,7 +263,7 @@ impl Simulator {
             });
             self.ground.resolve(&self.vehicle.contact, &mut self.state);
         }
-        self.time = Time(self.time.0 + self.tick_us);
+        self.time = tick_time;
         self.accel_ned_m_s2 = (self.state.velocity_ned_m_s - velocity_before) / tick_s;
         self.battery.draw(self.motors.shaft_power_w() / self.vehicle.motor.efficiency, tick_s);
         self.collisions.update(
@@ -249,24 +274,41 @@ impl Simulator {
         self.sample_sensors(tick_s);
     }
 
+    /// Takes the effects of the faults active at `time` (the tick about to run), hands the
+    /// motors and the battery theirs, and releases every start and end.
+    fn apply_faults(&mut self, time: Time) {
+        if self.faults.faults().is_empty() {
+            return;
+        }
+        for event in self.faults.poll(time) {
+            self.outputs.push(SimOutput::Fault(self.faults.message(&event)));
+        }
+        self.effects = self.faults.effects_at(time);
+        self.motors.set_faults(&self.effects.motors);
+        self.battery.set_faults(&self.effects.battery);
+    }
+
     fn sample_sensors(&mut self, tick_s: f64) {
         let now = self.time;
-        let mut imu = self.imu.measure(now, tick_s, &self.state, &self.accel_ned_m_s2);
+        let faults = &self.effects;
+        let mut imu = self.imu.measure(now, tick_s, &self.state, &self.accel_ned_m_s2, &faults.imu);
         if let Some(calibration) = &self.calibration {
             imu = calibration.apply_imu(&imu);
         }
-        self.outputs.push(SimOutput::Imu(imu));
+        if !faults.imu.stopped {
+            self.outputs.push(SimOutput::Imu(imu));
+        }
         if self.gps_due.due(now) {
-            let fix = self.gps.measure(now, &self.state, &self.frame);
+            let fix = self.gps.measure(now, &self.state, &self.frame, &faults.gps);
             self.gps_pending.push(now, fix);
         }
         if self.baro_due.due(now) {
             let altitude_msl_m = self.world.home.alt_msl_m - self.state.position_ned_m.z;
-            let sample = self.baro.measure(now, altitude_msl_m);
+            let sample = self.baro.measure(now, altitude_msl_m, &faults.baro);
             self.baro_pending.push(now, sample);
         }
         if self.mag_due.due(now) {
-            let mut sample = self.mag.measure(now, &self.state, &self.field_ned_gauss);
+            let mut sample = self.mag.measure(now, &self.state, &self.field_ned_gauss, &faults.mag);
             if let Some(calibration) = &self.calibration {
                 sample = calibration.apply_mag(&sample);
             }

@@ -37,6 +37,15 @@ impl WindParams {
     }
 }
 
+/// A `wind` fault: the steady wind and gust 1σ that replace the world's while it is active.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WindFault {
+    /// Steady wind, north/east/down (m/s), the direction the air moves towards.
+    pub steady_ned_m_s: [f64; 3],
+    /// 1σ of the gust on each axis (m/s).
+    pub gust_std_m_s: f64,
+}
+
 /// The wind's current state.
 #[derive(Clone, Debug)]
 pub(crate) struct Wind {
@@ -51,14 +60,21 @@ impl Wind {
     }
 
     /// Advances the gusts by `dt_s` (exact discretisation, stationary variance) and returns the
-    /// air velocity (m/s, NED).
-    pub(crate) fn advance(&mut self, dt_s: f64) -> Vector3<f64> {
-        if self.params.gust_std_m_s > 0.0 {
+    /// air velocity (m/s, NED). An active `fault` replaces the steady wind and the gust 1σ; the
+    /// gust state carries on through its start and end with the world's correlation time.
+    pub(crate) fn advance(&mut self, dt_s: f64, fault: Option<&WindFault>) -> Vector3<f64> {
+        let (steady, gust_std) = match fault {
+            Some(f) => (f.steady_ned_m_s, f.gust_std_m_s),
+            None => (self.params.steady_ned_m_s, self.params.gust_std_m_s),
+        };
+        if gust_std > 0.0 {
             let decay = (-dt_s / self.params.gust_time_constant_s).exp();
-            let drive = self.params.gust_std_m_s * (1.0 - decay * decay).sqrt();
+            let drive = gust_std * (1.0 - decay * decay).sqrt();
             self.gust_ned_m_s = self.gust_ned_m_s * decay + standard_normal3(&mut self.rng) * drive;
+        } else {
+            self.gust_ned_m_s = Vector3::zeros();
         }
-        Vector3::from(self.params.steady_ned_m_s) + self.gust_ned_m_s
+        Vector3::from(steady) + self.gust_ned_m_s
     }
 }
 
@@ -72,7 +88,7 @@ mod tests {
         let params =
             WindParams { steady_ned_m_s: [3.0, -1.0, 0.0], gust_std_m_s: 0.8, gust_time_constant_s: 0.5 };
         let mut wind = Wind::new(&params, rng(5, Stream::Wind));
-        let samples: Vec<Vector3<f64>> = (0..400_000).map(|_| wind.advance(0.0025)).collect();
+        let samples: Vec<Vector3<f64>> = (0..400_000).map(|_| wind.advance(0.0025, None)).collect();
         let n = samples.len() as f64;
         let mean = samples.iter().sum::<Vector3<f64>>() / n;
         let var = samples.iter().map(|s| (s - mean).component_mul(&(s - mean))).sum::<Vector3<f64>>() / n;

@@ -1,4 +1,5 @@
-//! The world file: where home is, its magnetic field, the wind and the obstacles.
+//! The world file: where home is, its magnetic field, the wind, the obstacles and the faults
+//! injected during the run.
 
 use std::path::Path;
 
@@ -8,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config_file;
 use crate::error::{ConfigError, InvalidParam, finite, positive};
+use crate::faults::{self, Fault, FaultKind};
 use crate::forest::Forest;
 use crate::obstacles::{Obstacle, ObstacleGeometry};
 use crate::wind::WindParams;
@@ -26,6 +28,8 @@ pub struct World {
     pub obstacles: Vec<Obstacle>,
     /// `[forest]`: random trees from a seed, added to `obstacles` when the file is loaded.
     pub forest: Option<Forest>,
+    /// `[[faults]]`: what breaks during the run, and when (`faults.rs`); none by default.
+    pub faults: Vec<Fault>,
 }
 
 /// The origin of the local NED frame; the ground is flat at its altitude.
@@ -87,7 +91,13 @@ impl World {
     /// Loads and checks a world file; a `[forest]` is planted into `obstacles` here, so the
     /// simulator and the camera see the same trees.
     pub fn load(path: &Path) -> Result<World, ConfigError> {
-        let mut world: World = config_file::load(path, World::validate)?;
+        let text = config_file::read(path)?;
+        faults::check_entries(&text).map_err(|(line, source)| ConfigError::InvalidAt {
+            path: path.to_path_buf(),
+            line,
+            source,
+        })?;
+        let mut world: World = config_file::parse(path, &text, World::validate)?;
         if let Some(forest) = &world.forest {
             let trees = forest
                 .plant()
@@ -116,6 +126,15 @@ impl World {
         }
         if let Some(forest) = &self.forest {
             forest.validate().map_err(|e| e.within("forest"))?;
+        }
+        for (i, fault) in self.faults.iter().enumerate() {
+            fault.validate().map_err(|e| e.within(&format!("faults[{i}]")))?;
+            if let FaultKind::Wind { gust_m_s, .. } = fault.kind
+                && gust_m_s > 0.0
+            {
+                positive("wind.gust_time_constant_s", self.wind.gust_time_constant_s)
+                    .map_err(|e| e.within(&format!("faults[{i}] (gusts)")))?;
+            }
         }
         Ok(())
     }

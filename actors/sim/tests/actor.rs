@@ -87,3 +87,40 @@ fn sizes_and_rates_too_large_to_simulate_are_refused_by_name() {
     assert!(err.to_string().contains("forest.trees"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+fn scratch_world(name: &str, text: &str) -> String {
+    let dir = std::env::temp_dir().join(format!("kestrel-sim-actor-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join(name);
+    std::fs::write(&path, text).expect("write");
+    path.display().to_string()
+}
+
+#[test]
+fn world_faults_are_published_on_sim_fault_and_checked_against_the_vehicle() {
+    use kestrel_proto::messages::{SimFault, SimFaultPhase};
+    let world = scratch_world("imu_stop.toml", "[[faults]]\nat_s = 0.5\nfor_s = 0.5\nkind = \"imu_stop\"\n");
+    let mut setup = setup();
+    let mut actor = SimActor::build(&params(&format!("world = \"{world}\"\n")), &mut setup).expect("builds");
+    assert!(setup.output_ports().contains(&"sim_fault"), "{:?}", setup.output_ports());
+    let ctx = setup.context();
+    for tick in 1..=800 {
+        ready(actor.handle(&ctx, setup.tick("step", Time(tick * 2500)))).expect("step");
+    }
+    let events = setup.published::<SimFault>("sim_fault");
+    let got: Vec<(u64, SimFaultPhase, &str)> =
+        events.iter().map(|e| (e.time.0, e.phase, e.kind.as_str())).collect();
+    assert_eq!(
+        got,
+        [(500_000, SimFaultPhase::Started, "imu_stop"), (1_000_000, SimFaultPhase::Ended, "imu_stop")]
+    );
+    assert_eq!(setup.count("imu"), 800 - 200, "0.5 s of 400 Hz samples missing");
+
+    let world = scratch_world("motor5.toml", "[[faults]]\nat_s = 1.0\nkind = \"motor_lost\"\nmotor = 5\n");
+    let err =
+        SimActor::build(&params(&format!("world = \"{world}\"\n")), &mut self::setup()).err().expect("fails");
+    assert!(
+        matches!(&err, ActorError::Params(m) if m.contains("motor5.toml") && m.contains("faults[0].motor")),
+        "{err}"
+    );
+}

@@ -147,3 +147,46 @@ fn bad_params_are_errors_naming_the_field() {
     );
     assert!(matches!(build("world = \"worlds/missing.toml\""), Some(ActorError::Params(_))));
 }
+
+/// `obstacles.toml` with `faults` appended, written to a scratch file (an absolute path, which
+/// the camera's `world` accepts as is).
+fn world_with_faults(name: &str, faults: &str) -> String {
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/worlds/obstacles.toml");
+    let text = std::fs::read_to_string(base).unwrap();
+    let dir = std::env::temp_dir().join(format!("kestrel-camera-faults-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, format!("{text}\n{faults}")).unwrap();
+    path.display().to_string()
+}
+
+#[tokio::test]
+async fn camera_faults_stop_blacken_and_freeze_the_frames_in_their_windows() {
+    let world = world_with_faults(
+        "camera.toml",
+        "[[faults]]\nat_s = 0.19\nfor_s = 0.2\nkind = \"camera_stop\"\n\n\
+         [[faults]]\nat_s = 0.39\nfor_s = 0.2\nkind = \"camera_black\"\n\n\
+         [[faults]]\nat_s = 0.59\nfor_s = 0.2\nkind = \"camera_frozen\"\n",
+    );
+    let with_faults: CameraSimParams =
+        toml::from_str(&format!("world = \"{world}\"\n[camera]\nwidth_px = 320\nheight_px = 240\n")).unwrap();
+    let (healthy, _) = fly(&params(""), 2.0, false).await;
+    let (frames, _) = fly(&with_faults, 2.0, false).await;
+    let stamps: Vec<u64> = frames.iter().map(|f| f.stamp_us / 1000).collect();
+    // Captures at 200, 280 and 340 ms fall in the stop window: never taken.
+    assert_eq!(stamps, [0, 80, 140, 400, 480, 540, 600, 680, 740, 800, 880, 940]);
+    assert!(frames.iter().enumerate().all(|(i, f)| f.sequence == i as u64), "no gap in the sequence");
+    let healthy_at = |ms: u64| healthy.iter().find(|f| f.stamp_us == ms * 1000).unwrap();
+    for f in &frames {
+        let ms = f.stamp_us / 1000;
+        let (left, right) = match ms {
+            400..=540 => (vec![0; 320 * 240], vec![0; 320 * 240]),
+            // The last healthy frame before the freeze is the one of 140 ms.
+            600..=740 => (healthy_at(140).left.clone(), healthy_at(140).right.clone()),
+            _ => (healthy_at(ms).left.clone(), healthy_at(ms).right.clone()),
+        };
+        assert!(f.left == left && f.right == right, "frame at {ms} ms");
+        assert_eq!(f.published_us, f.stamp_us + 40_000, "on time at {ms} ms");
+    }
+    assert_ne!(healthy_at(140).left, healthy_at(600).left, "the pose moved, so a frozen frame is stale");
+}

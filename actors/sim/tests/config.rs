@@ -102,3 +102,31 @@ fn typos_and_missing_files_are_errors_naming_the_file() {
             && err.to_string().contains("/nonexistent/kestrel/vehicle.toml")
     );
 }
+
+#[test]
+fn the_fault_example_holds_every_kind_and_bad_entries_name_file_line_and_field() {
+    let world = World::load(&config("worlds/faults-example.toml")).expect("faults-example");
+    let mut kinds: Vec<&str> = world.faults.iter().map(|f| f.kind.name()).collect();
+    kinds.sort_unstable();
+    let mut expected: Vec<&str> = kestrel_sim::faults::KINDS.to_vec();
+    expected.sort_unstable();
+    assert_eq!(kinds, expected);
+    assert_eq!(
+        World { faults: Vec::new(), ..world },
+        World::load(&config("worlds/empty.toml")).expect("empty")
+    );
+
+    let path = scratch(
+        "bad_fault.toml",
+        "[[faults]]\nat_s = 1.0\nkind = \"gps_off\"\n\n[[faults]]\nat_s = 2.0\nkind = \"motor_weak\"\n\
+         motor = 1\nthrust = 1.5\n",
+    );
+    let err = World::load(&path).unwrap_err();
+    assert!(matches!(err, ConfigError::InvalidAt { line: 5, .. }), "{err}");
+    let text = err.to_string();
+    assert!(text.contains("bad_fault.toml:5") && text.contains("faults[1].thrust"), "{text}");
+
+    let path = scratch("nan_fault.toml", "[[faults]]\nat_s = nan\nkind = \"imu_stop\"\n");
+    let text = World::load(&path).unwrap_err().to_string();
+    assert!(text.contains("nan_fault.toml:1") && text.contains("faults[0].at_s"), "{text}");
+}

@@ -30,6 +30,7 @@ fn stamp(o: &SimOutput) -> (&'static str, Time) {
         SimOutput::Mag(m) => ("mag", m.time),
         SimOutput::GroundTruth(m) => ("ground_truth", m.time),
         SimOutput::Battery(m) => ("battery", m.time),
+        SimOutput::Fault(m) => ("sim_fault", m.time),
     }
 }
 

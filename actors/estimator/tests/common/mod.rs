@@ -273,7 +273,7 @@ pub fn fly_with_sensors(
                         });
                     }
                 }
-                SimOutput::Battery(_) => {}
+                SimOutput::Battery(_) | SimOutput::Fault(_) => {}
             }
         }
     }

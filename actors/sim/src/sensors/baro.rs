@@ -62,27 +62,47 @@ impl BaroParams {
     }
 }
 
-/// The barometer's random stream.
+/// What the active faults do to the barometer (see [`FaultKind`](crate::faults::FaultKind)).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BaroFaults {
+    /// `baro_drift`: added to the altitude the pressure is computed at (m, up positive), so the
+    /// pressure and the pressure altitude agree.
+    pub altitude_error_m: f64,
+    /// `baro_stuck`: the last sample repeated.
+    pub stuck: bool,
+}
+
+/// The barometer's random stream and its last sample.
 #[derive(Clone, Debug)]
 pub(crate) struct Baro {
     params: BaroParams,
     rng: Pcg64,
+    last: Option<BaroSample>,
 }
 
 impl Baro {
     pub(crate) fn new(params: &BaroParams, rng: Pcg64) -> Baro {
-        Baro { params: params.clone(), rng }
+        Baro { params: params.clone(), rng, last: None }
     }
 
-    /// A sample at `time` with the vehicle at `altitude_msl_m`.
-    pub(crate) fn measure(&mut self, time: Time, altitude_msl_m: f64) -> BaroSample {
+    /// A sample at `time` with the vehicle at `altitude_msl_m`, as `faults` leave it. The
+    /// noise is drawn whatever the faults, so the stream after a fault is the same as without.
+    pub(crate) fn measure(&mut self, time: Time, altitude_msl_m: f64, faults: &BaroFaults) -> BaroSample {
+        let reads_at_m = altitude_msl_m + faults.altitude_error_m;
         let pressure_pa =
-            isa_pressure_pa(altitude_msl_m) + standard_normal(&mut self.rng) * self.params.pressure_noise_pa;
-        BaroSample {
+            isa_pressure_pa(reads_at_m) + standard_normal(&mut self.rng) * self.params.pressure_noise_pa;
+        let sample = BaroSample {
             time,
             pressure_pa,
             altitude_m: isa_altitude_m(pressure_pa),
             temperature_c: SEA_LEVEL_C - LAPSE_K_M * altitude_msl_m + self.params.temperature_offset_c,
+        };
+        match &self.last {
+            Some(last) if faults.stuck => BaroSample { time, ..last.clone() },
+            _ => {
+                self.last = Some(sample.clone());
+                sample
+            }
         }
     }
 }

@@ -57,28 +57,80 @@ impl GpsParams {
     }
 }
 
-/// The receiver's random stream.
+/// What the active faults do to the receiver (`faults.rs` says when; see
+/// [`FaultKind`](crate::faults::FaultKind) for each kind).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpsFaults {
+    /// `gps_off`: fixes flagged as no fix.
+    pub off: bool,
+    /// `gps_jump`: added to the reported position (m, NED).
+    pub offset_ned_m: Vector3<f64>,
+    /// `gps_noise`: multiplies the position and velocity noise 1σ.
+    pub noise_factor: f64,
+}
+
+impl Default for GpsFaults {
+    fn default() -> GpsFaults {
+        GpsFaults { off: false, offset_ned_m: Vector3::zeros(), noise_factor: 1.0 }
+    }
+}
+
+/// The accuracy a u-blox reports without a fix: `hAcc`/`vAcc`/`sAcc` all ones (0xFFFF_FFFF mm
+/// or mm/s).
+pub const NO_FIX_ACCURACY: f64 = 4_294_967.295;
+
+/// The receiver's random stream, and the last position it had a fix at.
 #[derive(Clone, Debug)]
 pub(crate) struct Gps {
     params: GpsParams,
     rng: Pcg64,
+    /// Latitude, longitude, altitude of the last fix, held while the fix is lost.
+    last_position: Option<(f64, f64, f64)>,
 }
 
 impl Gps {
     pub(crate) fn new(params: &GpsParams, rng: Pcg64) -> Gps {
-        Gps { params: params.clone(), rng }
+        Gps { params: params.clone(), rng, last_position: None }
     }
 
-    /// A fix valid at `time` for the vehicle in `state`.
-    pub(crate) fn measure(&mut self, time: Time, state: &RigidBodyState, frame: &LocalFrame) -> GpsFix {
+    /// A fix valid at `time` for the vehicle in `state`, as `faults` leave it. The noise is
+    /// drawn whatever the faults, so a run's stream after a fault is the same as without it.
+    pub(crate) fn measure(
+        &mut self,
+        time: Time,
+        state: &RigidBodyState,
+        frame: &LocalFrame,
+        faults: &GpsFaults,
+    ) -> GpsFix {
         let p = &self.params;
         let position_noise = standard_normal3(&mut self.rng).component_mul(&Vector3::new(
             p.horizontal_noise_m,
             p.horizontal_noise_m,
             p.vertical_noise_m,
-        ));
-        let position = frame.to_geodetic((state.position_ned_m + position_noise).into());
-        let velocity = state.velocity_ned_m_s + standard_normal3(&mut self.rng) * p.velocity_noise_m_s;
+        )) * faults.noise_factor;
+        let velocity_noise = standard_normal3(&mut self.rng) * (p.velocity_noise_m_s * faults.noise_factor);
+        if faults.off {
+            let (lat_deg, lon_deg, alt_msl_m) = self.last_position.unwrap_or_else(|| {
+                let home = frame.to_geodetic([0.0; 3]);
+                (home.lat_deg, home.lon_deg, home.alt_m)
+            });
+            return GpsFix {
+                time,
+                fix_type: GpsFixType::NoFix,
+                satellites: 0,
+                lat_deg,
+                lon_deg,
+                alt_msl_m,
+                vel_ned_m_s: [0.0; 3],
+                h_acc_m: NO_FIX_ACCURACY,
+                v_acc_m: NO_FIX_ACCURACY,
+                s_acc_m_s: NO_FIX_ACCURACY,
+            };
+        }
+        let position =
+            frame.to_geodetic((state.position_ned_m + position_noise + faults.offset_ned_m).into());
+        self.last_position = Some((position.lat_deg, position.lon_deg, position.alt_m));
+        let velocity = state.velocity_ned_m_s + velocity_noise;
         GpsFix {
             time,
             fix_type: GpsFixType::Fix3d,

@@ -42,6 +42,9 @@ pub struct ImuParams {
     pub accel_offset_m_s2: [f64; 3],
     /// Accelerometer reading per unit of true specific force, per board axis (1 = exact).
     pub accel_scale: [f64; 3],
+    /// Full-scale range of each accelerometer axis (g, 9.80665 m/s²): the `accel_clip` fault
+    /// clamps the output there. The MPU-9250 offers ±2, 4, 8 and 16 g; flight stacks use 16.
+    pub accel_full_scale_g: f64,
 }
 
 impl Default for ImuParams {
@@ -57,6 +60,7 @@ impl Default for ImuParams {
             accel_bias_initial_m_s2: [0.0; 3],
             accel_offset_m_s2: [0.0; 3],
             accel_scale: [1.0; 3],
+            accel_full_scale_g: 16.0,
         }
     }
 }
@@ -74,9 +78,38 @@ impl ImuParams {
         finite("gyro_bias_initial_rad_s", &self.gyro_bias_initial_rad_s)?;
         finite("accel_bias_initial_m_s2", &self.accel_bias_initial_m_s2)?;
         finite("accel_offset_m_s2", &self.accel_offset_m_s2)?;
-        match self.accel_scale.iter().find(|s| !(0.5..=2.0).contains(*s)) {
-            None => Ok(()),
-            Some(s) => Err(InvalidParam::new("accel_scale", format!("must lie within 0.5..=2, got {s}"))),
+        if let Some(s) = self.accel_scale.iter().find(|s| !(0.5..=2.0).contains(*s)) {
+            return Err(InvalidParam::new("accel_scale", format!("must lie within 0.5..=2, got {s}")));
+        }
+        positive("accel_full_scale_g", self.accel_full_scale_g)
+    }
+
+    /// The accelerometer's full-scale range (m/s²).
+    pub fn accel_full_scale_m_s2(&self) -> f64 {
+        self.accel_full_scale_g * GRAVITY_M_S2
+    }
+}
+
+/// What the active faults do to the IMU (see [`FaultKind`](crate::faults::FaultKind)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ImuFaults {
+    /// `gyro_bias`: added to the gyro output (rad/s, body FRD).
+    pub gyro_bias_rad_s: Vector3<f64>,
+    /// `accel_bias`: added to the accelerometer output (m/s², body FRD).
+    pub accel_bias_m_s2: Vector3<f64>,
+    /// `accel_clip`: the accelerometer saturates at its full-scale range.
+    pub clip: bool,
+    /// `imu_stop`: no sample is published (the simulator drops it).
+    pub stopped: bool,
+}
+
+impl Default for ImuFaults {
+    fn default() -> ImuFaults {
+        ImuFaults {
+            gyro_bias_rad_s: Vector3::zeros(),
+            accel_bias_m_s2: Vector3::zeros(),
+            clip: false,
+            stopped: false,
         }
     }
 }
@@ -110,13 +143,15 @@ impl Imu {
     }
 
     /// A sample at `time` covering the last `dt_s`, over which the mean acceleration was
-    /// `accel_ned_m_s2`.
+    /// `accel_ned_m_s2`, as `faults` leave it (`faults.stopped` is the caller's: it drops the
+    /// sample). The noise is drawn whatever the faults.
     pub(crate) fn measure(
         &mut self,
         time: Time,
         dt_s: f64,
         state: &RigidBodyState,
         accel_ned_m_s2: &Vector3<f64>,
+        faults: &ImuFaults,
     ) -> ImuSample {
         let gyro_bias = self.gyro_bias.advance(dt_s, &mut self.rng);
         let accel_bias = self.accel_bias.advance(dt_s, &mut self.rng);
@@ -132,17 +167,31 @@ impl Imu {
         let p = &self.params;
         let force_read =
             force_board.component_mul(&Vector3::from(p.accel_scale)) + Vector3::from(p.accel_offset_m_s2);
-        let gyro = rate_board + gyro_bias + standard_normal3(&mut self.rng) * p.gyro_noise_rad_s;
-        let accel = force_read + accel_bias + standard_normal3(&mut self.rng) * p.accel_noise_m_s2;
-        // The simulated IMU does not saturate (ground-contact spikes at touchdown exceed ±16 g and
-        // would need a softer contact model first), so it never flags clipping.
+        let gyro = rate_board
+            + gyro_bias
+            + standard_normal3(&mut self.rng) * p.gyro_noise_rad_s
+            + faults.gyro_bias_rad_s;
+        let mut accel = force_read
+            + accel_bias
+            + standard_normal3(&mut self.rng) * p.accel_noise_m_s2
+            + faults.accel_bias_m_s2;
+        // Outside the `accel_clip` fault the simulated IMU does not saturate (ground-contact
+        // spikes at touchdown exceed ±16 g and would need a softer contact model first).
+        let mut accel_clipped = [false; 3];
+        if faults.clip {
+            let range = p.accel_full_scale_m_s2();
+            for (axis, clipped) in accel.iter_mut().zip(&mut accel_clipped) {
+                *clipped = axis.abs() >= range;
+                *axis = axis.clamp(-range, range);
+            }
+        }
         ImuSample {
             time,
             gyro_rad_s: gyro.into(),
             accel_m_s2: accel.into(),
             dt_s,
             gyro_clipped: [false; 3],
-            accel_clipped: [false; 3],
+            accel_clipped,
         }
     }
 }

@@ -58,7 +58,22 @@ impl MagParams {
     }
 }
 
-/// The magnetometer's random stream.
+/// What the active faults do to the magnetometer (see [`FaultKind`](crate::faults::FaultKind)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MagFaults {
+    /// `mag_anomaly`: added to the reading (gauss, body FRD).
+    pub added_frd_gauss: Vector3<f64>,
+    /// `mag_stuck`: the last sample repeated.
+    pub stuck: bool,
+}
+
+impl Default for MagFaults {
+    fn default() -> MagFaults {
+        MagFaults { added_frd_gauss: Vector3::zeros(), stuck: false }
+    }
+}
+
+/// The magnetometer's random stream and its last sample.
 #[derive(Clone, Debug)]
 pub(crate) struct Mag {
     params: MagParams,
@@ -66,19 +81,22 @@ pub(crate) struct Mag {
     /// Board → airframe, when the board is not aligned with it.
     board: Option<UnitQuaternion<f64>>,
     rng: Pcg64,
+    last: Option<MagSample>,
 }
 
 impl Mag {
     pub(crate) fn new(params: &MagParams, board: Option<UnitQuaternion<f64>>, rng: Pcg64) -> Mag {
-        Mag { params: params.clone(), soft_iron: matrix3(&params.soft_iron), board, rng }
+        Mag { params: params.clone(), soft_iron: matrix3(&params.soft_iron), board, rng, last: None }
     }
 
-    /// A sample at `time` in the Earth field `field_ned_gauss`.
+    /// A sample at `time` in the Earth field `field_ned_gauss`, as `faults` leave it. The noise
+    /// is drawn whatever the faults, so the stream after a fault is the same as without.
     pub(crate) fn measure(
         &mut self,
         time: Time,
         state: &RigidBodyState,
         field_ned_gauss: &Vector3<f64>,
+        faults: &MagFaults,
     ) -> MagSample {
         let field_body = state.attitude.inverse_transform_vector(field_ned_gauss);
         let field_board = match &self.board {
@@ -87,7 +105,15 @@ impl Mag {
         };
         let field = self.soft_iron * field_board
             + Vector3::from(self.params.hard_iron_gauss)
-            + standard_normal3(&mut self.rng) * self.params.noise_gauss;
-        MagSample { time, field_gauss: field.into() }
+            + standard_normal3(&mut self.rng) * self.params.noise_gauss
+            + faults.added_frd_gauss;
+        match &self.last {
+            Some(last) if faults.stuck => MagSample { time, ..last.clone() },
+            _ => {
+                let sample = MagSample { time, field_gauss: field.into() };
+                self.last = Some(sample.clone());
+                sample
+            }
+        }
     }
 }

@@ -1,0 +1,268 @@
+//! Closed-loop lockstep flights of the default graph (`config/sim.toml`) with faults injected
+//! from the world file's `[[faults]]` (issue 18, first part): the process does not crash, the
+//! lockstep clock runs on, and the vehicle stays controlled. What the commander did (the
+//! report's `failsafes`) is printed and pinned, so a change of failsafe policy shows here; the
+//! policy itself is another task's.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use kestrel::recorder::LogReader;
+use kestrel_proto::messages::ActuatorOutputs;
+use serde_json::Value;
+
+fn repo() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A scratch directory of this test process for flight `name`.
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("kestrel-fault-flights-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes `empty.toml` plus `faults` as the world and `config/sim.toml` flying it (absolute
+/// paths, the MAVLink link on an ephemeral local port) into `dir`; returns the graph's path.
+fn graph_with_faults(dir: &Path, faults: &str) -> PathBuf {
+    let config_dir = repo().join("config");
+    let world = dir.join("world.toml");
+    let empty = std::fs::read_to_string(config_dir.join("worlds/empty.toml")).unwrap();
+    std::fs::write(&world, format!("{empty}\n{faults}")).unwrap();
+    let text = std::fs::read_to_string(config_dir.join("sim.toml")).unwrap();
+    let link = "[actors.link]\ntype = \"link\"\n";
+    assert!(text.contains(link) && text.contains("\"worlds/empty.toml\""), "the stock graph changed");
+    let text = text
+        .replace(
+            link,
+            &format!("{link}params.endpoints = [{{ type = \"udp_in\", bind = \"127.0.0.1:0\" }}]\n"),
+        )
+        .replace("\"worlds/empty.toml\"", &format!("\"{}\"", world.display()))
+        .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()));
+    let graph = dir.join("graph.toml");
+    std::fs::write(&graph, text).unwrap();
+    graph
+}
+
+/// A QGroundControl plan: take off to 10 m at home, hold there `hold_s`, land at home.
+fn hover_plan(dir: &Path, hold_s: f64) -> PathBuf {
+    let item = |id: u32, command: u32, hold: f64, alt: f64| {
+        serde_json::json!({
+            "type": "SimpleItem", "autoContinue": true, "command": command, "doJumpId": id,
+            "frame": 3, "params": [hold, 0, 0, null, 6.7971, 79.9017, alt],
+            "AMSLAltAboveTerrain": null, "Altitude": alt, "AltitudeMode": 1
+        })
+    };
+    let plan = serde_json::json!({
+        "fileType": "Plan", "groundStation": "QGroundControl", "version": 1,
+        "geoFence": { "circles": [], "polygons": [], "version": 2 },
+        "rallyPoints": { "points": [], "version": 2 },
+        "mission": {
+            "cruiseSpeed": 5, "hoverSpeed": 5, "firmwareType": 12, "vehicleType": 2, "version": 2,
+            "globalPlanAltitudeMode": 1, "plannedHomePosition": [6.7971, 79.9017, 20],
+            "items": [item(1, 22, 0.0, 10.0), item(2, 16, hold_s, 10.0), item(3, 21, 0.0, 0.0)]
+        }
+    });
+    let path = dir.join("hover.plan");
+    std::fs::write(&path, serde_json::to_string_pretty(&plan).unwrap()).unwrap();
+    path
+}
+
+/// Flies `mission` on `graph` with `kestrel run --speedup 0 --auto --exit-on-land`, recording
+/// to `record` if given; returns the report. The run must end by itself, exit 0.
+fn fly(name: &str, graph: &Path, mission: &Path, record: Option<&Path>) -> Value {
+    let report = graph.with_file_name("report.json");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_kestrel"));
+    command
+        .current_dir(repo())
+        .env_remove("RUST_LOG")
+        .args(["run", "--speedup", "0", "--quiet", "--auto", "--exit-on-land", "--config"])
+        .arg(graph)
+        .arg("--mission")
+        .arg(mission)
+        .arg("--report")
+        .arg(&report);
+    if let Some(record) = record {
+        command.arg("--record").arg(record);
+    }
+    let out = command.output().unwrap();
+    assert!(out.status.success(), "{name}: {}", String::from_utf8_lossy(&out.stderr));
+    let report: Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    println!(
+        "{name}: mission {} | flight {} | estimator {} | failsafes {} | faults {}",
+        report["mission"], report["flight"], report["estimator"], report["failsafes"], report["faults"]
+    );
+    report
+}
+
+/// The `(t_s, phase, kind)` of each fault start and end in the report.
+fn fault_events(report: &Value) -> Vec<(f64, String, String)> {
+    report["faults"]
+        .as_array()
+        .expect("faults")
+        .iter()
+        .map(|f| {
+            let s = |k: &str| f[k].as_str().expect(k).to_owned();
+            (f["t_s"].as_f64().expect("t_s"), s("phase"), s("kind"))
+        })
+        .collect()
+}
+
+/// The `(t_s, cause, action)` of each failsafe in the report.
+fn failsafes(report: &Value) -> Vec<(f64, String, String)> {
+    report["failsafes"]
+        .as_array()
+        .expect("failsafes")
+        .iter()
+        .map(|f| {
+            let s = |k: &str| f[k].as_str().expect(k).to_owned();
+            (f["t_s"].as_f64().expect("t_s"), s("cause"), s("action"))
+        })
+        .collect()
+}
+
+/// Ended on the ground, intact, having hit nothing.
+fn assert_landed_intact(name: &str, report: &Value) {
+    let flight = &report["flight"];
+    assert_eq!(flight["crashed"], false, "{name}: crashed");
+    assert_eq!(flight["landed"], true, "{name}: did not land");
+    assert_eq!(flight["collisions"], 0, "{name}: collided");
+}
+
+fn f64_at(report: &Value, section: &str, field: &str) -> f64 {
+    report[section][field].as_f64().unwrap_or_else(|| panic!("{section}.{field} in {report}"))
+}
+
+#[test]
+fn gps_lost_for_30_s_mid_patrol_lands_without_position_intact() {
+    let dir = scratch("gps-off");
+    let graph = graph_with_faults(&dir, "[[faults]]\nat_s = 100.0\nfor_s = 30.0\nkind = \"gps_off\"\n");
+    let report = fly("gps_off", &graph, &repo().join("config/missions/patrol.plan"), None);
+    let started = |kind: &str| (100.0, "started".to_owned(), kind.to_owned());
+    assert_eq!(
+        fault_events(&report),
+        [started("gps_off"), (130.0, "ended".to_owned(), "gps_off".to_owned())]
+    );
+    assert_landed_intact("gps_off", &report);
+    // What the commander does today: the estimator reports itself unhealthy once its position
+    // times out (5 s) and the commander lands where it is (no position to return with).
+    let fired = failsafes(&report);
+    let (t_s, cause, action) = fired.first().expect("a failsafe fired").clone();
+    assert!((100.0..110.0).contains(&t_s), "detected after {} s", t_s - 100.0);
+    assert_eq!((cause.as_str(), action.as_str()), ("estimator_unhealthy", "land"), "{fired:?}");
+    assert_eq!(report["mission"]["completed"], false, "the failsafe ends the mission");
+    // Dead reckoning drifts, but not out of the field.
+    let worst_m = f64_at(&report, "estimator", "max_horizontal_m");
+    assert!(worst_m > 1.0 && worst_m < 100.0, "worst horizontal error {worst_m} m");
+    println!(
+        "gps_off: failsafe {cause}/{action} {:.2} s after the loss; worst horizontal error {worst_m:.1} m; \
+         landed {:.1} m from home",
+        t_s - 100.0,
+        f64_at(&report, "flight", "landing_distance_from_home_m")
+    );
+}
+
+#[test]
+fn motor_1_weakened_to_70_percent_in_hover_stays_up_and_finishes() {
+    let dir = scratch("motor-weak");
+    let graph =
+        graph_with_faults(&dir, "[[faults]]\nat_s = 20.0\nkind = \"motor_weak\"\nmotor = 1\nthrust = 0.7\n");
+    let log = dir.join("flight.mcap");
+    let report = fly("motor_weak", &graph, &hover_plan(&dir, 60.0), Some(&log));
+    assert_eq!(fault_events(&report), [(20.0, "started".to_owned(), "motor_weak".to_owned())]);
+    assert_landed_intact("motor_weak", &report);
+    assert!(failsafes(&report).is_empty(), "{}", report["failsafes"]);
+    assert_eq!(report["mission"]["completed"], true);
+    let tracking_m = f64_at(&report, "flight", "tracking_error_max_m");
+    assert!(tracking_m < 2.0, "strayed {tracking_m} m from the legs");
+    // The controller takes up the weak motor: in the hold after the fault, motor 1 is commanded
+    // about 1/0.7 of what the others are (thrust is linear in the command).
+    let outputs = LogReader::open(&log).unwrap().read::<ActuatorOutputs>("actuator_outputs").unwrap();
+    let hold: Vec<&ActuatorOutputs> = outputs
+        .iter()
+        .map(|r| &r.message)
+        .filter(|o| o.armed && (40.0..70.0).contains(&o.time.as_secs_f64()))
+        .collect();
+    assert!(hold.len() > 10_000, "{} outputs in the hold", hold.len());
+    let mean = |m: usize| hold.iter().map(|o| o.motors[m]).sum::<f64>() / hold.len() as f64;
+    let ratio = mean(0) / ((mean(1) + mean(2) + mean(3)) / 3.0);
+    println!(
+        "motor_weak: motor commands in the hold {:.3} {:.3} {:.3} {:.3}, motor 1 / others = {ratio:.3}; \
+         tracking error max {tracking_m:.2} m",
+        mean(0),
+        mean(1),
+        mean(2),
+        mean(3)
+    );
+    assert!(ratio > 1.2 && ratio < 1.6, "motor 1 / others = {ratio}");
+}
+
+#[test]
+fn imu_stopping_for_half_a_second_in_hover_does_not_stall_the_lockstep_clock_and_lands() {
+    let dir = scratch("imu-stop");
+    let graph = graph_with_faults(&dir, "[[faults]]\nat_s = 30.0\nfor_s = 0.5\nkind = \"imu_stop\"\n");
+    let report = fly("imu_stop", &graph, &hover_plan(&dir, 60.0), None);
+    assert_eq!(
+        fault_events(&report),
+        [
+            (30.0, "started".to_owned(), "imu_stop".to_owned()),
+            (30.5, "ended".to_owned(), "imu_stop".to_owned())
+        ]
+    );
+    // The run went on past the stop and ended itself on landing.
+    assert!(f64_at(&report, "flight", "duration_s") > 31.0);
+    assert_landed_intact("imu_stop", &report);
+    let fired = failsafes(&report);
+    let (t_s, cause, action) = fired.first().expect("a failsafe fired").clone();
+    assert!((30.0..31.0).contains(&t_s), "{fired:?}");
+    assert_eq!((cause.as_str(), action.as_str()), ("nav_state_stale", "land"), "{fired:?}");
+    println!("imu_stop: failsafe {cause}/{action} {:.3} s after the stop", t_s - 30.0);
+}
+
+#[test]
+fn the_estimator_panicking_once_in_hover_is_restarted_and_the_vehicle_lands() {
+    let dir = scratch("estimator-panic");
+    let graph = graph_with_faults(
+        &dir,
+        "[[faults]]\nat_s = 30.0\nfor_s = 0.01\nkind = \"actor_panic\"\nactor = \"estimator\"\n",
+    );
+    let report = fly("actor_panic", &graph, &hover_plan(&dir, 60.0), None);
+    assert_eq!(fault_events(&report)[0], (30.0, "started".to_owned(), "actor_panic".to_owned()));
+    assert_landed_intact("actor_panic", &report);
+    let fired = failsafes(&report);
+    let (t_s, cause, action) = fired.first().expect("a failsafe fired").clone();
+    assert!((30.0..30.1).contains(&t_s), "{fired:?}");
+    assert_eq!((cause.as_str(), action.as_str()), ("critical_actor_failed", "land"), "{fired:?}");
+    // Restarted, it aligns again and flies the landing on its own estimate.
+    assert!(f64_at(&report, "estimator", "max_horizontal_m") < 3.0);
+    println!(
+        "actor_panic: failsafe {cause}/{action} {:.3} s after the panic; landed {:.2} m from home",
+        t_s - 30.0,
+        f64_at(&report, "flight", "landing_distance_from_home_m")
+    );
+}
+
+#[test]
+fn an_actor_panic_naming_no_actor_of_the_graph_is_refused_at_start_up() {
+    let dir = scratch("panic-nobody");
+    let graph =
+        graph_with_faults(&dir, "[[faults]]\nat_s = 30.0\nkind = \"actor_panic\"\nactor = \"stereo\"\n");
+    let out = Command::new(env!("CARGO_BIN_EXE_kestrel"))
+        .current_dir(repo())
+        .env_remove("RUST_LOG")
+        .args(["run", "--speedup", "0", "--quiet", "--config"])
+        .arg(&graph)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    let world = dir.join("world.toml");
+    let line = std::fs::read_to_string(&world).unwrap().lines().position(|l| l == "[[faults]]").unwrap() + 1;
+    assert!(
+        stderr.contains(&format!(
+            "{}:{line}: `faults[0].actor` \"stereo\" is not an actor of the graph",
+            world.display()
+        )),
+        "{stderr}"
+    );
+}
