@@ -118,7 +118,7 @@ fn detail<'a>(transcript: &'a [String], step: &str) -> &'a str {
 #[test]
 fn mavsdk_arms_takes_off_to_8_m_and_lands() {
     let t = fly("takeoff_land", &[]);
-    println!("altitude reached: {}", detail(&t, "altitude"));
+    println!("altitude reached: {}; hover: {}", detail(&t, "altitude"), detail(&t, "hover"));
 }
 
 #[test]

@@ -109,6 +109,10 @@ async def takeoff_land(v):
     alt = await until("at 8 m", at_8, 40.0)
     log("altitude", f"{alt:.2f} m")
     await asyncio.sleep(2.0)
+    hover = await v.relative_altitude()
+    log("hover", f"{hover:.2f} m after 2 s")
+    if abs(hover - 8.0) > 0.5:
+        raise Failed(f"hover: {hover:.2f} m, not 8 m")
     await v.action.land()
     log("land", "accepted")
     await v.landed_and_disarmed(60.0)
