@@ -58,8 +58,6 @@ pub struct Vehicle {
     pub offboard_rejects: OffboardRejects,
     /// Messages addressed to us that we could not use (wrong shape, unknown command id).
     pub unhandled: u64,
-    /// Set when a parameter changed and should be persisted.
-    params_changed: bool,
 }
 
 impl Vehicle {
@@ -74,7 +72,6 @@ impl Vehicle {
             gcs: GcsWatch::new(gcs_timeout),
             offboard_rejects: OffboardRejects::default(),
             unhandled: 0,
-            params_changed: false,
         }
     }
 
@@ -91,15 +88,12 @@ impl Vehicle {
     /// An actor declared its live parameters (topic `param_decl`): they join the table, and
     /// values set earlier go back to the owner as `ParamSet`.
     pub fn on_param_decl(&mut self, decl: &ParamDecl, now: Time) -> Outputs {
-        let done = self.params.declare(decl, now);
-        self.params_changed |= done.persist_changed;
-        done.out
+        self.params.declare(decl, now).out
     }
 
     /// True once after each change the parameter file must follow.
     pub fn take_params_changed(&mut self) -> bool {
-        let set = self.params.take_changed();
-        std::mem::take(&mut self.params_changed) || set
+        self.params.take_changed()
     }
 
     /// Whether `msg` is for us: no target, broadcast, or our system (and component 0 or ours).
@@ -318,6 +312,25 @@ mod tests {
 
     const GCS: Sender = Sender { system_id: 255, component_id: 190 };
 
+    /// A NavState at rest on the origin of Moratuwa's frame (what DO_REPOSITION and
+    /// GET_HOME_POSITION need).
+    pub(super) fn at_origin() -> kestrel_proto::messages::NavState {
+        use kestrel_proto::geo::Geodetic;
+        use kestrel_proto::messages::{NavState, NavValidity};
+        NavState {
+            time: Time::ZERO,
+            attitude: [1.0, 0.0, 0.0, 0.0],
+            angular_velocity_rad_s: [0.0; 3],
+            velocity_ned_m_s: [0.0; 3],
+            position_ned_m: [0.0; 3],
+            gyro_bias_rad_s: [0.0; 3],
+            accel_bias_m_s2: [0.0; 3],
+            covariance_diagonal: [0.0; 16],
+            origin: Some(Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
+            valid: NavValidity::default(),
+        }
+    }
+
     fn vehicle(params: usize) -> Vehicle {
         let specs = (0..params)
             .map(|i| ParamSpec {
@@ -499,8 +512,7 @@ mod tests {
 
     #[test]
     fn after_a_jump_reached_items_carry_their_own_numbers_and_home_moves_are_sent_at_once() {
-        use kestrel_proto::geo::Geodetic;
-        use kestrel_proto::messages::{Home, NavState, NavValidity};
+        use kestrel_proto::messages::Home;
         let mut v = vehicle(0);
         v.on_status(status(0));
         let mut jumped = status(0);
@@ -516,18 +528,7 @@ mod tests {
             })
             .collect();
         assert_eq!(seqs, [3], "the commander's item 2 is our item 3");
-        v.on_nav(NavState {
-            time: Time::ZERO,
-            attitude: [1.0, 0.0, 0.0, 0.0],
-            angular_velocity_rad_s: [0.0; 3],
-            velocity_ned_m_s: [0.0; 3],
-            position_ned_m: [0.0; 3],
-            gyro_bias_rad_s: [0.0; 3],
-            accel_bias_m_s2: [0.0; 3],
-            covariance_diagonal: [0.0; 16],
-            origin: Some(Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
-            valid: NavValidity::default(),
-        });
+        v.on_nav(at_origin());
         let homed =
             VehicleStatus { home: Some(Home { position_ned_m: [5.0, 0.0, 0.0], revision: 3 }), ..jumped };
         let out = v.on_status(homed.clone());
@@ -616,8 +617,7 @@ mod tests {
 /// nothing in the graph, so the vehicle neither arms nor moves for it.
 #[cfg(test)]
 mod one_ack_per_command {
-    use kestrel_proto::geo::Geodetic;
-    use kestrel_proto::messages::{CommandResult, NavState, NavValidity};
+    use kestrel_proto::messages::CommandResult;
     use mavlink::dialects::ardupilotmega::{COMMAND_LONG_DATA, MavCmd, MavMessage, MavResult};
     use num_traits::FromPrimitive;
     use proptest::prelude::*;
@@ -664,18 +664,7 @@ mod one_ack_per_command {
     fn vehicle() -> Vehicle {
         let mut v =
             Vehicle::new(1, ParamTable::new(Vec::new()).expect("valid"), std::time::Duration::from_secs(5));
-        v.on_nav(NavState {
-            time: Time::ZERO,
-            attitude: [1.0, 0.0, 0.0, 0.0],
-            angular_velocity_rad_s: [0.0; 3],
-            velocity_ned_m_s: [0.0; 3],
-            position_ned_m: [0.0; 3],
-            gyro_bias_rad_s: [0.0; 3],
-            accel_bias_m_s2: [0.0; 3],
-            covariance_diagonal: [0.0; 16],
-            origin: Some(Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
-            valid: NavValidity::default(),
-        });
+        v.on_nav(super::tests::at_origin());
         v
     }
 

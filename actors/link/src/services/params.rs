@@ -78,7 +78,8 @@ pub struct ParamTable {
     awaiting: Vec<Awaiting>,
     /// Next index of a PARAM_REQUEST_LIST being streamed.
     list_cursor: Option<usize>,
-    /// A value changed that the parameter file must follow (`take_changed`).
+    /// A value changed that the parameter file must follow (`take_changed`): a PARAM_SET that
+    /// went to its owner, or a declaration whose owner refused a persisted value.
     changed: bool,
 }
 
@@ -233,6 +234,7 @@ impl ParamTable {
                 }
             }
         }
+        self.changed |= done.persist_changed;
         done
     }
 
@@ -342,7 +344,7 @@ impl ParamTable {
         self.value_msg(i)
     }
 
-    /// True once after each PARAM_SET that went to an owner: the parameter file must follow.
+    /// True once after each change the parameter file must follow.
     pub fn take_changed(&mut self) -> bool {
         std::mem::take(&mut self.changed)
     }
