@@ -217,13 +217,12 @@ fn fuzzy_json_and_csv_modes() {
 
 #[test]
 fn replay_writes_our_estimate_beside_px4s_and_beside_ground_truth() {
-    let ulog =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("actors/estimator/tests/data/px4_sitl_takeoff_land.ulg");
+    let ulog = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/px4/px4_sitl_takeoff_land.ulg");
     let csv = temp_path("replay-ulog.csv");
     succeed(kestrel().args(["replay", "--log"]).arg(&ulog).arg("--out").arg(&csv));
     let rows = std::fs::read_to_string(&csv).unwrap();
     let _ = std::fs::remove_file(&csv);
-    assert!(rows.starts_with("time_s,roll_deg,pitch_deg,yaw_deg,px4_roll_deg"), "{}", &rows[..80]);
+    assert!(rows.starts_with(kestrel::replay::CSV_HEADER), "{}", &rows[..80]);
     assert!(rows.lines().count() > 100, "one row per EKF2 attitude sample");
 
     let mcap = temp_path("replay.mcap");

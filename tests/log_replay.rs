@@ -5,8 +5,11 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use kestrel::flight_log::FlightLog;
 use kestrel::recorder::LogReader;
+use kestrel::replay::replay;
 use kestrel::{LoadedConfig, Registry, RunError, RunOptions, RunReport, run};
+use kestrel_estimator::EkfParams;
 use kestrel_proto::Time;
 use kestrel_proto::messages::NavState;
 
@@ -179,4 +182,58 @@ fn a_speed_outside_the_pace_range_is_refused() {
         let message = config_error(run_replay("speed.toml", &params, "", 1.0));
         assert!(message.contains("`speed` must be within 0.001..=1000000"), "{speed}: {message}");
     }
+}
+
+/// One way in for a PX4 ULog too: the actor publishes the ULog's sensor topics (stamped with the
+/// log's EKF2 lags) into an estimator, and `kestrel::replay` over the recording of that run
+/// (its sensors, through a fresh filter with the same settings) gives the graph's estimate back.
+#[test]
+fn a_px4_ulog_replays_through_the_graph_as_kestrel_replay_reads_it() {
+    let ulog = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/px4/px4_sitl_takeoff_land.ulg");
+    let settings = FlightLog::open(&ulog).expect("the ULog reads").settings();
+    let params = settings.apply(EkfParams::default());
+    let text = format!(
+        r#"
+[run]
+clock = "lockstep"
+
+[record]
+topics = ["*"]
+
+[actors.replay]
+type = "log_replay"
+params = {{ log = "{}", topics = ["sensor_combined", "vehicle_gps_position", "vehicle_air_data", "vehicle_magnetometer"] }}
+
+[actors.estimator]
+type = "estimator"
+params = {{ gps_lag_s = {}, baro_lag_s = {}, mag_lag_s = {}, mag_declination_deg = {} }}
+inputs.imu = {{ topic = "imu", mailbox = "queue(64)" }}
+inputs.gps = {{ topic = "gps", mailbox = "queue(8)" }}
+inputs.baro = {{ topic = "baro", mailbox = "queue(8)" }}
+inputs.mag = {{ topic = "mag", mailbox = "queue(16)" }}
+"#,
+        ulog.display(),
+        params.gps_lag_s,
+        params.baro_lag_s,
+        params.mag_lag_s,
+        params.mag_declination_deg
+    );
+    let path = scratch("ulog.toml");
+    std::fs::write(&path, &text).expect("write config");
+    let config = LoadedConfig::load(&path).expect("config parses");
+    let out = scratch("ulog-replayed.mcap");
+    let options = RunOptions { speedup: Some(0.0), record: Some(out.clone()), ..RunOptions::default() };
+    let report = run(&config, &Registry::standard(), options).expect("replay runs");
+    for mailbox in &report.mailboxes {
+        assert_eq!(mailbox.overflowed, 0, "{} overflowed", mailbox.route);
+    }
+
+    let recorded = FlightLog::open(&out).expect("the recording reads");
+    let result = replay(&recorded, params).expect("the recording replays");
+    let s = result.summary.vs_estimate.as_ref().expect("the graph's nav_state was recorded");
+    println!("graph vs kestrel::replay on the ULog's samples: {s:?}");
+    assert!(s.rows > 1000, "{s:?}");
+    assert!(s.rms_attitude_deg.is_some_and(|a| a < 0.5), "{s:?}");
+    assert!(s.rms_horizontal_m.is_some_and(|h| h < 0.05), "{s:?}");
+    assert!(s.rms_height_m.is_some_and(|h| h < 0.05), "{s:?}");
 }

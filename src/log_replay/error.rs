@@ -3,15 +3,16 @@
 
 use std::path::PathBuf;
 
-use crate::recorder::RecorderError;
+use crate::flight_log::FlightLogError;
 
 /// A `log_replay` set-up failure.
 #[derive(Debug, thiserror::Error)]
 pub enum LogReplayError {
-    /// The log could not be read, or a topic in it could not be decoded (the reader's error
-    /// names the file and topic, and lists the log's topics when one is missing).
+    /// The log could not be read, a topic in it could not be decoded, is missing or holds no
+    /// sensor samples (the reader's error names the file and topic, and lists the log's topics
+    /// when one is missing).
     #[error(transparent)]
-    Log(#[from] RecorderError),
+    Log(#[from] FlightLogError),
 
     /// `topics` is empty: nothing would be published.
     #[error("`topics` is empty: name the recorded topics to publish from {}", path.display())]
@@ -20,14 +21,6 @@ pub enum LogReplayError {
     /// A topic was named twice in `topics`.
     #[error("`topics` names `{topic}` twice")]
     DuplicateTopic { topic: String },
-
-    /// The topic holds a message type the replay does not publish.
-    #[error(
-        "flight log {}: topic `{topic}` holds `{found}`, which log_replay cannot publish (it replays {})",
-        path.display(),
-        replayable.join(", ")
-    )]
-    NotReplayable { path: PathBuf, topic: String, found: String, replayable: Vec<&'static str> },
 
     /// Two topics of one type would go out on the same output port.
     #[error(

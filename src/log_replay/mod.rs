@@ -1,6 +1,7 @@
 //! `log_replay`: publishes a recorded flight log's sensor topics into a live graph, each message
 //! at its recorded log time on the graph clock, so the estimator (or anything downstream of the
-//! sensors) runs on a real flight as it did then — "estimator + link on a recorded log".
+//! sensors) runs on a real flight as it did then — "estimator + link on a recorded log". The
+//! log is read by [`FlightLog`], as `kestrel replay` reads it: a Kestrel MCAP log or a PX4 ULog.
 //!
 //! ```toml
 //! [actors.replay]
@@ -8,11 +9,14 @@
 //! params = { log = "../tests/data/sim-sensors.mcap", topics = ["imu", "gps", "baro", "mag"] }
 //! ```
 //!
-//! * `log` — a Kestrel MCAP log, relative to the config file.
-//! * `topics` — the recorded topics to publish. Each must hold one of the replayable types
-//!   (`ImuSample`, `GpsFix`, `BaroSample`, `MagSample`, `BatteryStatus`, see [`replayable`]),
-//!   and goes out on that type's port (`imu`, `gps`, `baro`, `mag`, `battery`; rename the
-//!   graph topic with `outputs.PORT`), so one topic per type.
+//! * `log` — a Kestrel MCAP log or a PX4 ULog, relative to the config file.
+//! * `topics` — the recorded topics to publish. In a Kestrel log each must hold one of the
+//!   replayable types (`ImuSample`, `GpsFix`, `BaroSample`, `MagSample`, `BatteryStatus`, see
+//!   [`crate::flight_log::replayable`]); in a ULog they are PX4's sensor topics
+//!   (`sensor_combined`, `vehicle_gps_position` or `sensor_gps`, `vehicle_air_data`,
+//!   `vehicle_magnetometer`), stamped with the log's `EKF2_*_DELAY` lags — give the estimator
+//!   the same lags. Each goes out on its type's port (`imu`, `gps`, `baro`, `mag`, `battery`;
+//!   rename the graph topic with `outputs.PORT`), so one topic per type.
 //! * `speed` — log seconds per graph second (default 1). Under the lockstep clock a replay runs
 //!   as fast as the graph handles it whatever the speed; under the real-time clock it keeps the
 //!   recorded pace divided by `speed`.
@@ -25,7 +29,7 @@
 //! sleeps on the graph clock until each message is due and publishes it.
 
 mod error;
-pub mod replayable;
+mod outputs;
 mod schedule;
 
 use std::convert::Infallible;
@@ -37,10 +41,10 @@ use serde::Deserialize;
 use tokio::task::JoinHandle;
 
 pub use error::LogReplayError;
-use replayable::{Kind, Outputs, Replayed};
+use outputs::Outputs;
 pub use schedule::{Pace, Schedule};
 
-use crate::recorder::{LogReader, RecorderError};
+use crate::flight_log::{FlightLog, Kind, Replayed};
 
 /// `[actors.NAME.params]` of a `log_replay` actor.
 #[derive(Clone, Debug, Deserialize)]
@@ -81,43 +85,28 @@ impl LogReplayActor {
         if params.topics.is_empty() {
             return Err(LogReplayError::NoTopics { path });
         }
-        let log = LogReader::open(&path)?;
+        let log = FlightLog::open(&path)?;
         if let Some(damage) = log.damage() {
             tracing::warn!(log = %path.display(), "the log is damaged or cut short, replaying what was readable: {damage}");
         }
-        let recorded = log.topics();
         let mut kinds: Vec<(Kind, &str)> = Vec::new();
+        let mut entries = Vec::new();
         for (i, topic) in params.topics.iter().enumerate() {
             if params.topics[..i].contains(topic) {
                 return Err(LogReplayError::DuplicateTopic { topic: topic.clone() });
             }
-            let Some(info) = recorded.iter().find(|t| &t.topic == topic) else {
-                return Err(LogReplayError::Log(RecorderError::UnknownTopic {
-                    path,
-                    topic: topic.clone(),
-                    available: recorded.into_iter().map(|t| t.topic).collect(),
-                }));
-            };
-            let kind = Kind::of_type(&info.schema_name).ok_or_else(|| LogReplayError::NotReplayable {
-                path: path.clone(),
-                topic: topic.clone(),
-                found: info.schema_name.clone(),
-                replayable: Kind::ALL.map(Kind::type_name).to_vec(),
-            })?;
-            if let Some((_, first)) = kinds.iter().find(|(k, _)| *k == kind) {
+            let sensor = log.sensor(topic)?;
+            if let Some((_, first)) = kinds.iter().find(|(k, _)| *k == sensor.kind) {
                 return Err(LogReplayError::SameType {
                     path,
                     first: (*first).to_owned(),
                     second: topic.clone(),
-                    type_name: kind.type_name(),
-                    port: kind.port(),
+                    type_name: sensor.kind.type_name(),
+                    port: sensor.kind.port(),
                 });
             }
-            kinds.push((kind, topic));
-        }
-        let mut entries = Vec::new();
-        for (kind, topic) in &kinds {
-            entries.extend(kind.read(&log, topic)?);
+            kinds.push((sensor.kind, topic));
+            entries.extend(sensor.samples.iter().cloned());
         }
         let outputs = Outputs::declare(&kinds.iter().map(|(k, _)| *k).collect::<Vec<_>>(), setup);
         Ok(LogReplayActor {

@@ -5,7 +5,8 @@
 //!   lagged GPS, barometer and magnetometer samples; read [`Ekf::nav_state`] and
 //!   [`Ekf::status`].
 //! * [`EstimatorActor`] is its actor shell.
-//! * [`replay`] runs the core over a PX4 ULog and compares with the log's own EKF2.
+//! * Replays of recorded flights (ULog, MCAP) live in the runtime (`kestrel::replay`), which
+//!   feeds this core: the core never reads a file.
 //!
 //! Layout (after EKF2): `state` (what is estimated), `filter` (prediction, correction
 //! primitives, resets), `covariance` (sparse `F P Fᵀ + G N Gᵀ`, scalar fusion, limits),
@@ -25,11 +26,9 @@ pub mod init;
 pub mod live_params;
 pub mod output_predictor;
 pub mod params;
-pub mod replay;
 pub mod state;
 
 pub use actor::{EstimatorActor, EstimatorInput};
 pub use ekf::Ekf;
 pub use error::{InputError, ParamError};
 pub use params::EkfParams;
-pub use replay::{ReplayError, ReplayResult, ReplayRow, ReplaySummary, UlogDamage, replay_ulog, write_csv};

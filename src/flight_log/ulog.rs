@@ -13,7 +13,7 @@ use px4_ulog::stream_parser::{
     Message, ParameterMessage, SimpleCallbackResult, read_file_with_simple_callback,
 };
 
-use crate::replay::ReplayError;
+use super::FlightLogError;
 
 /// The first instance of every topic of a log, as columns, and the log's parameters.
 pub struct Log {
@@ -48,20 +48,19 @@ impl std::fmt::Display for UlogDamage {
 }
 
 /// `ULog` then 0x01 0x12 0x35: the first bytes of every ULog file.
-const MAGIC: [u8; 7] = [b'U', b'L', b'o', b'g', 0x01, 0x12, 0x35];
+pub const MAGIC: [u8; 7] = [b'U', b'L', b'o', b'g', 0x01, 0x12, 0x35];
 /// The magic, a version byte and the start timestamp (µs).
 const HEADER_BYTES: usize = 16;
 /// A message's size (`u16`) and type (`u8`).
 const MESSAGE_HEADER_BYTES: usize = 3;
 
 impl Log {
-    /// Reads the whole log.
-    pub fn read(path: &Path) -> Result<Log, ReplayError> {
-        let name = path.to_str().ok_or_else(|| ReplayError::Path { path: path.to_owned() })?;
-        let io = |source| ReplayError::Read { path: path.to_owned(), source };
-        let bytes = std::fs::read(path).map_err(io)?;
+    /// Reads the whole log at `path`, whose content is `bytes`.
+    pub fn read(path: &Path, bytes: &[u8]) -> Result<Log, FlightLogError> {
+        let name = path.to_str().ok_or_else(|| FlightLogError::Path { path: path.to_owned() })?;
+        let io = |source| FlightLogError::Read { path: path.to_owned(), source };
         if bytes.len() < HEADER_BYTES || !bytes.starts_with(&MAGIC) {
-            return Err(ReplayError::NotUlog { path: path.to_owned(), bytes: bytes.len() as u64 });
+            return Err(FlightLogError::NotALog { path: path.to_owned(), bytes: bytes.len() as u64 });
         }
         let parsed = read_file(name).map_err(io)?;
         let ended_early = match &parsed.completeness {
@@ -70,7 +69,7 @@ impl Log {
             Completeness::MalformedRecord(why) => Some(format!("a message does not parse: {why}")),
         }
         .map(|reason| UlogDamage {
-            intact_bytes: whole_messages_end(&bytes) as u64,
+            intact_bytes: whole_messages_end(bytes) as u64,
             file_bytes: bytes.len() as u64,
             reason,
         });
@@ -100,6 +99,13 @@ impl Log {
         self.ended_early.as_ref()
     }
 
+    /// The log's topics (first instances), in name order.
+    pub fn topic_names(&self) -> impl Iterator<Item = &str> {
+        let mut names: Vec<&str> = self.topics.keys().map(String::as_str).collect();
+        names.sort_unstable();
+        names.into_iter()
+    }
+
     /// Whether the log has `topic`.
     pub fn has(&self, topic: &str) -> bool {
         self.topics.contains_key(topic)
@@ -116,14 +122,14 @@ impl Log {
     }
 
     /// A numeric column.
-    pub fn column(&self, topic: &str, field: &str) -> Result<Vec<f64>, ReplayError> {
+    pub fn column(&self, topic: &str, field: &str) -> Result<Vec<f64>, FlightLogError> {
         let fields = self.topics.get(topic).ok_or_else(|| self.missing(topic, None))?;
         let values = fields.get(field).ok_or_else(|| self.missing(topic, Some(field)))?;
         Ok(to_f64(values))
     }
 
     /// The first of `fields` the topic has, with the index of the one found.
-    pub fn column_any(&self, topic: &str, fields: &[&str]) -> Result<(usize, Vec<f64>), ReplayError> {
+    pub fn column_any(&self, topic: &str, fields: &[&str]) -> Result<(usize, Vec<f64>), FlightLogError> {
         for (i, field) in fields.iter().enumerate() {
             if self.has_field(topic, field) {
                 return Ok((i, self.column(topic, field)?));
@@ -133,32 +139,32 @@ impl Log {
     }
 
     /// Sample times of `topic` (µs since boot): `timestamp_sample` where logged, else `timestamp`.
-    pub fn sample_times_us(&self, topic: &str) -> Result<Vec<u64>, ReplayError> {
+    pub fn sample_times_us(&self, topic: &str) -> Result<Vec<u64>, FlightLogError> {
         let (_, t) = self.column_any(topic, &["timestamp_sample", "timestamp"])?;
         Ok(t.into_iter().map(|t| t.max(0.0) as u64).collect())
     }
 
     /// Publication times of `topic` (µs since boot).
-    pub fn times_us(&self, topic: &str) -> Result<Vec<u64>, ReplayError> {
+    pub fn times_us(&self, topic: &str) -> Result<Vec<u64>, FlightLogError> {
         Ok(self.column(topic, "timestamp")?.into_iter().map(|t| t.max(0.0) as u64).collect())
     }
 
     /// Three columns `name[0..3]` as vectors.
-    pub fn vec3(&self, topic: &str, name: &str) -> Result<Vec<[f64; 3]>, ReplayError> {
+    pub fn vec3(&self, topic: &str, name: &str) -> Result<Vec<[f64; 3]>, FlightLogError> {
         let c: Vec<Vec<f64>> =
             (0..3).map(|i| self.column(topic, &format!("{name}[{i}]"))).collect::<Result<_, _>>()?;
         Ok((0..c[0].len()).map(|k| [c[0][k], c[1][k], c[2][k]]).collect())
     }
 
     /// Four columns `name[0..4]`.
-    pub fn vec4(&self, topic: &str, name: &str) -> Result<Vec<[f64; 4]>, ReplayError> {
+    pub fn vec4(&self, topic: &str, name: &str) -> Result<Vec<[f64; 4]>, FlightLogError> {
         let c: Vec<Vec<f64>> =
             (0..4).map(|i| self.column(topic, &format!("{name}[{i}]"))).collect::<Result<_, _>>()?;
         Ok((0..c[0].len()).map(|k| [c[0][k], c[1][k], c[2][k], c[3][k]]).collect())
     }
 
-    fn missing(&self, topic: &str, field: Option<&str>) -> ReplayError {
-        ReplayError::Missing {
+    fn missing(&self, topic: &str, field: Option<&str>) -> FlightLogError {
+        FlightLogError::Missing {
             path: self.path.clone(),
             topic: topic.to_owned(),
             field: field.map(str::to_owned),
