@@ -343,7 +343,7 @@ mod tests {
         // A board rolled 3° right side down reads gravity leaning towards its left; the trim
         // turns it back to straight down.
         let level = BoardLevel::new(3.0, 0.0).expect("valid");
-        let g = 9.80665;
+        let g = crate::units::GRAVITY_M_S2;
         let reading = [0.0, -g * 3f64.to_radians().sin(), -g * 3f64.to_radians().cos()];
         let airframe = level.apply(reading);
         assert!(airframe[0].abs() < 1e-12 && airframe[1].abs() < 1e-12, "{airframe:?}");

@@ -218,7 +218,7 @@ fn accel_clip_clamps_at_the_full_scale_range_and_flags_the_axis() {
     // A ±0.5 g range, so that resting on the ground (−1 g on z) clips.
     let mut v = VehicleParams::default();
     v.sensors.imu.accel_full_scale_g = 0.5;
-    let range_m_s2 = 0.5 * 9.806_65;
+    let range_m_s2 = 0.5 * kestrel_proto::units::GRAVITY_M_S2;
     let base = imu(&run(&v, &[], 0.0, 2.0));
     let clipped = imu(&run(&v, &[fault(1.0, None, FaultKind::AccelClip)], 0.0, 2.0));
     let mut n = 0;
@@ -268,7 +268,7 @@ fn a_lost_motor_takes_a_quarter_of_the_thrust_and_a_weak_one_its_share() {
         let before = truths.iter().find(|t| t.time == Time::from_secs_f64(0.98)).expect("before");
         let after = truths.iter().find(|t| t.time == Time::from_secs_f64(1.02)).expect("after");
         assert!(before.acceleration_ned_m_s2[2].abs() < 1e-6, "{:?}", before.acceleration_ned_m_s2);
-        let expected = lost_share * 9.806_65;
+        let expected = lost_share * kestrel_proto::units::GRAVITY_M_S2;
         assert!(
             (after.acceleration_ned_m_s2[2] - expected).abs() < 0.01 * expected,
             "{kind:?}: {:?}",

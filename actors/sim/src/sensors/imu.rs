@@ -42,7 +42,7 @@ pub struct ImuParams {
     pub accel_offset_m_s2: [f64; 3],
     /// Accelerometer reading per unit of true specific force, per board axis (1 = exact).
     pub accel_scale: [f64; 3],
-    /// Full-scale range of each accelerometer axis (g, 9.80665 m/s²): the `accel_clip` fault
+    /// Full-scale range of each accelerometer axis (g, `kestrel_proto::units::GRAVITY_M_S2`): the `accel_clip` fault
     /// clamps the output there. The MPU-9250 offers ±2, 4, 8 and 16 g; flight stacks use 16.
     pub accel_full_scale_g: f64,
 }
