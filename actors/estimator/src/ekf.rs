@@ -41,7 +41,7 @@ const MAX_IMU_DT_S: f64 = 0.1;
 const IMU_GAP_S: f64 = 0.1;
 /// A GPS fix this recent lets the barometer fall back to GPS height (s).
 const GPS_HEIGHT_AVAILABLE_S: f64 = 1.0;
-/// Interval of the synthetic position fused while no GPS has ever been available (s).
+/// Interval of the synthetic position fused while there is no horizontal aiding (s).
 const NO_AIDING_INTERVAL_S: f64 = 0.2;
 
 /// The filter and its output once aligned.
@@ -50,6 +50,8 @@ struct Running {
     filter: Filter,
     output: OutputPredictor,
     last_no_aiding_fusion: Option<Time>,
+    /// Where horizontal aiding was lost (m, north and east): the synthetic position fused since.
+    held_position_ne_m: Option<[f64; 2]>,
     /// When the filter began: lagged samples measured before it (still in flight at alignment)
     /// are not fused, as samples before alignment are not, and are no fault to report.
     aligned_at: Time,
@@ -205,7 +207,13 @@ impl Ekf {
                 let filter = Filter::aligned(state, aligned.mag_earth_ned_gauss.is_some());
                 tracing::info!(time = %aligned.time, "estimator aligned");
                 self.running =
-                    Some(Running { filter, output, last_no_aiding_fusion: None, aligned_at: aligned.time });
+                    Some(Running {
+                    filter,
+                    output,
+                    last_no_aiding_fusion: None,
+                    held_position_ne_m: None,
+                    aligned_at: aligned.time,
+                });
             }
             return Ok(());
         };
@@ -239,6 +247,13 @@ impl Ekf {
             "IMU stream resumed after a gap: state uncertainty reset, waiting for GPS to reset position"
         );
         running.filter.resume_after_imu_gap(time);
+        // Observations measured during the gap cannot be fused against a state that never was
+        // at their time: the oldest GPS fix would reset the position to where the vehicle was
+        // seconds ago.
+        while self.gps_buffer.pop_oldest_if(|f| f.time < time).is_some() {}
+        while self.baro_buffer.pop_oldest_if(|s| s.time < time).is_some() {}
+        while self.climb_buffer.pop_oldest_if(|c| c.time < time).is_some() {}
+        while self.mag_buffer.pop_oldest_if(|s| s.time < time).is_some() {}
         running.filter.take_reset();
         running.output = OutputPredictor::new(
             &running.filter.state,
@@ -384,14 +399,26 @@ impl Ekf {
         while let Some(sample) = self.mag_buffer.pop_oldest_if(|s| s.time <= t) {
             self.mag.fuse(filter, &sample, params);
         }
-        if self.frame.is_none()
-            && running
-                .last_no_aiding_fusion
-                .is_none_or(|last| (t - last).as_secs_f64() >= NO_AIDING_INTERVAL_S)
+        // Without horizontal aiding (no GPS yet, or GPS lost past the position timeout), a
+        // synthetic "still here" position is fused, as EKF2's fake position: the origin before
+        // the first fix, the position where aiding was lost after it. It keeps velocity and the
+        // covariance bounded while the vehicle lands without position.
+        let unaided = self.frame.is_none()
+            || !self.gps.horizontal_aiding_within(t, params.horizontal_position_timeout_s);
+        if !unaided {
+            running.held_position_ne_m = None;
+        } else if running
+            .last_no_aiding_fusion
+            .is_none_or(|last| (t - last).as_secs_f64() >= NO_AIDING_INTERVAL_S)
         {
+            let held = if self.frame.is_none() {
+                [0.0, 0.0]
+            } else {
+                *running.held_position_ne_m.get_or_insert([filter.state.pos_ned_m.x, filter.state.pos_ned_m.y])
+            };
             let r = params.no_aiding_position_noise_m.powi(2);
-            for axis in 0..2 {
-                let y = -filter.state.pos_ned_m[axis];
+            for (axis, held_m) in held.iter().enumerate() {
+                let y = held_m - filter.state.pos_ned_m[axis];
                 filter.fuse(&SparseRow::unit(POS + axis), y, r);
             }
             running.last_no_aiding_fusion = Some(t);

@@ -23,6 +23,12 @@ const IMU_GAP_YAW_RAD: f64 = 0.5;
 const IMU_GAP_VEL_M_S: f64 = 5.0;
 const IMU_GAP_POS_M: f64 = 10.0;
 
+/// Standard deviations after GPS velocity was rejected for too long: a bias step of up to
+/// about 10°/s or 1 m/s² within 2σ.
+const INERTIAL_RESET_TILT_RAD: f64 = 0.1;
+const INERTIAL_RESET_GYRO_BIAS_RAD_S: f64 = 0.1;
+const INERTIAL_RESET_ACCEL_BIAS_M_S2: f64 = 0.5;
+
 /// Jumps of the state made by resets, which the output predictor must copy.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ResetDelta {
@@ -162,6 +168,15 @@ impl Filter {
         reset_block(&mut self.cov, ATT + 2, 1, IMU_GAP_YAW_RAD * IMU_GAP_YAW_RAD);
         reset_block(&mut self.cov, VEL, 3, IMU_GAP_VEL_M_S * IMU_GAP_VEL_M_S);
         reset_block(&mut self.cov, POS, 3, IMU_GAP_POS_M * IMU_GAP_POS_M);
+    }
+
+    /// After GPS velocity could not be followed for long: the inertial prediction is what is
+    /// wrong (a gyro or accelerometer bias step tilts it away), so tilt and both biases get back
+    /// a large uncertainty, uncorrelated, and the GPS velocity fused next corrects them.
+    pub fn raise_inertial_uncertainty(&mut self) {
+        reset_block(&mut self.cov, ATT, 2, INERTIAL_RESET_TILT_RAD * INERTIAL_RESET_TILT_RAD);
+        reset_block(&mut self.cov, GYRO_BIAS, 3, INERTIAL_RESET_GYRO_BIAS_RAD_S.powi(2));
+        reset_block(&mut self.cov, ACCEL_BIAS, 3, INERTIAL_RESET_ACCEL_BIAS_M_S2.powi(2));
     }
 
     /// Sets the NED velocity to `vel_ned_m_s` with variance `variance`, forgetting correlations.

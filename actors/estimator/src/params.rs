@@ -63,6 +63,9 @@ pub struct EkfParams {
     /// GPS position (or velocity) rejected continuously for this long resets it to GPS (s);
     /// PX4 EKF2's `reset_timeout_max`, 7 s.
     pub gps_reset_timeout_s: f64,
+    /// GPS velocity rejected continuously for this long resets velocity to GPS and raises the
+    /// tilt and bias uncertainty (s): the inertial prediction, not GPS velocity, is wrong.
+    pub gps_velocity_reset_timeout_s: f64,
     /// No GPS observation fused for this long and GPS is lost: the next usable fix resets
     /// position and velocity (s).
     pub gps_timeout_s: f64,
@@ -124,6 +127,7 @@ impl Default for EkfParams {
             in_flight_yaw_reset: true,
             mag_yaw_reset_height_m: 1.5,
             gps_reset_timeout_s: 7.0,
+            gps_velocity_reset_timeout_s: 1.0,
             gps_timeout_s: 1.0,
             gps_height_noise_m: 1.0,
             baro_timeout_s: 5.0,
@@ -161,6 +165,7 @@ impl EkfParams {
             ("mag_strength_tolerance", self.mag_strength_tolerance),
             ("mag_yaw_reset_height_m", self.mag_yaw_reset_height_m),
             ("gps_reset_timeout_s", self.gps_reset_timeout_s),
+            ("gps_velocity_reset_timeout_s", self.gps_velocity_reset_timeout_s),
             ("gps_timeout_s", self.gps_timeout_s),
             ("gps_height_noise_m", self.gps_height_noise_m),
             ("baro_timeout_s", self.baro_timeout_s),

@@ -183,3 +183,102 @@ impl BaroControl {
         self.gate_run.clear();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::covariance::ProcessNoise;
+    use crate::state::{ImuDelta, State};
+    use kestrel_proto::units::GRAVITY_M_S2;
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    const NOISE: ProcessNoise =
+        ProcessNoise { gyro_rad_s: 0.015, accel_m_s2: 0.25, gyro_bias_rad_s2: 1e-3, accel_bias_m_s3: 3e-3 };
+
+    /// A vehicle at rest at zero height for `seconds` from `start_s`: still IMU at 400 Hz, the
+    /// barometer at 10 Hz reading `baro_alt(t)` (m above the datum of 100 m), and GPS height 0
+    /// at 5 Hz when `gps`.
+    fn run(
+        filter: &mut Filter,
+        baro: &mut BaroControl,
+        params: &EkfParams,
+        (start_s, seconds): (f64, f64),
+        baro_alt: impl Fn(f64) -> f64,
+        gps: bool,
+    ) {
+        let steps = (seconds * 400.0).round() as u64;
+        let first = (start_s * 400.0).round() as u64;
+        for i in first + 1..=first + steps {
+            let time = Time::from_micros(i * 2500);
+            let t = time.as_secs_f64();
+            filter.predict(&ImuDelta::from_rates(time, [0.0; 3], [0.0, 0.0, -GRAVITY_M_S2], 0.0025), &NOISE);
+            if i % 40 == 0 {
+                let s = BaroSample { time, pressure_pa: 0.0, altitude_m: 100.0 + baro_alt(t), temperature_c: 20.0 };
+                baro.fuse_height(filter, &s, params, gps);
+            }
+            if gps && i % 80 == 0 {
+                let obs = GpsObservation {
+                    pos_ned_m: Vector3::zeros(),
+                    vel_ned_m_s: Vector3::zeros(),
+                    pos_var_m2: 0.25,
+                    height_var_m2: 1.0,
+                    vel_var_m2_s2: 0.01,
+                };
+                // Height from GPS, as the GPS control fuses it once the barometer is faulty.
+                if baro.faulty() {
+                    crate::aiding::gps::fuse_height(filter, &obs);
+                }
+                baro.check_against_gps(filter, &obs, params);
+            }
+        }
+    }
+
+    fn bench() -> (Filter, BaroControl, EkfParams) {
+        let filter = Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true);
+        let mut baro = BaroControl::default();
+        baro.set_datum(100.0);
+        (filter, baro, EkfParams::default())
+    }
+
+    #[test]
+    fn a_1_m_s_drift_is_caught_against_gps_and_height_comes_from_gps_until_the_baro_agrees_again() {
+        let (mut f, mut baro, p) = bench();
+        run(&mut f, &mut baro, &p, (0.0, 20.0), |_| 0.0, true);
+        assert!(!baro.faulty());
+        let drift = |t: f64| if (20.0..40.0).contains(&t) { t - 20.0 } else { 0.0 };
+        let mut caught_at = None;
+        for k in 0..200 {
+            let t0 = 20.0 + 0.1 * f64::from(k);
+            run(&mut f, &mut baro, &p, (t0, 0.1), drift, true);
+            if baro.faulty() && caught_at.is_none() {
+                caught_at = Some(t0 + 0.1 - 20.0);
+            }
+            // The estimate follows the drift at most until it is caught, then stays near GPS.
+            assert!(-f.state.pos_ned_m.z < p.baro_gps_tolerance_m + 2.0, "height {} at {t0}", -f.state.pos_ned_m.z);
+        }
+        let caught_s = caught_at.expect("the drift was caught");
+        // tolerance / rate + the fault timeout, and some lag of the filter behind the drift.
+        assert!(caught_s > 4.0 && caught_s < 7.0, "caught after {caught_s} s");
+        assert!(f.state.pos_ned_m.z.abs() < 1.5, "height from GPS: {}", -f.state.pos_ned_m.z);
+        // The drift is gone at 40 s: after RECOVERY_S of agreement the barometer is used again.
+        run(&mut f, &mut baro, &p, (40.0, RECOVERY_S - 1.0), drift, true);
+        assert!(baro.faulty());
+        run(&mut f, &mut baro, &p, (39.0 + RECOVERY_S, 2.0), drift, true);
+        assert!(!baro.faulty());
+        assert!(f.state.pos_ned_m.z.abs() < 1.0);
+    }
+
+    #[test]
+    fn without_gps_a_rejection_run_resets_the_height_to_the_barometer() {
+        let (mut f, mut baro, p) = bench();
+        run(&mut f, &mut baro, &p, (0.0, 10.0), |_| 0.0, false);
+        let resets = baro.counters.resets;
+        // A 30 m step (far outside the gate) held: rejected, then taken after baro_timeout_s.
+        run(&mut f, &mut baro, &p, (10.0, p.baro_timeout_s - 0.5), |_| 30.0, false);
+        assert!(f.state.pos_ned_m.z.abs() < 1.0, "rejected at first");
+        run(&mut f, &mut baro, &p, (9.5 + p.baro_timeout_s, 1.0), |_| 30.0, false);
+        assert!((f.state.pos_ned_m.z + 30.0).abs() < 1.0, "reset to the barometer: {}", f.state.pos_ned_m.z);
+        assert_eq!(baro.counters.resets, resets + 1);
+        assert!(!baro.faulty(), "without GPS the barometer is all there is");
+    }
+}

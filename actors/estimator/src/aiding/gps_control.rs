@@ -10,7 +10,10 @@
 //!   separately at `gps_gate_sigma`. A rejected position is dead reckoned on the velocity that
 //!   still passes; a run of rejections longer than `gps_reset_timeout_s` (EKF2's
 //!   `reset_timeout_max`, 7 s) resets to GPS, which by then is consistent with itself and not with
-//!   the filter. A jump shorter than that is never followed.
+//!   the filter. A jump shorter than that is never followed. Velocity does not jump when the
+//!   receiver glitches: velocity the filter cannot follow for `gps_velocity_reset_timeout_s`
+//!   means the inertial prediction is wrong (a gyro or accelerometer bias step), so velocity is
+//!   reset to GPS and tilt and biases made uncertain, for GPS velocity to correct them.
 //! * Loss: nothing usable for `gps_timeout_s` and the source is lost; the position is dead
 //!   reckoned (and reported invalid once horizontal aiding has been gone for
 //!   `horizontal_position_timeout_s`, see [`crate::ekf`]); the first usable fix after the loss
@@ -110,15 +113,19 @@ impl GpsControl {
         let mut fused = false;
 
         self.velocity = gps::velocity_innovations(filter, &obs, gate);
-        match self.velocity_run.judge(now, passes(&self.velocity), timeout_s) {
+        match self.velocity_run.judge(now, passes(&self.velocity), params.gps_velocity_reset_timeout_s) {
             Verdict::Fuse => {
                 fused |= gps::fuse_velocity(filter, &obs);
                 self.last_velocity_fused = Some(now);
             }
             Verdict::Reject => rejected = true,
             Verdict::TimedOut => {
-                tracing::warn!(time = %now, "GPS velocity rejected for too long: resetting to GPS");
+                tracing::warn!(
+                    time = %now,
+                    "GPS velocity rejected for too long: resetting to it, tilt and biases uncertain"
+                );
                 filter.reset_velocity(obs.vel_ned_m_s, obs.vel_var_m2_s2);
+                filter.raise_inertial_uncertainty();
                 self.counters.resets += 1;
                 self.last_velocity_fused = Some(now);
             }
