@@ -80,15 +80,18 @@ mod tests {
         let mut e = EstimatorEvents::default();
         for (t, rejected, fusing, faulty) in [
             (1.0, 0, true, false),
-            (1.1, 1, true, false),
-            (1.2, 3, true, false),
-            (1.3, 3, true, false),
-            (1.4, 4, false, true),
-            (1.5, 4, false, true),
+            (1.5, 1, true, false),
+            (2.0, 3, true, false),
+            (2.5, 3, true, false),
+            (3.0, 4, false, true),
+            (3.5, 4, false, true),
         ] {
             e.on_status(&status(t, rejected, fusing, faulty));
         }
         let got: Vec<(f64, &str)> = e.log.iter().map(|v| (v.t_s, v.event.as_str())).collect();
-        assert_eq!(got, [(1.1, "gps_rejected"), (1.4, "gps_rejected"), (1.4, "gps_lost"), (1.4, "baro_faulty")]);
+        assert_eq!(
+            got,
+            [(1.5, "gps_rejected"), (3.0, "gps_rejected"), (3.0, "gps_lost"), (3.0, "baro_faulty")]
+        );
     }
 }

@@ -15,8 +15,8 @@ use std::time::Instant;
 use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
-    AvoidanceCommand, ControlLoopStats, EstimatorStatus, GroundTruth, NavState, Setpoint, SetpointTarget, SimFault,
-    StereoFrame, VehicleStatus,
+    AvoidanceCommand, ControlLoopStats, EstimatorStatus, GroundTruth, NavState, Setpoint, SetpointTarget,
+    SimFault, StereoFrame, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use serde::{Deserialize, Serialize};

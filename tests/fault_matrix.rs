@@ -148,7 +148,10 @@ const CASES: [Case; 13] = [
 /// (`cargo nextest run --run-ignored all -E 'binary(fault_matrix)'` flies them) and the table
 /// leaves them out.
 const KNOWN_FAILURES: [(u32, &str); 5] = [
-    (3, "dead reckoning with no horizontal aiding at all diverges within a minute: the landing without position drifts and never ends"),
+    (
+        3,
+        "dead reckoning with no horizontal aiding at all diverges within a minute: the landing without position drifts and never ends",
+    ),
     (8, "3 s without IMU at 5 m/s: the vehicle flies open loop and ends on the ground"),
     (9, "a restarted estimator aligns again, which needs a still vehicle: in flight it crashes"),
     (11, "no motor-failure detection or reallocation: the hexa loses control"),
@@ -171,7 +174,8 @@ fn rows_dir() -> PathBuf {
 /// The world (`empty.toml` plus the case's fault), the stock graph flying it with the case's
 /// vehicle, and the mission, in a scratch directory; returns the graph and the plan.
 fn prepare(case: &Case) -> (PathBuf, PathBuf) {
-    let dir = std::env::temp_dir().join(format!("kestrel-fault-matrix-{}-{}", std::process::id(), case.order));
+    let dir =
+        std::env::temp_dir().join(format!("kestrel-fault-matrix-{}-{}", std::process::id(), case.order));
     std::fs::create_dir_all(&dir).unwrap();
     let config_dir = repo().join("config");
     let world = dir.join("world.toml");
@@ -311,7 +315,12 @@ fn run_case(order: u32) {
     };
     let line = format!(
         "| {} | {} | {} | {:.1} | {:.1} | {} |",
-        case.name, outcome.action, outcome.detected, outcome.worst_estimate_m, outcome.worst_tracking_m, outcome.ended
+        case.name,
+        outcome.action,
+        outcome.detected,
+        outcome.worst_estimate_m,
+        outcome.worst_tracking_m,
+        outcome.ended
     );
     println!("{line}\n  failsafes {failsafes:?}\n  estimator events {events:?}");
     let dir = rows_dir();

@@ -206,8 +206,7 @@ impl Ekf {
                 }
                 let filter = Filter::aligned(state, aligned.mag_earth_ned_gauss.is_some());
                 tracing::info!(time = %aligned.time, "estimator aligned");
-                self.running =
-                    Some(Running {
+                self.running = Some(Running {
                     filter,
                     output,
                     last_no_aiding_fusion: None,
@@ -414,7 +413,9 @@ impl Ekf {
             let held = if self.frame.is_none() {
                 [0.0, 0.0]
             } else {
-                *running.held_position_ne_m.get_or_insert([filter.state.pos_ned_m.x, filter.state.pos_ned_m.y])
+                *running
+                    .held_position_ne_m
+                    .get_or_insert([filter.state.pos_ned_m.x, filter.state.pos_ned_m.y])
             };
             let r = params.no_aiding_position_noise_m.powi(2);
             for (axis, held_m) in held.iter().enumerate() {
@@ -438,7 +439,8 @@ impl Ekf {
         let params = &self.params;
         let t = f.time;
         let gps_velocity = self.gps.velocity_aiding(t, params);
-        let height = self.baro.height_aiding(t, params) || (self.baro.faulty() && self.gps.position_aiding(t, params));
+        let height =
+            self.baro.height_aiding(t, params) || (self.baro.faulty() && self.gps.position_aiding(t, params));
         Some(NavState {
             time: o.time,
             attitude: [q.w, q.i, q.j, q.k],
@@ -452,7 +454,9 @@ impl Ekf {
             valid: NavValidity {
                 attitude: true,
                 horizontal_velocity: gps_velocity,
-                horizontal_position: self.gps.horizontal_aiding_within(t, params.horizontal_position_timeout_s),
+                horizontal_position: self
+                    .gps
+                    .horizontal_aiding_within(t, params.horizontal_position_timeout_s),
                 vertical_velocity: gps_velocity || height,
                 vertical_position: height,
             },

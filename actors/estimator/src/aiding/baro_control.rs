@@ -85,7 +85,13 @@ impl BaroControl {
     /// Fuses the height of `sample` into `filter` (at the sample's time); `gps_available`: a
     /// usable GPS fix is recent, so a rejection run makes the barometer faulty rather than
     /// resetting the height to it.
-    pub fn fuse_height(&mut self, filter: &mut Filter, sample: &BaroSample, params: &EkfParams, gps_available: bool) {
+    pub fn fuse_height(
+        &mut self,
+        filter: &mut Filter,
+        sample: &BaroSample,
+        params: &EkfParams,
+        gps_available: bool,
+    ) {
         let offset = *self.offset_m.get_or_insert(sample.altitude_m + filter.state.pos_ned_m.z);
         let down_m = offset - sample.altitude_m;
         let now = filter.state.time;
@@ -212,11 +218,16 @@ mod tests {
             let time = Time::from_micros(i * 2500);
             let t = time.as_secs_f64();
             filter.predict(&ImuDelta::from_rates(time, [0.0; 3], [0.0, 0.0, -GRAVITY_M_S2], 0.0025), &NOISE);
-            if i % 40 == 0 {
-                let s = BaroSample { time, pressure_pa: 0.0, altitude_m: 100.0 + baro_alt(t), temperature_c: 20.0 };
+            if i.is_multiple_of(40) {
+                let s = BaroSample {
+                    time,
+                    pressure_pa: 0.0,
+                    altitude_m: 100.0 + baro_alt(t),
+                    temperature_c: 20.0,
+                };
                 baro.fuse_height(filter, &s, params, gps);
             }
-            if gps && i % 80 == 0 {
+            if gps && i.is_multiple_of(80) {
                 let obs = GpsObservation {
                     pos_ned_m: Vector3::zeros(),
                     vel_ned_m_s: Vector3::zeros(),
@@ -254,7 +265,11 @@ mod tests {
                 caught_at = Some(t0 + 0.1 - 20.0);
             }
             // The estimate follows the drift at most until it is caught, then stays near GPS.
-            assert!(-f.state.pos_ned_m.z < p.baro_gps_tolerance_m + 2.0, "height {} at {t0}", -f.state.pos_ned_m.z);
+            assert!(
+                -f.state.pos_ned_m.z < p.baro_gps_tolerance_m + 2.0,
+                "height {} at {t0}",
+                -f.state.pos_ned_m.z
+            );
         }
         let caught_s = caught_at.expect("the drift was caught");
         // tolerance / rate + the fault timeout, and some lag of the filter behind the drift.

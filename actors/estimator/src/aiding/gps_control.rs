@@ -217,7 +217,7 @@ mod tests {
                 let time = Time::from_micros(self.t_us);
                 let imu = ImuDelta::from_rates(time, [0.0; 3], [0.0, 0.0, -GRAVITY_M_S2], 0.0025);
                 self.filter.predict(&imu, &NOISE);
-                if self.t_us % 200_000 == 0
+                if self.t_us.is_multiple_of(200_000)
                     && let Some(ned) = fix_at(time.as_secs_f64())
                 {
                     let local = LocalFrame::new(HOME);
@@ -251,7 +251,10 @@ mod tests {
         let before = b.gps.counters;
         b.run(5.0, |_| Some([50.0, 0.0, 0.0]));
         assert!(b.north_m().abs() < 0.5, "followed the jump to {} m", b.north_m());
-        assert!(b.gps.position_aiding(b.filter.state.time, &b.params) || b.gps.velocity_aiding(b.filter.state.time, &b.params));
+        assert!(
+            b.gps.position_aiding(b.filter.state.time, &b.params)
+                || b.gps.velocity_aiding(b.filter.state.time, &b.params)
+        );
         assert_eq!(b.gps.counters.resets, before.resets, "no reset");
         assert!(b.gps.counters.rejected >= before.rejected + 24, "{:?}", b.gps.counters);
         b.run(5.0, |_| Some([0.0; 3]));
@@ -281,7 +284,10 @@ mod tests {
         b.run(3.0, |_| None);
         let now = b.filter.state.time;
         assert!(!b.gps.horizontal_aiding_within(now, b.params.gps_timeout_s), "lost after gps_timeout_s");
-        assert!(b.gps.horizontal_aiding_within(now, b.params.horizontal_position_timeout_s), "position still valid");
+        assert!(
+            b.gps.horizontal_aiding_within(now, b.params.horizontal_position_timeout_s),
+            "position still valid"
+        );
         // The vehicle moved 20 m while GPS was gone: the first fix is taken whole.
         b.run(0.2, |_| Some([20.0, 0.0, 0.0]));
         assert!((b.north_m() - 20.0).abs() < 0.5, "{} m", b.north_m());

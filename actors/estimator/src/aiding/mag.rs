@@ -41,7 +41,12 @@ pub fn field_innovations(
 
 /// Fuses the three axes one after the other (each against the state the previous left);
 /// whether any was taken.
-pub fn fuse_field(filter: &mut Filter, measured: &Vector3<f64>, earth: &Vector3<f64>, params: &EkfParams) -> bool {
+pub fn fuse_field(
+    filter: &mut Filter,
+    measured: &Vector3<f64>,
+    earth: &Vector3<f64>,
+    params: &EkfParams,
+) -> bool {
     let r = params.mag_noise_gauss.powi(2);
     (0..3).fold(false, |fused, axis| {
         let (predicted, jacobian) = predict(filter, earth);
