@@ -1,7 +1,8 @@
 //! The machine-readable flight report (`kestrel run --report FILE.json`): did the mission
 //! complete, did the vehicle hit anything, how far was the estimate from the truth, how
 //! regular was the control loop, which failsafes fired, and which simulated faults were
-//! injected when (the simulator's `sim_fault`).
+//! injected when (the simulator's `sim_fault`), and what the estimator noticed when
+//! (`estimator_status`, see [`crate::estimator_events`]).
 //!
 //! It is an ordinary actor fed through queue mailboxes, so under lockstep it sees every
 //! message and the report of a simulated flight is as repeatable as the flight itself. Each
@@ -14,12 +15,13 @@ use std::time::Instant;
 use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
-    AvoidanceCommand, ControlLoopStats, GroundTruth, NavState, Setpoint, SetpointTarget, SimFault,
-    StereoFrame, VehicleStatus,
+    AvoidanceCommand, ControlLoopStats, EstimatorStatus, GroundTruth, NavState, Setpoint, SetpointTarget,
+    SimFault, StereoFrame, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use serde::{Deserialize, Serialize};
 
+use crate::estimator_events::{EstimatorEvent, EstimatorEvents};
 use crate::frame_latency::FrameLatency;
 use crate::serde_name::serde_name;
 
@@ -33,7 +35,7 @@ pub struct FlightReportParams {
 
 /// The topics the report reads, with their message types, so the runtime can route the ones
 /// a graph has.
-pub const REPORT_INPUTS: [(&str, &str); 8] = [
+pub const REPORT_INPUTS: [(&str, &str); 9] = [
     ("ground_truth", <GroundTruth as kestrel_proto::Message>::TYPE_NAME),
     ("nav_state", <NavState as kestrel_proto::Message>::TYPE_NAME),
     ("vehicle_status", <VehicleStatus as kestrel_proto::Message>::TYPE_NAME),
@@ -42,6 +44,7 @@ pub const REPORT_INPUTS: [(&str, &str); 8] = [
     ("stereo_frame", <StereoFrame as kestrel_proto::Message>::TYPE_NAME),
     ("avoidance_command", <AvoidanceCommand as kestrel_proto::Message>::TYPE_NAME),
     ("sim_fault", <SimFault as kestrel_proto::Message>::TYPE_NAME),
+    ("estimator_status", <EstimatorStatus as kestrel_proto::Message>::TYPE_NAME),
 ];
 
 /// What the report actor handles.
@@ -55,6 +58,7 @@ pub enum ReportInput {
     Frame(StereoFrame),
     Avoidance(AvoidanceCommand),
     Fault(SimFault),
+    Estimator(Box<EstimatorStatus>),
 }
 
 /// The report, in the field layout other tools rely on (docs/design.md).
@@ -70,6 +74,9 @@ pub struct FlightReport {
     /// without a simulator or faults.
     #[serde(default)]
     pub faults: Vec<FaultEntry>,
+    /// What the estimator noticed, in order; empty without an estimator.
+    #[serde(default)]
+    pub estimator_events: Vec<EstimatorEvent>,
 }
 
 /// A simulated fault starting or ending.
@@ -227,6 +234,7 @@ pub struct FlightReportActor {
     loop_stats: Option<ControlLoopStats>,
     failsafes: Vec<FailsafeEntry>,
     faults: Vec<FaultEntry>,
+    estimator_events: EstimatorEvents,
     frame_latency: FrameLatency,
     /// Horizontal true path while airborne (m) and its first and latest points (NED, m).
     path_length_m: f64,
@@ -357,6 +365,7 @@ impl FlightReportActor {
             }),
             failsafes: self.failsafes.clone(),
             faults: self.faults.clone(),
+            estimator_events: self.estimator_events.log.clone(),
         }
     }
 }
@@ -374,6 +383,7 @@ impl Actor for FlightReportActor {
         setup.input("stereo_frame", ReportInput::Frame);
         setup.input("avoidance_command", ReportInput::Avoidance);
         setup.input("sim_fault", ReportInput::Fault);
+        setup.input("estimator_status", |s| ReportInput::Estimator(Box::new(s)));
         Ok(FlightReportActor {
             out: params.out.clone(),
             first: None,
@@ -388,6 +398,7 @@ impl Actor for FlightReportActor {
             loop_stats: None,
             failsafes: Vec::new(),
             faults: Vec::new(),
+            estimator_events: EstimatorEvents::default(),
             frame_latency: FrameLatency::default(),
             path_length_m: 0.0,
             airborne_first: None,
@@ -420,6 +431,10 @@ impl Actor for FlightReportActor {
                     kind: f.kind,
                     values: f.values,
                 });
+            }
+            ReportInput::Estimator(s) => {
+                self.seen(s.time);
+                self.estimator_events.on_status(&s);
             }
             ReportInput::Loop(l) => {
                 self.seen(l.time);

@@ -4,6 +4,7 @@
 pub mod activity;
 pub mod clock;
 pub mod config;
+pub mod estimator_events;
 pub mod fault_injection;
 pub mod flight_log;
 pub mod flight_plots;

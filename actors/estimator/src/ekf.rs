@@ -14,9 +14,11 @@ use kestrel_proto::messages::{
 };
 use nalgebra::Vector3;
 
-use crate::aiding::baro::{BaroControl, ClimbRate, ClimbRateFit};
-use crate::aiding::gps::GpsControl;
-use crate::aiding::mag::MagControl;
+use crate::aiding::baro::{ClimbRate, ClimbRateFit};
+use crate::aiding::baro_control::BaroControl;
+use crate::aiding::gps_control::GpsControl;
+use crate::aiding::mag_control::MagControl;
+use crate::aiding::recent;
 use crate::arrivals::Arrivals;
 use crate::covariance::{ProcessNoise, SparseRow};
 use crate::delay_buffer::DelayBuffer;
@@ -34,7 +36,12 @@ const MAX_IMU_RATE_HZ: f64 = 1000.0;
 const HISTORY_CAPACITY: usize = (MAX_LAG_S * MAX_IMU_RATE_HZ) as usize + 16;
 /// Longest IMU interval accepted (s); a longer gap is a sensor fault.
 const MAX_IMU_DT_S: f64 = 0.1;
-/// Interval of the synthetic position fused while no GPS has ever been available (s).
+/// A longer silence between two IMU samples is the stream stopping (s): the filter cannot have
+/// predicted across it (see [`Ekf::resume_after_imu_gap`]).
+const IMU_GAP_S: f64 = 0.1;
+/// A GPS fix this recent lets the barometer fall back to GPS height (s).
+const GPS_HEIGHT_AVAILABLE_S: f64 = 1.0;
+/// Interval of the synthetic position fused while there is no horizontal aiding (s).
 const NO_AIDING_INTERVAL_S: f64 = 0.2;
 
 /// The filter and its output once aligned.
@@ -43,6 +50,8 @@ struct Running {
     filter: Filter,
     output: OutputPredictor,
     last_no_aiding_fusion: Option<Time>,
+    /// Where horizontal aiding was lost (m, north and east): the synthetic position fused since.
+    held_position_ne_m: Option<[f64; 2]>,
     /// When the filter began: lagged samples measured before it (still in flight at alignment)
     /// are not fused, as samples before alignment are not, and are no fault to report.
     aligned_at: Time,
@@ -69,6 +78,8 @@ pub struct Ekf {
     newest_imu: Option<Time>,
     newest_gyro_rad_s: Vector3<f64>,
     imu_rejected: u64,
+    /// Times the IMU stream stopped and resumed in flight.
+    imu_gaps: u32,
     /// Accepted IMU samples with a clipped axis, for the health report.
     imu_clipped: u64,
     /// Whether the previous accepted IMU sample was clipped: one warning per clipping episode,
@@ -108,6 +119,7 @@ impl Ekf {
             newest_imu: None,
             newest_gyro_rad_s: Vector3::zeros(),
             imu_rejected: 0,
+            imu_gaps: 0,
             imu_clipped: 0,
             imu_clipping: false,
             arrivals: DroppedSamples::default(),
@@ -174,6 +186,9 @@ impl Ekf {
             return Err(e);
         }
         self.count_clipping(sample);
+        if self.newest_imu.is_some_and(|newest| (sample.time - newest).as_secs_f64() > IMU_GAP_S) {
+            self.resume_after_imu_gap(sample.time);
+        }
         self.newest_imu = Some(sample.time);
         self.newest_gyro_rad_s = Vector3::from(sample.gyro_rad_s);
         let delta = ImuDelta::from_rates(sample.time, sample.gyro_rad_s, sample.accel_m_s2, sample.dt_s);
@@ -191,8 +206,13 @@ impl Ekf {
                 }
                 let filter = Filter::aligned(state, aligned.mag_earth_ned_gauss.is_some());
                 tracing::info!(time = %aligned.time, "estimator aligned");
-                self.running =
-                    Some(Running { filter, output, last_no_aiding_fusion: None, aligned_at: aligned.time });
+                self.running = Some(Running {
+                    filter,
+                    output,
+                    last_no_aiding_fusion: None,
+                    held_position_ne_m: None,
+                    aligned_at: aligned.time,
+                });
             }
             return Ok(());
         };
@@ -205,6 +225,42 @@ impl Ekf {
             self.step_delayed(&d);
         }
         Ok(())
+    }
+
+    /// The IMU stream resumed at `time` after a silence: what was buffered before it is
+    /// predicted and fused as usual, then the filter is taken to `time` with the uncertainty of
+    /// the gap ([`Filter::resume_after_imu_gap`]), the output predictor restarts from it, and
+    /// the next GPS fix resets position and velocity. Until then the position is reported
+    /// invalid, which is what makes the commander land. Without this the filter, confident in
+    /// the state before the gap, gates out every observation after it and diverges.
+    fn resume_after_imu_gap(&mut self, time: Time) {
+        while let Some(d) = self.imu_buffer.pop_oldest_if(|_| true) {
+            self.step_delayed(&d);
+        }
+        let Some(running) = self.running.as_mut() else { return };
+        self.imu_gaps += 1;
+        tracing::warn!(
+            time = %time,
+            since = %running.filter.state.time,
+            gaps = self.imu_gaps,
+            "IMU stream resumed after a gap: state uncertainty reset, waiting for GPS to reset position"
+        );
+        running.filter.resume_after_imu_gap(time);
+        // Observations measured during the gap cannot be fused against a state that never was
+        // at their time: the oldest GPS fix would reset the position to where the vehicle was
+        // seconds ago.
+        while self.gps_buffer.pop_oldest_if(|f| f.time < time).is_some() {}
+        while self.baro_buffer.pop_oldest_if(|s| s.time < time).is_some() {}
+        while self.climb_buffer.pop_oldest_if(|c| c.time < time).is_some() {}
+        while self.mag_buffer.pop_oldest_if(|s| s.time < time).is_some() {}
+        running.filter.take_reset();
+        running.output = OutputPredictor::new(
+            &running.filter.state,
+            HISTORY_CAPACITY,
+            self.params.fusion_horizon_s(),
+            self.params.output_tau_s,
+        );
+        self.gps.force_reset();
     }
 
     /// Takes a GPS fix stamped with its time of validity.
@@ -325,10 +381,16 @@ impl Ekf {
         let t = filter.state.time;
         let params = &self.params;
         while let Some(fix) = self.gps_buffer.pop_oldest_if(|f| f.time <= t) {
-            self.gps.fuse(filter, &fix, &mut self.frame, params);
+            self.gps.fuse(filter, &fix, &mut self.frame, params, self.baro.faulty());
+            if let Some((at, obs)) = self.gps.newest
+                && at == t
+            {
+                self.baro.check_against_gps(filter, &obs, params);
+            }
         }
+        let gps_available = recent(self.gps.newest.map(|n| n.0), t, GPS_HEIGHT_AVAILABLE_S);
         while let Some(sample) = self.baro_buffer.pop_oldest_if(|s| s.time <= t) {
-            self.baro.fuse_height(filter, &sample, params);
+            self.baro.fuse_height(filter, &sample, params, gps_available);
         }
         while let Some(climb) = self.climb_buffer.pop_oldest_if(|c| c.time <= t) {
             self.baro.fuse_climb_rate(filter, &climb, params);
@@ -336,14 +398,28 @@ impl Ekf {
         while let Some(sample) = self.mag_buffer.pop_oldest_if(|s| s.time <= t) {
             self.mag.fuse(filter, &sample, params);
         }
-        if self.frame.is_none()
-            && running
-                .last_no_aiding_fusion
-                .is_none_or(|last| (t - last).as_secs_f64() >= NO_AIDING_INTERVAL_S)
+        // Without horizontal aiding (no GPS yet, or GPS lost past the position timeout), a
+        // synthetic "still here" position is fused, as EKF2's fake position: the origin before
+        // the first fix, the position where aiding was lost after it. It keeps velocity and the
+        // covariance bounded while the vehicle lands without position.
+        let unaided = self.frame.is_none()
+            || !self.gps.horizontal_aiding_within(t, params.horizontal_position_timeout_s);
+        if !unaided {
+            running.held_position_ne_m = None;
+        } else if running
+            .last_no_aiding_fusion
+            .is_none_or(|last| (t - last).as_secs_f64() >= NO_AIDING_INTERVAL_S)
         {
+            let held = if self.frame.is_none() {
+                [0.0, 0.0]
+            } else {
+                *running
+                    .held_position_ne_m
+                    .get_or_insert([filter.state.pos_ned_m.x, filter.state.pos_ned_m.y])
+            };
             let r = params.no_aiding_position_noise_m.powi(2);
-            for axis in 0..2 {
-                let y = -filter.state.pos_ned_m[axis];
+            for (axis, held_m) in held.iter().enumerate() {
+                let y = held_m - filter.state.pos_ned_m[axis];
                 filter.fuse(&SparseRow::unit(POS + axis), y, r);
             }
             running.last_no_aiding_fusion = Some(t);
@@ -363,7 +439,8 @@ impl Ekf {
         let params = &self.params;
         let t = f.time;
         let gps_velocity = self.gps.velocity_aiding(t, params);
-        let baro_height = self.baro.height_aiding(t, params);
+        let height =
+            self.baro.height_aiding(t, params) || (self.baro.faulty() && self.gps.position_aiding(t, params));
         Some(NavState {
             time: o.time,
             attitude: [q.w, q.i, q.j, q.k],
@@ -377,9 +454,11 @@ impl Ekf {
             valid: NavValidity {
                 attitude: true,
                 horizontal_velocity: gps_velocity,
-                horizontal_position: self.gps.position_aiding(t, params),
-                vertical_velocity: gps_velocity || baro_height,
-                vertical_position: baro_height,
+                horizontal_position: self
+                    .gps
+                    .horizontal_aiding_within(t, params.horizontal_position_timeout_s),
+                vertical_velocity: gps_velocity || height,
+                vertical_position: height,
             },
         })
     }
@@ -403,7 +482,7 @@ impl Ekf {
                 tilt_aligned: aligned,
                 yaw_aligned: aligned && self.mag.fusing(t, params),
                 origin_set: self.frame.is_some(),
-                gps_fusing: self.gps.position_aiding(t, params),
+                gps_fusing: self.gps.horizontal_aiding_within(t, params.gps_timeout_s),
                 baro_fusing: self.baro.height_aiding(t, params),
                 mag_fusing: self.mag.fusing(t, params),
                 dead_reckoning: aligned && !self.gps.position_aiding(t, params),
@@ -413,6 +492,8 @@ impl Ekf {
                     .as_ref()
                     .map_or(0, |r| r.filter.numerical_faults + r.filter.covariance_resets),
                 imu_rejected: self.imu_rejected,
+                imu_gaps: self.imu_gaps,
+                baro_faulty: self.baro.faulty(),
                 imu_clipped: self.imu_clipped,
             },
             fusion_horizon_s: self.newest_imu.map_or(0.0, |n| (n - t).as_secs_f64()),

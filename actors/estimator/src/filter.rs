@@ -17,6 +17,18 @@ const INIT_POS_M: f64 = 1.0;
 const INIT_GYRO_BIAS_RAD_S: f64 = 0.01;
 const INIT_ACCEL_BIAS_M_S2: f64 = 0.2;
 
+/// Standard deviations after an IMU gap: seconds of flight on unknown rates and forces.
+const IMU_GAP_TILT_RAD: f64 = 0.2;
+const IMU_GAP_YAW_RAD: f64 = 0.5;
+const IMU_GAP_VEL_M_S: f64 = 5.0;
+const IMU_GAP_POS_M: f64 = 10.0;
+
+/// Standard deviations after GPS velocity was rejected for too long: a bias step of up to
+/// about 10°/s or 1 m/s² within 2σ.
+const INERTIAL_RESET_TILT_RAD: f64 = 0.1;
+const INERTIAL_RESET_GYRO_BIAS_RAD_S: f64 = 0.1;
+const INERTIAL_RESET_ACCEL_BIAS_M_S2: f64 = 0.5;
+
 /// Jumps of the state made by resets, which the output predictor must copy.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ResetDelta {
@@ -135,6 +147,36 @@ impl Filter {
         self.state.pos_ned_m += delta;
         self.pending_reset.pos_ned_m += delta;
         reset_block(&mut self.cov, POS, 2, variance_m2);
+    }
+
+    /// Sets the down position to `down_m` with variance `variance_m2`, forgetting correlations
+    /// (a height source switch or a rejection timeout).
+    pub fn reset_vertical_position(&mut self, down_m: f64, variance_m2: f64) {
+        let delta = down_m - self.state.pos_ned_m.z;
+        self.state.pos_ned_m.z = down_m;
+        self.pending_reset.pos_ned_m.z += delta;
+        reset_block(&mut self.cov, POS + 2, 1, variance_m2);
+    }
+
+    /// After the IMU stream stopped and resumed at `time`: the state is taken to `time` as it
+    /// was (there is nothing to predict with) and everything the gap made unknown gets back its
+    /// initial uncertainty or more, with its correlations forgotten, so the aiding pulls the
+    /// state in quickly instead of being gated out against a stale, confident one.
+    pub fn resume_after_imu_gap(&mut self, time: kestrel_proto::Time) {
+        self.state.time = time;
+        reset_block(&mut self.cov, ATT, 2, IMU_GAP_TILT_RAD * IMU_GAP_TILT_RAD);
+        reset_block(&mut self.cov, ATT + 2, 1, IMU_GAP_YAW_RAD * IMU_GAP_YAW_RAD);
+        reset_block(&mut self.cov, VEL, 3, IMU_GAP_VEL_M_S * IMU_GAP_VEL_M_S);
+        reset_block(&mut self.cov, POS, 3, IMU_GAP_POS_M * IMU_GAP_POS_M);
+    }
+
+    /// After GPS velocity could not be followed for long: the inertial prediction is what is
+    /// wrong (a gyro or accelerometer bias step tilts it away), so tilt and both biases get back
+    /// a large uncertainty, uncorrelated, and the GPS velocity fused next corrects them.
+    pub fn raise_inertial_uncertainty(&mut self) {
+        reset_block(&mut self.cov, ATT, 2, INERTIAL_RESET_TILT_RAD * INERTIAL_RESET_TILT_RAD);
+        reset_block(&mut self.cov, GYRO_BIAS, 3, INERTIAL_RESET_GYRO_BIAS_RAD_S.powi(2));
+        reset_block(&mut self.cov, ACCEL_BIAS, 3, INERTIAL_RESET_ACCEL_BIAS_M_S2.powi(2));
     }
 
     /// Sets the NED velocity to `vel_ned_m_s` with variance `variance`, forgetting correlations.

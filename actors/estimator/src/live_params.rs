@@ -136,7 +136,7 @@ pub const LIVE_PARAMS: &[ParamDef<EkfParams>] = &[
         unit: "s",
         min: 0.5,
         max: 60.0,
-        description: "GPS rejected this long resets position and velocity to GPS",
+        description: "GPS position or velocity rejected this long resets it to GPS",
         get: |p| p.gps_reset_timeout_s,
         set: |p, v| p.gps_reset_timeout_s = v,
     },

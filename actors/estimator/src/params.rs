@@ -60,9 +60,31 @@ pub struct EkfParams {
     /// Height above the take-off point (the alignment's height datum) at which the in-flight
     /// yaw realignment happens (m); PX4 realigns at 1.5 m.
     pub mag_yaw_reset_height_m: f64,
-    /// GPS rejected continuously for this long resets position and velocity to GPS (s).
+    /// GPS position (or velocity) rejected continuously for this long resets it to GPS (s);
+    /// PX4 EKF2's `reset_timeout_max`, 7 s.
     pub gps_reset_timeout_s: f64,
-    /// Without horizontal aiding for this long the position is flagged invalid (s).
+    /// GPS velocity rejected continuously for this long resets velocity to GPS and raises the
+    /// tilt and bias uncertainty (s): the inertial prediction, not GPS velocity, is wrong.
+    pub gps_velocity_reset_timeout_s: f64,
+    /// No GPS observation fused for this long and GPS is lost: the next usable fix resets
+    /// position and velocity (s).
+    pub gps_timeout_s: f64,
+    /// GPS height noise floor (m), fused when the barometer is faulty; the receiver's `v_acc_m`
+    /// is used when larger.
+    pub gps_height_noise_m: f64,
+    /// Barometric height not fused for this long: vertical position not aided; a rejection run
+    /// this long makes the barometer faulty (or resets the height to it without GPS) (s); PX4
+    /// EKF2's `hgt_fusion_timeout_max`, 5 s.
+    pub baro_timeout_s: f64,
+    /// Largest change of the baro-minus-GPS height difference before the barometer counts as
+    /// disagreeing with GPS (m).
+    pub baro_gps_tolerance_m: f64,
+    /// Barometer disagreeing with GPS height for this long is faulty: height from GPS (s).
+    pub baro_fault_timeout_s: f64,
+    /// Magnetometer not fused for this long: reported not fusing (s).
+    pub mag_timeout_s: f64,
+    /// Without horizontal aiding (GPS position or velocity) for this long the position is
+    /// flagged invalid (s); PX4 EKF2_NOAID_TOUT, 5 s.
     pub horizontal_position_timeout_s: f64,
     /// Noise of the synthetic "stay here" position fused while there is no GPS at all (m).
     pub no_aiding_position_noise_m: f64,
@@ -104,7 +126,14 @@ impl Default for EkfParams {
             mag_strength_tolerance: 0.3,
             in_flight_yaw_reset: true,
             mag_yaw_reset_height_m: 1.5,
-            gps_reset_timeout_s: 5.0,
+            gps_reset_timeout_s: 7.0,
+            gps_velocity_reset_timeout_s: 1.0,
+            gps_timeout_s: 1.0,
+            gps_height_noise_m: 1.0,
+            baro_timeout_s: 5.0,
+            baro_gps_tolerance_m: 4.0,
+            baro_fault_timeout_s: 1.0,
+            mag_timeout_s: 5.0,
             horizontal_position_timeout_s: 5.0,
             no_aiding_position_noise_m: 10.0,
             gps_min_satellites: 6,
@@ -136,6 +165,13 @@ impl EkfParams {
             ("mag_strength_tolerance", self.mag_strength_tolerance),
             ("mag_yaw_reset_height_m", self.mag_yaw_reset_height_m),
             ("gps_reset_timeout_s", self.gps_reset_timeout_s),
+            ("gps_velocity_reset_timeout_s", self.gps_velocity_reset_timeout_s),
+            ("gps_timeout_s", self.gps_timeout_s),
+            ("gps_height_noise_m", self.gps_height_noise_m),
+            ("baro_timeout_s", self.baro_timeout_s),
+            ("baro_gps_tolerance_m", self.baro_gps_tolerance_m),
+            ("baro_fault_timeout_s", self.baro_fault_timeout_s),
+            ("mag_timeout_s", self.mag_timeout_s),
             ("horizontal_position_timeout_s", self.horizontal_position_timeout_s),
             ("no_aiding_position_noise_m", self.no_aiding_position_noise_m),
             ("gps_max_h_acc_m", self.gps_max_h_acc_m),

@@ -51,6 +51,12 @@ pub struct EstimatorHealth {
     /// axes). Absent in older logs, which read as 0.
     #[serde(default)]
     pub imu_clipped: u64,
+    /// Times the IMU stream stopped and resumed in flight (the state's uncertainty was reset).
+    #[serde(default)]
+    pub imu_gaps: u32,
+    /// The barometer disagreed with GPS height or was rejected for too long: height from GPS.
+    #[serde(default)]
+    pub baro_faulty: bool,
 }
 
 /// The estimator's innovations, gate test ratios, counters and health, published at ~10 Hz.

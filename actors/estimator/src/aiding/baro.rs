@@ -1,17 +1,12 @@
-//! Barometer: height and climb rate (thesis eq. 3.21).
+//! Barometer, the maths: height and climb rate (thesis eq. 3.21). When each is fused is
+//! [`crate::aiding::baro_control`]'s.
 //!
-//! When: the alignment's mean pressure altitude (over the still window) fixes the offset between
-//! pressure altitude and the filter's height, so the barometer observes height changes, not the
-//! altitude above sea level; without a barometer during alignment, the first sample after it
-//! does.
-//! Height and climb rate are each gated at `baro_gate_sigma`.
-//!
-//! Maths: height observes `−p_d`, climb rate observes `−v_d`; both are unit rows. The climb rate
+//! Height observes `−p_d`, climb rate observes `−v_d`; both are unit rows. The climb rate
 //! is the least-squares slope of the last [`CLIMB_WINDOW`] heights, stamped at the window's mean
 //! time (where a slope is unbiased), so it is fused against the state at that time.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{AidingCounters, BaroSample, Innovation};
+use kestrel_proto::messages::{BaroSample, Innovation};
 
 use crate::aiding::innovation;
 use crate::covariance::SparseRow;
@@ -67,66 +62,29 @@ impl ClimbRateFit {
     }
 }
 
-/// Barometer fusion state.
-#[derive(Clone, Debug, Default)]
-pub struct BaroControl {
-    /// Pressure altitude at zero height (m).
-    offset_m: Option<f64>,
-    last_fused: Option<Time>,
-    pub counters: AidingCounters,
-    pub height: Innovation,
-    pub climb_rate: Innovation,
+/// Innovation of a height observed as down position `down_m`, gated at `gate_sigma`.
+pub fn height_innovation(filter: &Filter, down_m: f64, params: &EkfParams) -> Innovation {
+    let h = SparseRow::unit(POS + 2);
+    let r = params.baro_height_noise_m.powi(2);
+    innovation(down_m - filter.state.pos_ned_m.z, filter.innovation_variance(&h, r), params.baro_gate_sigma)
 }
 
-impl BaroControl {
-    /// Sets the pressure altitude of zero height (m), from the alignment's mean.
-    pub fn set_datum(&mut self, altitude_m: f64) {
-        self.offset_m = Some(altitude_m);
-    }
+/// Fuses the height innovation `y` (m, down); whether it was taken.
+pub fn fuse_height(filter: &mut Filter, y: f64, params: &EkfParams) -> bool {
+    filter.fuse(&SparseRow::unit(POS + 2), y, params.baro_height_noise_m.powi(2))
+}
 
-    /// The pressure altitude of zero height (m), once set.
-    pub fn datum_m(&self) -> Option<f64> {
-        self.offset_m
-    }
+/// Innovation of a climb rate, gated at `baro_gate_sigma`.
+pub fn climb_rate_innovation(filter: &Filter, climb: &ClimbRate, params: &EkfParams) -> Innovation {
+    let h = SparseRow::unit(VEL + 2);
+    let r = params.baro_climb_rate_noise_m_s.powi(2);
+    let y = -climb.climb_m_s - filter.state.vel_ned_m_s.z;
+    innovation(y, filter.innovation_variance(&h, r), params.baro_gate_sigma)
+}
 
-    /// Whether height was fused within `horizontal_position_timeout_s` of `now`.
-    pub fn height_aiding(&self, now: Time, params: &EkfParams) -> bool {
-        self.last_fused.is_some_and(|t| (now - t).as_secs_f64() < params.horizontal_position_timeout_s)
-    }
-
-    /// Fuses the height of `sample` into `filter` (at the sample's time).
-    pub fn fuse_height(&mut self, filter: &mut Filter, sample: &BaroSample, params: &EkfParams) {
-        let offset = *self.offset_m.get_or_insert(sample.altitude_m + filter.state.pos_ned_m.z);
-        let down_m = offset - sample.altitude_m;
-        let h = SparseRow::unit(POS + 2);
-        let r = params.baro_height_noise_m.powi(2);
-        self.height = innovation(
-            down_m - filter.state.pos_ned_m.z,
-            filter.innovation_variance(&h, r),
-            params.baro_gate_sigma,
-        );
-        if self.height.test_ratio > 1.0 {
-            self.counters.rejected += 1;
-            return;
-        }
-        if filter.fuse(&h, self.height.innovation, r) {
-            self.counters.fused += 1;
-            self.last_fused = Some(filter.state.time);
-        }
-    }
-
-    /// Fuses a climb rate into `filter` (at the climb rate's time).
-    pub fn fuse_climb_rate(&mut self, filter: &mut Filter, climb: &ClimbRate, params: &EkfParams) {
-        let h = SparseRow::unit(VEL + 2);
-        let r = params.baro_climb_rate_noise_m_s.powi(2);
-        let y = -climb.climb_m_s - filter.state.vel_ned_m_s.z;
-        self.climb_rate = innovation(y, filter.innovation_variance(&h, r), params.baro_gate_sigma);
-        if self.climb_rate.test_ratio > 1.0 {
-            self.counters.rejected += 1;
-            return;
-        }
-        filter.fuse(&h, y, r);
-    }
+/// Fuses the climb-rate innovation `y` (m/s, down); whether it was taken.
+pub fn fuse_climb_rate(filter: &mut Filter, y: f64, params: &EkfParams) -> bool {
+    filter.fuse(&SparseRow::unit(VEL + 2), y, params.baro_climb_rate_noise_m_s.powi(2))
 }
 
 #[cfg(test)]

@@ -1,0 +1,97 @@
+//! What the estimator noticed, as events for the flight report: the start of each run of
+//! rejections per aiding source, GPS lost, dead reckoning, the barometer found faulty, an IMU
+//! gap, a numerical fault. Taken from `estimator_status` (its counters and health flags), so a
+//! fault the estimator handles without any failsafe still shows when it was detected.
+
+use kestrel_proto::messages::EstimatorStatus;
+use serde::{Deserialize, Serialize};
+
+/// One thing the estimator noticed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EstimatorEvent {
+    /// IMU time of the status that showed it (s).
+    pub t_s: f64,
+    /// `gps_rejected`, `baro_rejected`, `mag_rejected` (a run of rejections began), `gps_lost`,
+    /// `dead_reckoning`, `baro_faulty`, `imu_gap`, `numerical_fault`.
+    pub event: String,
+}
+
+/// Turns consecutive statuses into events.
+#[derive(Clone, Debug, Default)]
+pub struct EstimatorEvents {
+    previous: Option<EstimatorStatus>,
+    /// Per source (GPS, baro, mag): whether the previous status showed new rejections.
+    rejecting: [bool; 3],
+    pub log: Vec<EstimatorEvent>,
+}
+
+impl EstimatorEvents {
+    /// Takes the next status; events start at the first status after alignment.
+    pub fn on_status(&mut self, s: &EstimatorStatus) {
+        if !s.health.tilt_aligned {
+            return;
+        }
+        let Some(p) = self.previous.replace(s.clone()) else { return };
+        let t_s = s.time.as_secs_f64();
+        let mut push = |event: &str| self.log.push(EstimatorEvent { t_s, event: event.to_owned() });
+        let rejected = [
+            (s.gps.rejected > p.gps.rejected, "gps_rejected"),
+            (s.baro.rejected > p.baro.rejected, "baro_rejected"),
+            (s.mag.rejected > p.mag.rejected, "mag_rejected"),
+        ];
+        for (i, (now, name)) in rejected.into_iter().enumerate() {
+            if now && !self.rejecting[i] {
+                push(name);
+            }
+            self.rejecting[i] = now;
+        }
+        let (h, ph) = (&s.health, &p.health);
+        let edges = [
+            (ph.gps_fusing && !h.gps_fusing, "gps_lost"),
+            (!ph.dead_reckoning && h.dead_reckoning, "dead_reckoning"),
+            (!ph.baro_faulty && h.baro_faulty, "baro_faulty"),
+            (h.imu_gaps > ph.imu_gaps, "imu_gap"),
+            (h.numerical_faults > ph.numerical_faults, "numerical_fault"),
+        ];
+        for (rose, name) in edges {
+            if rose {
+                push(name);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kestrel_proto::Time;
+
+    fn status(t: f64, gps_rejected: u64, gps_fusing: bool, baro_faulty: bool) -> EstimatorStatus {
+        let mut s = EstimatorStatus { time: Time::from_secs_f64(t), ..EstimatorStatus::default() };
+        s.health.tilt_aligned = true;
+        s.health.gps_fusing = gps_fusing;
+        s.health.baro_faulty = baro_faulty;
+        s.gps.rejected = gps_rejected;
+        s
+    }
+
+    #[test]
+    fn a_run_of_rejections_is_one_event_and_edges_are_events() {
+        let mut e = EstimatorEvents::default();
+        for (t, rejected, fusing, faulty) in [
+            (1.0, 0, true, false),
+            (1.5, 1, true, false),
+            (2.0, 3, true, false),
+            (2.5, 3, true, false),
+            (3.0, 4, false, true),
+            (3.5, 4, false, true),
+        ] {
+            e.on_status(&status(t, rejected, fusing, faulty));
+        }
+        let got: Vec<(f64, &str)> = e.log.iter().map(|v| (v.t_s, v.event.as_str())).collect();
+        assert_eq!(
+            got,
+            [(1.5, "gps_rejected"), (3.0, "gps_rejected"), (3.0, "gps_lost"), (3.0, "baro_faulty")]
+        );
+    }
+}
