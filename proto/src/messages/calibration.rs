@@ -25,7 +25,8 @@ pub enum CalibrationStep {
     Accel,
     /// Board level trim (param5 = 2).
     Level,
-    /// Compass hard and soft iron (DO_START_MAG_CAL).
+    /// Compass hard and soft iron (DO_START_MAG_CAL); "compass" in config files.
+    #[serde(rename = "compass")]
     Mag,
 }
 

@@ -189,6 +189,13 @@ impl ParamTable {
             done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_ERROR, &text));
             return done;
         }
+        let answered = self
+            .awaiting
+            .iter()
+            .find(|a| {
+                self.entries.iter().any(|e| e.spec.name == a.name && e.owner.as_deref() == Some(&decl.owner))
+            })
+            .map(|a| a.name.clone());
         for p in &decl.params {
             let index = self.entries.iter().position(|e| e.spec.name == p.name);
             let owned_by_other =
@@ -208,7 +215,7 @@ impl ParamTable {
             };
             match index {
                 Some(i) if self.entries[i].owner.is_some() => {
-                    self.redeclared(i, spec, decl.start, now, &mut done);
+                    self.redeclared(i, spec, (decl.start, answered.as_deref()), now, &mut done);
                 }
                 _ => {
                     // New, or replacing a config entry: a stored or config-set value wins.
@@ -240,9 +247,24 @@ impl ParamTable {
 
     /// An owner declared parameter `i` again: after a restart it is sent the value set before;
     /// after a `ParamSet` a different value means it refused, and its value is taken.
-    fn redeclared(&mut self, i: usize, spec: ParamSpec, start: bool, now: Time, done: &mut Declared) {
+    /// `answered` names the oldest set the owner was waited on for: an owner handles its sets in
+    /// order and declares after each, so a declaration refuses that one only — a later set still
+    /// waiting (several sent at once, as calibration results are) is judged by a later one.
+    fn redeclared(
+        &mut self,
+        i: usize,
+        spec: ParamSpec,
+        (start, answered): (bool, Option<&str>),
+        now: Time,
+        done: &mut Declared,
+    ) {
         if let Some(at) = self.awaiting.iter().position(|a| a.name == spec.name) {
-            let wanted = self.awaiting.swap_remove(at).wanted;
+            let wanted = self.awaiting[at].wanted;
+            if spec.value != wanted && answered != Some(spec.name.as_str()) {
+                self.entries[i].spec = ParamSpec { value: self.entries[i].spec.value, ..spec };
+                return;
+            }
+            self.awaiting.remove(at);
             let entry = &mut self.entries[i];
             entry.spec = spec;
             if entry.spec.value == wanted {

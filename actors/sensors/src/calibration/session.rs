@@ -190,7 +190,7 @@ impl Session {
                     CalibrationStep::Gyro | CalibrationStep::Level => {
                         self.state = State::Still { step, samples: Vec::with_capacity(self.settings.still_samples) };
                         self.set_motion(Motion::Level);
-                        self.text(Severity::Info, format!("Calibrating {}: keep the vehicle still and level", step.name()));
+                        self.text(Severity::Info, format!("Calibrating {}: hold it still and level", step.name()));
                     }
                     CalibrationStep::Accel => {
                         self.state = State::Accel { next: 0, placed: false, samples: Vec::new(), captures: Vec::new() };
@@ -203,7 +203,7 @@ impl Session {
                         self.state = State::Mag { autosave, start_at, samples: Vec::new(), ends_at };
                         self.set_motion(Motion::Tumble);
                         self.next_progress = now;
-                        self.text(Severity::Info, "Compass calibration started: turn the vehicle through every orientation");
+                        self.text(Severity::Info, "Compass calibration: turn the vehicle every way");
                     }
                 }
                 Ok(())
@@ -330,7 +330,7 @@ impl Session {
                 let mask = u64::from(c.mask(1));
                 self.out.push(CalibrationUpdate::MagProgress {
                     completion_pct: (share * 100.0).round().clamp(0.0, 100.0) as u8,
-                    completion_mask: std::array::from_fn(|i| (mask >> (8 * i)) as u8),
+                    completion_mask: std::array::from_fn(|i| mask.checked_shr(8 * i as u32).unwrap_or(0) as u8),
                     attempt: 1,
                 });
                 self.next_progress = now + Duration::from_secs_f64(self.settings.progress_period_s);
