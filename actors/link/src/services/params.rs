@@ -56,6 +56,8 @@ struct Awaiting {
     name: String,
     wanted: f64,
     deadline: Time,
+    /// A stored value sent at the owner's start, not a ground station's set: no echo.
+    restored: bool,
 }
 
 /// One parameter and who answers for it.
@@ -264,11 +266,14 @@ impl ParamTable {
                 self.entries[i].spec = ParamSpec { value: self.entries[i].spec.value, ..spec };
                 return;
             }
-            self.awaiting.remove(at);
+            let restored = self.awaiting.remove(at).restored;
             let entry = &mut self.entries[i];
             entry.spec = spec;
             if entry.spec.value == wanted {
                 entry.persist = true;
+                if restored {
+                    return;
+                }
                 done.persist_changed = true;
             } else {
                 let text = format!(
@@ -319,7 +324,11 @@ impl ParamTable {
         let value = quantise(entry.spec.kind, value);
         if value != entry.spec.value {
             entry.spec.value = value;
-            done.out.graph.push(ToGraph::Param(ParamSet { time: now, name: entry.spec.name.clone(), value }));
+            let name = entry.spec.name.clone();
+            // Waited on like a set, so the answer to an earlier one of several is no refusal.
+            self.awaiting.retain(|a| a.name != name);
+            self.awaiting.push(Awaiting { name: name.clone(), wanted: value, deadline: now + CONFIRM_TIMEOUT, restored: true });
+            done.out.graph.push(ToGraph::Param(ParamSet { time: now, name, value }));
         }
     }
 
@@ -394,6 +403,7 @@ impl ParamTable {
                 name: set.name.clone(),
                 wanted: value,
                 deadline: now + CONFIRM_TIMEOUT,
+                restored: false,
             });
             return Outputs { mav: Vec::new(), graph: vec![ToGraph::Param(set)] };
         }
@@ -685,6 +695,37 @@ mod tests {
         assert!(done.persist_changed);
         assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=20\n");
         assert!(t.tick(Time::from_secs_f64(5.0)).is_empty(), "confirmed: nothing expires");
+    }
+
+    #[test]
+    fn sets_sent_together_are_judged_by_the_declaration_answering_each() {
+        let mut t = table();
+        let both = |a, b| decl("commander", false, &[("BATT_CRT_FRAC", a), ("TKOFF_ALT_M", b)]);
+        t.declare(&decl("commander", true, &[("BATT_CRT_FRAC", 10.0), ("TKOFF_ALT_M", 10.0)]), Time::ZERO);
+        t.set("BATT_CRT_FRAC", 20.0, Time::ZERO);
+        t.set("TKOFF_ALT_M", 12.0, Time::ZERO);
+        // The answer to the first set still shows the second's old value: not a refusal.
+        let done = t.declare(&both(20.0, 10.0), Time::ZERO);
+        assert_eq!(values(&done.out.mav), [("BATT_CRT_FRAC".to_owned(), 20.0)]);
+        assert_eq!(texts(&done.out.mav), 0);
+        let done = t.declare(&both(20.0, 12.0), Time::ZERO);
+        assert_eq!(values(&done.out.mav), [("TKOFF_ALT_M".to_owned(), 12.0)]);
+        assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=20\nTKOFF_ALT_M=12\n");
+    }
+
+    #[test]
+    fn several_stored_values_are_restored_to_one_owner_without_false_refusals() {
+        let mut t = table();
+        t.restore("BATT_CRT_FRAC", 20.0).expect("held");
+        t.restore("TKOFF_ALT_M", 12.0).expect("held");
+        let both = |a, b| decl("commander", false, &[("BATT_CRT_FRAC", a), ("TKOFF_ALT_M", b)]);
+        let start = decl("commander", true, &[("BATT_CRT_FRAC", 10.0), ("TKOFF_ALT_M", 10.0)]);
+        assert_eq!(t.declare(&start, Time::ZERO).out.graph.len(), 2);
+        for answer in [both(20.0, 10.0), both(20.0, 12.0)] {
+            let done = t.declare(&answer, Time::ZERO);
+            assert_eq!(texts(&done.out.mav), 0, "no refusal");
+        }
+        assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=20\nTKOFF_ALT_M=12\n");
     }
 
     #[test]
