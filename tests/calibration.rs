@@ -19,7 +19,7 @@ use std::time::{Duration, Instant};
 
 use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_proto::calibration::{CalibrationParams, SensorCalibration};
-use sim_vehicle::{Proc, python, root, sim_config, stop, tail, temp_dir};
+use sim_vehicle::{PARAM_TABLE, Proc, python, root, sim_config, stop, tail, temp_dir};
 
 const VEHICLE: &str = "config/vehicles/quad_x_miscalibrated.toml";
 const CLIENT_LIMIT: Duration = Duration::from_secs(90);
@@ -28,12 +28,15 @@ const CLIENT_LIMIT: Duration = Duration::from_secs(90);
 /// and the link's parameters persisted in `dir`.
 fn config(port: u16, dir: &Path) -> String {
     let link = format!(
-        "params.system_id = 1\nparams.param_file = \"{}\"\nparams.endpoints = [ {{ type = \"udp_out\", address = \"127.0.0.1:{port}\" }} ]\n",
+        "params.system_id = 1\nparams.param_file = \"{}\"\nparams.endpoints = [ {{ type = \"udp_out\", address = \"127.0.0.1:{port}\" }} ]\nparams.params = {PARAM_TABLE}\n",
         dir.join("params.txt").display()
     );
     let text = sim_config(&link);
     let vehicle = format!("vehicle = \"{}\"", root().join(VEHICLE).display());
-    let with_vehicle = text.replace(&format!("vehicle = \"{}\"", root().join("config/vehicles/quad_x.toml").display()), &vehicle);
+    let with_vehicle = text.replace(
+        &format!("vehicle = \"{}\"", root().join("config/vehicles/quad_x.toml").display()),
+        &vehicle,
+    );
     assert_ne!(with_vehicle, text, "config/sim.toml names vehicles/quad_x.toml");
     let required = with_vehicle.replace("required = []", "required = [\"accel\", \"level\", \"compass\"]");
     assert_ne!(required, with_vehicle, "config/sim.toml's calibration has `required = []`");

@@ -367,7 +367,14 @@ macro_rules! cal_param {
 /// The live parameters of [`CalibrationParams`], declared by whatever owns the sensor path (the
 /// simulator, the MPU-9250 driver).
 pub static CALIBRATION_PARAMS: [crate::param_def::ParamDef<CalibrationParams>; 20] = [
-    cal_param!("COMPASS_OFS_X", "mG", -1800.0, 1800.0, "compass offset added, forward", compass_ofs_mgauss[0]),
+    cal_param!(
+        "COMPASS_OFS_X",
+        "mG",
+        -1800.0,
+        1800.0,
+        "compass offset added, forward",
+        compass_ofs_mgauss[0]
+    ),
     cal_param!("COMPASS_OFS_Y", "mG", -1800.0, 1800.0, "compass offset added, right", compass_ofs_mgauss[1]),
     cal_param!("COMPASS_OFS_Z", "mG", -1800.0, 1800.0, "compass offset added, down", compass_ofs_mgauss[2]),
     cal_param!("COMPASS_DIA_X", "", 0.2, 5.0, "compass soft-iron correction xx", compass_dia[0]),
@@ -535,9 +542,15 @@ mod tests {
         let raw = [0.4, -0.1, 0.3];
         // ArduPilot: (raw + offsets), then the correction matrix.
         let ardupilot = Matrix3::new(
-            p.compass_dia[0], p.compass_odi[0], p.compass_odi[1],
-            p.compass_odi[0], p.compass_dia[1], p.compass_odi[2],
-            p.compass_odi[1], p.compass_odi[2], p.compass_dia[2],
+            p.compass_dia[0],
+            p.compass_odi[0],
+            p.compass_odi[1],
+            p.compass_odi[0],
+            p.compass_dia[1],
+            p.compass_odi[2],
+            p.compass_odi[1],
+            p.compass_odi[2],
+            p.compass_dia[2],
         ) * (Vector3::from(raw) + Vector3::from(p.compass_ofs_mgauss) / 1000.0);
         let ours = Vector3::from(board.mag.apply(raw));
         assert!((ardupilot - ours).norm() < 1e-12, "{ardupilot} {ours}");

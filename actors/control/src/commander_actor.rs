@@ -20,8 +20,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult, FlightMode, LandedState, ManualControl, Mission,
-    NavState, ParamDecl, ParamSet, Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult, FlightMode, LandedState,
+    ManualControl, Mission, NavState, ParamDecl, ParamSet, Setpoint, SupervisorEvent, VehicleCommand,
+    VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;

@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationCommand, CalibrationEvent, CommandResult, DepthGrid,
-    EstimatorStatus, GpsFix, ManualControl,
-    Mission, NavState, ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
+    EstimatorStatus, GpsFix, ManualControl, Mission, NavState, ParamDecl, ParamSet, VehicleCommand,
+    VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 

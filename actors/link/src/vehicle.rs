@@ -9,9 +9,8 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    CalibrationEvent, CalibrationUpdate,
-    AvoidanceCommand, BatteryStatus, Command, CommandResult, DepthGrid, EstimatorStatus, GpsFix, NavState,
-    ParamDecl, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
+    EstimatorStatus, GpsFix, NavState, ParamDecl, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -240,9 +239,10 @@ impl Vehicle {
     /// persisted) as a PARAM_SET would set them, the rest goes to the ground station.
     pub fn on_calibration(&mut self, event: &CalibrationEvent) -> Outputs {
         match &event.update {
-            CalibrationUpdate::Answer { id, refusal } => {
-                Outputs { mav: self.commands.on_answer(*id, refusal.is_some()).into_iter().collect(), graph: Vec::new() }
-            }
+            CalibrationUpdate::Answer { id, refusal } => Outputs {
+                mav: self.commands.on_answer(*id, refusal.is_some()).into_iter().collect(),
+                graph: Vec::new(),
+            },
             CalibrationUpdate::Results { params } => {
                 let mut out = Outputs::none();
                 for (name, value) in params {

@@ -93,7 +93,10 @@ impl Actor for CalibrationActor {
     type Params = CalibrationActorParams;
     type Input = CalibrationInput;
 
-    fn build(params: &CalibrationActorParams, setup: &mut impl Setup<CalibrationInput>) -> Result<Self, ActorError> {
+    fn build(
+        params: &CalibrationActorParams,
+        setup: &mut impl Setup<CalibrationInput>,
+    ) -> Result<Self, ActorError> {
         let field = params.expected_field_gauss;
         if !(field.is_finite() && (0.05..=1.0).contains(&field)) {
             return Err(ActorError::Params(format!("expected_field_gauss = {field} is outside 0.05..=1 G")));
@@ -137,7 +140,8 @@ impl Actor for CalibrationActor {
             CalibrationInput::Decl(d) => {
                 // The owner of the sensor path declares the calibration parameters it flies with.
                 if d.params.iter().any(|p| p.name == CALIBRATION_PARAMS[0].name) {
-                    let current = d.params.iter().fold(CalibrationParams::default(), |c, p| c.with(&p.name, p.value));
+                    let current =
+                        d.params.iter().fold(CalibrationParams::default(), |c, p| c.with(&p.name, p.value));
                     self.session.set_current(current);
                 }
                 d.time

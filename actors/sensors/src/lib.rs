@@ -53,8 +53,8 @@ pub mod serial;
 pub mod ubx;
 
 pub use baro_actor::{BaroActor, BaroActorParams, BaroInput};
-pub use calibration_actor::{CalibrationActor, CalibrationActorParams, CalibrationInput};
 pub use bus::{BusError, I2cBus, SpiBus};
+pub use calibration_actor::{CalibrationActor, CalibrationActorParams, CalibrationInput};
 pub use gps_actor::{GpsActor, GpsActorParams, GpsInput};
 pub use imu_actor::{ImuActor, ImuActorParams, ImuInput};
 pub use motor_actor::{MotorActor, MotorActorParams, MotorInput};

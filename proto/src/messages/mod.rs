@@ -31,8 +31,9 @@ pub use avoidance_command::{AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, Fu
 pub use baro::BaroSample;
 pub use battery::BatteryStatus;
 pub use calibration::{
-    ACCELCAL_FAILED, ACCELCAL_SUCCESS, CalibrationCommand, CalibrationEvent, CalibrationMotion, CalibrationRequest,
-    CalibrationStatus, CalibrationStep, CalibrationUpdate, MagCalState, MagReport, Motion, Severity,
+    ACCELCAL_FAILED, ACCELCAL_SUCCESS, CalibrationCommand, CalibrationEvent, CalibrationMotion,
+    CalibrationRequest, CalibrationStatus, CalibrationStep, CalibrationUpdate, MagCalState, MagReport,
+    Motion, Severity,
 };
 pub use control_loop::ControlLoopStats;
 pub use depth_grid::{DepthGrid, GridRegion, OBSTACLE_SECTORS, ObstacleSectors, SECTOR_UNKNOWN};

@@ -24,9 +24,9 @@ use kestrel_proto::Time;
 use kestrel_proto::attitude::unit_quaternion;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState,
-    ManualControl, Mission, MissionProgress, NavState, ParamDecl, Setpoint, SetpointTarget, SupervisorEvent,
-    SupervisorEventKind, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, FailsafeAction, FailsafeCause, FlightMode,
+    Home, LandedState, ManualControl, Mission, MissionProgress, NavState, ParamDecl, Setpoint,
+    SetpointTarget, SupervisorEvent, SupervisorEventKind, VehicleCommand, VehicleStatus,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 

@@ -16,8 +16,8 @@ use kestrel_proto::messages::{
     CalibrationEvent, CalibrationRequest, CalibrationStep, CalibrationUpdate, MagCalState, Severity,
 };
 use mavlink::dialects::ardupilotmega::{
-    COMMAND_LONG_DATA, MAG_CAL_PROGRESS_DATA, MAG_CAL_REPORT_DATA, MagCalStatus, MavCmd, MavMessage, MavResult,
-    MavSeverity, STATUSTEXT_DATA,
+    COMMAND_LONG_DATA, MAG_CAL_PROGRESS_DATA, MAG_CAL_REPORT_DATA, MagCalStatus, MavCmd, MavMessage,
+    MavResult, MavSeverity, STATUSTEXT_DATA,
 };
 
 use super::command::{CommandRequest, switch, whole};
@@ -213,7 +213,12 @@ mod tests {
     use crate::services::Sender;
 
     fn req(command: MavCmd, params: [f64; 7]) -> Result<CalibrationRequest, (MavResult, String)> {
-        request(&CommandRequest { command, params, frame: None, sender: Sender { system_id: 255, component_id: 190 } })
+        request(&CommandRequest {
+            command,
+            params,
+            frame: None,
+            sender: Sender { system_id: 255, component_id: 190 },
+        })
     }
 
     #[test]
@@ -232,13 +237,19 @@ mod tests {
             assert!(result != MavResult::MAV_RESULT_ACCEPTED && !reason.is_empty(), "{bad}: {reason}");
         }
         assert_eq!(req(pre, [0.0; 7]).unwrap_err().0, MavResult::MAV_RESULT_DENIED);
-        assert_eq!(req(pre, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]).unwrap_err().0, MavResult::MAV_RESULT_DENIED);
+        assert_eq!(
+            req(pre, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]).unwrap_err().0,
+            MavResult::MAV_RESULT_DENIED
+        );
         assert_eq!(
             req(pre, [0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0]).unwrap_err().0,
             MavResult::MAV_RESULT_UNSUPPORTED
         );
         let mag = req(MavCmd::MAV_CMD_DO_START_MAG_CAL, [0.0, 0.0, 1.0, 2.0, 0.0, 0.0, 0.0]);
-        assert_eq!(mag, Ok(CalibrationRequest::Start { step: CalibrationStep::Mag, autosave: true, delay_s: 2.0 }));
+        assert_eq!(
+            mag,
+            Ok(CalibrationRequest::Start { step: CalibrationStep::Mag, autosave: true, delay_s: 2.0 })
+        );
         assert!(req(MavCmd::MAV_CMD_DO_START_MAG_CAL, [0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0]).is_err());
         assert!(req(MavCmd::MAV_CMD_DO_START_MAG_CAL, [2.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]).is_err());
         let pos = |v| req(MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS, [v, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
@@ -251,13 +262,16 @@ mod tests {
     #[test]
     fn long_texts_go_out_in_chunks_that_join_up() {
         let mut id = 0;
-        let text = "Compass calibration FAILED: the readings spread only 0.0012 G along their flattest direction";
+        let text =
+            "Compass calibration FAILED: the readings spread only 0.0012 G along their flattest direction";
         let msgs = chunked(MavSeverity::MAV_SEVERITY_CRITICAL, text, &mut id);
         assert!(msgs.len() == 2 && id == 1);
         let joined: String = msgs
             .iter()
             .map(|m| match m {
-                MavMessage::STATUSTEXT(s) => String::from_utf8_lossy(&s.text.to_vec()).trim_end_matches('\0').to_owned(),
+                MavMessage::STATUSTEXT(s) => {
+                    String::from_utf8_lossy(&s.text.to_vec()).trim_end_matches('\0').to_owned()
+                }
                 _ => String::new(),
             })
             .collect();

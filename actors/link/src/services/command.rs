@@ -321,7 +321,12 @@ impl CommandService {
     }
 
     /// Passes on what `to_graph` makes of a new id and waits for the answer to that id.
-    fn submit_to(&mut self, request: CommandRequest, to_graph: impl FnOnce(u32) -> ToGraph, now: Time) -> Outputs {
+    fn submit_to(
+        &mut self,
+        request: CommandRequest,
+        to_graph: impl FnOnce(u32) -> ToGraph,
+        now: Time,
+    ) -> Outputs {
         self.last_id = self.last_id.checked_add(1).unwrap_or(1);
         let id = self.last_id;
         self.pending.push(Pending { request, id, deadline: now + ACK_TIMEOUT });
@@ -338,11 +343,7 @@ impl CommandService {
     pub fn on_answer(&mut self, id: u32, refused: bool) -> Option<MavMessage> {
         let i = self.pending.iter().position(|p| p.id == id)?;
         let pending = self.pending.swap_remove(i);
-        let answer = if !refused {
-            MavResult::MAV_RESULT_ACCEPTED
-        } else {
-            MavResult::MAV_RESULT_DENIED
-        };
+        let answer = if !refused { MavResult::MAV_RESULT_ACCEPTED } else { MavResult::MAV_RESULT_DENIED };
         Some(ack(&pending.request, answer))
     }
 

@@ -327,7 +327,12 @@ impl ParamTable {
             let name = entry.spec.name.clone();
             // Waited on like a set, so the answer to an earlier one of several is no refusal.
             self.awaiting.retain(|a| a.name != name);
-            self.awaiting.push(Awaiting { name: name.clone(), wanted: value, deadline: now + CONFIRM_TIMEOUT, restored: true });
+            self.awaiting.push(Awaiting {
+                name: name.clone(),
+                wanted: value,
+                deadline: now + CONFIRM_TIMEOUT,
+                restored: true,
+            });
             done.out.graph.push(ToGraph::Param(ParamSet { time: now, name, value }));
         }
     }

@@ -26,5 +26,5 @@ pub use esc::{EscCalError, EscRange, EscSample, EscSettings, calibrate_esc};
 pub use gyro::{GyroCalError, GyroFit, GyroSettings, calibrate_gyro};
 pub use level::{LevelCalError, LevelFit, LevelSettings, calibrate_level};
 pub use mag::{MagCalError, MagFit, MagSettings, calibrate_mag};
-pub use still::{NotStill, StillLimits, StillWindow};
 pub use session::{Session, SessionSettings};
+pub use still::{NotStill, StillLimits, StillWindow};

@@ -64,13 +64,28 @@ impl SessionSettings {
 enum State {
     Idle,
     /// Gyro or level: one still capture.
-    Still { step: CalibrationStep, samples: Vec<ImuSample> },
+    Still {
+        step: CalibrationStep,
+        samples: Vec<ImuSample>,
+    },
     /// Six orientations; `next` indexes [`VehicleOrientation::ALL`]; `placed` once the ground
     /// station said the vehicle stands there.
-    Accel { next: usize, placed: bool, samples: Vec<ImuSample>, captures: Vec<Vec<ImuSample>> },
-    Mag { autosave: bool, start_at: Time, samples: Vec<MagSample>, ends_at: Time },
+    Accel {
+        next: usize,
+        placed: bool,
+        samples: Vec<ImuSample>,
+        captures: Vec<Vec<ImuSample>>,
+    },
+    Mag {
+        autosave: bool,
+        start_at: Time,
+        samples: Vec<MagSample>,
+        ends_at: Time,
+    },
     /// A good compass fit waiting for DO_ACCEPT_MAG_CAL.
-    MagDone { params: Vec<(String, f64)> },
+    MagDone {
+        params: Vec<(String, f64)>,
+    },
 }
 
 /// The calibration session.
@@ -188,12 +203,21 @@ impl Session {
                 self.deadline = timeout(self);
                 match step {
                     CalibrationStep::Gyro | CalibrationStep::Level => {
-                        self.state = State::Still { step, samples: Vec::with_capacity(self.settings.still_samples) };
+                        self.state =
+                            State::Still { step, samples: Vec::with_capacity(self.settings.still_samples) };
                         self.set_motion(Motion::Level);
-                        self.text(Severity::Info, format!("Calibrating {}: hold it still and level", step.name()));
+                        self.text(
+                            Severity::Info,
+                            format!("Calibrating {}: hold it still and level", step.name()),
+                        );
                     }
                     CalibrationStep::Accel => {
-                        self.state = State::Accel { next: 0, placed: false, samples: Vec::new(), captures: Vec::new() };
+                        self.state = State::Accel {
+                            next: 0,
+                            placed: false,
+                            samples: Vec::new(),
+                            captures: Vec::new(),
+                        };
                         self.set_motion(Motion::Level);
                         self.ask_position(0);
                     }
@@ -330,7 +354,9 @@ impl Session {
                 let mask = u64::from(c.mask(1));
                 self.out.push(CalibrationUpdate::MagProgress {
                     completion_pct: (share * 100.0).round().clamp(0.0, 100.0) as u8,
-                    completion_mask: std::array::from_fn(|i| mask.checked_shr(8 * i as u32).unwrap_or(0) as u8),
+                    completion_mask: std::array::from_fn(|i| {
+                        mask.checked_shr(8 * i as u32).unwrap_or(0) as u8
+                    }),
                     attempt: 1,
                 });
                 self.next_progress = now + Duration::from_secs_f64(self.settings.progress_period_s);
@@ -417,7 +443,10 @@ impl Session {
                     self.out.push(CalibrationUpdate::Results { params: values });
                     self.text(Severity::Info, "Compass calibration successful and saved");
                 } else {
-                    self.text(Severity::Info, "Compass calibration successful: accept it (DO_ACCEPT_MAG_CAL)");
+                    self.text(
+                        Severity::Info,
+                        "Compass calibration successful: accept it (DO_ACCEPT_MAG_CAL)",
+                    );
                     self.state = State::MagDone { params: values };
                 }
             }
