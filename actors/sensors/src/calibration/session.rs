@@ -332,10 +332,10 @@ impl Session {
         if sample.time < *start_at || !self.settled(sample.time) {
             return;
         }
-        let wanted = self.settings.mag_samples;
+        let (wanted, field) = (self.settings.mag_samples, self.settings.mag.expected_field_gauss);
         let State::Mag { samples, .. } = &mut self.state else { return };
         samples.push(sample.clone());
-        if samples.len() >= wanted && coverage(samples).covered(1) == REGIONS {
+        if samples.len() >= wanted && coverage(samples, field).covered(1) == REGIONS {
             self.end_mag();
         }
     }
@@ -348,7 +348,7 @@ impl Session {
                 return;
             }
             if now >= self.next_progress {
-                let c = coverage(samples);
+                let c = coverage(samples, self.settings.mag.expected_field_gauss);
                 let share = (c.covered(1) as f64 / REGIONS as f64)
                     .min(samples.len() as f64 / self.settings.mag_samples as f64);
                 let mask = u64::from(c.mask(1));
@@ -478,11 +478,18 @@ fn report(fit: &MagFit, params: &CalibrationParams, autosaved: bool) -> MagRepor
     }
 }
 
-/// Directions seen, around the readings' centre (progress only; the fit counts its own).
-fn coverage(samples: &[MagSample]) -> Coverage {
+/// Directions seen around the readings' centre, counting only readings at least half the
+/// expected field from it, so sensor noise about one orientation covers nothing (progress and
+/// when to stop; the fit counts its own).
+fn coverage(samples: &[MagSample], expected_field_gauss: f64) -> Coverage {
     let n = samples.len().max(1) as f64;
     let centre = samples.iter().fold(Vector3::zeros(), |a, s| a + Vector3::from(s.field_gauss)) / n;
-    Coverage::of(samples.iter().map(|s| Vector3::from(s.field_gauss) - centre))
+    Coverage::of(
+        samples
+            .iter()
+            .map(|s| Vector3::from(s.field_gauss) - centre)
+            .filter(|d| d.norm() >= 0.5 * expected_field_gauss),
+    )
 }
 
 /// Whether the values in use hold a result of `step`.
