@@ -59,7 +59,7 @@ fn run(
             }
         }
         sim.drain().for_each(drop);
-        if sim.time().0 % 100_000 == 0 {
+        if sim.time().0.is_multiple_of(100_000) {
             session.on_tick(sim.time());
         }
     }
