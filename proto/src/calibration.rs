@@ -319,6 +319,146 @@ pub fn rows3(m: &Matrix3<f64>) -> [[f64; 3]; 3] {
     std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]))
 }
 
+/// A board's calibration as the live parameters that hold it, in ArduPilot's names, units and
+/// sense (so a parameter file reads as ArduPilot's does):
+///
+/// * `COMPASS_OFS_X/Y/Z` — milligauss *added* to the reading (= −hard iron);
+///   `COMPASS_DIA_X/Y/Z`, `COMPASS_ODI_X/Y/Z` — the symmetric correction matrix applied after
+///   (diagonal; xy, xz, yz), = soft_iron⁻¹ (ArduPilot's `Compass::_offset`, `_diagonals`,
+///   `_offdiagonals`);
+/// * `INS_ACCOFFS_X/Y/Z` — m/s² subtracted, then `INS_ACCSCAL_X/Y/Z` multiplied (= 1 / our
+///   `accel_scale`), as `AP_InertialSensor_Backend::_rotate_and_correct_accel` does;
+/// * `INS_GYROFFS_X/Y/Z` — rad/s subtracted;
+/// * `AHRS_TRIM_X/Y` — the board's roll and pitch against the airframe (rad), our [`BoardLevel`]
+///   (ArduPilot's name and unit; the sign is the board's tilt, not its correction).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CalibrationParams {
+    pub compass_ofs_mgauss: [f64; 3],
+    pub compass_dia: [f64; 3],
+    pub compass_odi: [f64; 3],
+    pub ins_accoffs_m_s2: [f64; 3],
+    pub ins_accscal: [f64; 3],
+    pub ins_gyroffs_rad_s: [f64; 3],
+    pub ahrs_trim_rad: [f64; 2],
+}
+
+impl Default for CalibrationParams {
+    fn default() -> CalibrationParams {
+        CalibrationParams::from_calibration(&SensorCalibration::default())
+    }
+}
+
+/// ArduPilot's limits where it has them: `COMPASS_OFFS_MAX` 1800 mG, accelerometer offsets
+/// 3.5 m/s² and scales 0.8..1.2 (`AccelCalibrator`), trims ±10°.
+macro_rules! cal_param {
+    ($name:literal, $unit:literal, $min:expr, $max:expr, $desc:literal, $field:ident [$i:literal]) => {
+        crate::param_def::ParamDef {
+            name: $name,
+            unit: $unit,
+            min: $min,
+            max: $max,
+            description: $desc,
+            get: |p: &CalibrationParams| p.$field[$i],
+            set: |p: &mut CalibrationParams, v| p.$field[$i] = v,
+        }
+    };
+}
+
+/// The live parameters of [`CalibrationParams`], declared by whatever owns the sensor path (the
+/// simulator, the MPU-9250 driver).
+pub static CALIBRATION_PARAMS: [crate::param_def::ParamDef<CalibrationParams>; 20] = [
+    cal_param!(
+        "COMPASS_OFS_X",
+        "mG",
+        -1800.0,
+        1800.0,
+        "compass offset added, forward",
+        compass_ofs_mgauss[0]
+    ),
+    cal_param!("COMPASS_OFS_Y", "mG", -1800.0, 1800.0, "compass offset added, right", compass_ofs_mgauss[1]),
+    cal_param!("COMPASS_OFS_Z", "mG", -1800.0, 1800.0, "compass offset added, down", compass_ofs_mgauss[2]),
+    cal_param!("COMPASS_DIA_X", "", 0.2, 5.0, "compass soft-iron correction xx", compass_dia[0]),
+    cal_param!("COMPASS_DIA_Y", "", 0.2, 5.0, "compass soft-iron correction yy", compass_dia[1]),
+    cal_param!("COMPASS_DIA_Z", "", 0.2, 5.0, "compass soft-iron correction zz", compass_dia[2]),
+    cal_param!("COMPASS_ODI_X", "", -1.0, 1.0, "compass soft-iron correction xy", compass_odi[0]),
+    cal_param!("COMPASS_ODI_Y", "", -1.0, 1.0, "compass soft-iron correction xz", compass_odi[1]),
+    cal_param!("COMPASS_ODI_Z", "", -1.0, 1.0, "compass soft-iron correction yz", compass_odi[2]),
+    cal_param!("INS_ACCOFFS_X", "m/s^2", -3.5, 3.5, "accelerometer offset, forward", ins_accoffs_m_s2[0]),
+    cal_param!("INS_ACCOFFS_Y", "m/s^2", -3.5, 3.5, "accelerometer offset, right", ins_accoffs_m_s2[1]),
+    cal_param!("INS_ACCOFFS_Z", "m/s^2", -3.5, 3.5, "accelerometer offset, down", ins_accoffs_m_s2[2]),
+    cal_param!("INS_ACCSCAL_X", "", 0.8, 1.2, "accelerometer scale, forward", ins_accscal[0]),
+    cal_param!("INS_ACCSCAL_Y", "", 0.8, 1.2, "accelerometer scale, right", ins_accscal[1]),
+    cal_param!("INS_ACCSCAL_Z", "", 0.8, 1.2, "accelerometer scale, down", ins_accscal[2]),
+    cal_param!("INS_GYROFFS_X", "rad/s", -0.5, 0.5, "gyro offset, forward", ins_gyroffs_rad_s[0]),
+    cal_param!("INS_GYROFFS_Y", "rad/s", -0.5, 0.5, "gyro offset, right", ins_gyroffs_rad_s[1]),
+    cal_param!("INS_GYROFFS_Z", "rad/s", -0.5, 0.5, "gyro offset, down", ins_gyroffs_rad_s[2]),
+    cal_param!("AHRS_TRIM_X", "rad", -0.1745, 0.1745, "board roll against the airframe", ahrs_trim_rad[0]),
+    cal_param!("AHRS_TRIM_Y", "rad", -0.1745, 0.1745, "board pitch against the airframe", ahrs_trim_rad[1]),
+];
+
+impl CalibrationParams {
+    /// The parameters holding `c`.
+    pub fn from_calibration(c: &SensorCalibration) -> CalibrationParams {
+        let correction = matrix3(&c.mag.soft_iron()).try_inverse().unwrap_or_else(Matrix3::identity);
+        let correction = (correction + correction.transpose()) / 2.0;
+        CalibrationParams {
+            compass_ofs_mgauss: c.mag.hard_iron_gauss().map(|h| -h * 1000.0),
+            compass_dia: [correction[(0, 0)], correction[(1, 1)], correction[(2, 2)]],
+            compass_odi: [correction[(0, 1)], correction[(0, 2)], correction[(1, 2)]],
+            ins_accoffs_m_s2: c.accel.offset_m_s2(),
+            ins_accscal: c.accel.scale().map(|s| 1.0 / s),
+            ins_gyroffs_rad_s: c.gyro.gyro_offset_rad_s,
+            ahrs_trim_rad: [c.level.roll_deg().to_radians(), c.level.pitch_deg().to_radians()],
+        }
+    }
+
+    /// The calibration these parameters hold, checked.
+    pub fn calibration(&self) -> Result<SensorCalibration, InvalidCalibration> {
+        let [dx, dy, dz] = self.compass_dia;
+        let [xy, xz, yz] = self.compass_odi;
+        let correction = Matrix3::new(dx, xy, xz, xy, dy, yz, xz, yz, dz);
+        let determinant = correction.determinant();
+        let soft_iron = correction
+            .try_inverse()
+            .filter(|_| determinant > 1e-3)
+            .ok_or(InvalidCalibration::SoftIronSingular { matrix: rows3(&correction), determinant })?;
+        Ok(SensorCalibration {
+            gyro: GyroCalibration { gyro_offset_rad_s: self.ins_gyroffs_rad_s },
+            accel: AccelCalibration::new(self.ins_accoffs_m_s2, self.ins_accscal.map(|s| 1.0 / s))?,
+            mag: MagCalibration::new(self.compass_ofs_mgauss.map(|o| -o / 1000.0), rows3(&soft_iron))?,
+            level: BoardLevel::new(self.ahrs_trim_rad[0].to_degrees(), self.ahrs_trim_rad[1].to_degrees())?,
+        })
+    }
+
+    /// The parameters with `name`'s value (unknown names are ignored): a declaration read back.
+    pub fn with(mut self, name: &str, value: f64) -> CalibrationParams {
+        if let Some(def) = CALIBRATION_PARAMS.iter().find(|d| d.name == name) {
+            (def.set)(&mut self, value);
+        }
+        self
+    }
+
+    /// Whether the values of parameters starting with `prefix` differ from no correction:
+    /// ArduPilot's pre-arm reads all-zero compass offsets as "not calibrated" (`Compass::configured`),
+    /// and default accelerometer offsets and scales likewise.
+    pub fn differs_from_default(&self, prefix: &str) -> bool {
+        let default = CalibrationParams::default();
+        CALIBRATION_PARAMS
+            .iter()
+            .filter(|d| d.name.starts_with(prefix))
+            .any(|d| (d.get)(self) != (d.get)(&default))
+    }
+
+    /// `(name, value)` of every parameter starting with `prefix`.
+    pub fn values(&self, prefix: &str) -> Vec<(String, f64)> {
+        CALIBRATION_PARAMS
+            .iter()
+            .filter(|d| d.name.starts_with(prefix))
+            .map(|d| (d.name.to_owned(), (d.get)(self)))
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -385,5 +525,44 @@ mod tests {
             serde_json::from_str(r#"{"level": {"roll_deg": 1.0, "pitch_deg": 0.0}}"#)
                 .expect("parse a partial calibration");
         assert_eq!((partial.mag, partial.level.roll_deg()), (MagCalibration::identity(), 1.0));
+    }
+
+    #[test]
+    fn parameters_hold_a_calibration_in_ardupilots_sense() {
+        let soft = [[1.1, 0.05, -0.05], [0.05, 0.9, 0.05], [-0.05, 0.05, 1.05]];
+        let board = SensorCalibration {
+            gyro: GyroCalibration { gyro_offset_rad_s: [0.01, -0.02, 0.03] },
+            accel: AccelCalibration::new([0.3, -0.3, 0.3], [1.02, 0.98, 1.02]).expect("valid"),
+            mag: MagCalibration::new([0.15, -0.1, 0.2], soft).expect("valid"),
+            level: BoardLevel::new(3.0, -1.0).expect("valid"),
+        };
+        let p = CalibrationParams::from_calibration(&board);
+        assert_eq!(p.compass_ofs_mgauss.map(f64::round), [-150.0, 100.0, -200.0]);
+        assert!((p.ins_accscal[0] - 1.0 / 1.02).abs() < 1e-12);
+        let raw = [0.4, -0.1, 0.3];
+        // ArduPilot: (raw + offsets), then the correction matrix.
+        let ardupilot = Matrix3::new(
+            p.compass_dia[0],
+            p.compass_odi[0],
+            p.compass_odi[1],
+            p.compass_odi[0],
+            p.compass_dia[1],
+            p.compass_odi[2],
+            p.compass_odi[1],
+            p.compass_odi[2],
+            p.compass_dia[2],
+        ) * (Vector3::from(raw) + Vector3::from(p.compass_ofs_mgauss) / 1000.0);
+        let ours = Vector3::from(board.mag.apply(raw));
+        assert!((ardupilot - ours).norm() < 1e-12, "{ardupilot} {ours}");
+        let back = p.calibration().expect("valid");
+        let again = CalibrationParams::from_calibration(&back);
+        for d in &CALIBRATION_PARAMS {
+            assert!(((d.get)(&p) - (d.get)(&again)).abs() < 1e-9, "{}", d.name);
+        }
+        let defaults = CalibrationParams::default();
+        assert!(!defaults.differs_from_default("COMPASS_") && p.differs_from_default("COMPASS_"));
+        assert_eq!(defaults.calibration().expect("identity"), SensorCalibration::default());
+        assert!(defaults.with("COMPASS_DIA_X", 0.2).with("COMPASS_ODI_X", 1.0).calibration().is_err());
+        assert_eq!(p.values("AHRS_TRIM").len(), 2);
     }
 }

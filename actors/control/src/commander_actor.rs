@@ -20,8 +20,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, Command, CommandResult, FlightMode, LandedState, ManualControl, Mission,
-    NavState, ParamDecl, ParamSet, Setpoint, SupervisorEvent, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult, FlightMode, LandedState,
+    ManualControl, Mission, NavState, ParamDecl, ParamSet, Setpoint, SupervisorEvent, VehicleCommand,
+    VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -75,6 +76,8 @@ pub enum CommanderInput {
     Avoidance(Box<AvoidanceCommand>),
     /// A parameter changed by the ground station (port `param_set`).
     Param(ParamSet),
+    /// Calibrations missing or running (port `calibration`; optional), for the pre-arm check.
+    Calibration(CalibrationStatus),
     Tick(Time),
 }
 
@@ -126,6 +129,7 @@ impl Actor for CommanderActor {
         setup.input("supervisor", CommanderInput::Supervisor);
         setup.input("avoidance", |cmd| CommanderInput::Avoidance(Box::new(cmd)));
         setup.input("param_set", CommanderInput::Param);
+        setup.input("calibration", CommanderInput::Calibration);
         setup.timer("tick", tick_period, CommanderInput::Tick);
         Ok(CommanderActor {
             commander,
@@ -163,6 +167,7 @@ impl Actor for CommanderActor {
                 }
             }
             CommanderInput::Battery(b) => self.commander.on_battery(&b),
+            CommanderInput::Calibration(c) => self.commander.on_calibration(&c),
             CommanderInput::Manual(m) => self.commander.on_manual(&m),
             CommanderInput::Supervisor(e) => self.commander.on_supervisor(&e),
             CommanderInput::Avoidance(cmd) => self.commander.on_avoidance(&cmd),

@@ -7,8 +7,9 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, CommandResult, DepthGrid, EstimatorStatus, GpsFix, ManualControl,
-    Mission, NavState, ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CalibrationCommand, CalibrationEvent, CommandResult, DepthGrid,
+    EstimatorStatus, GpsFix, ManualControl, Mission, NavState, ParamDecl, ParamSet, VehicleCommand,
+    VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -40,6 +41,8 @@ pub enum LinkInput {
     Avoidance(AvoidanceCommand),
     /// An actor's live parameters (port `param_decl`).
     ParamDecl(ParamDecl),
+    /// The calibration's answers, progress and results (port `calibration_event`).
+    Calibration(CalibrationEvent),
     Heartbeat(Time),
     Tick(Time),
 }
@@ -51,6 +54,7 @@ pub struct LinkOutputs {
     pub mission: Publisher<Mission>,
     pub manual: Publisher<ManualControl>,
     pub param: Publisher<ParamSet>,
+    pub calibration: Publisher<CalibrationCommand>,
 }
 
 impl LinkOutputs {
@@ -67,6 +71,9 @@ impl LinkOutputs {
                 ToGraph::Mission(m) => self.mission.publish(m),
                 ToGraph::Manual(m) => self.manual.publish(m),
                 ToGraph::Param(p) => self.param.publish(p),
+                ToGraph::Calibration { id, request } => {
+                    self.calibration.publish(CalibrationCommand { time: now, id, request })
+                }
             }
         }
     }
@@ -144,6 +151,7 @@ impl Actor for LinkActor {
         setup.input("depth_grid", LinkInput::Depth);
         setup.input("avoidance", LinkInput::Avoidance);
         setup.input("param_decl", LinkInput::ParamDecl);
+        setup.input("calibration_event", LinkInput::Calibration);
         setup.timer("heartbeat", Duration::from_secs(1), LinkInput::Heartbeat);
         setup.timer("tick", TICK_PERIOD, LinkInput::Tick);
         let outputs = LinkOutputs {
@@ -151,6 +159,7 @@ impl Actor for LinkActor {
             mission: setup.output("mission"),
             manual: setup.output("manual_control"),
             param: setup.output("param_set"),
+            calibration: setup.output("calibration_command"),
         };
         let vehicle = Vehicle::new(params.system_id, table, gcs_timeout);
         Ok(LinkActor {
@@ -235,6 +244,10 @@ impl Actor for LinkActor {
                     {
                         writer.submit(render_param_file(hub.vehicle().params()));
                     }
+                    hub.dispatch(out)
+                }
+                LinkInput::Calibration(e) => {
+                    let out = hub.vehicle().on_calibration(&e);
                     hub.dispatch(out)
                 }
                 LinkInput::Heartbeat(_) => {

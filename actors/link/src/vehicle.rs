@@ -9,8 +9,8 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, Command, CommandResult, DepthGrid, EstimatorStatus, GpsFix, NavState,
-    ParamDecl, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
+    EstimatorStatus, GpsFix, NavState, ParamDecl, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -18,6 +18,7 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{Message, MessageData};
 
+use crate::services::calibration;
 use crate::services::command::{self, CommandRequest, CommandService};
 use crate::services::events::{status_changes, statustext};
 use crate::services::ftp;
@@ -58,6 +59,8 @@ pub struct Vehicle {
     pub offboard_rejects: OffboardRejects,
     /// Messages addressed to us that we could not use (wrong shape, unknown command id).
     pub unhandled: u64,
+    /// The last id of a STATUSTEXT sent in chunks.
+    text_id: u16,
 }
 
 impl Vehicle {
@@ -72,6 +75,7 @@ impl Vehicle {
             gcs: GcsWatch::new(gcs_timeout),
             offboard_rejects: OffboardRejects::default(),
             unhandled: 0,
+            text_id: 0,
         }
     }
 
@@ -229,6 +233,26 @@ impl Vehicle {
     /// The commander's answer to a command: its COMMAND_ACK.
     pub fn on_command_result(&mut self, result: &CommandResult) -> Outputs {
         Outputs { mav: self.commands.on_result(result).into_iter().collect(), graph: Vec::new() }
+    }
+
+    /// A calibration update: the answer becomes its command's COMMAND_ACK, results are set (and
+    /// persisted) as a PARAM_SET would set them, the rest goes to the ground station.
+    pub fn on_calibration(&mut self, event: &CalibrationEvent) -> Outputs {
+        match &event.update {
+            CalibrationUpdate::Answer { id, refusal } => Outputs {
+                mav: self.commands.on_answer(*id, refusal.is_some()).into_iter().collect(),
+                graph: Vec::new(),
+            },
+            CalibrationUpdate::Results { params } => {
+                let mut out = Outputs::none();
+                for (name, value) in params {
+                    // Persisted once the owner declares the value back, as a PARAM_SET is.
+                    out.extend(self.params.set(name, *value as f32, event.time));
+                }
+                out
+            }
+            _ => Outputs { mav: calibration::messages(event, &mut self.text_id), graph: Vec::new() },
+        }
     }
 
     /// The estimator's latest state.

@@ -32,6 +32,7 @@ pub mod axis_map;
 pub mod baro_actor;
 pub mod bus;
 pub mod calibration;
+pub mod calibration_actor;
 pub mod gps;
 pub mod gps_actor;
 pub mod health;
@@ -53,6 +54,7 @@ pub mod ubx;
 
 pub use baro_actor::{BaroActor, BaroActorParams, BaroInput};
 pub use bus::{BusError, I2cBus, SpiBus};
+pub use calibration_actor::{CalibrationActor, CalibrationActorParams, CalibrationInput};
 pub use gps_actor::{GpsActor, GpsActorParams, GpsInput};
 pub use imu_actor::{ImuActor, ImuActorParams, ImuInput};
 pub use motor_actor::{MotorActor, MotorActorParams, MotorInput};

@@ -4,16 +4,19 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap,
-    SimFault, SimFaultPhase,
+    ActuatorOutputs, BaroSample, BatteryStatus, CalibrationMotion, GpsFix, GroundTruth, ImuSample, MagSample,
+    ObstacleMap, ParamDecl, ParamSet, SimFault, SimFaultPhase,
 };
+use kestrel_proto::param_def::{answer, apply, declare};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
+use crate::handling::Handling;
 use crate::rigid_body::RigidBodyState;
 use crate::sensors::schedule::period_us;
-use crate::simulator::{InitialState, SimOptions, SimOutput, Simulator};
+use crate::simulator::{InitialState, RawSample, SimOptions, SimOutput, Simulator};
 use crate::vehicle::VehicleParams;
 use crate::world::World;
 
@@ -39,6 +42,9 @@ pub struct SimActorParams {
     /// [`INSTANCE_SPACING_M`]·N east of `initial_position_ned_m` (PX4's multi-vehicle SITL
     /// spawns them a few metres apart too) and draws its noise from `seed + N`.
     pub instance: u8,
+    /// How the simulated person handles the vehicle during a calibration: "careful",
+    /// "one_orientation" (never turns it), "shaking" (never holds it still).
+    pub handling: Handling,
 }
 
 /// East spacing of vehicles started with `--instance` (m): far enough that two vehicles
@@ -57,6 +63,7 @@ impl Default for SimActorParams {
             battery_rate_hz: options.battery_rate_hz,
             initial_position_ned_m: [0.0; 3],
             instance: 0,
+            handling: Handling::Careful,
         }
     }
 }
@@ -68,11 +75,18 @@ pub enum SimInput {
     Actuators(ActuatorOutputs),
     /// Advance to this time (timer `step`, every IMU period).
     Step(Time),
+    /// How a calibration wants the vehicle handled (port `calibration_motion`).
+    Motion(CalibrationMotion),
+    /// A calibration parameter set (port `param_set`; others' names are ignored).
+    Param(ParamSet),
 }
 
 /// The simulator actor. Outputs: `imu`, `gps`, `baro`, `mag`, `ground_truth`, `battery`,
 /// `sim_fault` (each start and end of a world-file fault, also logged at INFO), and
-/// `obstacle_map` once, on the first step.
+/// `obstacle_map` once, on the first step. Like a driver it owns the sensor calibration
+/// (`param_decl`: [`CALIBRATION_PARAMS`], applied to the samples as they are set) and, while a
+/// calibration asks for a motion, handles the vehicle so and publishes the raw board-frame
+/// samples on `imu_raw` and `mag_raw`.
 pub struct SimActor {
     sim: Simulator,
     imu: Publisher<ImuSample>,
@@ -88,6 +102,11 @@ pub struct SimActor {
     /// `build`, because the recorder and subscribers are attached only after every actor is
     /// built, and a log must carry it.
     map_published: bool,
+    imu_raw: Publisher<ImuSample>,
+    mag_raw: Publisher<MagSample>,
+    param_decl: Publisher<ParamDecl>,
+    calibration: CalibrationParams,
+    name: String,
 }
 
 impl SimActor {
@@ -122,7 +141,7 @@ impl Actor for SimActor {
             },
         };
         let world_path = dir.join(&params.world);
-        let sim = Simulator::new(vehicle, world, options).map_err(|e| {
+        let mut sim = Simulator::new(vehicle, world, options).map_err(|e| {
             // Faults are checked against the vehicle here, so name the world file they are in.
             if e.field.starts_with("faults[") {
                 ActorError::Params(format!("invalid {}: {e}", world_path.display()))
@@ -130,7 +149,10 @@ impl Actor for SimActor {
                 ActorError::Params(e.to_string())
             }
         })?;
+        sim.set_handling(params.handling);
         setup.input("actuators", SimInput::Actuators);
+        setup.input("calibration_motion", SimInput::Motion);
+        setup.input("param_set", SimInput::Param);
         setup.timer("step", Duration::from_micros(tick_us), SimInput::Step);
         Ok(SimActor {
             sim,
@@ -143,18 +165,49 @@ impl Actor for SimActor {
             obstacle_map: setup.output("obstacle_map"),
             sim_fault: setup.output("sim_fault"),
             map_published: false,
+            imu_raw: setup.output("imu_raw"),
+            mag_raw: setup.output("mag_raw"),
+            param_decl: setup.output("param_decl"),
+            calibration: CalibrationParams::default(),
+            name: setup.name().to_owned(),
         })
+    }
+
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        self.param_decl.publish(declare(&CALIBRATION_PARAMS, &self.calibration, &self.name, true, ctx.now()));
+        Ok(())
     }
 
     async fn handle(&mut self, _ctx: &Context, input: SimInput) -> Result<(), ActorError> {
         match input {
             SimInput::Actuators(outputs) => self.sim.set_actuators(&outputs),
+            SimInput::Motion(m) => self.sim.set_calibration_motion(m.motion),
+            SimInput::Param(p) => {
+                let outcome = apply(&CALIBRATION_PARAMS, &mut self.calibration, &p.name, p.value, |c| {
+                    c.calibration().map(|_| ())
+                });
+                if let Ok(kestrel_proto::param_def::ParamChange::Applied) = outcome
+                    && let Ok(calibration) = self.calibration.calibration()
+                {
+                    self.sim.set_calibration(calibration);
+                }
+                if answer(&self.name, &p, outcome) {
+                    let decl = declare(&CALIBRATION_PARAMS, &self.calibration, &self.name, false, p.time);
+                    self.param_decl.publish(decl);
+                }
+            }
             SimInput::Step(time) => {
                 if !self.map_published {
                     self.obstacle_map.publish(obstacle_map(self.sim.world(), self.sim.time()));
                     self.map_published = true;
                 }
                 self.sim.advance_to(time);
+                for raw in self.sim.drain_raw() {
+                    match raw {
+                        RawSample::Imu(m) => self.imu_raw.publish(m),
+                        RawSample::Mag(m) => self.mag_raw.publish(m),
+                    }
+                }
                 for output in self.sim.drain() {
                     match output {
                         SimOutput::Imu(m) => self.imu.publish(m),

@@ -16,14 +16,15 @@ use kestrel_proto::Time;
 use kestrel_proto::calibration::SensorCalibration;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, SimFault,
+    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, Motion, SimFault,
 };
-use nalgebra::Vector3;
+use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::battery::Battery;
 use crate::error::{InvalidParam, finite, rate};
 use crate::faults::{FaultEffects, FaultSchedule, check_for_vehicle};
 use crate::ground::Ground;
+use crate::handling::{Handling, pose};
 use crate::motors::Motors;
 use crate::obstacles::Collisions;
 use crate::rigid_body::{RigidBody, RigidBodyState, Wrench};
@@ -131,6 +132,21 @@ pub struct Simulator {
     /// uncalibrated run does no arithmetic it did not do before.
     calibration: Option<SensorCalibration>,
     outputs: Vec<SimOutput>,
+    /// What the calibration asks of the person handling the vehicle, since when, and from which
+    /// heading; while it is not idle the physics stops and the pose is the person's.
+    motion: Motion,
+    motion_since: Time,
+    motion_yaw_rad: f64,
+    handling: Handling,
+    /// Raw board-frame samples (before `calibration`) taken while a motion is asked for.
+    raw: Vec<RawSample>,
+}
+
+/// A sensor sample before calibration, for the calibration itself.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RawSample {
+    Imu(ImuSample),
+    Mag(MagSample),
 }
 
 impl Simulator {
@@ -184,6 +200,11 @@ impl Simulator {
             accel_ned_m_s2: Vector3::zeros(),
             calibration: None,
             outputs: Vec::with_capacity(64),
+            motion: Motion::Idle,
+            motion_since: start,
+            motion_yaw_rad: 0.0,
+            handling: Handling::Careful,
+            raw: Vec::new(),
             vehicle,
             world,
         })
@@ -220,6 +241,53 @@ impl Simulator {
         self.calibration.as_ref()
     }
 
+    /// How the simulated person handles the vehicle during calibrations.
+    pub fn set_handling(&mut self, handling: Handling) {
+        self.handling = handling;
+    }
+
+    /// Handles the vehicle as a calibration asks (see `handling.rs`), only while it stands on
+    /// the ground: in flight the request is ignored. Back to idle, it is set down level on its
+    /// legs where it stood, facing as it did.
+    pub fn set_calibration_motion(&mut self, motion: Motion) {
+        if motion == self.motion || (self.motion == Motion::Idle && !self.ground.landed) {
+            return;
+        }
+        if self.motion == Motion::Idle {
+            self.motion_yaw_rad = self.state.attitude.euler_angles().2;
+        }
+        self.motion = motion;
+        self.motion_since = self.time;
+        if motion == Motion::Idle {
+            self.state.attitude = UnitQuaternion::from_euler_angles(0.0, 0.0, self.motion_yaw_rad);
+            self.state.angular_velocity_frd_rad_s = Vector3::zeros();
+            self.state.velocity_ned_m_s = Vector3::zeros();
+        }
+    }
+
+    /// The motion being carried out.
+    pub fn calibration_motion(&self) -> Motion {
+        self.motion
+    }
+
+    /// Takes the raw samples taken since the last call.
+    pub fn drain_raw(&mut self) -> std::vec::Drain<'_, RawSample> {
+        self.raw.drain(..)
+    }
+
+    /// One tick in the person's hands: the pose at `time`, its rate from the last pose, still.
+    fn handle_vehicle(&mut self, time: Time, tick_s: f64) -> bool {
+        let t_s = time.saturating_since(self.motion_since).as_secs_f64();
+        let Some(attitude) = pose(self.motion, self.handling, t_s, self.motion_yaw_rad) else {
+            return false;
+        };
+        let step = self.state.attitude.inverse() * attitude;
+        self.state.angular_velocity_frd_rad_s = step.scaled_axis() / tick_s;
+        self.state.attitude = attitude;
+        self.state.velocity_ned_m_s = Vector3::zeros();
+        true
+    }
+
     /// Sets the motor commands used from now on.
     pub fn set_actuators(&mut self, outputs: &ActuatorOutputs) {
         self.motors.command(outputs);
@@ -251,7 +319,8 @@ impl Simulator {
         let velocity_before = self.state.velocity_ned_m_s;
         let air_ned_m_s = self.wind.advance(tick_s, self.effects.wind.as_ref());
         let weight_ned_n = Vector3::new(0.0, 0.0, self.body.mass_kg * GRAVITY_M_S2);
-        for _ in 0..self.substeps {
+        let handled = self.handle_vehicle(tick_time, tick_s);
+        for _ in 0..if handled { 0 } else { self.substeps } {
             self.motors.advance(dt_s);
             let (thrust_frd_n, torque_frd_n_m) = self.motors.force_torque_frd();
             let drag = &self.vehicle.drag;
@@ -292,6 +361,10 @@ impl Simulator {
         let now = self.time;
         let faults = &self.effects;
         let mut imu = self.imu.measure(now, tick_s, &self.state, &self.accel_ned_m_s2, &faults.imu);
+        let raw = self.motion != Motion::Idle;
+        if raw {
+            self.raw.push(RawSample::Imu(imu.clone()));
+        }
         if let Some(calibration) = &self.calibration {
             imu = calibration.apply_imu(&imu);
         }
@@ -309,6 +382,9 @@ impl Simulator {
         }
         if self.mag_due.due(now) {
             let mut sample = self.mag.measure(now, &self.state, &self.field_ned_gauss, &faults.mag);
+            if raw {
+                self.raw.push(RawSample::Mag(sample.clone()));
+            }
             if let Some(calibration) = &self.calibration {
                 sample = calibration.apply_mag(&sample);
             }

@@ -23,7 +23,7 @@ fn publishes_every_stream_at_its_rate_and_flies_on_actuators() {
         "vehicle = \"vehicles/quad_x.toml\"\nworld = \"worlds/empty.toml\"\nseed = 3\ninitial_position_ned_m = [0.0, 0.0, -5.0]\n",
     );
     let mut actor = SimActor::build(&params, &mut setup).expect("builds");
-    assert_eq!(setup.input_ports(), ["actuators"]);
+    assert_eq!(setup.input_ports(), ["actuators", "calibration_motion", "param_set"]);
     assert_eq!(setup.timers(), [("step", Duration::from_micros(2500))]);
     let ctx = setup.context();
     let hover = hover_throttle(actor.simulator().vehicle());
@@ -34,6 +34,7 @@ fn publishes_every_stream_at_its_rate_and_flies_on_actuators() {
     }
     let count = |port: &str| setup.count(port);
     assert_eq!(count("imu"), 800);
+    assert_eq!(count("imu_raw") + count("mag_raw"), 0, "raw samples only while a calibration asks");
     assert_eq!(count("ground_truth"), 100);
     assert_eq!(count("battery"), 20);
     assert_eq!(count("mag"), 200);

@@ -4,6 +4,7 @@ mod actuators;
 mod avoidance_command;
 mod baro;
 mod battery;
+mod calibration;
 mod control_loop;
 mod depth_grid;
 mod estimator_status;
@@ -29,6 +30,11 @@ pub use actuators::{ActuatorOutputs, MAX_MOTORS};
 pub use avoidance_command::{AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, FuzzyVelocity};
 pub use baro::BaroSample;
 pub use battery::BatteryStatus;
+pub use calibration::{
+    ACCELCAL_FAILED, ACCELCAL_SUCCESS, CalibrationCommand, CalibrationEvent, CalibrationMotion,
+    CalibrationRequest, CalibrationStatus, CalibrationStep, CalibrationUpdate, MagCalState, MagReport,
+    Motion, Severity,
+};
 pub use control_loop::ControlLoopStats;
 pub use depth_grid::{DepthGrid, GridRegion, OBSTACLE_SECTORS, ObstacleSectors, SECTOR_UNKNOWN};
 pub use estimator_status::{AidingCounters, EstimatorHealth, EstimatorStatus, Innovation};

@@ -122,6 +122,16 @@ impl Commander {
         if let Some(f) = self.failsafes.worst() {
             return refuse(format!("arming refused: failsafe {:?} active", f.cause));
         }
+        // ArduPilot's pre-arm calibration checks; which steps are required is the calibration
+        // actor's `required` (a graph without one requires none).
+        if let Some(c) = &self.calibration {
+            if let Some(step) = c.running {
+                return refuse(format!("PreArm: {} calibration running", step.name()));
+            }
+            if let Some(step) = c.missing.first() {
+                return refuse(step.prearm_text());
+            }
+        }
         if self.geofence_enabled && self.outside_geofence(nav, &self.home_or(nav)) {
             return refuse("arming refused: outside the geofence");
         }

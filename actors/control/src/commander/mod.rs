@@ -24,9 +24,9 @@ use kestrel_proto::Time;
 use kestrel_proto::attitude::unit_quaternion;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, Command, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState,
-    ManualControl, Mission, MissionProgress, NavState, ParamDecl, Setpoint, SetpointTarget, SupervisorEvent,
-    SupervisorEventKind, VehicleCommand, VehicleStatus,
+    AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, FailsafeAction, FailsafeCause, FlightMode,
+    Home, LandedState, ManualControl, Mission, MissionProgress, NavState, ParamDecl, Setpoint,
+    SetpointTarget, SupervisorEvent, SupervisorEventKind, VehicleCommand, VehicleStatus,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -77,6 +77,8 @@ pub struct Commander {
     /// A geofence breach triggers its failsafe (MAV_CMD_DO_FENCE_ENABLE switches it).
     geofence_enabled: bool,
     battery: Option<BatteryStatus>,
+    /// The calibration's last word: required steps missing, one running (pre-arm).
+    calibration: Option<CalibrationStatus>,
     manual: Option<ManualControl>,
     last_link: Option<Time>,
     mission: Option<Mission>,
@@ -133,6 +135,7 @@ impl Commander {
             home_revision: 0,
             geofence_enabled: true,
             battery: None,
+            calibration: None,
             manual: None,
             last_link: None,
             mission: None,
@@ -227,6 +230,11 @@ impl Commander {
 
     pub fn on_battery(&mut self, battery: &BatteryStatus) {
         self.battery = Some(battery.clone());
+    }
+
+    /// The calibration's status, for the pre-arm check.
+    pub fn on_calibration(&mut self, status: &CalibrationStatus) {
+        self.calibration = Some(status.clone());
     }
 
     /// Sticks; they also count as a live data link. Non-finite sticks are ignored; sticks older

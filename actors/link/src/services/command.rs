@@ -21,8 +21,11 @@ use kestrel_proto::messages::{AltitudeFrame, Command, CommandResult, FlightMode,
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_ACK_DATA, HOME_POSITION_DATA, MavCmd, MavFrame, MavMessage, MavResult,
+    MavSeverity,
 };
 
+use super::calibration;
+use super::events::statustext;
 use super::mission::MissionService;
 use super::telemetry::{Telemetry, home};
 use super::{Outputs, Sender, ToGraph};
@@ -153,6 +156,14 @@ impl CommandService {
                     graph: Vec::new(),
                 },
                 None => Outputs::send(ack(&request, MavResult::MAV_RESULT_TEMPORARILY_REJECTED)),
+            },
+            // Sensor calibration: checked here, run by the calibration actor, whose answer is the ACK.
+            command if calibration::is_calibration(command) => match calibration::request(&request) {
+                Ok(cal) => self.submit_to(request, |id| ToGraph::Calibration { id, request: cal }, now),
+                Err((result, reason)) => Outputs {
+                    mav: vec![ack(&request, result), statustext(MavSeverity::MAV_SEVERITY_WARNING, &reason)],
+                    graph: Vec::new(),
+                },
             },
             _ => match self.handle(request, now) {
                 Some(out) => out,
@@ -306,22 +317,33 @@ impl CommandService {
 
     /// Passes `command` on with a new id and waits for its result.
     fn submit(&mut self, request: CommandRequest, command: Command, now: Time) -> Outputs {
+        self.submit_to(request, |id| ToGraph::Request { id, command }, now)
+    }
+
+    /// Passes on what `to_graph` makes of a new id and waits for the answer to that id.
+    fn submit_to(
+        &mut self,
+        request: CommandRequest,
+        to_graph: impl FnOnce(u32) -> ToGraph,
+        now: Time,
+    ) -> Outputs {
         self.last_id = self.last_id.checked_add(1).unwrap_or(1);
         let id = self.last_id;
         self.pending.push(Pending { request, id, deadline: now + ACK_TIMEOUT });
-        Outputs { mav: Vec::new(), graph: vec![ToGraph::Request { id, command }] }
+        Outputs { mav: Vec::new(), graph: vec![to_graph(id)] }
     }
 
     /// The commander's answer: the COMMAND_ACK of the command it answers (none for an id we are
     /// not waiting for: one timed out already, or another link's).
     pub fn on_result(&mut self, result: &CommandResult) -> Option<MavMessage> {
-        let i = self.pending.iter().position(|p| p.id == result.id)?;
+        self.on_answer(result.id, result.refusal.is_some())
+    }
+
+    /// The answer to the command passed on with `id` (the commander's or the calibration's).
+    pub fn on_answer(&mut self, id: u32, refused: bool) -> Option<MavMessage> {
+        let i = self.pending.iter().position(|p| p.id == id)?;
         let pending = self.pending.swap_remove(i);
-        let answer = if result.refusal.is_none() {
-            MavResult::MAV_RESULT_ACCEPTED
-        } else {
-            MavResult::MAV_RESULT_DENIED
-        };
+        let answer = if !refused { MavResult::MAV_RESULT_ACCEPTED } else { MavResult::MAV_RESULT_DENIED };
         Some(ack(&pending.request, answer))
     }
 

@@ -2,6 +2,7 @@
 //! decoded messages (and the graph's state) and answers with messages to send and messages for
 //! the graph. No sockets, no tokio: the shell in `hub.rs` does the I/O.
 
+pub mod calibration;
 pub mod command;
 pub mod events;
 pub mod ftp;
@@ -12,7 +13,7 @@ pub mod params;
 pub mod telemetry;
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{Command, ManualControl, Mission, ParamSet};
+use kestrel_proto::messages::{CalibrationRequest, Command, ManualControl, Mission, ParamSet};
 use mavlink::dialects::ardupilotmega::MavMessage;
 
 /// The shape of a microservice that owns a protocol (as mini-redis's commands share one): it
@@ -51,6 +52,11 @@ pub enum ToGraph {
     Request {
         id: u32,
         command: Command,
+    },
+    /// A calibration request whose answer for `id` becomes its COMMAND_ACK.
+    Calibration {
+        id: u32,
+        request: CalibrationRequest,
     },
     Mission(Mission),
     Manual(ManualControl),

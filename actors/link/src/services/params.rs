@@ -56,6 +56,8 @@ struct Awaiting {
     name: String,
     wanted: f64,
     deadline: Time,
+    /// A stored value sent at the owner's start, not a ground station's set: no echo.
+    restored: bool,
 }
 
 /// One parameter and who answers for it.
@@ -189,6 +191,13 @@ impl ParamTable {
             done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_ERROR, &text));
             return done;
         }
+        let answered = self
+            .awaiting
+            .iter()
+            .find(|a| {
+                self.entries.iter().any(|e| e.spec.name == a.name && e.owner.as_deref() == Some(&decl.owner))
+            })
+            .map(|a| a.name.clone());
         for p in &decl.params {
             let index = self.entries.iter().position(|e| e.spec.name == p.name);
             let owned_by_other =
@@ -208,7 +217,7 @@ impl ParamTable {
             };
             match index {
                 Some(i) if self.entries[i].owner.is_some() => {
-                    self.redeclared(i, spec, decl.start, now, &mut done);
+                    self.redeclared(i, spec, (decl.start, answered.as_deref()), now, &mut done);
                 }
                 _ => {
                     // New, or replacing a config entry: a stored or config-set value wins.
@@ -240,13 +249,31 @@ impl ParamTable {
 
     /// An owner declared parameter `i` again: after a restart it is sent the value set before;
     /// after a `ParamSet` a different value means it refused, and its value is taken.
-    fn redeclared(&mut self, i: usize, spec: ParamSpec, start: bool, now: Time, done: &mut Declared) {
+    /// `answered` names the oldest set the owner was waited on for: an owner handles its sets in
+    /// order and declares after each, so a declaration refuses that one only — a later set still
+    /// waiting (several sent at once, as calibration results are) is judged by a later one.
+    fn redeclared(
+        &mut self,
+        i: usize,
+        spec: ParamSpec,
+        (start, answered): (bool, Option<&str>),
+        now: Time,
+        done: &mut Declared,
+    ) {
         if let Some(at) = self.awaiting.iter().position(|a| a.name == spec.name) {
-            let wanted = self.awaiting.swap_remove(at).wanted;
+            let wanted = self.awaiting[at].wanted;
+            if spec.value != wanted && answered != Some(spec.name.as_str()) {
+                self.entries[i].spec = ParamSpec { value: self.entries[i].spec.value, ..spec };
+                return;
+            }
+            let restored = self.awaiting.remove(at).restored;
             let entry = &mut self.entries[i];
             entry.spec = spec;
             if entry.spec.value == wanted {
                 entry.persist = true;
+                if restored {
+                    return;
+                }
                 done.persist_changed = true;
             } else {
                 let text = format!(
@@ -297,7 +324,16 @@ impl ParamTable {
         let value = quantise(entry.spec.kind, value);
         if value != entry.spec.value {
             entry.spec.value = value;
-            done.out.graph.push(ToGraph::Param(ParamSet { time: now, name: entry.spec.name.clone(), value }));
+            let name = entry.spec.name.clone();
+            // Waited on like a set, so the answer to an earlier one of several is no refusal.
+            self.awaiting.retain(|a| a.name != name);
+            self.awaiting.push(Awaiting {
+                name: name.clone(),
+                wanted: value,
+                deadline: now + CONFIRM_TIMEOUT,
+                restored: true,
+            });
+            done.out.graph.push(ToGraph::Param(ParamSet { time: now, name, value }));
         }
     }
 
@@ -372,6 +408,7 @@ impl ParamTable {
                 name: set.name.clone(),
                 wanted: value,
                 deadline: now + CONFIRM_TIMEOUT,
+                restored: false,
             });
             return Outputs { mav: Vec::new(), graph: vec![ToGraph::Param(set)] };
         }
@@ -663,6 +700,37 @@ mod tests {
         assert!(done.persist_changed);
         assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=20\n");
         assert!(t.tick(Time::from_secs_f64(5.0)).is_empty(), "confirmed: nothing expires");
+    }
+
+    #[test]
+    fn sets_sent_together_are_judged_by_the_declaration_answering_each() {
+        let mut t = table();
+        let both = |a, b| decl("commander", false, &[("BATT_CRT_FRAC", a), ("TKOFF_ALT_M", b)]);
+        t.declare(&decl("commander", true, &[("BATT_CRT_FRAC", 10.0), ("TKOFF_ALT_M", 10.0)]), Time::ZERO);
+        t.set("BATT_CRT_FRAC", 20.0, Time::ZERO);
+        t.set("TKOFF_ALT_M", 12.0, Time::ZERO);
+        // The answer to the first set still shows the second's old value: not a refusal.
+        let done = t.declare(&both(20.0, 10.0), Time::ZERO);
+        assert_eq!(values(&done.out.mav), [("BATT_CRT_FRAC".to_owned(), 20.0)]);
+        assert_eq!(texts(&done.out.mav), 0);
+        let done = t.declare(&both(20.0, 12.0), Time::ZERO);
+        assert_eq!(values(&done.out.mav), [("TKOFF_ALT_M".to_owned(), 12.0)]);
+        assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=20\nTKOFF_ALT_M=12\n");
+    }
+
+    #[test]
+    fn several_stored_values_are_restored_to_one_owner_without_false_refusals() {
+        let mut t = table();
+        t.restore("BATT_CRT_FRAC", 20.0).expect("held");
+        t.restore("TKOFF_ALT_M", 12.0).expect("held");
+        let both = |a, b| decl("commander", false, &[("BATT_CRT_FRAC", a), ("TKOFF_ALT_M", b)]);
+        let start = decl("commander", true, &[("BATT_CRT_FRAC", 10.0), ("TKOFF_ALT_M", 10.0)]);
+        assert_eq!(t.declare(&start, Time::ZERO).out.graph.len(), 2);
+        for answer in [both(20.0, 10.0), both(20.0, 12.0)] {
+            let done = t.declare(&answer, Time::ZERO);
+            assert_eq!(texts(&done.out.mav), 0, "no refusal");
+        }
+        assert_eq!(render_param_file(&t), "BATT_CRT_FRAC=20\nTKOFF_ALT_M=12\n");
     }
 
     #[test]

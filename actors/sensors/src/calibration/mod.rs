@@ -7,6 +7,7 @@
 //! * [`gyro`] — gyro offset at rest;
 //! * [`level`] — the board's roll and pitch against the airframe;
 //! * [`esc`] — each output's pulse range from a recorded ramp;
+//! * [`session`] — one ground-station-driven calibration at a time, over the fits above;
 //! * [`still`] — the at-rest check the last three share.
 
 pub mod accel;
@@ -15,6 +16,7 @@ pub mod esc;
 pub mod gyro;
 pub mod level;
 pub mod mag;
+pub mod session;
 pub mod still;
 
 pub use accel::{
@@ -24,4 +26,5 @@ pub use esc::{EscCalError, EscRange, EscSample, EscSettings, calibrate_esc};
 pub use gyro::{GyroCalError, GyroFit, GyroSettings, calibrate_gyro};
 pub use level::{LevelCalError, LevelFit, LevelSettings, calibrate_level};
 pub use mag::{MagCalError, MagFit, MagSettings, calibrate_mag};
+pub use session::{Session, SessionSettings};
 pub use still::{NotStill, StillLimits, StillWindow};

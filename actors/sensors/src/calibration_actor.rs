@@ -1,0 +1,157 @@
+//! The calibration actor: owns the one calibration session of the vehicle (the pure
+//! [`Session`]) and feeds it from its mailboxes. Inputs: `command` ([`CalibrationCommand`], from
+//! the link), `imu_raw` and `mag_raw` (raw board-frame samples from the sensor source, which
+//! sends them only while a [`CalibrationMotion`] other than idle is asked for), `vehicle_status`
+//! (no calibration while armed), `param_decl` (the calibration values the sensor path's owner
+//! flies with). Outputs: `event` ([`CalibrationEvent`], to the link), `motion`
+//! ([`CalibrationMotion`], to the sensor source) and `status` ([`CalibrationStatus`], to the
+//! commander's pre-arm check, published when it changes and every second).
+//!
+//! It lives apart from the sensor drivers so the simulator and the hardware share one session,
+//! and apart from the link so MAVLink stays a transport of requests and results.
+
+use std::time::Duration;
+
+use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
+use kestrel_proto::messages::{
+    CalibrationCommand, CalibrationEvent, CalibrationMotion, CalibrationStatus, CalibrationStep, ImuSample,
+    MagSample, ParamDecl, VehicleStatus,
+};
+use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
+use serde::Deserialize;
+
+use crate::calibration::{Session, SessionSettings};
+
+/// `[actors.calibration.params]`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CalibrationActorParams {
+    /// Strength of the Earth's field where the vehicle flies (gauss), the compass fit's
+    /// reference (the World Magnetic Model's total intensity at home; the simulator's world
+    /// file). 0.05..=1.
+    pub expected_field_gauss: f64,
+    /// Steps without whose result arming is refused (ArduPilot's pre-arm "3D Accel calibration
+    /// needed", "Compass not calibrated"): any of "gyro", "accel", "level", "compass".
+    pub required: Vec<CalibrationStep>,
+}
+
+impl Default for CalibrationActorParams {
+    fn default() -> CalibrationActorParams {
+        CalibrationActorParams { expected_field_gauss: 0.5, required: Vec::new() }
+    }
+}
+
+#[derive(Debug)]
+pub enum CalibrationInput {
+    Command(CalibrationCommand),
+    Imu(ImuSample),
+    Mag(MagSample),
+    Status(Box<VehicleStatus>),
+    Decl(ParamDecl),
+    Tick(Time),
+}
+
+pub struct CalibrationActor {
+    session: Session,
+    required: Vec<CalibrationStep>,
+    event: Publisher<CalibrationEvent>,
+    motion: Publisher<CalibrationMotion>,
+    status: Publisher<CalibrationStatus>,
+    last_motion: Option<kestrel_proto::messages::Motion>,
+    last_status: Option<CalibrationStatus>,
+    last_status_time: Time,
+}
+
+impl CalibrationActor {
+    fn publish(&mut self, now: Time) {
+        for update in self.session.take_updates() {
+            self.event.publish(CalibrationEvent { time: now, update });
+        }
+        let motion = self.session.motion();
+        if self.last_motion != Some(motion) {
+            self.motion.publish(CalibrationMotion { time: now, motion });
+            self.last_motion = Some(motion);
+        }
+        let status = CalibrationStatus {
+            time: now,
+            missing: self.session.missing(&self.required),
+            running: self.session.running(),
+        };
+        let changed = self
+            .last_status
+            .as_ref()
+            .is_none_or(|s| s.missing != status.missing || s.running != status.running);
+        if changed || now.saturating_since(self.last_status_time) >= Duration::from_secs(1) {
+            self.last_status_time = now;
+            self.last_status = Some(status.clone());
+            self.status.publish(status);
+        }
+    }
+}
+
+impl Actor for CalibrationActor {
+    type Params = CalibrationActorParams;
+    type Input = CalibrationInput;
+
+    fn build(
+        params: &CalibrationActorParams,
+        setup: &mut impl Setup<CalibrationInput>,
+    ) -> Result<Self, ActorError> {
+        let field = params.expected_field_gauss;
+        if !(field.is_finite() && (0.05..=1.0).contains(&field)) {
+            return Err(ActorError::Params(format!("expected_field_gauss = {field} is outside 0.05..=1 G")));
+        }
+        setup.input("command", CalibrationInput::Command);
+        setup.input("imu_raw", CalibrationInput::Imu);
+        setup.input("mag_raw", CalibrationInput::Mag);
+        setup.input("vehicle_status", |s| CalibrationInput::Status(Box::new(s)));
+        setup.input("param_decl", CalibrationInput::Decl);
+        setup.timer("tick", Duration::from_millis(100), CalibrationInput::Tick);
+        Ok(CalibrationActor {
+            session: Session::new(SessionSettings::new(field)),
+            required: params.required.clone(),
+            event: setup.output("event"),
+            motion: setup.output("motion"),
+            status: setup.output("status"),
+            last_motion: None,
+            last_status: None,
+            last_status_time: Time::ZERO,
+        })
+    }
+
+    async fn handle(&mut self, _ctx: &Context, input: CalibrationInput) -> Result<(), ActorError> {
+        let now = match input {
+            CalibrationInput::Command(c) => {
+                self.session.on_request(c.id, c.request, c.time);
+                c.time
+            }
+            CalibrationInput::Imu(s) => {
+                self.session.on_imu(&s);
+                s.time
+            }
+            CalibrationInput::Mag(s) => {
+                self.session.on_mag(&s);
+                s.time
+            }
+            CalibrationInput::Status(s) => {
+                self.session.set_armed(s.armed);
+                s.time
+            }
+            CalibrationInput::Decl(d) => {
+                // The owner of the sensor path declares the calibration parameters it flies with.
+                if d.params.iter().any(|p| p.name == CALIBRATION_PARAMS[0].name) {
+                    let current =
+                        d.params.iter().fold(CalibrationParams::default(), |c, p| c.with(&p.name, p.value));
+                    self.session.set_current(current);
+                }
+                d.time
+            }
+            CalibrationInput::Tick(t) => {
+                self.session.on_tick(t);
+                t
+            }
+        };
+        self.publish(now);
+        Ok(())
+    }
+}

@@ -1,0 +1,212 @@
+//! Issue 19's acceptance: a pymavlink ground station (tests/python/gcs_calibration.py) calibrates
+//! a simulated vehicle with sensor errors (config/vehicles/quad_x_miscalibrated.toml: hard iron
+//! (0.15, −0.1, 0.2) G, soft iron with 10 % scale and 5 % cross terms, accelerometer offsets
+//! 0.3 m/s² and 2 % scale, the board tilted 3°) over MAVLink — accelerometer, level, compass —
+//! against `kestrel run` as a child process, with the calibration required before arming.
+//! Arming is refused first with the STATUSTEXT naming the step; the recovered parameters lie
+//! within 5 % / 0.02 G of the vehicle file's truth; after a restart they are still there and
+//! arming is accepted. Then the square mission is flown in-process three times, error-free
+//! vehicle, uncalibrated and calibrated (the parameter file of the MAVLink run), and the
+//! estimator's yaw error of the calibrated one must be within 1° of the error-free one.
+
+mod sim_vehicle;
+
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use kestrel::{LoadedConfig, Registry, RunOptions, run};
+use kestrel_proto::calibration::{CalibrationParams, SensorCalibration};
+use sim_vehicle::{PARAM_TABLE, Proc, python, root, sim_config, stop, tail, temp_dir};
+
+const VEHICLE: &str = "config/vehicles/quad_x_miscalibrated.toml";
+const CLIENT_LIMIT: Duration = Duration::from_secs(90);
+
+/// The calibration graph: config/sim.toml with the miscalibrated vehicle, calibration required
+/// and the link's parameters persisted in `dir`.
+fn config(port: u16, dir: &Path) -> String {
+    let link = format!(
+        "params.system_id = 1\nparams.param_file = \"{}\"\nparams.endpoints = [ {{ type = \"udp_out\", address = \"127.0.0.1:{port}\" }} ]\nparams.params = {PARAM_TABLE}\n",
+        dir.join("params.txt").display()
+    );
+    let text = sim_config(&link);
+    let vehicle = format!("vehicle = \"{}\"", root().join(VEHICLE).display());
+    let with_vehicle = text.replace(
+        &format!("vehicle = \"{}\"", root().join("config/vehicles/quad_x.toml").display()),
+        &vehicle,
+    );
+    assert_ne!(with_vehicle, text, "config/sim.toml names vehicles/quad_x.toml");
+    let required = with_vehicle.replace("required = []", "required = [\"accel\", \"level\", \"compass\"]");
+    assert_ne!(required, with_vehicle, "config/sim.toml's calibration has `required = []`");
+    required
+}
+
+/// Runs the client in `scenario` against `kestrel run`; returns its results JSON.
+fn session(dir: &Path, scenario: &str) -> serde_json::Value {
+    let mut client = Proc(
+        Command::new(python())
+            .arg(root().join("tests/python/gcs_calibration.py"))
+            .env("CAL_SCENARIO", scenario)
+            .env("PYTHONUNBUFFERED", "1")
+            .env("PYTHONDONTWRITEBYTECODE", "1")
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("start the pymavlink client"),
+    );
+    let (tx, lines) = mpsc::channel::<String>();
+    let stdout = client.0.stdout.take().expect("stdout");
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
+    let port: u16 = first.strip_prefix("PORT ").and_then(|p| p.trim().parse().ok()).expect("client port");
+    let config_path = dir.join(format!("{scenario}.toml"));
+    std::fs::write(&config_path, config(port, dir)).expect("config");
+    let log_path = dir.join(format!("{scenario}.log"));
+    let mut kestrel = Proc(
+        Command::new(env!("CARGO_BIN_EXE_kestrel"))
+            .current_dir(dir)
+            .env_remove("RUST_LOG")
+            .args(["run", "--quiet", "--speedup", "5", "--duration", "600", "--config"])
+            .arg(&config_path)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log_path).expect("log"))
+            .spawn()
+            .expect("start kestrel run"),
+    );
+    println!("── {scenario} ──");
+    let started = Instant::now();
+    let mut transcript = Vec::new();
+    let exit = loop {
+        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
+            println!("  {line}");
+            transcript.push(line);
+        }
+        if let Some(status) = client.0.try_wait().expect("client status") {
+            transcript.extend(lines.try_iter());
+            break Some(status);
+        }
+        if started.elapsed() > CLIENT_LIMIT {
+            break None;
+        }
+    };
+    let log = || tail(&std::fs::read_to_string(&log_path).unwrap_or_default(), 30);
+    assert!(exit.is_some_and(|s| s.success()), "{scenario}: client {exit:?}\n{}", log());
+    assert!(stop(&mut kestrel, scenario).success(), "{scenario}: kestrel failed\n{}", log());
+    let last = transcript.last().expect("a result line");
+    let result: serde_json::Value = serde_json::from_str(last).expect("JSON result");
+    result["results"].clone()
+}
+
+/// The calibration the parameters read over MAVLink hold.
+fn calibration_of(params: &serde_json::Value) -> SensorCalibration {
+    let map = params.as_object().expect("parameters");
+    let p = map.iter().fold(CalibrationParams::default(), |p, (k, v)| p.with(k, v.as_f64().expect("number")));
+    p.calibration().expect("valid calibration")
+}
+
+/// Flies config/missions/square.plan in-process on `vehicle` with the parameter file
+/// `param_file` (if any); returns the report's `estimator.rms_yaw_deg`.
+fn square_yaw_deg(dir: &Path, label: &str, vehicle: &str, param_file: Option<&Path>) -> f64 {
+    let config_dir = root().join("config");
+    let mut config = LoadedConfig::load(&config_dir.join("sim.toml")).expect("sim.toml");
+    let table = |pairs: Vec<(&str, toml::Value)>| -> toml::Table {
+        pairs.into_iter().map(|(k, v)| (k.to_owned(), v)).collect()
+    };
+    for actor in config.graph.actors.values_mut() {
+        let params = match actor.kind.get_ref().as_str() {
+            "commander" => table(vec![
+                ("mission", config_dir.join("missions/square.plan").display().to_string().into()),
+                ("auto", true.into()),
+                ("exit_on_land", true.into()),
+            ]),
+            "sim" => table(vec![
+                ("vehicle", root().join(vehicle).display().to_string().into()),
+                ("world", config_dir.join("worlds/empty.toml").display().to_string().into()),
+                ("seed", 1.into()),
+            ]),
+            "link" => {
+                let mut t = table(vec![("endpoints", toml::Value::Array(Vec::new()))]);
+                if let Some(file) = param_file {
+                    t.insert("param_file".into(), file.display().to_string().into());
+                }
+                t
+            }
+            _ => continue,
+        };
+        actor.params = Some(toml::Spanned::new(0..0, params));
+    }
+    let report_path = dir.join(format!("{label}-report.json"));
+    let options = RunOptions {
+        duration: Some(Duration::from_secs(200)),
+        speedup: Some(0.0),
+        report: Some(report_path.clone()),
+        ..Default::default()
+    };
+    run(&config, &Registry::standard(), options).expect("the flight ran");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report_path).expect("report")).expect("JSON");
+    assert_eq!(report["mission"]["completed"], true, "{label}: {report:#}");
+    let yaw = report["estimator"]["rms_yaw_deg"].as_f64().expect("rms_yaw_deg");
+    println!("{label}: rms_yaw_deg {yaw:.3}, estimator {}", report["estimator"]);
+    yaw
+}
+
+#[test]
+fn a_ground_station_calibrates_the_vehicle_and_its_yaw_error_drops_to_the_error_free_one() {
+    let dir = temp_dir("calibration");
+    let first = session(&dir, "calibrate");
+    let refusal = first["prearm_refusal"].as_str().expect("a pre-arm STATUSTEXT");
+    assert_eq!(refusal, "PreArm: 3D Accel calibration needed");
+    assert_eq!(first["accel_positions"], serde_json::json!([1, 2, 3, 4, 5, 6]));
+    assert_eq!(calibration_of(&first["before"]), SensorCalibration::default(), "nothing calibrated before");
+
+    // The vehicle file's truth (config/vehicles/quad_x_miscalibrated.toml).
+    let got = calibration_of(&first["params"]);
+    let hard = got.mag.hard_iron_gauss();
+    let soft = got.mag.soft_iron();
+    let truth_soft = [[1.10, 0.05, -0.05], [0.05, 0.90, 0.05], [-0.05, 0.05, 1.05]];
+    println!("hard iron {hard:?} G, soft iron {soft:?}");
+    for (h, t) in hard.iter().zip([0.15, -0.1, 0.2]) {
+        assert!((h - t).abs() <= 0.02, "hard iron {hard:?}");
+    }
+    for (row, truth_row) in soft.iter().zip(truth_soft) {
+        for (s, t) in row.iter().zip(truth_row) {
+            assert!((s - t).abs() <= 0.05, "soft iron {soft:?}");
+        }
+    }
+    let (offset, scale) = (got.accel.offset_m_s2(), got.accel.scale());
+    println!("accel offset {offset:?} m/s², scale {scale:?}");
+    for (o, t) in offset.iter().zip([0.3, -0.3, 0.3]) {
+        assert!((o - t).abs() <= 0.05 * 0.3, "accel offset {offset:?}");
+    }
+    // Within 5 % of each error: 0.015 m/s² of the offsets, 0.001 of the scales, 0.1° of the tilt.
+    for (s, t) in scale.iter().zip([1.02, 0.98, 1.02]) {
+        assert!((s - t).abs() <= 0.05 * 0.02, "accel scale {scale:?}");
+    }
+    let (roll, pitch) = (got.level.roll_deg(), got.level.pitch_deg());
+    println!("board level roll {roll:.3}°, pitch {pitch:.3}°");
+    assert!((roll - 2.0).abs() <= 0.1 && (pitch + 2.24).abs() <= 0.112, "level {roll} {pitch}");
+
+    // A restart keeps every value and arming is accepted.
+    let second = session(&dir, "verify");
+    assert_eq!(second["params"], first["params"], "the parameters survived the restart");
+    assert_eq!(second["armed"], true);
+
+    let free = square_yaw_deg(&dir, "error-free", "config/vehicles/quad_x.toml", None);
+    let raw = square_yaw_deg(&dir, "uncalibrated", VEHICLE, None);
+    let calibrated = square_yaw_deg(&dir, "calibrated", VEHICLE, Some(&dir.join("params.txt")));
+    println!("rms_yaw_deg: error-free {free:.3}, uncalibrated {raw:.3}, calibrated {calibrated:.3}");
+    assert!(raw > free + 2.0, "the sensor errors show in the yaw error: {raw} vs {free}");
+    assert!((calibrated - free).abs() <= 1.0, "calibrated {calibrated} vs error-free {free}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
