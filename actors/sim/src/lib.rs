@@ -23,6 +23,7 @@ mod error;
 pub mod faults;
 pub mod forest;
 mod ground;
+pub mod hil;
 mod motors;
 mod obstacles;
 mod rigid_body;
