@@ -77,6 +77,11 @@ pub struct RunArgs {
     /// Do not print the once-a-second status line.
     #[arg(long)]
     pub quiet: bool,
+
+    /// Print the graph with every base it `extends` merged in (TOML), and exit.
+    #[arg(long)]
+    pub print_config: bool,
+
     /// Which of several vehicles on this machine to be, 0..=254 (PX4's multi-vehicle SITL):
     /// system id N+1, local ports 18570+N and 14580+N, API port 14540+N, the ground station
     /// still at 14550, and the simulated vehicle spawned 5·N m east of the others.

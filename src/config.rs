@@ -32,6 +32,7 @@ use std::time::Duration;
 use serde::Deserialize;
 use toml::Spanned;
 
+use crate::compose::{Layer, compose};
 use crate::mailbox::MailboxKind;
 
 /// Longest run a config or `--duration` may ask for (s): about 31 years, far past any flight,
@@ -64,22 +65,49 @@ impl fmt::Display for ConfigError {
 }
 
 /// The config file's text and path, to turn spans into line numbers.
+///
+/// A composed config (`extends`, see [`crate::compose`]) is parsed from its merged text; its
+/// errors are placed back in the file that spelled the key (see [`Source::error_on_line`]).
 #[derive(Clone, Debug)]
 pub struct Source {
+    /// The file that was run.
     pub path: PathBuf,
     text: Arc<str>,
+    /// The composition's files, the file that was run first; empty when it extends nothing.
+    layers: Arc<[Layer]>,
 }
 
 impl Source {
+    /// The source of a file that extends nothing.
+    pub fn plain(path: &Path, text: &str) -> Source {
+        Source { path: path.to_owned(), text: Arc::from(text), layers: Arc::from([]) }
+    }
+
+    /// An error on `line` of the text (merged text when composed), placed in the file and on
+    /// the line that spelled the key there.
+    pub fn error_on_line(&self, line: Option<usize>, message: impl Into<String>) -> ConfigError {
+        let message = message.into();
+        let Some(merged_line) = line.filter(|_| !self.layers.is_empty()) else {
+            return ConfigError { file: self.path.clone(), line, message };
+        };
+        let place = key_path_at_line(&self.text, merged_line).and_then(|path| {
+            let keys: Vec<&str> = path.iter().map(String::as_str).collect();
+            self.layers.iter().find_map(|layer| {
+                let line = line_of_key_in(&layer.text, &keys)?;
+                Some(ConfigError { file: layer.path.clone(), line: Some(line), message: message.clone() })
+            })
+        });
+        place.unwrap_or(ConfigError { file: self.path.clone(), line: None, message })
+    }
+
     /// The 1-based line holding byte `offset`.
     pub fn line_of(&self, offset: usize) -> usize {
-        let end = offset.min(self.text.len());
-        self.text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+        line_in(&self.text, offset)
     }
 
     /// An error at `span`.
     pub fn error_at(&self, span: Range<usize>, message: impl Into<String>) -> ConfigError {
-        ConfigError { file: self.path.clone(), line: Some(self.line_of(span.start)), message: message.into() }
+        self.error_on_line(Some(self.line_of(span.start)), message)
     }
 
     /// An error without a place.
@@ -91,37 +119,87 @@ impl Source {
     /// element), if the text has it: `["run", "status_period_s"]`,
     /// `["actors", "link", "params", "endpoints", "1", "bind"]`.
     pub fn line_of_key(&self, path: &[&str]) -> Option<usize> {
-        let document = toml::de::DeTable::parse(&self.text).ok()?;
-        let (mut table, mut span) = (document.get_ref(), None);
-        let mut keys = path.iter().peekable();
-        while let Some(key) = keys.next() {
-            let (name, mut value) = table.get_key_value(*key)?;
-            span = Some(name.span());
-            // Array elements: the element's own span (an inline table's brace).
-            while let (toml::de::DeValue::Array(items), Some(index)) =
-                (value.get_ref(), keys.peek().and_then(|k| k.parse::<usize>().ok()))
-            {
-                keys.next();
-                value = items.get(index)?;
-                span = Some(value.span());
-            }
-            if keys.peek().is_some() {
-                let toml::de::DeValue::Table(inner) = value.get_ref() else { return None };
-                table = inner;
-            }
-        }
-        span.map(|s| self.line_of(s.start))
+        line_of_key_in(&self.text, path)
     }
 
     /// An error at the key `path` (see [`Source::line_of_key`]), or without a place.
     pub fn error_at_key(&self, path: &[&str], message: impl Into<String>) -> ConfigError {
-        ConfigError { file: self.path.clone(), line: self.line_of_key(path), message: message.into() }
+        self.error_on_line(self.line_of_key(path), message)
     }
 
     /// The directory relative paths in the config resolve against.
     pub fn dir(&self) -> &Path {
         self.path.parent().unwrap_or(Path::new("."))
     }
+}
+
+/// 1-based line of `offset` in `text`.
+fn line_in(text: &str, offset: usize) -> usize {
+    let end = offset.min(text.len());
+    text.as_bytes()[..end].iter().filter(|&&b| b == b'\n').count() + 1
+}
+
+/// The 1-based line of the key at `path` in `text` (see [`Source::line_of_key`]).
+fn line_of_key_in(text: &str, path: &[&str]) -> Option<usize> {
+    let document = toml::de::DeTable::parse(text).ok()?;
+    let (mut table, mut span) = (document.get_ref(), None);
+    let mut keys = path.iter().peekable();
+    while let Some(key) = keys.next() {
+        let (name, mut value) = table.get_key_value(*key)?;
+        span = Some(name.span());
+        // Array elements: the element's own span (an inline table's brace).
+        while let (toml::de::DeValue::Array(items), Some(index)) =
+            (value.get_ref(), keys.peek().and_then(|k| k.parse::<usize>().ok()))
+        {
+            keys.next();
+            value = items.get(index)?;
+            span = Some(value.span());
+        }
+        if keys.peek().is_some() {
+            let toml::de::DeValue::Table(inner) = value.get_ref() else { return None };
+            table = inner;
+        }
+    }
+    span.map(|s| line_in(text, s.start))
+}
+
+/// The longest key path (array elements as indices) whose key sits on 1-based `line` of `text`.
+fn key_path_at_line(text: &str, line: usize) -> Option<Vec<String>> {
+    fn walk(
+        text: &str,
+        value: &toml::de::DeValue<'_>,
+        prefix: &mut Vec<String>,
+        line: usize,
+        best: &mut Option<Vec<String>>,
+    ) {
+        match value {
+            toml::de::DeValue::Table(table) => {
+                for (key, child) in table.iter() {
+                    prefix.push(key.get_ref().to_string());
+                    if line_in(text, key.span().start) == line
+                        && best.as_ref().is_none_or(|b| b.len() < prefix.len())
+                    {
+                        *best = Some(prefix.clone());
+                    }
+                    walk(text, child.get_ref(), prefix, line, best);
+                    prefix.pop();
+                }
+            }
+            toml::de::DeValue::Array(items) => {
+                for (i, item) in items.iter().enumerate() {
+                    prefix.push(i.to_string());
+                    walk(text, item.get_ref(), prefix, line, best);
+                    prefix.pop();
+                }
+            }
+            _ => {}
+        }
+    }
+    let document = toml::de::DeTable::parse(text).ok()?;
+    let mut best = None;
+    let root = toml::de::DeValue::Table(document.get_ref().clone());
+    walk(text, &root, &mut Vec::new(), line, &mut best);
+    best
 }
 
 /// Which clock the graph runs on.
@@ -294,6 +372,8 @@ pub struct GraphConfig {
 pub struct LoadedConfig {
     pub graph: GraphConfig,
     pub source: Source,
+    /// The merged document the graph was read from (`kestrel run --print-config`).
+    pub merged: toml::Table,
 }
 
 impl LoadedConfig {
@@ -307,17 +387,35 @@ impl LoadedConfig {
         LoadedConfig::parse(path, &text)
     }
 
-    /// Parses config text that came from `path`.
+    /// Parses config text that came from `path`, merging the bases it `extends` (read from
+    /// the disk, relative to `path`'s directory).
     pub fn parse(path: &Path, text: &str) -> Result<LoadedConfig, ConfigError> {
-        let source = Source { path: path.to_owned(), text: Arc::from(text) };
-        let graph: GraphConfig = toml::from_str(text).map_err(|e| ConfigError {
-            file: path.to_owned(),
-            line: e.span().map(|s| source.line_of(s.start)),
-            message: e.message().trim().to_owned(),
+        let composed = compose(path, text)?;
+        let source = if composed.layers.is_empty() {
+            Source::plain(path, text)
+        } else {
+            let merged = toml::to_string(&composed.table).map_err(|e| ConfigError {
+                file: path.to_owned(),
+                line: None,
+                message: format!("cannot write the merged config: {e}"),
+            })?;
+            Source {
+                path: path.to_owned(),
+                text: Arc::from(merged.as_str()),
+                layers: Arc::from(composed.layers),
+            }
+        };
+        let graph: GraphConfig = toml::from_str(&source.text).map_err(|e| {
+            source.error_on_line(e.span().map(|s| source.line_of(s.start)), e.message().trim())
         })?;
-        let config = LoadedConfig { graph, source };
+        let config = LoadedConfig { graph, source, merged: composed.table };
         config.validate()?;
         Ok(config)
+    }
+
+    /// The merged graph as TOML.
+    pub fn merged_toml(&self) -> Result<String, toml::ser::Error> {
+        toml::to_string(&self.merged)
     }
 
     /// Checks every range the runtime relies on (also after a caller changed the graph).
@@ -344,11 +442,7 @@ impl LoadedConfig {
             decl.restart.validate().map_err(|(field, m)| {
                 let at = self.source.line_of_key(&["actors", name.get_ref(), "restart", field]);
                 let line = at.unwrap_or_else(|| self.source.line_of(name.span().start));
-                ConfigError {
-                    file: self.source.path.clone(),
-                    line: Some(line),
-                    message: format!("actor '{}': {m}", name.get_ref()),
-                }
+                self.source.error_on_line(Some(line), format!("actor '{}': {m}", name.get_ref()))
             })?;
             for (port, route) in &decl.inputs {
                 route.mailbox.get_ref().parse::<MailboxKind>().map_err(|m| {

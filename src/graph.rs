@@ -30,12 +30,20 @@ struct TopicSlot {
     published: Arc<dyn Fn() -> u64 + Send + Sync>,
 }
 
+/// The port on which an actor takes changes to its live parameters (a ground station's
+/// PARAM_SET through the link's output of the same name).
+pub const PARAM_SET_PORT: &str = "param_set";
+/// The port on which an actor declares its live parameters (name, value, range) to the link.
+pub const PARAM_DECL_PORT: &str = "param_decl";
+
 /// Every topic of the graph, by name.
 pub struct Graph {
     clock: Arc<dyn Clock>,
     activity: Arc<Activity>,
     topics: BTreeMap<String, TopicSlot>,
     mailboxes: Vec<Arc<dyn MailboxView>>,
+    /// `actor.port` of each input an actor declared and the config left unrouted.
+    unrouted_inputs: Vec<(String, &'static str)>,
 }
 
 /// What a topic looks like once the graph is wired, for status lines and reports.
@@ -56,7 +64,7 @@ impl TopicHandle {
 impl Graph {
     /// An empty graph on `clock`.
     pub fn new(clock: Arc<dyn Clock>, activity: Arc<Activity>) -> Graph {
-        Graph { clock, activity, topics: BTreeMap::new(), mailboxes: Vec::new() }
+        Graph { clock, activity, topics: BTreeMap::new(), mailboxes: Vec::new(), unrouted_inputs: Vec::new() }
     }
 
     /// The graph's clock.
@@ -98,6 +106,30 @@ impl Graph {
     /// Whether a topic `name` of message type `type_name` has a publisher.
     pub fn is_published(&self, name: &str, type_name: &str) -> bool {
         self.topics.get(name).is_some_and(|s| s.type_name == type_name && !s.publishers.is_empty())
+    }
+
+    /// In a graph with a ground-station link (a publisher of `param_set`), every live parameter
+    /// left out of it: an actor's `param_set` input not routed, or a `param_decl` output nobody
+    /// subscribes to. Each names the actor and the port; empty when all are wired or the graph
+    /// has no link (a bench with nothing to tune).
+    pub fn unwired_parameters(&self) -> Vec<String> {
+        let is_port = |publisher: &str, port: &str| publisher.rsplit('.').next() == Some(port);
+        let linked = self.topics.values().any(|s| s.publishers.iter().any(|p| is_port(p, PARAM_SET_PORT)));
+        if !linked {
+            return Vec::new();
+        }
+        let unset =
+            self.unrouted_inputs.iter().filter(|(_, port)| *port == PARAM_SET_PORT).map(|(actor, port)| {
+                format!(
+                    "actor '{actor}' takes live parameters on input '{port}', which the config does not route"
+                )
+            });
+        let undeclared = self.topics.iter().filter(|(_, s)| s.subscribers.is_empty()).flat_map(|(topic, s)| {
+            s.publishers.iter().filter(move |p| is_port(p, PARAM_DECL_PORT)).map(move |p| {
+                format!("output '{p}' declares live parameters on topic '{topic}', which nothing subscribes to (the link's inputs.{PARAM_DECL_PORT})")
+            })
+        });
+        unset.chain(undeclared).collect()
     }
 
     /// Every actor mailbox of the graph, for reports.
@@ -144,14 +176,13 @@ impl Graph {
                     .filter(|(_, s)| !s.publishers.is_empty())
                     .map(|(n, _)| n.as_str())
                     .collect();
-                return Err(ConfigError {
-                    file: source.path.clone(),
-                    line: Some(*line),
-                    message: format!(
+                return Err(source.error_on_line(
+                    Some(*line),
+                    format!(
                         "unknown topic '{name}' (subscribed by {port}): no running actor publishes it; topics: {}",
                         known.join(", ")
                     ),
-                });
+                ));
             }
         }
         if let Some((recorder, topics)) = record {
@@ -480,6 +511,9 @@ impl<I: Send + 'static> Setup<I> for Wiring<'_, I> {
                         }
                     }
                 });
+                if route.is_none() {
+                    first.graph.unrouted_inputs.push((self.name.to_owned(), port));
+                }
                 self.table.ports.insert(port, (PortKind::Input, Arc::new(mailbox.clone())));
                 mailbox
             }

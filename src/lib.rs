@@ -3,6 +3,7 @@
 
 pub mod activity;
 pub mod clock;
+pub mod compose;
 pub mod config;
 pub mod estimator_events;
 pub mod fault_injection;
@@ -24,4 +25,4 @@ pub mod topic;
 
 pub use config::LoadedConfig;
 pub use registry::Registry;
-pub use run::{RunError, RunOptions, RunReport, run};
+pub use run::{RunError, RunOptions, RunReport, run, unwired_parameters};

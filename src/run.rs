@@ -20,7 +20,7 @@ use crate::graph::Graph;
 use crate::mailbox::{Doorbell, MailboxKind};
 use crate::recorder::{Recorder, RecorderError, RecordingSummary};
 use crate::registry::Registry;
-use crate::supervisor::{ActorKind, EscalationHook, KindOf, SupervisorContext};
+use crate::supervisor::{ActorKind, EscalationHook, KindOf, Supervised, SupervisorContext};
 
 /// How long shutdown waits for actors to stop before it closes the log anyway.
 const SHUTDOWN_GRACE: Duration = Duration::from_millis(500);
@@ -81,6 +81,47 @@ pub struct RunReport {
     pub recording: Option<RecordingSummary>,
 }
 
+/// Builds every actor of `config` once into `graph`: the prepared actors and every error.
+fn prepare_actors(
+    config: &LoadedConfig,
+    registry: &Registry,
+    graph: &mut Graph,
+) -> (Vec<Box<dyn Supervised>>, Vec<ConfigError>) {
+    let source = &config.source;
+    let mut errors = Vec::new();
+    let mut prepared = Vec::new();
+    for (name, decl) in &config.graph.actors {
+        let Some(kind) = registry.get(decl.kind.get_ref()) else {
+            errors.push(source.error_at(
+                decl.kind.span(),
+                format!(
+                    "unknown actor type '{}' for actor '{}'; known types: {}",
+                    decl.kind.get_ref(),
+                    name.get_ref(),
+                    registry.names().join(", ")
+                ),
+            ));
+            continue;
+        };
+        match kind.prepare(name.get_ref(), decl, source, graph) {
+            Ok(p) => prepared.push(p),
+            Err(mut e) => errors.append(&mut e),
+        }
+    }
+    (prepared, errors)
+}
+
+/// The live parameters `config` leaves out of its ground-station link ([`Graph::unwired_parameters`]),
+/// found by building every actor once on a lockstep clock without running any; actors that
+/// cannot be built here (a driver without its device) count with whatever ports they declared.
+pub fn unwired_parameters(config: &LoadedConfig, registry: &Registry) -> Vec<String> {
+    let activity = Activity::new();
+    let clock: Arc<dyn Clock> = Arc::new(LockstepClock::new(Arc::clone(&activity)));
+    let mut graph = Graph::new(clock, activity);
+    let _ = prepare_actors(config, registry, &mut graph);
+    graph.unwired_parameters()
+}
+
 /// Runs the graph described by `config` until its duration passes or a signal arrives.
 pub fn run(config: &LoadedConfig, registry: &Registry, options: RunOptions) -> Result<RunReport, RunError> {
     let runtime = match config.graph.run.clock {
@@ -117,25 +158,9 @@ async fn run_graph(
         .runtime_publisher::<SupervisorEvent>("supervisor")
         .map_err(|m| RunError::Config(vec![source.error(m)]))?;
 
-    let mut errors = Vec::new();
-    let mut prepared = Vec::new();
-    for (name, decl) in &config.graph.actors {
-        let Some(kind) = registry.get(decl.kind.get_ref()) else {
-            errors.push(source.error_at(
-                decl.kind.span(),
-                format!(
-                    "unknown actor type '{}' for actor '{}'; known types: {}",
-                    decl.kind.get_ref(),
-                    name.get_ref(),
-                    registry.names().join(", ")
-                ),
-            ));
-            continue;
-        };
-        match kind.prepare(name.get_ref(), decl, source, &mut graph) {
-            Ok(p) => prepared.push(p),
-            Err(mut e) => errors.append(&mut e),
-        }
+    let (mut prepared, mut errors) = prepare_actors(config, registry, &mut graph);
+    for unwired in graph.unwired_parameters() {
+        tracing::warn!("{unwired}: a ground station can neither see nor tune these parameters");
     }
     if let Some(out) = &options.report {
         match flight_report_actor(out, &mut graph, source) {

@@ -78,11 +78,10 @@ impl<A: Actor> ActorKind for KindOf<A> {
             Some(p) => (toml::Value::Table(p.get_ref().clone()), p.span()),
             None => (toml::Value::Table(toml::Table::new()), decl.kind.span()),
         };
-        let at = |message: String| ConfigError {
-            file: source.path.clone(),
-            line: param_line(source, name, decl, &message)
-                .or_else(|| (!params_at.is_empty()).then(|| source.line_of(params_at.start))),
-            message,
+        let at = |message: String| {
+            let line = param_line(source, name, decl, &message)
+                .or_else(|| (!params_at.is_empty()).then(|| source.line_of(params_at.start)));
+            source.error_on_line(line, message)
         };
         let params: A::Params = table_value.try_into().map_err(|e: toml::de::Error| {
             vec![at(format!("actor '{name}' params: {}", e.message().trim()))]

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Duration;
 
-use kestrel::{LoadedConfig, Registry, RunError, RunOptions, run};
+use kestrel::{LoadedConfig, Registry, RunError, RunOptions, run, unwired_parameters};
 
 /// Devices and driver files the hardware graphs open, per config.
 const HARDWARE: [(&str, &[&str]); 2] = [
@@ -33,8 +33,13 @@ const PUBLISHES: [(&str, Option<&str>); 6] = [
     ("bench-link.toml", None),
 ];
 
+fn configs_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("config")
+}
+
+/// Every graph in `config/` (the bases in `config/base/` are parts of graphs, not graphs).
 fn configs() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("config");
+    let dir = configs_dir();
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .expect("config dir")
         .map(|e| e.expect("entry").path())
@@ -104,4 +109,71 @@ fn kestrel_run_on_navio2_without_the_board_exits_naming_the_device() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "exit status {:?}", out.status);
     assert!(stderr.contains("/dev/spidev0.1"), "{stderr}");
+}
+
+#[test]
+fn every_graph_routes_every_live_parameter_to_its_link() {
+    for path in configs() {
+        let name = file_name(&path);
+        let config = LoadedConfig::load(&path).unwrap_or_else(|e| panic!("{name} does not parse: {e}"));
+        let unwired = unwired_parameters(&config, &Registry::standard());
+        assert!(unwired.is_empty(), "config/{name}:\n{}", unwired.join("\n"));
+    }
+    // The check sees a port left out: config/sim.toml without the estimator's parameter routes.
+    let mut config = LoadedConfig::load(&configs_dir().join("sim.toml")).expect("config/sim.toml");
+    let estimator =
+        config.graph.actors.iter_mut().find(|(n, _)| n.get_ref() == "estimator").expect("estimator");
+    estimator.1.inputs.retain(|port, _| port.get_ref() != "param_set");
+    let unwired = unwired_parameters(&config, &Registry::standard());
+    assert_eq!(unwired.len(), 1, "{unwired:?}");
+    assert!(unwired[0].contains("'estimator'") && unwired[0].contains("param_set"), "{unwired:?}");
+    let link = config.graph.actors.iter_mut().find(|(n, _)| n.get_ref() == "link").expect("link");
+    link.1.inputs.retain(|port, _| port.get_ref() != "param_decl");
+    let unwired = unwired_parameters(&config, &Registry::standard());
+    for owner in ["estimator.param_decl", "controller.param_decl", "commander.param_decl"] {
+        assert!(unwired.iter().any(|u| u.contains(owner)), "{owner} not in {unwired:?}");
+    }
+}
+
+#[test]
+fn composed_sim_toml_is_the_graph_it_was_written_out_in_full() {
+    let composed = LoadedConfig::load(&configs_dir().join("sim.toml")).expect("config/sim.toml");
+    let flat_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/graphs/sim-flat.toml");
+    let flat: toml::Table =
+        toml::from_str(&std::fs::read_to_string(flat_path).expect("fixture")).expect("toml");
+    assert_eq!(composed.merged, flat, "merged:\n{}", composed.merged_toml().unwrap_or_default());
+    // And what `--print-config` prints is that graph.
+    let out = Command::new(env!("CARGO_BIN_EXE_kestrel"))
+        .args(["run", "--print-config", "--config"])
+        .arg(configs_dir().join("sim.toml"))
+        .output()
+        .expect("run kestrel");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let printed: toml::Table = toml::from_str(&String::from_utf8_lossy(&out.stdout)).expect("printed TOML");
+    assert_eq!(printed, flat);
+}
+
+#[test]
+fn an_error_in_a_composed_graph_names_the_file_that_spelled_the_key() {
+    let dir = std::env::temp_dir().join(format!("kestrel-bench-configs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let base = dir.join("base.toml");
+    std::fs::write(
+        &base,
+        "[actors.a]\ntype = \"sim\"\n\n[actors.b]\ntype = \"sim\"\nrestart = { window_s = -1.0 }\n",
+    )
+    .expect("base");
+    let child = dir.join("child.toml");
+    std::fs::write(
+        &child,
+        "extends = \"base.toml\"\n\n[actors.a]\ninputs.x = { topic = \"t\", mailbox = \"fifo\" }\n",
+    )
+    .expect("child");
+    let err = LoadedConfig::load(&child).unwrap_err();
+    assert_eq!((err.file.as_path(), err.line), (child.as_path(), Some(4)), "{err}");
+    std::fs::write(&child, "extends = \"base.toml\"\n\n[actors.a]\nparams.seed = 1\n").expect("child");
+    let err = LoadedConfig::load(&child).unwrap_err();
+    assert_eq!((err.file.as_path(), err.line), (base.as_path(), Some(6)), "{err}");
+    assert!(err.message.contains("window_s"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
 }

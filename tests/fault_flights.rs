@@ -22,14 +22,15 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
-/// Writes `empty.toml` plus `faults` as the world and `config/sim.toml` flying it (absolute
+/// Writes `empty.toml` plus `faults` as the world and `config/sim.toml` (its bases merged in) flying it (absolute
 /// paths, the MAVLink link on an ephemeral local port) into `dir`; returns the graph's path.
 fn graph_with_faults(dir: &Path, faults: &str) -> PathBuf {
     let config_dir = repo().join("config");
     let world = dir.join("world.toml");
     let empty = std::fs::read_to_string(config_dir.join("worlds/empty.toml")).unwrap();
     std::fs::write(&world, format!("{empty}\n{faults}")).unwrap();
-    let text = std::fs::read_to_string(config_dir.join("sim.toml")).unwrap();
+    let stock = kestrel::LoadedConfig::load(&config_dir.join("sim.toml")).unwrap();
+    let text = stock.merged_toml().unwrap();
     let link = "[actors.link]\ntype = \"link\"\n";
     assert!(text.contains(link) && text.contains("\"worlds/empty.toml\""), "the stock graph changed");
     let text = text

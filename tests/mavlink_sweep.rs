@@ -12,6 +12,7 @@
 //! It is paced at `--speedup 1`: a flood of 2500 datagrams per wall second is one per vehicle
 //! second too.
 
+#[allow(dead_code, reason = "shared by the test binaries that run `kestrel run`; this one uses part of it")]
 mod sim_vehicle;
 
 use std::io::{BufRead, BufReader};

@@ -9,10 +9,12 @@
 //! avoider out: the same pilot then hits the obstacle, so the avoided flights can fail.
 
 mod flights;
+mod merged_config;
 
 use std::path::{Path, PathBuf};
 
 use flights::{clearance_m, collisions, repo, run_for_report, scratch, sim_forest_graph};
+use merged_config::without_sections;
 use serde_json::Value;
 
 /// Set POSHOLD with the throttle down, arm once the estimator has a position (it does by
@@ -39,18 +41,13 @@ const DURATION_S: &str = "32";
 /// subscription to their topics are left out.
 fn graph_config(dir: &Path, world: &str, avoider: bool) -> PathBuf {
     let text = sim_forest_graph(&repo().join("config/worlds").join(world));
-    let mut out = String::new();
-    let mut dropping = false;
-    for line in text.lines() {
-        if line.starts_with('[') {
-            dropping = !avoider && ["[actors.camera]", "[actors.stereo]", "[actors.avoider]"].contains(&line);
-        }
-        let perception = ["\"avoidance_command\"", "\"depth_grid\""].iter().any(|t| line.contains(t));
-        if !dropping && (avoider || !perception) {
-            out.push_str(line);
-            out.push('\n');
-        }
-    }
+    // The merged graph has one table per section: drop the perception actors' and every route
+    // of their topics.
+    let perception = |header: &str, lines: &[&str]| {
+        ["[actors.camera", "[actors.stereo", "[actors.avoider"].iter().any(|a| header.starts_with(a))
+            || lines.iter().any(|l| ["\"avoidance_command\"", "\"depth_grid\""].iter().any(|t| l.contains(t)))
+    };
+    let mut out = if avoider { text } else { without_sections(&text, perception) };
     assert_eq!(out.contains("[actors.avoider]"), avoider);
     out.push_str(PILOT);
     let path = dir.join("graph.toml");

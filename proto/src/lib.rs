@@ -15,6 +15,7 @@ pub mod attitude;
 /// Mutations of valid files for the property tests of every parser (test builds only).
 #[cfg(any(test, feature = "testing"))]
 pub mod bad_input;
+pub mod bus;
 pub mod calibration;
 pub mod clock;
 pub mod frame_layout;

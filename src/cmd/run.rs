@@ -10,6 +10,11 @@ use crate::cli::RunArgs;
 pub fn run(args: RunArgs) -> Result<(), String> {
     let config_path = locate_config(&args.config)?;
     let mut config = LoadedConfig::load(&config_path).map_err(|e| e.to_string())?;
+    if args.print_config {
+        let text = config.merged_toml().map_err(|e| format!("cannot print the merged config: {e}"))?;
+        print!("{text}");
+        return Ok(());
+    }
     apply_flight_flags(&mut config, &args)?;
     if let Some(n) = args.instance {
         apply_instance(&mut config, n)?;

@@ -20,12 +20,13 @@ pub fn scratch(prefix: &str, name: &str) -> PathBuf {
     dir
 }
 
-/// The text of `config/sim-forest.toml` flying `world` (a path), with its relative paths made
+/// The text of `config/sim-forest.toml` (its bases merged in) flying `world` (a path), with its relative paths made
 /// absolute and its MAVLink link on an ephemeral local port (tests run in parallel, and a
 /// flight needs no ground station).
 pub fn sim_forest_graph(world: &Path) -> String {
     let config_dir = repo().join("config");
-    let text = std::fs::read_to_string(config_dir.join("sim-forest.toml")).unwrap();
+    let stock = kestrel::LoadedConfig::load(&config_dir.join("sim-forest.toml")).unwrap();
+    let text = stock.merged_toml().unwrap();
     let link = "[actors.link]\ntype = \"link\"\n";
     assert!(text.contains(link), "the stock graph has a link");
     let text = text

@@ -41,42 +41,21 @@ pub fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// config/sim.toml with the link's params replaced by `link_params` (TOML lines of dotted keys)
-/// and the sim's relative paths made absolute.
+/// config/sim.toml as one file (its bases merged in, `kestrel run --print-config`), the link's
+/// params set to `link_params` (TOML lines of dotted keys) and the relative paths made absolute.
 pub fn sim_config(link_params: &str) -> String {
-    let text = std::fs::read_to_string(root().join("config/sim.toml")).expect("config/sim.toml");
     let config_dir = root().join("config");
-    let mut out = String::new();
-    let (mut section, mut inserted) = (String::new(), false);
-    // Brackets still open in a link `params…` statement being dropped.
-    let mut dropping = 0i32;
-    for line in text.lines() {
-        let trimmed = line.trim();
-        if dropping == 0 && trimmed.starts_with('[') {
-            section = trimmed.to_owned();
-        }
-        if section == "[actors.link]" && (dropping > 0 || trimmed.starts_with("params")) {
-            dropping +=
-                trimmed.matches(['[', '{']).count() as i32 - trimmed.matches([']', '}']).count() as i32;
-            continue;
-        }
-        let mut line = line.to_owned();
-        if section == "[actors.sim]" && trimmed.starts_with("params") {
-            for key in ["vehicle", "world"] {
-                let relative = format!("{key} = \"");
-                assert!(line.contains(&relative), "config/sim.toml's sim has no {key}: {line}");
-                line = line.replace(&relative, &format!("{key} = \"{}/", config_dir.display()));
-            }
-        }
-        out.push_str(&line);
-        out.push('\n');
-        if section == "[actors.link]" && trimmed.starts_with("type") {
-            out.push_str(link_params);
-            inserted = true;
-        }
+    let config = kestrel::LoadedConfig::load(&config_dir.join("sim.toml")).expect("config/sim.toml");
+    let text = config.merged_toml().expect("the merged graph");
+    let link = "[actors.link]\ntype = \"link\"\n";
+    assert!(text.contains(link), "config/sim.toml has no [actors.link] with a type:\n{text}");
+    assert!(!text.contains("[actors.link.params"), "config/sim.toml's link has params of its own");
+    for path in ["\"vehicles/", "\"worlds/"] {
+        assert!(text.contains(path), "config/sim.toml names no {path}");
     }
-    assert!(inserted, "config/sim.toml has no [actors.link] with a type");
-    out
+    text.replace(link, &format!("{link}{link_params}"))
+        .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()))
+        .replace("\"worlds/", &format!("\"{}/worlds/", config_dir.display()))
 }
 
 /// A child process killed (and reaped) when dropped, so a failing test leaves nothing behind.

@@ -24,6 +24,7 @@ pub mod faults;
 pub mod forest;
 mod ground;
 pub mod handling;
+pub mod hil;
 mod motors;
 mod obstacles;
 mod rigid_body;

@@ -1,0 +1,95 @@
+//! The transports device drivers talk through: a full-duplex SPI transfer and plain I2C reads
+//! and writes, each naming its device node so every error says which device failed.
+//!
+//! Drivers (`kestrel-sensors`) are generic over these traits; hardware builds plug in a Linux
+//! `spidev`/`i2c-dev` handle, tests in-memory fakes, and the simulator's device emulators
+//! (`kestrel-sim`'s `hil` module) answer the chips' register and command protocols with the
+//! simulated world, so hardware-in-the-loop runs the real drivers. The traits live here, in the
+//! contract, because the drivers and the emulators are two actor crates that never depend on
+//! each other (docs/design.md).
+
+use std::path::{Path, PathBuf};
+
+/// A bus transfer that failed, naming the device node.
+#[derive(Debug, thiserror::Error)]
+#[error("{}: {source}", path.display())]
+pub struct BusError {
+    /// The device node, e.g. `/dev/spidev0.1` or `/dev/i2c-1`.
+    pub path: PathBuf,
+    #[source]
+    pub source: std::io::Error,
+}
+
+impl BusError {
+    /// An error on `path`.
+    pub fn new(path: &Path, source: std::io::Error) -> BusError {
+        BusError { path: path.to_path_buf(), source }
+    }
+}
+
+/// One SPI device (bus and chip select).
+pub trait SpiBus {
+    /// The device node, for error messages.
+    fn path(&self) -> &Path;
+
+    /// One full-duplex transfer with chip select held low: the bytes of `buf` are clocked out
+    /// and replaced, in place, by the bytes clocked in.
+    fn transfer(&mut self, buf: &mut [u8]) -> Result<(), BusError>;
+}
+
+/// One I2C device (bus and slave address).
+pub trait I2cBus {
+    /// The device node, for error messages.
+    fn path(&self) -> &Path;
+
+    /// Writes `bytes` to the device in one transaction.
+    fn write(&mut self, bytes: &[u8]) -> Result<(), BusError>;
+
+    /// Reads `buf.len()` bytes from the device in one transaction.
+    fn read(&mut self, buf: &mut [u8]) -> Result<(), BusError>;
+}
+
+impl<B: SpiBus + ?Sized> SpiBus for Box<B> {
+    fn path(&self) -> &Path {
+        (**self).path()
+    }
+
+    fn transfer(&mut self, buf: &mut [u8]) -> Result<(), BusError> {
+        (**self).transfer(buf)
+    }
+}
+
+impl<B: I2cBus + ?Sized> I2cBus for Box<B> {
+    fn path(&self) -> &Path {
+        (**self).path()
+    }
+
+    fn write(&mut self, bytes: &[u8]) -> Result<(), BusError> {
+        (**self).write(bytes)
+    }
+
+    fn read(&mut self, buf: &mut [u8]) -> Result<(), BusError> {
+        (**self).read(buf)
+    }
+}
+
+/// Reads consecutive registers from `first` on an SPI device that marks reads with bit 7 of
+/// the address byte (InvenSense, most MEMS parts).
+pub fn spi_read_registers(bus: &mut impl SpiBus, first: u8, out: &mut [u8]) -> Result<(), BusError> {
+    let mut buf = [0u8; 32];
+    let mut done = 0;
+    while done < out.len() {
+        let n = (out.len() - done).min(buf.len() - 1);
+        buf[0] = (first.wrapping_add(done as u8)) | 0x80;
+        buf[1..=n].fill(0);
+        bus.transfer(&mut buf[..=n])?;
+        out[done..done + n].copy_from_slice(&buf[1..=n]);
+        done += n;
+    }
+    Ok(())
+}
+
+/// Writes one register on an SPI device (bit 7 of the address byte clear).
+pub fn spi_write_register(bus: &mut impl SpiBus, reg: u8, value: u8) -> Result<(), BusError> {
+    bus.transfer(&mut [reg & 0x7F, value])
+}
