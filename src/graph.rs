@@ -109,13 +109,22 @@ impl Graph {
     }
 
     /// In a graph with a ground-station link (a publisher of `param_set`), every live parameter
-    /// left out of it: an actor's `param_set` input not routed, or a `param_decl` output nobody
-    /// subscribes to. Each names the actor and the port; empty when all are wired or the graph
-    /// has no link (a bench with nothing to tune).
+    /// left out of it: an actor's `param_set` input not routed, or a `param_decl` output that no
+    /// link subscribes to (another reader, such as the calibration, does not serve a ground
+    /// station). Each names the actor and the port; empty when all are wired or the graph has no
+    /// link (a bench with nothing to tune).
     pub fn unwired_parameters(&self) -> Vec<String> {
-        let is_port = |publisher: &str, port: &str| publisher.rsplit('.').next() == Some(port);
-        let linked = self.topics.values().any(|s| s.publishers.iter().any(|p| is_port(p, PARAM_SET_PORT)));
-        if !linked {
+        let split = |endpoint: &str| {
+            endpoint.rsplit_once('.').map(|(actor, port)| (actor.to_owned(), port.to_owned()))
+        };
+        let links: Vec<String> = self
+            .topics
+            .values()
+            .flat_map(|s| s.publishers.iter().filter_map(|p| split(p)))
+            .filter(|(_, port)| port == PARAM_SET_PORT)
+            .map(|(actor, _)| actor)
+            .collect();
+        if links.is_empty() {
             return Vec::new();
         }
         let unset =
@@ -124,11 +133,19 @@ impl Graph {
                     "actor '{actor}' takes live parameters on input '{port}', which the config does not route"
                 )
             });
-        let undeclared = self.topics.iter().filter(|(_, s)| s.subscribers.is_empty()).flat_map(|(topic, s)| {
-            s.publishers.iter().filter(move |p| is_port(p, PARAM_DECL_PORT)).map(move |p| {
-                format!("output '{p}' declares live parameters on topic '{topic}', which nothing subscribes to (the link's inputs.{PARAM_DECL_PORT})")
+        let read_by_a_link = |subscribers: &[(String, usize)]| {
+            subscribers.iter().any(|(endpoint, _)| {
+                split(endpoint).is_some_and(|(actor, port)| port == PARAM_DECL_PORT && links.contains(&actor))
             })
-        });
+        };
+        let undeclared =
+            self.topics.iter().filter(|(_, s)| !read_by_a_link(&s.subscribers)).flat_map(|(topic, s)| {
+                s.publishers.iter().filter(|p| split(p).is_some_and(|(_, port)| port == PARAM_DECL_PORT)).map(
+                    move |p| {
+                        format!("output '{p}' declares live parameters on topic '{topic}', which no link subscribes to (the link's inputs.{PARAM_DECL_PORT})")
+                    },
+                )
+            });
         unset.chain(undeclared).collect()
     }
 

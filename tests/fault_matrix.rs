@@ -181,7 +181,8 @@ fn prepare(case: &Case) -> (PathBuf, PathBuf) {
     let world = dir.join("world.toml");
     let empty = std::fs::read_to_string(config_dir.join("worlds/empty.toml")).unwrap();
     std::fs::write(&world, format!("{empty}\n[[faults]]\nat_s = {FAULT_AT_S:.1}\n{}\n", case.fault)).unwrap();
-    let text = std::fs::read_to_string(config_dir.join("sim.toml")).unwrap();
+    // The graph as composed (config/sim.toml extends config/base/vehicle.toml), written out whole.
+    let text = kestrel::LoadedConfig::load(&config_dir.join("sim.toml")).unwrap().merged_toml().unwrap();
     let link = "[actors.link]\ntype = \"link\"\n";
     let vehicle = "\"vehicles/quad_x.toml\"";
     assert!(text.contains(link) && text.contains("\"worlds/empty.toml\"") && text.contains(vehicle));
