@@ -11,15 +11,13 @@
 
 mod sim_vehicle;
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_proto::calibration::{CalibrationParams, SensorCalibration};
-use sim_vehicle::{PARAM_TABLE, Proc, python, root, sim_config, stop, tail, temp_dir};
+use sim_vehicle::{PARAM_TABLE, Proc, python_client, root, sim_config, stop, tail, temp_dir};
 
 const VEHICLE: &str = "config/vehicles/quad_x_miscalibrated.toml";
 const CLIENT_LIMIT: Duration = Duration::from_secs(90);
@@ -45,27 +43,7 @@ fn config(port: u16, dir: &Path) -> String {
 
 /// Runs the client in `scenario` against `kestrel run`; returns its results JSON.
 fn session(dir: &Path, scenario: &str) -> serde_json::Value {
-    let mut client = Proc(
-        Command::new(python())
-            .arg(root().join("tests/python/gcs_calibration.py"))
-            .env("CAL_SCENARIO", scenario)
-            .env("PYTHONUNBUFFERED", "1")
-            .env("PYTHONDONTWRITEBYTECODE", "1")
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("start the pymavlink client"),
-    );
-    let (tx, lines) = mpsc::channel::<String>();
-    let stdout = client.0.stdout.take().expect("stdout");
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            if tx.send(line).is_err() {
-                break;
-            }
-        }
-    });
+    let (mut client, lines) = python_client("gcs_calibration.py", |c| c.env("CAL_SCENARIO", scenario));
     let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
     let port: u16 = first.strip_prefix("PORT ").and_then(|p| p.trim().parse().ok()).expect("client port");
     let config_path = dir.join(format!("{scenario}.toml"));

@@ -11,6 +11,9 @@ use kestrel::recorder::LogReader;
 use kestrel_proto::messages::ActuatorOutputs;
 use serde_json::Value;
 
+mod qgc_plan;
+use qgc_plan::Item;
+
 fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
@@ -47,26 +50,9 @@ fn graph_with_faults(dir: &Path, faults: &str) -> PathBuf {
 
 /// A QGroundControl plan: take off to 10 m at home, hold there `hold_s`, land at home.
 fn hover_plan(dir: &Path, hold_s: f64) -> PathBuf {
-    let item = |id: u32, command: u32, hold: f64, alt: f64| {
-        serde_json::json!({
-            "type": "SimpleItem", "autoContinue": true, "command": command, "doJumpId": id,
-            "frame": 3, "params": [hold, 0, 0, null, 6.7971, 79.9017, alt],
-            "AMSLAltAboveTerrain": null, "Altitude": alt, "AltitudeMode": 1
-        })
-    };
-    let plan = serde_json::json!({
-        "fileType": "Plan", "groundStation": "QGroundControl", "version": 1,
-        "geoFence": { "circles": [], "polygons": [], "version": 2 },
-        "rallyPoints": { "points": [], "version": 2 },
-        "mission": {
-            "cruiseSpeed": 5, "hoverSpeed": 5, "firmwareType": 12, "vehicleType": 2, "version": 2,
-            "globalPlanAltitudeMode": 1, "plannedHomePosition": [6.7971, 79.9017, 20],
-            "items": [item(1, 22, 0.0, 10.0), item(2, 16, hold_s, 10.0), item(3, 21, 0.0, 0.0)]
-        }
-    });
-    let path = dir.join("hover.plan");
-    std::fs::write(&path, serde_json::to_string_pretty(&plan).unwrap()).unwrap();
-    path
+    let hold = Item { hold_s, ..Item::north(qgc_plan::WAYPOINT, 0.0, 10.0) };
+    let items = [Item::north(qgc_plan::TAKEOFF, 0.0, 10.0), hold, Item::north(qgc_plan::LAND, 0.0, 0.0)];
+    qgc_plan::write(dir, "hover.plan", &items)
 }
 
 /// Flies `mission` on `graph` with `kestrel run --speedup 0 --auto --exit-on-land`, recording

@@ -17,6 +17,9 @@ use std::process::Command;
 
 use serde_json::Value;
 
+mod qgc_plan;
+use qgc_plan::Item;
+
 fn repo() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
 }
@@ -204,33 +207,13 @@ fn prepare(case: &Case) -> (PathBuf, PathBuf) {
 
 /// A QGroundControl plan: take off to 10 m, 40 m north, back home, land.
 fn out_and_back_plan(dir: &Path) -> PathBuf {
-    let (lat, lon) = (6.7971, 79.9017);
-    let north_deg = 40.0 / 111_000.0;
-    let item = |id: u32, command: u32, lat: f64, alt: f64| {
-        serde_json::json!({
-            "type": "SimpleItem", "autoContinue": true, "command": command, "doJumpId": id,
-            "frame": 3, "params": [0, 0, 0, null, lat, lon, alt],
-            "AMSLAltAboveTerrain": null, "Altitude": alt, "AltitudeMode": 1
-        })
-    };
-    let plan = serde_json::json!({
-        "fileType": "Plan", "groundStation": "QGroundControl", "version": 1,
-        "geoFence": { "circles": [], "polygons": [], "version": 2 },
-        "rallyPoints": { "points": [], "version": 2 },
-        "mission": {
-            "cruiseSpeed": 5, "hoverSpeed": 5, "firmwareType": 12, "vehicleType": 2, "version": 2,
-            "globalPlanAltitudeMode": 1, "plannedHomePosition": [lat, lon, 20],
-            "items": [
-                item(1, 22, lat, 10.0),
-                item(2, 16, lat + north_deg, 10.0),
-                item(3, 16, lat, 10.0),
-                item(4, 21, lat, 0.0)
-            ]
-        }
-    });
-    let path = dir.join("out-and-back.plan");
-    std::fs::write(&path, serde_json::to_string_pretty(&plan).unwrap()).unwrap();
-    path
+    let items = [
+        Item::north(qgc_plan::TAKEOFF, 0.0, 10.0),
+        Item::north(qgc_plan::WAYPOINT, 40.0, 10.0),
+        Item::north(qgc_plan::WAYPOINT, 0.0, 10.0),
+        Item::north(qgc_plan::LAND, 0.0, 0.0),
+    ];
+    qgc_plan::write(dir, "out-and-back.plan", &items)
 }
 
 /// Flies the case in lockstep as fast as the host allows; the run must end by itself, exit 0.

@@ -14,14 +14,13 @@
 mod merged_config;
 mod sim_vehicle;
 
-use std::io::{BufRead, BufReader, Read};
+use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use merged_config::without_sections;
-use sim_vehicle::{PARAM_TABLE, Proc, python, root, sim_config, stop, tail, temp_dir};
+use sim_vehicle::{PARAM_TABLE, Proc, python_client, root, sim_config, stop, tail, temp_dir};
 
 /// Simulated seconds per wall second: a 60 s flight takes 12 s, and the 5 s (vehicle time)
 /// link-loss timeout is a full second of wall time, ten of the client's heartbeats.
@@ -78,28 +77,8 @@ fn fly_with_env(
     env: &[(&str, &str)],
     config: impl Fn(u16) -> String,
 ) -> Flight {
-    let mut client = Proc(
-        Command::new(python())
-            .arg(root().join("tests/python").join(script))
-            .args(args)
-            .envs(env.iter().copied())
-            .env_remove("MAVLINK20")
-            .env("PYTHONUNBUFFERED", "1")
-            .env("PYTHONDONTWRITEBYTECODE", "1")
-            .stdin(Stdio::null())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .expect("start the pymavlink client"),
-    );
-    let (tx, lines) = mpsc::channel::<String>();
-    let stdout = client.0.stdout.take().expect("stdout");
-    std::thread::spawn(move || {
-        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-            if tx.send(line).is_err() {
-                break;
-            }
-        }
+    let (mut client, lines) = python_client(script, |c| {
+        c.args(args).envs(env.iter().copied()).env_remove("MAVLINK20").stderr(Stdio::piped())
     });
     let mut stderr_pipe = client.0.stderr.take().expect("stderr");
     let stderr = std::thread::spawn(move || {

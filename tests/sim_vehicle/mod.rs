@@ -3,8 +3,10 @@
 //! config/sim.toml with the link's params of the test's choosing, a child process that dies with
 //! the test, and stopping the vehicle as an operator does.
 
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, ExitStatus};
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 /// The vehicle's MAVLink parameters as the ground station sees them (the sim config has none).
@@ -31,6 +33,34 @@ pub fn python() -> PathBuf {
         python.display()
     );
     python
+}
+
+/// Starts the client `tests/python/SCRIPT` with the venv's Python, unbuffered, as `setup` further
+/// configures it (arguments, environment; stderr is inherited unless set), and returns it with
+/// its stdout read line by line into a channel.
+pub fn python_client(
+    script: &str,
+    setup: impl FnOnce(&mut Command) -> &mut Command,
+) -> (Proc, mpsc::Receiver<String>) {
+    let mut command = Command::new(python());
+    command
+        .arg(root().join("tests/python").join(script))
+        .env("PYTHONUNBUFFERED", "1")
+        .env("PYTHONDONTWRITEBYTECODE", "1")
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit());
+    let mut client = Proc(setup(&mut command).spawn().expect("start the Python client"));
+    let (tx, lines) = mpsc::channel::<String>();
+    let stdout = client.0.stdout.take().expect("stdout");
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    (client, lines)
 }
 
 /// A fresh temp dir for one test.
