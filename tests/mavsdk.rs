@@ -139,3 +139,9 @@ fn mavsdk_goto_location_hold_and_return_to_launch() {
     let t = fly("goto_hold_rtl", &[]);
     println!("hold: {}; landed: {}", detail(&t, "hold"), detail(&t, "landed"));
 }
+
+#[test]
+fn mavsdk_failure_plugin_gps_off_is_denied_until_enabled_then_lands_as_the_fault_matrix_says() {
+    let t = fly("failure_gps", &[]);
+    println!("disabled: {}; land: {}", detail(&t, "disabled"), detail(&t, "land"));
+}

@@ -70,6 +70,7 @@ pub fn declare<P>(defs: &[ParamDef<P>], params: &P, owner: &str, start: bool, ti
             max: d.max,
             unit: d.unit.to_owned(),
             description: d.description.to_owned(),
+            integer: false,
         })
         .collect();
     ParamDecl { time, owner: owner.to_owned(), start, params: values }

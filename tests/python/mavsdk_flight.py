@@ -8,6 +8,10 @@ Usage: mavsdk_flight.py SCENARIO [PLAN.plan]   (run by tests/mavsdk.rs)
                    identical, arm, start, follow the progress to the end, land near home
     offboard       Offboard velocity: a 10 m square in NED, back within 2 m of the start
     goto_hold_rtl  goto_location 20 m north, hold there, RTL: landed near home, disarmed
+    failure_gps    the Failure plugin: GPS off DENIED while SYS_FAILURE_EN is 0; set it to 1
+                   (Param plugin), take off to 8 m, inject GPS off: global position lost, LAND
+                   (the fault matrix's "GPS lost" row: estimator_unhealthy → land), landed,
+                   disarmed
 
 Every check reads what MAVSDK reports (telemetry, action and mission results), never the
 vehicle's log. One line per step goes to stdout (`wall_s step: detail`); the exit code is 0
@@ -22,9 +26,12 @@ import time
 
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.action import ActionAsync
+from mavsdk.asyncio.plugins.failure import FailureAsync
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
 from mavsdk.asyncio.plugins.offboard import OffboardAsync
+from mavsdk.asyncio.plugins.param import ParamAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
+from mavsdk.plugins.failure import FailureError, FailureResult, FailureType, FailureUnit
 from mavsdk.plugins.offboard import VelocityNedYaw
 from mavsdk.plugins.telemetry import FlightMode, LandedState
 
@@ -69,6 +76,8 @@ class Vehicle:
         self.telemetry = TelemetryAsync(system)
         self.mission = MissionRawAsync(system)
         self.offboard = OffboardAsync(system)
+        self.failure = FailureAsync(system)
+        self.param = ParamAsync(system)
 
     async def ready(self):
         health = await until("health: armable, global position, home",
@@ -237,8 +246,43 @@ async def goto_hold_rtl(v):
         raise Failed(f"RTL landed {off:.2f} m from home")
 
 
+async def failure_gps(v):
+    await v.ready()
+    try:
+        await v.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OFF, 0)
+        raise Failed("inject with SYS_FAILURE_EN 0: accepted")
+    except FailureError as e:
+        if e.result != FailureResult.DENIED:
+            raise Failed(f"inject with SYS_FAILURE_EN 0: {e.result.name}, not DENIED")
+        log("disabled", f"{e.result.name}")
+    await v.param.set_param_int("SYS_FAILURE_EN", 1)
+    enabled = await v.param.get_param_int("SYS_FAILURE_EN")
+    if enabled != 1:
+        raise Failed(f"SYS_FAILURE_EN reads {enabled} after setting 1")
+    log("enabled", f"SYS_FAILURE_EN = {enabled}")
+    await v.action.set_takeoff_altitude(8.0)
+    await v.arm()
+    await v.action.takeoff()
+
+    async def up():
+        return abs(await v.relative_altitude() - 8.0) < 0.5
+    await until("at 8 m", up, 40.0)
+    await asyncio.sleep(2.0 / SPEEDUP)
+    await v.failure.inject(FailureUnit.SENSOR_GPS, FailureType.OFF, 0)
+    injected = time.monotonic()
+    log("inject", "GPS off: SUCCESS")
+
+    async def position_lost():
+        return not (await v.telemetry.health()).is_global_position_ok
+    await until("global position lost", position_lost, 15.0, 0.1)
+    await until("flight mode LAND", lambda: _mode_is(v, FlightMode.LAND), 20.0)
+    log("land", f"{(time.monotonic() - injected) * SPEEDUP:.1f} vehicle s after the injection")
+    await v.landed_and_disarmed(90.0)
+    log("landed", "on the ground, disarmed")
+
+
 SCENARIOS = {"takeoff_land": takeoff_land, "mission": mission, "offboard": offboard,
-             "goto_hold_rtl": goto_hold_rtl}
+             "goto_hold_rtl": goto_hold_rtl, "failure_gps": failure_gps}
 
 
 async def run(name, args):

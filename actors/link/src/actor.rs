@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationCommand, CalibrationEvent, CommandResult, DepthGrid,
-    EstimatorStatus, GpsFix, ManualControl, Mission, NavState, ParamDecl, ParamSet, VehicleCommand,
-    VehicleStatus,
+    EstimatorStatus, FailureInjection, FailureInjectionResult, GpsFix, ManualControl, Mission, NavState,
+    ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -43,6 +43,8 @@ pub enum LinkInput {
     ParamDecl(ParamDecl),
     /// The calibration's answers, progress and results (port `calibration_event`).
     Calibration(CalibrationEvent),
+    /// The injector's answer to a MAV_CMD_INJECT_FAILURE (port `failure_result`).
+    FailureResult(FailureInjectionResult),
     Heartbeat(Time),
     Tick(Time),
 }
@@ -55,6 +57,7 @@ pub struct LinkOutputs {
     pub manual: Publisher<ManualControl>,
     pub param: Publisher<ParamSet>,
     pub calibration: Publisher<CalibrationCommand>,
+    pub inject_failure: Publisher<FailureInjection>,
 }
 
 impl LinkOutputs {
@@ -74,6 +77,7 @@ impl LinkOutputs {
                 ToGraph::Calibration { id, request } => {
                     self.calibration.publish(CalibrationCommand { time: now, id, request })
                 }
+                ToGraph::InjectFailure(f) => self.inject_failure.publish(f),
             }
         }
     }
@@ -152,6 +156,7 @@ impl Actor for LinkActor {
         setup.input("avoidance", LinkInput::Avoidance);
         setup.input("param_decl", LinkInput::ParamDecl);
         setup.input("calibration_event", LinkInput::Calibration);
+        setup.input("failure_result", LinkInput::FailureResult);
         setup.timer("heartbeat", Duration::from_secs(1), LinkInput::Heartbeat);
         setup.timer("tick", TICK_PERIOD, LinkInput::Tick);
         let outputs = LinkOutputs {
@@ -160,6 +165,7 @@ impl Actor for LinkActor {
             manual: setup.output("manual_control"),
             param: setup.output("param_set"),
             calibration: setup.output("calibration_command"),
+            inject_failure: setup.output("inject_failure"),
         };
         let vehicle = Vehicle::new(params.system_id, table, gcs_timeout);
         Ok(LinkActor {
@@ -248,6 +254,10 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Calibration(e) => {
                     let out = hub.vehicle().on_calibration(&e);
+                    hub.dispatch(out)
+                }
+                LinkInput::FailureResult(r) => {
+                    let out = hub.vehicle().on_injection_result(&r);
                     hub.dispatch(out)
                 }
                 LinkInput::Heartbeat(_) => {

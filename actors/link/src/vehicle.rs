@@ -10,7 +10,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
-    EstimatorStatus, GpsFix, NavState, ParamDecl, VehicleStatus,
+    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, GpsFix, NavState, ParamDecl,
+    VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -197,6 +198,7 @@ impl Vehicle {
             heartbeat: self.heartbeat(),
             telemetry: &mut self.telemetry,
             missions: &self.missions,
+            failure_injector: self.params.is_declared(FAILURE_INJECTION_ENABLE),
         };
         self.commands.on_command(request, ctx, now)
     }
@@ -233,6 +235,11 @@ impl Vehicle {
     /// The commander's answer to a command: its COMMAND_ACK.
     pub fn on_command_result(&mut self, result: &CommandResult) -> Outputs {
         Outputs { mav: self.commands.on_result(result).into_iter().collect(), graph: Vec::new() }
+    }
+
+    /// The injector's answer to a failure injection: its COMMAND_ACK and a STATUSTEXT.
+    pub fn on_injection_result(&mut self, result: &FailureInjectionResult) -> Outputs {
+        Outputs { mav: self.commands.on_injection_result(result), graph: Vec::new() }
     }
 
     /// A calibration update: the answer becomes its command's COMMAND_ACK, results are set (and

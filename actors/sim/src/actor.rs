@@ -6,14 +6,15 @@ use std::time::Duration;
 
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, CalibrationMotion, GpsFix, GroundTruth, ImuSample, MagSample,
-    ObstacleMap, ParamDecl, ParamSet, SimFault, SimFaultPhase,
+    ActuatorOutputs, BaroSample, BatteryStatus, CalibrationMotion, FailureInjection, FailureInjectionResult,
+    GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap, ParamDecl, ParamSet, SimFault, SimFaultPhase,
 };
-use kestrel_proto::param_def::{answer, apply, declare};
+use kestrel_proto::param_def::{ParamChange, ParamRefused, answer, apply, declare};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
 use crate::handling::Handling;
+use crate::live_faults::{INTEGER_PARAMS, LIVE_FAULT_PARAMS, LiveFaults};
 use crate::rigid_body::RigidBodyState;
 use crate::sensors::schedule::period_us;
 use crate::simulator::{InitialState, RawSample, SimOptions, SimOutput, Simulator};
@@ -77,8 +78,11 @@ pub enum SimInput {
     Step(Time),
     /// How a calibration wants the vehicle handled (port `calibration_motion`).
     Motion(CalibrationMotion),
-    /// A calibration parameter set (port `param_set`; others' names are ignored).
+    /// A calibration or live fault parameter set (port `param_set`; others' names are ignored).
     Param(ParamSet),
+    /// A MAV_CMD_INJECT_FAILURE from the link (port `inject_failure`), answered on
+    /// `failure_result`.
+    Inject(FailureInjection),
 }
 
 /// The simulator actor. Outputs: `imu`, `gps`, `baro`, `mag`, `ground_truth`, `battery`,
@@ -86,7 +90,8 @@ pub enum SimInput {
 /// `obstacle_map` once, on the first step. Like a driver it owns the sensor calibration
 /// (`param_decl`: [`CALIBRATION_PARAMS`], applied to the samples as they are set) and, while a
 /// calibration asks for a motion, handles the vehicle so and publishes the raw board-frame
-/// samples on `imu_raw` and `mag_raw`.
+/// samples on `imu_raw` and `mag_raw`. It also owns the live fault parameters
+/// ([`LIVE_FAULT_PARAMS`]: `SIM_*`, `SYS_FAILURE_EN`) and answers failure injections.
 pub struct SimActor {
     sim: Simulator,
     imu: Publisher<ImuSample>,
@@ -106,6 +111,8 @@ pub struct SimActor {
     mag_raw: Publisher<MagSample>,
     param_decl: Publisher<ParamDecl>,
     calibration: CalibrationParams,
+    live: LiveFaults,
+    failure_result: Publisher<FailureInjectionResult>,
     name: String,
 }
 
@@ -153,6 +160,7 @@ impl Actor for SimActor {
         setup.input("actuators", SimInput::Actuators);
         setup.input("calibration_motion", SimInput::Motion);
         setup.input("param_set", SimInput::Param);
+        setup.input("inject_failure", SimInput::Inject);
         setup.timer("step", Duration::from_micros(tick_us), SimInput::Step);
         Ok(SimActor {
             sim,
@@ -169,12 +177,14 @@ impl Actor for SimActor {
             mag_raw: setup.output("mag_raw"),
             param_decl: setup.output("param_decl"),
             calibration: CalibrationParams::default(),
+            live: LiveFaults::default(),
+            failure_result: setup.output("failure_result"),
             name: setup.name().to_owned(),
         })
     }
 
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
-        self.param_decl.publish(declare(&CALIBRATION_PARAMS, &self.calibration, &self.name, true, ctx.now()));
+        self.param_decl.publish(self.declaration(true, ctx.now()));
         Ok(())
     }
 
@@ -183,18 +193,29 @@ impl Actor for SimActor {
             SimInput::Actuators(outputs) => self.sim.set_actuators(&outputs),
             SimInput::Motion(m) => self.sim.set_calibration_motion(m.motion),
             SimInput::Param(p) => {
-                let outcome = apply(&CALIBRATION_PARAMS, &mut self.calibration, &p.name, p.value, |c| {
+                let mut outcome = apply(&CALIBRATION_PARAMS, &mut self.calibration, &p.name, p.value, |c| {
                     c.calibration().map(|_| ())
                 });
-                if let Ok(kestrel_proto::param_def::ParamChange::Applied) = outcome
+                if let Ok(ParamChange::Applied) = outcome
                     && let Ok(calibration) = self.calibration.calibration()
                 {
                     self.sim.set_calibration(calibration);
                 }
-                if answer(&self.name, &p, outcome) {
-                    let decl = declare(&CALIBRATION_PARAMS, &self.calibration, &self.name, false, p.time);
-                    self.param_decl.publish(decl);
+                if let Ok(ParamChange::NotMine) = outcome {
+                    outcome = self.set_live_fault(&p);
                 }
+                if answer(&self.name, &p, outcome) {
+                    self.param_decl.publish(self.declaration(false, p.time));
+                }
+            }
+            SimInput::Inject(request) => {
+                let outcome = self.live.inject(&request, &mut self.sim);
+                tracing::info!(unit = ?request.unit, failure = ?request.failure, instance = request.instance, ?outcome, "failure injection");
+                self.failure_result.publish(FailureInjectionResult {
+                    time: self.sim.time(),
+                    id: request.id,
+                    outcome,
+                });
             }
             SimInput::Step(time) => {
                 if !self.map_published {
@@ -232,6 +253,33 @@ impl Actor for SimActor {
             }
         }
         Ok(())
+    }
+}
+
+impl SimActor {
+    /// What the simulator owns of the link's parameter table: the calibration and the live
+    /// faults, as one declaration (an owner's declaration is the whole of its parameters).
+    fn declaration(&self, start: bool, time: Time) -> ParamDecl {
+        let mut decl = declare(&CALIBRATION_PARAMS, &self.calibration, &self.name, start, time);
+        let mut live = declare(&LIVE_FAULT_PARAMS, self.live.params(), &self.name, start, time).params;
+        for p in &mut live {
+            p.integer = INTEGER_PARAMS.contains(&p.name.as_str());
+        }
+        decl.params.extend(live);
+        decl
+    }
+
+    /// A live fault parameter: checked, then its group's fault restarted on the schedule.
+    fn set_live_fault(&mut self, set: &ParamSet) -> Result<ParamChange, ParamRefused> {
+        let motors = self.sim.vehicle().frame.motor_count();
+        let mut params = self.live.params().clone();
+        let change = apply(&LIVE_FAULT_PARAMS, &mut params, &set.name, set.value, |p| p.validate(motors))?;
+        if change == ParamChange::Applied {
+            self.live
+                .set_params(params, &mut self.sim)
+                .map_err(|e| ParamRefused::Invalid { name: set.name.clone(), reason: e.to_string() })?;
+        }
+        Ok(change)
     }
 }
 

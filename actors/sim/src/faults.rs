@@ -480,6 +480,16 @@ impl FaultSchedule {
         self.phases.push(Phase::Pending);
     }
 
+    /// Ends fault `index` from the first tick after `time` on (never later than it was to end).
+    /// One added and ended between two ticks takes no effect; its start and end are still
+    /// reported, by the same poll.
+    pub fn end_after(&mut self, index: usize, time: Time) {
+        let Some(fault) = self.faults.get_mut(index) else { return };
+        let end_s = (time.0 + 1) as f64 * 1e-6;
+        let for_s = (end_s - fault.at_s).max(1e-6);
+        fault.for_s = Some(fault.for_s.map_or(for_s, |old| old.min(for_s)));
+    }
+
     /// Every fault, with its index.
     pub fn faults(&self) -> &[Fault] {
         &self.faults

@@ -25,6 +25,7 @@ pub mod forest;
 mod ground;
 pub mod handling;
 pub mod hil;
+pub mod live_faults;
 mod motors;
 mod obstacles;
 mod rigid_body;

@@ -22,7 +22,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::battery::Battery;
 use crate::error::{InvalidParam, finite, rate};
-use crate::faults::{FaultEffects, FaultSchedule, check_for_vehicle};
+use crate::faults::{Fault, FaultEffects, FaultKind, FaultSchedule, check_for_vehicle};
 use crate::ground::Ground;
 use crate::handling::{Handling, pose};
 use crate::motors::Motors;
@@ -303,6 +303,21 @@ impl Simulator {
     /// The fault schedule (the world's `[[faults]]`, and any added since).
     pub fn faults(&self) -> &FaultSchedule {
         &self.faults
+    }
+
+    /// Adds a fault from the next tick on, to the end of the run or until [`Simulator::end_fault`]
+    /// (a live parameter or MAV_CMD_INJECT_FAILURE); returns its index in the schedule.
+    pub fn add_fault(&mut self, kind: FaultKind) -> Result<usize, InvalidParam> {
+        let fault = Fault { at_s: self.time.0 as f64 * 1e-6, for_s: None, kind };
+        fault.validate()?;
+        check_for_vehicle(std::slice::from_ref(&fault), self.vehicle.frame.motor_count())?;
+        self.faults.push(fault);
+        Ok(self.faults.faults().len() - 1)
+    }
+
+    /// Ends fault `index` (added by [`Simulator::add_fault`]) from the next tick on.
+    pub fn end_fault(&mut self, index: usize) {
+        self.faults.end_after(index, self.time);
     }
 
     /// What the faults active at the last tick did.

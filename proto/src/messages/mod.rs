@@ -8,6 +8,7 @@ mod calibration;
 mod control_loop;
 mod depth_grid;
 mod estimator_status;
+mod failure_injection;
 mod gps;
 mod ground_truth;
 mod imu;
@@ -38,6 +39,10 @@ pub use calibration::{
 pub use control_loop::ControlLoopStats;
 pub use depth_grid::{DepthGrid, GridRegion, OBSTACLE_SECTORS, ObstacleSectors, SECTOR_UNKNOWN};
 pub use estimator_status::{AidingCounters, EstimatorHealth, EstimatorStatus, Innovation};
+pub use failure_injection::{
+    FAILURE_INJECTION_ENABLE, FailureInjection, FailureInjectionResult, FailureType, FailureUnit,
+    InjectionOutcome,
+};
 pub use gps::{GpsFix, GpsFixType};
 pub use ground_truth::GroundTruth;
 pub use imu::ImuSample;

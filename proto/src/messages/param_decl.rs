@@ -24,6 +24,11 @@ pub struct ParamInfo {
     pub unit: String,
     /// What the parameter does, for people reading a parameter list.
     pub description: String,
+    /// Whole numbers only (a switch, a motor number): served as MAV_PARAM_TYPE_INT32, as
+    /// ArduPilot serves its integer parameters, so that a client setting it as an integer
+    /// (MAVSDK's `set_param_int`) gets the type it asked for.
+    #[serde(default)]
+    pub integer: bool,
 }
 
 /// Every live parameter of one actor, with its current value.

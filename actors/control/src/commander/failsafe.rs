@@ -29,6 +29,26 @@ fn latches(cause: FailsafeCause) -> bool {
     )
 }
 
+/// A condition that counts only once it has held for a while (a battery voltage under its
+/// threshold for `BATT_LOW_TIMER`): true from the first check at least `for_s` after it began,
+/// reset the moment it stops.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HeldFor {
+    since: Option<Time>,
+}
+
+impl HeldFor {
+    /// Whether `condition`, true now, has been true since at least `for_s` seconds ago.
+    pub fn check(&mut self, now: Time, condition: bool, for_s: f64) -> bool {
+        if !condition {
+            self.since = None;
+            return false;
+        }
+        let since = *self.since.get_or_insert(now);
+        now.saturating_since(since).as_secs_f64() >= for_s
+    }
+}
+
 fn slot(cause: FailsafeCause) -> usize {
     CAUSES.iter().position(|c| *c == cause).unwrap_or(0)
 }
@@ -91,6 +111,18 @@ impl FailsafeMonitor {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn held_for_counts_from_the_first_true_check_and_resets_when_false() {
+        let mut h = HeldFor::default();
+        let s = |secs: u64| Time::from_micros(secs * 1_000_000);
+        assert!(!h.check(s(1), true, 10.0));
+        assert!(!h.check(s(10), true, 10.0));
+        assert!(h.check(s(11), true, 10.0));
+        assert!(!h.check(s(12), false, 10.0));
+        assert!(!h.check(s(13), true, 10.0), "the timer restarts");
+        assert!(h.check(s(13), true, 0.0), "no timer: at once");
+    }
 
     #[test]
     fn the_highest_action_wins_and_latched_causes_stay() {

@@ -32,7 +32,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 pub use arming::{Refusal, needs_position, needs_sticks};
 pub use avoidance::frd_to_ned;
-pub use failsafe::{FailsafeMonitor, FailsafeRecord};
+pub use failsafe::{FailsafeMonitor, FailsafeRecord, HeldFor};
 pub use kestrel_proto::param_def::{ParamChange, ParamRefused};
 pub use land_detector::LandDetector;
 pub use mission_runner::{MissionRunner, MissionStep};
@@ -109,6 +109,9 @@ pub struct Commander {
     failsafes: FailsafeMonitor,
     applied_action: Option<FailsafeAction>,
     critical_failure: bool,
+    /// The pack voltage under `battery_low_volt` / `battery_critical_volt`, and since when.
+    low_volt: HeldFor,
+    critical_volt: HeldFor,
     last_refusal: Option<String>,
     /// Refusals so far (`VehicleStatus::refusals`).
     refusals: u32,
@@ -155,6 +158,8 @@ impl Commander {
             failsafes: FailsafeMonitor::default(),
             applied_action: None,
             critical_failure: false,
+            low_volt: HeldFor::default(),
+            critical_volt: HeldFor::default(),
             last_refusal: None,
             refusals: 0,
             last_update: None,
@@ -647,6 +652,11 @@ impl Commander {
         let link_lost =
             self.last_link.is_some_and(|t| now.saturating_since(t).as_secs_f64() > fs.link_timeout_s);
         let remaining = self.battery.as_ref().map(|b| b.remaining);
+        let volts = self.battery.as_ref().map(|b| b.voltage_v);
+        let under = |threshold: f64| threshold > 0.0 && volts.is_some_and(|v| v < threshold);
+        let timer = fs.battery_volt_timer_s;
+        let low_volt = self.low_volt.check(now, armed && under(fs.battery_low_volt), timer);
+        let critical_volt = self.critical_volt.check(now, armed && under(fs.battery_critical_volt), timer);
         let unhealthy = nav.as_ref().is_some_and(|n| {
             fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
         });
@@ -661,13 +671,13 @@ impl Commander {
         m.set(
             now,
             FailsafeCause::BatteryLow,
-            armed && remaining.is_some_and(|r| r < fs.battery_low),
+            armed && (remaining.is_some_and(|r| r < fs.battery_low) || low_volt),
             fs.battery_low_action,
         );
         m.set(
             now,
             FailsafeCause::BatteryCritical,
-            armed && remaining.is_some_and(|r| r < fs.battery_critical),
+            armed && (remaining.is_some_and(|r| r < fs.battery_critical) || critical_volt),
             fs.battery_critical_action,
         );
         m.set(now, FailsafeCause::GeofenceBreach, armed && fence, fs.geofence_action);

@@ -115,6 +115,15 @@ pub struct FailsafeParams {
     /// Battery share below which `battery_critical_action` fires.
     pub battery_critical: f64,
     pub battery_critical_action: FailsafeAction,
+    /// Pack voltage below which, held for `battery_volt_timer_s`, `battery_low_action` fires
+    /// too (V; 0 off) — ArduPilot's `BATT_LOW_VOLT`: a failing cell or connector shows in the
+    /// voltage long before the charge counted says so.
+    pub battery_low_volt: f64,
+    /// As `battery_low_volt`, for `battery_critical_action` (ArduPilot's `BATT_CRT_VOLT`).
+    pub battery_critical_volt: f64,
+    /// How long the voltage must stay below a threshold (s), so that the sag of a climb at
+    /// full power does not trip it (ArduPilot's `BATT_LOW_TIMER`, 10 s).
+    pub battery_volt_timer_s: f64,
     pub geofence_action: FailsafeAction,
     pub estimator_action: FailsafeAction,
     pub critical_actor_action: FailsafeAction,
@@ -137,6 +146,9 @@ impl Default for FailsafeParams {
             battery_low_action: FailsafeAction::ReturnToLaunch,
             battery_critical: 0.10,
             battery_critical_action: FailsafeAction::Land,
+            battery_low_volt: 0.0,
+            battery_critical_volt: 0.0,
+            battery_volt_timer_s: 10.0,
             geofence_action: FailsafeAction::ReturnToLaunch,
             estimator_action: FailsafeAction::Land,
             critical_actor_action: FailsafeAction::Land,
@@ -233,6 +245,17 @@ impl CommanderParams {
         within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
         within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;
         within("failsafe.battery_critical", self.failsafe.battery_critical, 0.0, self.failsafe.battery_low)?;
+        within("failsafe.battery_low_volt", self.failsafe.battery_low_volt, 0.0, 100.0)?;
+        within("failsafe.battery_critical_volt", self.failsafe.battery_critical_volt, 0.0, 100.0)?;
+        if self.failsafe.battery_critical_volt > 0.0
+            && self.failsafe.battery_critical_volt >= self.failsafe.battery_low_volt
+        {
+            return Err(InvalidParam::new(
+                "failsafe.battery_critical_volt",
+                "must lie below failsafe.battery_low_volt (or be 0, off)",
+            ));
+        }
+        within("failsafe.battery_volt_timer_s", self.failsafe.battery_volt_timer_s, 0.0, 120.0)?;
         let polygon = &self.geofence.polygon;
         if !polygon.is_empty() && polygon.len() < 3 {
             return Err(InvalidParam::new("geofence.polygon", "needs at least 3 vertices"));

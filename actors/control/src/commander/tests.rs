@@ -1084,3 +1084,39 @@ fn condition_yaw_and_a_region_of_interest_point_the_nose_in_guided() {
     let kept = yaw(&mut c, 5000);
     assert!((kept - (-135f64).to_radians()).abs() < 1e-9, "the last heading is held: {kept}");
 }
+
+#[test]
+fn a_pack_voltage_under_batt_low_volt_for_the_timer_returns_and_under_batt_crt_volt_lands() {
+    let params = CommanderParams {
+        failsafe: super::FailsafeParams {
+            battery_low_volt: 12.8,
+            battery_critical_volt: 12.0,
+            battery_volt_timer_s: 10.0,
+            ..super::FailsafeParams::default()
+        },
+        ..CommanderParams::default()
+    };
+    let mut c = Commander::new(params).expect("valid");
+    let s = |secs: f64| Time::from_micros((secs * 1e6) as u64);
+    c.on_nav(&nav(s(1.0), 0.0, true));
+    c.on_battery(&full_battery(s(1.0)));
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arm");
+    // Charge counted full, but the voltage sags (a failing cell): 12.5 V, under the low threshold.
+    let sagged = |t: f64, volts: f64| BatteryStatus { voltage_v: volts, ..full_battery(s(t)) };
+    let at = |c: &mut Commander, t: f64, volts: f64| {
+        c.on_nav(&nav(s(t), -5.0, true));
+        c.on_battery(&sagged(t, volts));
+        c.update(s(t));
+        c.status(s(t)).failsafe.map(|f| f.cause)
+    };
+    assert_eq!(at(&mut c, 2.0, 12.5), None);
+    assert_eq!(at(&mut c, 6.0, 13.5), None, "back above: the timer restarts");
+    assert_eq!(at(&mut c, 7.0, 12.5), None);
+    assert_eq!(at(&mut c, 16.9, 12.5), None, "under for 9.9 s");
+    assert_eq!(at(&mut c, 17.0, 12.5), Some(FailsafeCause::BatteryLow));
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
+    assert_eq!(at(&mut c, 18.0, 11.5), Some(FailsafeCause::BatteryLow), "critical needs its own 10 s");
+    assert_eq!(at(&mut c, 28.0, 11.5), Some(FailsafeCause::BatteryCritical));
+    assert_eq!(c.mode(), FlightMode::Land);
+}

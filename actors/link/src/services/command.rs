@@ -17,7 +17,9 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_from_e7};
-use kestrel_proto::messages::{AltitudeFrame, Command, CommandResult, FlightMode, MissionPoint};
+use kestrel_proto::messages::{
+    AltitudeFrame, Command, CommandResult, FailureInjection, FailureInjectionResult, FlightMode, MissionPoint,
+};
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_ACK_DATA, HOME_POSITION_DATA, MavCmd, MavFrame, MavMessage, MavResult,
@@ -26,6 +28,7 @@ use mavlink::dialects::ardupilotmega::{
 
 use super::calibration;
 use super::events::statustext;
+use super::failure;
 use super::mission::MissionService;
 use super::telemetry::{Telemetry, home};
 use super::{Outputs, Sender, ToGraph};
@@ -83,6 +86,8 @@ pub struct Context<'a> {
     pub missions: &'a MissionService,
     pub autopilot_version: MavMessage,
     pub heartbeat: MavMessage,
+    /// Whether something in the graph injects failures (declares `SYS_FAILURE_EN`).
+    pub failure_injector: bool,
 }
 
 impl CommandService {
@@ -160,6 +165,18 @@ impl CommandService {
             // Sensor calibration: checked here, run by the calibration actor, whose answer is the ACK.
             command if calibration::is_calibration(command) => match calibration::request(&request) {
                 Ok(cal) => self.submit_to(request, |id| ToGraph::Calibration { id, request: cal }, now),
+                Err((result, reason)) => Outputs {
+                    mav: vec![ack(&request, result), statustext(MavSeverity::MAV_SEVERITY_WARNING, &reason)],
+                    graph: Vec::new(),
+                },
+            },
+            // Failure injection: checked here, carried out (or refused) by the simulator.
+            MavCmd::MAV_CMD_INJECT_FAILURE => match failure::request(&request, ctx.failure_injector) {
+                Ok((unit, failure, instance)) => self.submit_to(
+                    request,
+                    |id| ToGraph::InjectFailure(FailureInjection { time: now, id, unit, failure, instance }),
+                    now,
+                ),
                 Err((result, reason)) => Outputs {
                     mav: vec![ack(&request, result), statustext(MavSeverity::MAV_SEVERITY_WARNING, &reason)],
                     graph: Vec::new(),
@@ -341,10 +358,22 @@ impl CommandService {
 
     /// The answer to the command passed on with `id` (the commander's or the calibration's).
     pub fn on_answer(&mut self, id: u32, refused: bool) -> Option<MavMessage> {
+        let answer = if !refused { MavResult::MAV_RESULT_ACCEPTED } else { MavResult::MAV_RESULT_DENIED };
+        self.acknowledge(id, answer)
+    }
+
+    /// The injector's answer to a failure injection: its COMMAND_ACK and the STATUSTEXT saying
+    /// what was injected or why not (nothing for an id we are not waiting for).
+    pub fn on_injection_result(&mut self, result: &FailureInjectionResult) -> Vec<MavMessage> {
+        let (answer, text) = failure::answer(result);
+        self.acknowledge(result.id, answer).map_or_else(Vec::new, |ack| vec![ack, text])
+    }
+
+    /// The COMMAND_ACK with `result` of the pending command `id`, which is then done.
+    fn acknowledge(&mut self, id: u32, result: MavResult) -> Option<MavMessage> {
         let i = self.pending.iter().position(|p| p.id == id)?;
         let pending = self.pending.swap_remove(i);
-        let answer = if !refused { MavResult::MAV_RESULT_ACCEPTED } else { MavResult::MAV_RESULT_DENIED };
-        Some(ack(&pending.request, answer))
+        Some(ack(&pending.request, result))
     }
 
     /// DENIED for every command left unanswered too long.

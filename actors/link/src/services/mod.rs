@@ -5,6 +5,7 @@
 pub mod calibration;
 pub mod command;
 pub mod events;
+pub mod failure;
 pub mod ftp;
 pub mod heartbeat;
 pub mod mission;
@@ -13,7 +14,9 @@ pub mod params;
 pub mod telemetry;
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{CalibrationRequest, Command, ManualControl, Mission, ParamSet};
+use kestrel_proto::messages::{
+    CalibrationRequest, Command, FailureInjection, ManualControl, Mission, ParamSet,
+};
 use mavlink::dialects::ardupilotmega::MavMessage;
 
 /// The shape of a microservice that owns a protocol (as mini-redis's commands share one): it
@@ -58,6 +61,8 @@ pub enum ToGraph {
         id: u32,
         request: CalibrationRequest,
     },
+    /// A MAV_CMD_INJECT_FAILURE whose answer for its `id` becomes its COMMAND_ACK.
+    InjectFailure(FailureInjection),
     Mission(Mission),
     Manual(ManualControl),
     Param(ParamSet),

@@ -142,6 +142,11 @@ impl ParamTable {
         self.entries.is_empty()
     }
 
+    /// Whether an actor of the graph has declared `name` (not only the config listing it).
+    pub fn is_declared(&self, name: &str) -> bool {
+        self.entries.iter().any(|e| e.spec.name == name && e.owner.is_some())
+    }
+
     /// `(name, value)` of every parameter, in index order.
     pub fn values(&self) -> impl Iterator<Item = (&str, f64)> {
         self.entries.iter().map(|e| (e.spec.name.as_str(), e.spec.value))
@@ -212,7 +217,7 @@ impl ParamTable {
                 value: p.value,
                 min: p.min,
                 max: p.max,
-                kind: ParamKind::Real32,
+                kind: if p.integer { ParamKind::Int32 } else { ParamKind::Real32 },
                 unit: p.unit.clone(),
             };
             match index {
@@ -394,8 +399,15 @@ impl ParamTable {
         let value = f64::from(value);
         let entry = &mut self.entries[i];
         let spec = &mut entry.spec;
-        if !in_range(spec, value) {
-            let text = format!("Param {name}: {value} outside {}..{} {}", spec.min, spec.max, spec.unit);
+        let refusal = if !in_range(spec, value) {
+            Some(format!("Param {name}: {value} outside {}..{} {}", spec.min, spec.max, spec.unit))
+        } else if spec.kind != ParamKind::Real32 && value.fract() != 0.0 {
+            // An integer parameter (a switch, an index) is not rounded into one of its values.
+            Some(format!("Param {name}: {value} is not a whole number"))
+        } else {
+            None
+        };
+        if let Some(text) = refusal {
             let mut out = Outputs::send(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
             out.mav.extend(self.value_msg(i));
             return out;
@@ -564,6 +576,7 @@ mod tests {
                     max: 100.0,
                     unit: "m".into(),
                     description: String::new(),
+                    integer: false,
                 })
                 .collect(),
         }
@@ -597,10 +610,30 @@ mod tests {
         let out = t.set("RTL_ALT_M", f32::NAN, Time::ZERO);
         assert_eq!(value(&out.mav[1]).1, 50.0);
         let out = t.set("FS_ACTION", 2.4, Time::ZERO);
+        assert!(matches!(out.mav[0], MavMessage::STATUSTEXT(_)), "not rounded to 2");
+        assert_eq!(value(&out.mav[1]).1, 1.0);
+        assert!(out.graph.is_empty());
+        let out = t.set("FS_ACTION", 2.0, Time::ZERO);
         assert_eq!(value(&out.mav[0]).1, 2.0);
         let out = t.set("UNKNOWN", 1.0, Time::ZERO);
         assert_eq!(out.mav.len(), 1);
         assert!(matches!(out.mav[0], MavMessage::STATUSTEXT(_)));
+    }
+
+    #[test]
+    fn a_declared_integer_is_served_as_int32_and_refuses_fractions() {
+        let mut t = ParamTable::new(Vec::new()).expect("empty table");
+        let mut d = decl("sim", true, &[("SYS_FAILURE_EN", 0.0)]);
+        d.params[0].max = 1.0;
+        d.params[0].integer = true;
+        t.declare(&d, Time::ZERO);
+        let MavMessage::PARAM_VALUE(p) = &t.read("SYS_FAILURE_EN", -1).expect("declared") else {
+            panic!("not a PARAM_VALUE")
+        };
+        assert_eq!(p.param_type, MavParamType::MAV_PARAM_TYPE_INT32);
+        let out = t.set("SYS_FAILURE_EN", 0.5, Time::ZERO);
+        assert!(out.graph.is_empty(), "0.5 is not passed on as 0 or 1");
+        assert_eq!(t.set("SYS_FAILURE_EN", 1.0, Time::ZERO).graph, vec![param_set("SYS_FAILURE_EN", 1.0)]);
     }
 
     #[test]
