@@ -166,11 +166,7 @@ const CASES: [Case; 15] = [
 /// Rows that do not reach their expected outcome yet, with why: their tests are ignored
 /// (`cargo nextest run --run-ignored all -E 'binary(fault_matrix)'` flies them) and the table
 /// leaves them out.
-const KNOWN_FAILURES: [(u32, &str); 5] = [
-    (
-        3,
-        "dead reckoning with no horizontal aiding at all diverges within a minute: the landing without position drifts and never ends",
-    ),
+const KNOWN_FAILURES: [(u32, &str); 4] = [
     (8, "3 s without IMU at 5 m/s: the vehicle flies open loop and ends on the ground"),
     (9, "a restarted estimator aligns again, which needs a still vehicle: in flight it crashes"),
     (11, "no motor-failure detection or reallocation: the hexa loses control"),
@@ -401,7 +397,6 @@ fn gps_lost_30_s() {
 }
 
 #[test]
-#[ignore = "a known failure: see KNOWN_FAILURES"]
 fn gps_lost_for_good() {
     run_case(3);
 }

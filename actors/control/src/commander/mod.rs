@@ -755,7 +755,14 @@ impl Commander {
             LandedState::InAir if !landing_mode => {
                 let touching = self.descent_demanded
                     && fresh.as_ref().is_some_and(|n| {
-                        self.ground_contact.update(now, &n.velocity_ned_m_s, self.params.land_detect_s)
+                        let (valid, down) = (n.valid.horizontal_velocity, n.position_ned_m[2]);
+                        self.ground_contact.update(
+                            now,
+                            &n.velocity_ned_m_s,
+                            down,
+                            valid,
+                            self.params.land_detect_s,
+                        )
                     });
                 if !self.descent_demanded || fresh.is_none() {
                     self.ground_contact.reset();
@@ -777,7 +784,14 @@ impl Commander {
             LandedState::OnGround | LandedState::Landing
                 if landing_mode
                     && fresh.as_ref().is_some_and(|n| {
-                        self.land_detector.update(now, &n.velocity_ned_m_s, self.params.land_detect_s)
+                        let (valid, down) = (n.valid.horizontal_velocity, n.position_ned_m[2]);
+                        self.land_detector.update(
+                            now,
+                            &n.velocity_ned_m_s,
+                            down,
+                            valid,
+                            self.params.land_detect_s,
+                        )
                     }) =>
             {
                 if let Some(runner) = &mut self.runner
