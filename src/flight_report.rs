@@ -156,6 +156,11 @@ pub struct AvoidanceSection {
     pub frame_to_setpoint_p95_ms: f64,
     /// Frames the latency was measured on.
     pub samples: usize,
+    /// Simulated seconds per host second from the first stereo frame to the last: how much
+    /// faster than real time the graph ran with the camera rendering and stereo matching
+    /// (the perception simulation's real-time factor); `None` under two frames.
+    #[serde(default)]
+    pub realtime_factor: Option<f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -236,6 +241,8 @@ pub struct FlightReportActor {
     faults: Vec<FaultEntry>,
     estimator_events: EstimatorEvents,
     frame_latency: FrameLatency,
+    /// Graph time and host time of the first and the latest stereo frame.
+    frames_span: Option<[(Time, Instant); 2]>,
     /// Horizontal true path while airborne (m) and its first and latest points (NED, m).
     path_length_m: f64,
     airborne_first: Option<[f64; 2]>,
@@ -362,6 +369,10 @@ impl FlightReportActor {
                 frame_to_setpoint_p50_ms: p50,
                 frame_to_setpoint_p95_ms: p95,
                 samples: self.frame_latency.samples(),
+                realtime_factor: self.frames_span.and_then(|[(t0, h0), (t1, h1)]| {
+                    let host_s = h1.duration_since(h0).as_secs_f64();
+                    (host_s > 0.0).then(|| t1.saturating_since(t0).as_secs_f64() / host_s)
+                }),
             }),
             failsafes: self.failsafes.clone(),
             faults: self.faults.clone(),
@@ -400,6 +411,7 @@ impl Actor for FlightReportActor {
             faults: Vec::new(),
             estimator_events: EstimatorEvents::default(),
             frame_latency: FrameLatency::default(),
+            frames_span: None,
             path_length_m: 0.0,
             airborne_first: None,
             airborne_last: None,
@@ -411,7 +423,12 @@ impl Actor for FlightReportActor {
             ReportInput::Truth(t) => self.on_truth(t),
             ReportInput::Nav(n) => self.on_nav(&n),
             ReportInput::Status(s) => self.on_status(s),
-            ReportInput::Frame(f) => self.frame_latency.on_frame(f.sequence, Instant::now()),
+            ReportInput::Frame(f) => {
+                let now = Instant::now();
+                self.frame_latency.on_frame(f.sequence, now);
+                let first = self.frames_span.map_or((f.time, now), |[first, _]| first);
+                self.frames_span = Some([first, (f.time, now)]);
+            }
             ReportInput::Avoidance(a) => self.frame_latency.on_command(a.frame_sequence),
             ReportInput::Setpoint(sp) => {
                 self.frame_latency.on_setpoint(Instant::now());

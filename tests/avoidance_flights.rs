@@ -27,7 +27,7 @@ fn fly(name: &str, world: &Path, mission: &str, duration_s: u32) -> Value {
     let _ = std::fs::remove_dir_all(&dir);
     let (flight, avoidance) = (&value["flight"], &value["avoidance"]);
     println!(
-        "figure: {name}: completed {}, collisions {}, min clearance {:.2} m, {:.1} s, path {:.1} m for {:.1} m straight, frame→setpoint p50 {:.1} ms p95 {:.1} ms (host wall clock)",
+        "figure: {name}: completed {}, collisions {}, min clearance {:.2} m, {:.1} s, path {:.1} m for {:.1} m straight, frame→setpoint p50 {:.1} ms p95 {:.1} ms (host wall clock), perception real-time factor {:.2}x",
         value["mission"]["completed"],
         flight["collisions"],
         flight["min_clearance_m"].as_f64().unwrap_or(f64::NAN),
@@ -36,6 +36,11 @@ fn fly(name: &str, world: &Path, mission: &str, duration_s: u32) -> Value {
         flight["straight_line_m"].as_f64().unwrap_or(f64::NAN),
         avoidance["frame_to_setpoint_p50_ms"].as_f64().unwrap_or(f64::NAN),
         avoidance["frame_to_setpoint_p95_ms"].as_f64().unwrap_or(f64::NAN),
+        avoidance["realtime_factor"].as_f64().unwrap_or(f64::NAN),
+    );
+    assert!(
+        avoidance["realtime_factor"].as_f64().is_some_and(|r| r > 0.0),
+        "{name}: the report gives the perception real-time factor: {value:#}"
     );
     value
 }

@@ -11,6 +11,9 @@
 //! [`CameraSimActor`](crate::CameraSimActor) publishes it.
 
 mod params;
+mod raycast;
+#[cfg(any(test, feature = "render-reference"))]
+pub mod reference;
 mod render;
 mod scene;
 mod texture;

@@ -29,8 +29,8 @@ pub struct StereoCameraParams {
     pub exposure_time_s: f64,
     /// Sub-images averaged over the exposure window, in 1..=64: a blur `w` px wide is drawn
     /// as this many copies `w/blur_samples` px apart, so use about one per pixel of the
-    /// widest blur expected. Each costs a full render of both cameras (~25 ms per VGA pair
-    /// here), and an even count one more depth-only pass; unused while the body is at rest.
+    /// widest blur expected. Each costs a full render of both cameras (the render bench
+    /// times one), and an even count one more depth-only pass; unused while the body is at rest.
     pub blur_samples: u32,
     /// Auto-exposure flicker: standard deviation of the natural log of a per-frame global gain
     /// on both images, in [0, 1] (0.1 ≈ ±10 % frame to frame); 0 for a constant gain of 1.

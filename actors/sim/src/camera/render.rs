@@ -19,14 +19,15 @@ use rand_distr::{Distribution, Normal, StandardNormal};
 use rand_pcg::Pcg64;
 
 use crate::camera::params::{Intrinsics, StereoCameraParams};
-use crate::camera::scene::{Scene, Shape, Surface};
+use crate::camera::raycast::{RowBuffers, cast_view};
+use crate::camera::scene::{Scene, Shape};
 use crate::camera::texture::Texture;
 use crate::error::InvalidParam;
 
 /// Grey level of the sky (uniform).
-const SKY: f32 = 200.0;
-/// Grey level of a textureless surface lit by the ambient light alone.
-const PLAIN_ALBEDO: f32 = 0.6;
+pub(crate) const SKY: f32 = 200.0;
+/// Albedo of a textureless surface.
+pub(crate) const PLAIN_ALBEDO: f32 = 0.6;
 /// Unit vector from a surface towards the sun (NED): high, to the south-east.
 const TOWARDS_SUN: [f32; 3] = [-0.3, 0.4, -0.866];
 /// Light everywhere, and the part of it from the sun.
@@ -52,9 +53,9 @@ pub struct StereoCamera {
     intrinsics: Intrinsics,
     /// `(col − cx)/f` per column and `(row − cy)/f` per row: the camera-frame ray of a pixel is
     /// `(column_rays[col], row_rays[row], 1)`, so a hit's ray parameter is its depth.
-    column_rays: Vec<f32>,
-    row_rays: Vec<f32>,
-    texture: Texture,
+    pub(crate) column_rays: Vec<f32>,
+    pub(crate) row_rays: Vec<f32>,
+    pub(crate) texture: Texture,
     /// Per-pixel image noise (grey levels), if any.
     noise: Option<Normal<f64>>,
 }
@@ -121,6 +122,8 @@ pub struct RenderBuffers {
     /// sub-images with their weights.
     left: Vec<f32>,
     right: Vec<f32>,
+    /// The ray caster's per-row working memory and screen bins.
+    rows: RowBuffers,
 }
 
 impl RenderBuffers {
@@ -179,11 +182,17 @@ impl StereoRender {
 }
 
 /// Where one camera is and how it is turned, in NED, single precision.
-struct View {
-    origin: Vector3<f32>,
+pub(crate) struct View {
+    pub(crate) origin: Vector3<f32>,
     /// Columns: the camera's x, y, z axes in NED.
-    rotation: Matrix3<f32>,
+    pub(crate) rotation: Matrix3<f32>,
 }
+
+/// Renders one camera's `view` of a scene: adds `weight` times each pixel's radiance (grey
+/// levels) to `image` and writes its depth (m, infinite for sky) into `depth_m`, either of
+/// which may be left out; [`cast_view`] does it, and the reference renderer the slow way.
+pub(crate) type CastView =
+    fn(&StereoCamera, &Scene, &View, Option<(&mut [f32], f32)>, Option<&mut [f32]>, &mut RowBuffers);
 
 impl StereoCamera {
     /// A rig with checked `params`.
@@ -245,6 +254,18 @@ impl StereoCamera {
         sequence: u64,
         buffers: &mut RenderBuffers,
     ) -> StereoRender {
+        self.render_moving_by(cast_view, scene, pose, sequence, buffers)
+    }
+
+    /// [`StereoCamera::render_moving`] with each view cast by `cast`.
+    pub(crate) fn render_moving_by(
+        &self,
+        cast: CastView,
+        scene: &Scene,
+        pose: &CapturePose,
+        sequence: u64,
+        buffers: &mut RenderBuffers,
+    ) -> StereoRender {
         let (width, height) = (self.params.width_px, self.params.height_px);
         let pixels = width as usize * height as usize;
         buffers.reset(pixels);
@@ -258,12 +279,12 @@ impl StereoCamera {
             let dt_s = exposure_s * ((f64::from(i) + 0.5) / f64::from(samples) - 0.5);
             let (left, right) = self.views(&pose.at(dt_s));
             let depth = (Some(i) == centre).then_some(&mut depth_m[..]);
-            self.render_view(scene, &left, Some((&mut buffers.left, weight)), depth);
-            self.render_view(scene, &right, Some((&mut buffers.right, weight)), None);
+            cast(self, scene, &left, Some((&mut buffers.left, weight)), depth, &mut buffers.rows);
+            cast(self, scene, &right, Some((&mut buffers.right, weight)), None, &mut buffers.rows);
         }
         if centre.is_none() {
             let (left, _) = self.views(&pose.at(0.0));
-            self.render_view(scene, &left, None, Some(&mut depth_m));
+            cast(self, scene, &left, None, Some(&mut depth_m), &mut buffers.rows);
         }
         let (left_gain, right_gain) = self.exposure_gains(sequence);
         let mut noise = self.noise.as_ref().map(|noise| {
@@ -307,87 +328,9 @@ impl StereoCamera {
         )
     }
 
-    /// Casts every pixel of one camera: adds `weight` times its radiance (grey levels) to
-    /// `image`, and writes its depth (m) into `depth_m`; either may be left out.
-    fn render_view(
-        &self,
-        scene: &Scene,
-        view: &View,
-        mut image: Option<(&mut [f32], f32)>,
-        mut depth_m: Option<&mut [f32]>,
-    ) {
-        let width = self.column_rays.len();
-        let bounds: Vec<(usize, PixelRect)> = scene
-            .shapes()
-            .iter()
-            .enumerate()
-            .filter_map(|(i, shape)| self.projection(shape, view).map(|rect| (i, rect)))
-            .collect();
-        let (x_axis, y_axis, z_axis) = (
-            view.rotation.column(0).into_owned(),
-            view.rotation.column(1).into_owned(),
-            view.rotation.column(2).into_owned(),
-        );
-        let footprint_per_depth = 1.0 / self.intrinsics.focal_px as f32;
-        let mut in_row: Vec<(usize, PixelRect)> = Vec::with_capacity(bounds.len());
-        for (row, &row_ray) in self.row_rays.iter().enumerate() {
-            in_row.clear();
-            in_row.extend(bounds.iter().filter(|(_, r)| (r.rows.0..=r.rows.1).contains(&row)));
-            let row_dir = z_axis + row_ray * y_axis;
-            for (col, &column_ray) in self.column_rays.iter().enumerate() {
-                let dir = row_dir + column_ray * x_axis;
-                let mut nearest: Option<(f32, Option<(usize, u8)>)> =
-                    Scene::ground_hit(&view.origin, &dir).map(|t| (t, None));
-                for &(i, rect) in &in_row {
-                    if !(rect.cols.0..=rect.cols.1).contains(&col) {
-                        continue;
-                    }
-                    if let Some((t, face)) = scene.shapes()[i].hit(&view.origin, &dir)
-                        && nearest.is_none_or(|(best, _)| t < best)
-                    {
-                        nearest = Some((t, Some((i, face))));
-                    }
-                }
-                let pixel = row * width + col;
-                let Some((t, what)) = nearest else {
-                    if let Some((image, weight)) = image.as_mut() {
-                        image[pixel] += *weight * SKY;
-                    }
-                    continue;
-                };
-                if let Some((image, weight)) = image.as_mut() {
-                    let surface = match what {
-                        None => Scene::ground_surface(&(view.origin + t * dir)),
-                        Some((i, face)) => {
-                            scene.shapes()[i].surface(i as u32 + 1, &view.origin, &dir, t, face)
-                        }
-                    };
-                    image[pixel] += *weight * self.shade(&surface, &dir, t * footprint_per_depth);
-                }
-                if let Some(depth) = depth_m.as_deref_mut() {
-                    depth[pixel] = t;
-                }
-            }
-        }
-    }
-
-    /// Radiance of `surface` seen along `dir` with a pixel footprint of `footprint_m` (m)
-    /// across the line of sight, in grey levels at unit gain (not rounded).
-    fn shade(&self, surface: &Surface, dir: &Vector3<f32>, footprint_m: f32) -> f32 {
-        let sun = Vector3::from(TOWARDS_SUN);
-        let light = AMBIENT + SUNLIGHT * surface.normal.dot(&sun).max(0.0);
-        let albedo = if surface.textured {
-            let incidence = (surface.normal.dot(dir).abs() / dir.norm()).max(0.2);
-            0.15 + 0.8 * self.texture.sample(surface.material, surface.u, surface.v, footprint_m / incidence)
-        } else {
-            PLAIN_ALBEDO
-        };
-        255.0 * albedo * light
-    }
-
     /// The pixels `shape` can cover in `view` (inclusive ranges), or `None` when it is wholly
     /// behind the camera or outside the image.
-    fn projection(&self, shape: &Shape, view: &View) -> Option<PixelRect> {
+    pub(crate) fn projection(&self, shape: &Shape, view: &View) -> Option<PixelRect> {
         let (w, h) = (self.params.width_px as f32, self.params.height_px as f32);
         let k = &self.intrinsics;
         let (f, cx, cy) = (k.focal_px as f32, k.cx_px as f32, k.cy_px as f32);
@@ -418,9 +361,36 @@ impl StereoCamera {
 
 /// An inclusive rectangle of pixels.
 #[derive(Clone, Copy, Debug)]
-struct PixelRect {
-    cols: (usize, usize),
-    rows: (usize, usize),
+pub(crate) struct PixelRect {
+    pub(crate) cols: (usize, usize),
+    pub(crate) rows: (usize, usize),
+}
+
+/// Light falling on a surface of outward unit normal `normal` (NED): the ambient light and the
+/// sun's share of it, 0.5 to 1.
+#[inline(always)]
+pub(crate) fn light(normal: &Vector3<f32>) -> f32 {
+    AMBIENT + SUNLIGHT * normal.dot(&Vector3::from(TOWARDS_SUN)).max(0.0)
+}
+
+/// The footprint the texture is sampled at (m): the pixel's footprint `footprint_m` across the
+/// line of sight `dir`, stretched by the slant of a surface of normal `normal`, at most 5×.
+#[inline(always)]
+pub(crate) fn texel_footprint_m(normal: &Vector3<f32>, dir: &Vector3<f32>, footprint_m: f32) -> f32 {
+    let incidence = (normal.dot(dir).abs() / dir.norm()).max(0.2);
+    footprint_m / incidence
+}
+
+/// Albedo of a textured surface whose texture reads `texture` (0..1).
+#[inline(always)]
+pub(crate) fn textured_albedo(texture: f32) -> f32 {
+    0.15 + 0.8 * texture
+}
+
+/// Radiance (grey levels at unit gain, not rounded) of a surface of `albedo` under `light`.
+#[inline(always)]
+pub(crate) fn radiance(albedo: f32, light: f32) -> f32 {
+    255.0 * albedo * light
 }
 
 /// The 8-bit image of `radiance` (grey levels at unit gain) times `gain`, plus `noise` (grey
