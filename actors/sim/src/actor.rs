@@ -121,7 +121,7 @@ impl Actor for SimActor {
     type Input = SimInput;
 
     fn build(params: &SimActorParams, setup: &mut impl Setup<SimInput>) -> Result<SimActor, ActorError> {
-        let (mut sim, tick_us) = simulator(params, setup.config_dir(), setup.clock().now())?;
+        let (mut sim, tick_us) = simulator(params, setup.config_dir(), setup.clock().now(), |_| {})?;
         sim.set_handling(params.handling);
         setup.input("actuators", SimInput::Actuators);
         setup.input("calibration_motion", SimInput::Motion);
@@ -208,16 +208,18 @@ impl Actor for SimActor {
     }
 }
 
-/// The simulator core `params` describe, starting on the IMU tick at or before `now`, and that
-/// tick's period (µs). Files resolve against `dir`.
+/// The simulator core `params` describe, its vehicle file changed by `adjust`, starting on the
+/// IMU tick at or before `now`, and that tick's period (µs). Files resolve against `dir`.
 pub(crate) fn simulator(
     params: &SimActorParams,
     dir: &Path,
     now: Time,
+    adjust: fn(&mut VehicleParams),
 ) -> Result<(Simulator, u64), ActorError> {
     let dir = dir.to_path_buf();
-    let vehicle =
+    let mut vehicle =
         VehicleParams::load(&dir.join(&params.vehicle)).map_err(|e| ActorError::Params(e.to_string()))?;
+    adjust(&mut vehicle);
     let world = World::load(&dir.join(&params.world)).map_err(|e| ActorError::Params(e.to_string()))?;
     let tick_us = period_us(vehicle.sensors.imu.rate_hz);
     let mut initial = params.initial_position_ned_m;
