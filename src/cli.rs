@@ -87,6 +87,15 @@ pub struct RunArgs {
     /// still at 14550, and the simulated vehicle spawned 5·N m east of the others.
     #[arg(long, value_parser = clap::value_parser!(u8).range(0..=254))]
     pub instance: Option<u8>,
+
+    /// Hardware in the loop: run the graph (config/navio2.toml) unchanged against an emulated
+    /// Navio2 whose devices the simulator drives on the wall clock.
+    #[arg(long)]
+    pub hil: bool,
+
+    /// With --hil: the simulated world (relative to the config's directory).
+    #[arg(long, value_name = "FILE.toml", requires = "hil")]
+    pub hil_world: Option<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]

@@ -222,6 +222,32 @@ impl Tracking {
     }
 }
 
+/// The truth at `time`: the sample stamped then (lockstep: the simulator and the estimator
+/// share the IMU's instants), else, as on the wall clock where a driver stamps its own reads,
+/// position and velocity interpolated between the samples either side and the nearer one's
+/// attitude. `None` outside the window.
+fn truth_at(window: &VecDeque<GroundTruth>, time: Time) -> Option<GroundTruth> {
+    if let Some(exact) = window.iter().find(|t| t.time == time) {
+        return Some(exact.clone());
+    }
+    let after = window.iter().position(|t| t.time > time)?;
+    let (a, b) = (window.get(after.checked_sub(1)?)?, &window[after]);
+    if a.time > time {
+        return None;
+    }
+    let span = (b.time.as_micros() - a.time.as_micros()) as f64;
+    let w = (time.as_micros() - a.time.as_micros()) as f64 / span;
+    let mix = |x: f64, y: f64| x + (y - x) * w;
+    let mut t = if w < 0.5 { a.clone() } else { b.clone() };
+    t.time = time;
+    t.lat_deg = mix(a.lat_deg, b.lat_deg);
+    t.lon_deg = mix(a.lon_deg, b.lon_deg);
+    t.alt_msl_m = mix(a.alt_msl_m, b.alt_msl_m);
+    t.velocity_ned_m_s = std::array::from_fn(|i| mix(a.velocity_ned_m_s[i], b.velocity_ned_m_s[i]));
+    t.position_ned_m = std::array::from_fn(|i| mix(a.position_ned_m[i], b.position_ned_m[i]));
+    Some(t)
+}
+
 /// Collects the report while the graph runs and writes it on stop.
 pub struct FlightReportActor {
     out: PathBuf,
@@ -230,6 +256,8 @@ pub struct FlightReportActor {
     /// Recent ground truth, to pair each NavState with the truth of the same instant.
     truth: VecDeque<GroundTruth>,
     latest_truth: Option<GroundTruth>,
+    /// NavStates newer than the latest truth, scored when it catches up (wall-clock runs).
+    waiting: VecDeque<NavState>,
     min_clearance_m: Option<f64>,
     errors: ErrorSums,
     tracking: Tracking,
@@ -279,7 +307,14 @@ impl FlightReportActor {
             self.truth.pop_front();
         }
         self.truth.push_back(truth.clone());
+        let time = truth.time;
         self.latest_truth = Some(truth);
+        while let Some(nav) = self.waiting.front().filter(|n| n.time <= time).cloned() {
+            self.waiting.pop_front();
+            if let Some(origin) = nav.origin {
+                self.score(&nav, origin);
+            }
+        }
     }
 
     fn on_nav(&mut self, nav: &NavState) {
@@ -288,7 +323,20 @@ impl FlightReportActor {
         if self.nav_frame.is_none_or(|f| f.home() != origin) {
             self.nav_frame = Some(LocalFrame::new(origin));
         }
-        let Some(truth) = self.truth.iter().find(|t| t.time == nav.time) else { return };
+        // On the wall clock a NavState can come before the truth after its instant: it waits.
+        if self.latest_truth.as_ref().is_some_and(|t| t.time < nav.time) {
+            if self.waiting.len() == TRUTH_WINDOW {
+                self.waiting.pop_front();
+            }
+            self.waiting.push_back(nav.clone());
+            return;
+        }
+        self.score(nav, origin);
+    }
+
+    /// Adds `nav`'s errors against the truth of its instant.
+    fn score(&mut self, nav: &NavState, origin: Geodetic) {
+        let Some(truth) = truth_at(&self.truth, nav.time) else { return };
         let frame = LocalFrame::new(origin);
         let true_ned =
             frame.to_ned(Geodetic { lat_deg: truth.lat_deg, lon_deg: truth.lon_deg, alt_m: truth.alt_msl_m });
@@ -400,6 +448,7 @@ impl Actor for FlightReportActor {
             first: None,
             last: Time::ZERO,
             truth: VecDeque::with_capacity(TRUTH_WINDOW),
+            waiting: VecDeque::with_capacity(TRUTH_WINDOW),
             latest_truth: None,
             min_clearance_m: None,
             errors: ErrorSums::default(),

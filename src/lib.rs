@@ -12,6 +12,7 @@ pub mod flight_plots;
 pub mod flight_report;
 pub mod frame_latency;
 pub mod graph;
+pub mod hil;
 pub mod log_replay;
 pub mod mailbox;
 pub mod recorder;

@@ -50,6 +50,7 @@ impl Registry {
     /// timetable). None of them belongs in a vehicle's graph.
     pub fn stand_ins(self) -> Registry {
         self.with::<kestrel_sim::SimActor>("sim")
+            .with::<kestrel_sim::hil::HilSimActor>("hil_sim")
             .with::<kestrel_sim::CameraSimActor>("sim_camera")
             .with::<crate::log_replay::LogReplayActor>("log_replay")
             .with::<kestrel_control::TruthNavActor>("truth_nav")

@@ -8,7 +8,9 @@
 //! contract, because the drivers and the emulators are two actor crates that never depend on
 //! each other (docs/design.md).
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
 
 /// A bus transfer that failed, naming the device node.
 #[derive(Debug, thiserror::Error)]
@@ -92,4 +94,48 @@ pub fn spi_read_registers(bus: &mut impl SpiBus, first: u8, out: &mut [u8]) -> R
 /// Writes one register on an SPI device (bit 7 of the address byte clear).
 pub fn spi_write_register(bus: &mut impl SpiBus, reg: u8, value: u8) -> Result<(), BusError> {
     bus.transfer(&mut [reg & 0x7F, value])
+}
+
+/// Opens a plugged-in device: a new handle on the same chip each time a driver (or its
+/// restart) opens the node.
+pub type SpiFactory = Arc<dyn Fn() -> Box<dyn SpiBus + Send> + Send + Sync>;
+/// See [`SpiFactory`].
+pub type I2cFactory = Arc<dyn Fn() -> Box<dyn I2cBus + Send> + Send + Sync>;
+
+/// The devices plugged into this process in place of the kernel's (hardware in the loop).
+///
+/// A Linux `spidev` or `i2c-dev` node answers only the kernel's ioctls, so no file can stand in
+/// for a chip; instead a hardware-in-the-loop run plugs its emulators in here under the node
+/// paths the graph names, and a driver opening a node looks here first. The table is the
+/// process's, like `/dev`: a process runs one board. Empty, every open goes to the kernel.
+#[derive(Default)]
+struct Plugged {
+    spi: HashMap<PathBuf, SpiFactory>,
+    i2c: HashMap<(PathBuf, u8), I2cFactory>,
+}
+
+static PLUGGED: Mutex<Option<Plugged>> = Mutex::new(None);
+
+fn plugged<R>(f: impl FnOnce(&mut Plugged) -> R) -> R {
+    f(PLUGGED.lock().unwrap_or_else(PoisonError::into_inner).get_or_insert_with(Plugged::default))
+}
+
+/// Plugs an SPI device in at `path` (e.g. `/dev/spidev0.1`).
+pub fn plug_spi(path: &Path, open: SpiFactory) {
+    plugged(|p| p.spi.insert(path.to_owned(), open));
+}
+
+/// Plugs an I2C device in at `address` on bus `path` (e.g. `/dev/i2c-1`, 0x77).
+pub fn plug_i2c(path: &Path, address: u8, open: I2cFactory) {
+    plugged(|p| p.i2c.insert((path.to_owned(), address), open));
+}
+
+/// The device plugged in at `path`, if any (else the driver opens the kernel's node).
+pub fn open_plugged_spi(path: &Path) -> Option<Box<dyn SpiBus + Send>> {
+    plugged(|p| p.spi.get(path).cloned()).map(|open| open())
+}
+
+/// The device plugged in at `address` on `path`, if any.
+pub fn open_plugged_i2c(path: &Path, address: u8) -> Option<Box<dyn I2cBus + Send>> {
+    plugged(|p| p.i2c.get(&(path.to_owned(), address)).cloned()).map(|open| open())
 }

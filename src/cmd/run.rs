@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
+use kestrel::hil::HilOptions;
 use kestrel::{LoadedConfig, Registry, RunError, RunOptions};
 
 use crate::cli::RunArgs;
@@ -19,6 +20,9 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     if let Some(n) = args.instance {
         apply_instance(&mut config, n)?;
     }
+    let hil = kestrel::hil::HilOptions::new();
+    let hil = HilOptions { world: args.hil_world.clone().unwrap_or(hil.world.clone()), ..hil };
+    let bench = args.hil.then(|| kestrel::hil::apply_hil(&mut config, &hil)).transpose()?;
     let duration = args
         .duration
         .map(kestrel::config::check_duration_s)
@@ -39,7 +43,11 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     let report = kestrel::run(&config, &Registry::standard(), options).map_err(|e| match e {
         RunError::Config(_) => format!("the config is not usable:\n{e}"),
         other => other.to_string(),
-    })?;
+    });
+    if bench.is_some() {
+        std::fs::remove_dir_all(&hil.dir).ok();
+    }
+    let report = report?;
     let total: u64 = report.topics.iter().map(|t| t.2).sum();
     tracing::info!("stopped at t={:.3} s after {total} messages", report.end_time.as_secs_f64());
     for m in report.mailboxes.iter().filter(|m| m.overflowed > 0) {

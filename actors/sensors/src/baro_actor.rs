@@ -42,7 +42,7 @@ impl Default for BaroActorParams {
 pub enum BaroInput {
     /// Timer `poll`, at twice `rate_hz`.
     Poll(Time),
-    /// Timer `health`, every second.
+    /// Timer `health_report`, every second; a port name of its own, apart from the `health` output.
     Health(Time),
 }
 
@@ -71,7 +71,7 @@ impl BaroActor {
         let baro = Ms5611::new(bus, params.oversampling, &mut std::thread::sleep)
             .map_err(|e| ActorError::Failed(e.to_string()))?;
         setup.timer("poll", poll, BaroInput::Poll);
-        setup.timer("health", Duration::from_secs(1), BaroInput::Health);
+        setup.timer("health_report", Duration::from_secs(1), BaroInput::Health);
         Ok(BaroActor {
             baro,
             sampler: Ms5611Sampler::new(),
@@ -103,6 +103,9 @@ impl Actor for BaroActor {
 
     fn build(params: &BaroActorParams, setup: &mut impl Setup<BaroInput>) -> Result<BaroActor, ActorError> {
         poll_period(params)?;
+        if let Some(bus) = kestrel_proto::bus::open_plugged_i2c(&params.device, params.address) {
+            return BaroActor::with_bus(bus, params, setup);
+        }
         let bus = LinuxI2c::open(&params.device, params.address).map_err(|e| ActorError::Io {
             what: format!(
                 "MS5611 barometer at I2C address {:#04x} on {}",
@@ -154,7 +157,10 @@ mod tests {
         let fake = FakeMs5611::new(datasheet_prom_words(), 9_085_466, 8_569_150);
         let mut actor =
             BaroActor::with_bus(Box::new(fake), &BaroActorParams::default(), &mut setup).expect("build");
-        assert_eq!(setup.timers(), [("poll", Duration::from_millis(50)), ("health", Duration::from_secs(1))]);
+        assert_eq!(
+            setup.timers(),
+            [("poll", Duration::from_millis(50)), ("health_report", Duration::from_secs(1))]
+        );
         let ctx = setup.context();
         ready(actor.start(&ctx)).expect("start");
         for k in 0..5u64 {
@@ -164,7 +170,7 @@ mod tests {
         assert_eq!(samples.len(), 2);
         assert_eq!(samples[0].pressure_pa, 100_009.0);
         assert_eq!(samples[1].time, Time::from_micros(150_000 + 9_040));
-        ready(actor.handle(&ctx, setup.tick("health", Time::from_micros(1_000_000)))).expect("health");
+        ready(actor.handle(&ctx, setup.tick("health_report", Time::from_micros(1_000_000)))).expect("health");
         let health: Vec<SensorHealth> = setup.published("health");
         assert_eq!((health[0].rate_hz, health[0].device.as_str()), (2.0, "/dev/i2c-fake"));
     }

@@ -71,7 +71,7 @@ impl Default for GpsActorParams {
 /// What the GPS actor handles.
 #[derive(Debug)]
 pub enum GpsInput {
-    /// Timer `health`, every second.
+    /// Timer `health_report`, every second; a port name of its own, apart from the `health` output.
     Health(Time),
 }
 
@@ -140,7 +140,7 @@ impl GpsActor {
         let ubx_latency = kestrel_proto::timing::seconds("ubx_latency_s", params.ubx_latency_s, 0.0, 10.0)?;
         kestrel_proto::timing::seconds("nmea.lag_s", params.nmea.lag_s, 0.0, 10.0)?;
         let stats = Arc::new(Mutex::new(GpsStats::default()));
-        setup.timer("health", HEALTH_PERIOD, GpsInput::Health);
+        setup.timer("health_report", HEALTH_PERIOD, GpsInput::Health);
         let reader = Reader {
             port,
             configuration,

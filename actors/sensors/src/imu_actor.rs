@@ -55,7 +55,7 @@ impl Default for ImuActorParams {
 /// What the IMU actor handles.
 #[derive(Debug)]
 pub enum ImuInput {
-    /// Timer `health`, every second.
+    /// Timer `health_report`, every second; a port name of its own, apart from the `health` output.
     Health(Time),
 }
 
@@ -105,7 +105,7 @@ impl ImuActor {
         let imu = Mpu9250::new(bus, params.mpu9250.clone(), &mut std::thread::sleep)
             .map_err(|e| ActorError::Failed(e.to_string()))?;
         let read_period = Duration::from_micros(1000 * (1 + u64::from(params.mpu9250.sample_rate_divider)));
-        setup.timer("health", Duration::from_secs(1), ImuInput::Health);
+        setup.timer("health_report", Duration::from_secs(1), ImuInput::Health);
         Ok(ImuActor {
             imu: Some(imu),
             reader: None,
@@ -186,6 +186,9 @@ impl Actor for ImuActor {
     type Input = ImuInput;
 
     fn build(params: &ImuActorParams, setup: &mut impl Setup<ImuInput>) -> Result<ImuActor, ActorError> {
+        if let Some(bus) = kestrel_proto::bus::open_plugged_spi(&params.device) {
+            return ImuActor::with_bus(bus, params, setup);
+        }
         let bus = LinuxSpi::open(&params.device, params.spi_mode, params.spi_speed_hz).map_err(|e| {
             ActorError::Io { what: format!("MPU-9250 IMU on {}", params.device.display()), source: e.source }
         })?;
@@ -267,7 +270,7 @@ mod tests {
             }
         }
         let now = setup.manual_clock().now();
-        ready(actor.handle(&ctx, setup.tick("health", now))).expect("reader healthy");
+        ready(actor.handle(&ctx, setup.tick("health_report", now))).expect("reader healthy");
         ctx.shutdown().cancel();
         ready(actor.stop(&ctx));
         setup

@@ -1,5 +1,6 @@
 //! The motor output actor: actuator commands in, PWM pulses out, with a watchdog timer that
-//! falls back to the disarmed pulse when the controller goes quiet.
+//! reports a controller gone quiet while armed (the pulses are held; see
+//! [`MotorOutput::watchdog`]).
 
 use std::path::PathBuf;
 
@@ -20,7 +21,7 @@ pub struct MotorActorParams {
     /// PWM channel of motor 1, 2, ... in the frame's motor order.
     pub channels: Vec<u32>,
     pub pulses: PulseConfig,
-    /// Silence from the controller after which the motors are disarmed (s).
+    /// Silence from the controller after which it is reported (s).
     pub timeout_s: f64,
 }
 
@@ -77,11 +78,15 @@ impl Actor for MotorActor {
     async fn handle(&mut self, ctx: &Context, input: MotorInput) -> Result<(), ActorError> {
         let result = match input {
             MotorInput::Actuators(outputs) => self.motors.apply(&outputs, ctx.now()),
-            MotorInput::Watchdog(now) => self.motors.watchdog(now).map(|disarmed| {
-                if disarmed {
-                    tracing::warn!("no actuator commands for the timeout: motors disarmed");
+            MotorInput::Watchdog(now) => {
+                if self.motors.watchdog(now) {
+                    tracing::warn!(
+                        silences = self.motors.silences(),
+                        "no actuator commands for the timeout while armed: holding the last pulses"
+                    );
                 }
-            }),
+                Ok(())
+            }
         };
         result.map_err(|e| ActorError::Failed(e.to_string()))
     }
@@ -104,7 +109,7 @@ mod tests {
     use crate::pwm::sysfs::tests::FakePwmRoot;
 
     #[test]
-    fn drives_the_motors_and_disarms_when_the_controller_stops() {
+    fn drives_the_motors_and_holds_them_when_the_controller_stops() {
         let fake = FakePwmRoot::new("actor", 0, &[0, 1, 2, 3]);
         let params = MotorActorParams { root: fake.root.clone(), ..MotorActorParams::default() };
         let mut setup = TestSetup::new("motors", "/");
@@ -117,7 +122,7 @@ mod tests {
         ready(actor.handle(&ctx, setup.input("actuators", armed))).expect("apply");
         assert_eq!(fake.read("pwmchip0/pwm2/duty_cycle"), "1250000");
         ready(actor.handle(&ctx, setup.tick("watchdog", Time::from_micros(1_200_000)))).expect("watchdog");
-        assert_eq!(fake.read("pwmchip0/pwm2/duty_cycle"), "1000000");
+        assert_eq!(fake.read("pwmchip0/pwm2/duty_cycle"), "1250000", "held, not cut");
     }
 
     #[test]

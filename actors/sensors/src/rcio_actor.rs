@@ -53,9 +53,9 @@ impl Default for RcioActorParams {
 pub enum RcioInput {
     /// Timer `rc`.
     Rc(Time),
-    /// Timer `battery`.
+    /// Timer `battery_poll` (`battery` is the output).
     Battery(Time),
-    /// Timer `health`, every second.
+    /// Timer `health_report`, every second; a port name of its own, apart from the `health` output.
     Health(Time),
 }
 
@@ -131,8 +131,8 @@ impl Actor for RcioActor {
         };
         check().map_err(|e| ActorError::Failed(format!("Navio2 RCIO: {e}")))?;
         setup.timer("rc", rc_period, RcioInput::Rc);
-        setup.timer("battery", battery_period, RcioInput::Battery);
-        setup.timer("health", Duration::from_secs(1), RcioInput::Health);
+        setup.timer("battery_poll", battery_period, RcioInput::Battery);
+        setup.timer("health_report", Duration::from_secs(1), RcioInput::Health);
         Ok(RcioActor {
             rcio,
             sticks: params.sticks.clone(),
@@ -211,8 +211,8 @@ mod tests {
             setup.timers(),
             [
                 ("rc", Duration::from_millis(20)),
-                ("battery", Duration::from_millis(100)),
-                ("health", Duration::from_secs(1))
+                ("battery_poll", Duration::from_millis(100)),
+                ("health_report", Duration::from_secs(1))
             ]
         );
         let ctx = setup.context();
@@ -222,7 +222,7 @@ mod tests {
         ready(actor.handle(&ctx, setup.tick("rc", Time::from_micros(20_000)))).expect("rc");
         let sticks: Vec<ManualControl> = setup.published("manual_control");
         assert_eq!((sticks[0].roll, sticks[0].pitch, sticks[0].throttle), (1.0, 0.0, 0.5));
-        ready(actor.handle(&ctx, setup.tick("battery", Time::from_micros(100_000)))).expect("battery");
+        ready(actor.handle(&ctx, setup.tick("battery_poll", Time::from_micros(100_000)))).expect("battery");
         let battery: Vec<BatteryStatus> = setup.published("battery");
         assert!((battery[0].voltage_v - 12.43).abs() < 1e-9 && (battery[0].current_a - 9.996).abs() < 1e-9);
 
@@ -234,7 +234,7 @@ mod tests {
         ready(actor.handle(&ctx, setup.tick("rc", Time::from_micros(60_000))))
             .expect("one failure is not fatal");
         assert_eq!(setup.count("manual_control"), 1);
-        ready(actor.handle(&ctx, setup.tick("health", Time::from_micros(1_000_000)))).expect("health");
+        ready(actor.handle(&ctx, setup.tick("health_report", Time::from_micros(1_000_000)))).expect("health");
         let health: Vec<SensorHealth> = setup.published("health");
         assert_eq!((health[0].errors, health[0].rate_hz), (1, 1.0));
         assert_eq!(health[0].device, fake.root.display().to_string());

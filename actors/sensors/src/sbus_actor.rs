@@ -47,7 +47,7 @@ impl Default for SbusActorParams {
 /// What the SBUS actor handles.
 #[derive(Debug)]
 pub enum SbusInput {
-    /// Timer `health`, every second.
+    /// Timer `health_report`, every second; a port name of its own, apart from the `health` output.
     Health(Time),
 }
 
@@ -121,7 +121,7 @@ impl SbusActor {
         setup: &mut impl Setup<SbusInput>,
     ) -> SbusActor {
         let stats = Arc::new(Mutex::new(SbusStats::default()));
-        setup.timer("health", HEALTH_PERIOD, SbusInput::Health);
+        setup.timer("health_report", HEALTH_PERIOD, SbusInput::Health);
         let reader = Reader {
             port,
             parser: SbusParser::new(),

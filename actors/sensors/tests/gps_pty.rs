@@ -79,7 +79,7 @@ async fn configures_the_receiver_and_decodes_recorded_epochs_at_5_hz_over_a_pty(
         master.write_all(EPOCHS[k % EPOCHS.len()]).await.expect("write");
     }
     tokio::time::sleep(PERIOD).await;
-    actor.handle(&ctx, setup.tick("health", clock.now())).await.expect("reader healthy");
+    actor.handle(&ctx, setup.tick("health_report", clock.now())).await.expect("reader healthy");
     ctx.shutdown().cancel();
     actor.stop(&ctx).await;
 

@@ -51,7 +51,7 @@ async fn reads_sticks_at_100000_baud_8e2_over_a_pty() {
         master.write_all(&bytes).await.expect("write");
     }
     tokio::time::sleep(Duration::from_millis(50)).await;
-    actor.handle(&ctx, setup.tick("health", clock.now())).await.expect("reader healthy");
+    actor.handle(&ctx, setup.tick("health_report", clock.now())).await.expect("reader healthy");
     ctx.shutdown().cancel();
     actor.stop(&ctx).await;
 

@@ -1,7 +1,7 @@
 //! The simulator as an actor: every IMU period it takes the latest actuator outputs, advances
 //! the core to the tick's time and publishes what the core released.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
@@ -128,34 +128,7 @@ impl Actor for SimActor {
     type Input = SimInput;
 
     fn build(params: &SimActorParams, setup: &mut impl Setup<SimInput>) -> Result<SimActor, ActorError> {
-        let dir = setup.config_dir().to_path_buf();
-        let vehicle =
-            VehicleParams::load(&dir.join(&params.vehicle)).map_err(|e| ActorError::Params(e.to_string()))?;
-        let world = World::load(&dir.join(&params.world)).map_err(|e| ActorError::Params(e.to_string()))?;
-        let tick_us = period_us(vehicle.sensors.imu.rate_hz);
-        let now = setup.clock().now();
-        let mut initial = params.initial_position_ned_m;
-        initial[1] += INSTANCE_SPACING_M * f64::from(params.instance);
-        let options = SimOptions {
-            seed: params.seed.wrapping_add(u64::from(params.instance)),
-            physics_substeps: params.physics_substeps,
-            ground_truth_rate_hz: params.ground_truth_rate_hz,
-            battery_rate_hz: params.battery_rate_hz,
-            start_time: Time(now.0 / tick_us * tick_us),
-            initial: InitialState {
-                body: RigidBodyState { position_ned_m: initial.into(), ..RigidBodyState::default() },
-                actuators: ActuatorOutputs::default(),
-            },
-        };
-        let world_path = dir.join(&params.world);
-        let mut sim = Simulator::new(vehicle, world, options).map_err(|e| {
-            // Faults are checked against the vehicle here, so name the world file they are in.
-            if e.field.starts_with("faults[") {
-                ActorError::Params(format!("invalid {}: {e}", world_path.display()))
-            } else {
-                ActorError::Params(e.to_string())
-            }
-        })?;
+        let (mut sim, tick_us) = simulator(params, setup.config_dir(), setup.clock().now(), |_| {})?;
         sim.set_handling(params.handling);
         setup.input("actuators", SimInput::Actuators);
         setup.input("calibration_motion", SimInput::Motion);
@@ -281,6 +254,45 @@ impl SimActor {
         }
         Ok(change)
     }
+}
+
+/// The simulator core `params` describe, its vehicle file changed by `adjust`, starting on the
+/// IMU tick at or before `now`, and that tick's period (µs). Files resolve against `dir`.
+pub(crate) fn simulator(
+    params: &SimActorParams,
+    dir: &Path,
+    now: Time,
+    adjust: fn(&mut VehicleParams),
+) -> Result<(Simulator, u64), ActorError> {
+    let dir = dir.to_path_buf();
+    let mut vehicle =
+        VehicleParams::load(&dir.join(&params.vehicle)).map_err(|e| ActorError::Params(e.to_string()))?;
+    adjust(&mut vehicle);
+    let world = World::load(&dir.join(&params.world)).map_err(|e| ActorError::Params(e.to_string()))?;
+    let tick_us = period_us(vehicle.sensors.imu.rate_hz);
+    let mut initial = params.initial_position_ned_m;
+    initial[1] += INSTANCE_SPACING_M * f64::from(params.instance);
+    let options = SimOptions {
+        seed: params.seed.wrapping_add(u64::from(params.instance)),
+        physics_substeps: params.physics_substeps,
+        ground_truth_rate_hz: params.ground_truth_rate_hz,
+        battery_rate_hz: params.battery_rate_hz,
+        start_time: Time(now.0 / tick_us * tick_us),
+        initial: InitialState {
+            body: RigidBodyState { position_ned_m: initial.into(), ..RigidBodyState::default() },
+            actuators: ActuatorOutputs::default(),
+        },
+    };
+    let world_path = dir.join(&params.world);
+    let sim = Simulator::new(vehicle, world, options).map_err(|e| {
+        // Faults are checked against the vehicle here, so name the world file they are in.
+        if e.field.starts_with("faults[") {
+            ActorError::Params(format!("invalid {}: {e}", world_path.display()))
+        } else {
+            ActorError::Params(e.to_string())
+        }
+    })?;
+    Ok((sim, tick_us))
 }
 
 /// The world's obstacles as loaded (generated ones included) in the log's message form, stamped

@@ -1,6 +1,7 @@
 //! The motors' PWM outputs with their safety rules: every channel starts at the disarmed
 //! pulse; commands drive the motors only while they say `armed`; if commands stop for longer
-//! than the timeout (controller stopped or crashed) the outputs fall back to disarmed; and
+//! than the timeout (controller stopped, or the host too busy to deliver them) the last pulses
+//! are held and the silence is reported, never cut in the air; and
 //! dropping the output (shutdown, actor restart) writes the disarmed pulse. Channels stay
 //! enabled when disarmed, so ESCs keep seeing a valid "stop" signal.
 
@@ -23,6 +24,9 @@ pub struct MotorOutput {
     /// When the last command arrived; `None` before the first.
     last_command: Option<Time>,
     armed: bool,
+    /// In a silence of the controller, and how many there were.
+    silent: bool,
+    silences: u64,
 }
 
 impl MotorOutput {
@@ -49,7 +53,15 @@ impl MotorOutput {
             .iter()
             .map(|&ch| PwmChannel::open(root, chip, ch, period_ns, disarmed_ns, sleep))
             .collect::<Result<Vec<_>, _>>()?;
-        Ok(MotorOutput { channels, config, timeout, last_command: None, armed: false })
+        Ok(MotorOutput {
+            channels,
+            config,
+            timeout,
+            last_command: None,
+            armed: false,
+            silent: false,
+            silences: 0,
+        })
     }
 
     /// Whether the last command armed the motors and is still fresh.
@@ -60,18 +72,29 @@ impl MotorOutput {
     /// Applies a command that arrived at `now`.
     pub fn apply(&mut self, outputs: &ActuatorOutputs, now: Time) -> Result<(), PwmError> {
         self.last_command = Some(now);
+        self.silent = false;
         self.armed = outputs.armed;
         self.write(&pulse_widths_us(outputs, &self.config))
     }
 
-    /// Disarms if no command arrived within the timeout before `now`; returns whether it did.
-    pub fn watchdog(&mut self, now: Time) -> Result<bool, PwmError> {
+    /// Notes a silence from the controller: armed, with no command within the timeout before
+    /// `now`. Returns whether a silence began (once per silence). The pulses are held, never
+    /// cut: a command late because the host was busy is no reason to drop a flying vehicle,
+    /// and PX4's and ArduPilot's outputs keep their last values too; the commands' own
+    /// `armed` flag and shutdown are what disarm.
+    pub fn watchdog(&mut self, now: Time) -> bool {
         let stale = self.last_command.is_none_or(|t| now - t > self.timeout);
-        if self.armed && stale {
-            self.disarm()?;
-            return Ok(true);
+        let began = self.armed && stale && !self.silent;
+        self.silent = self.armed && stale;
+        if began {
+            self.silences += 1;
         }
-        Ok(false)
+        began
+    }
+
+    /// Silences of the controller seen while armed.
+    pub fn silences(&self) -> u64 {
+        self.silences
     }
 
     /// Writes the disarmed pulse to every motor.
@@ -132,15 +155,21 @@ mod tests {
     }
 
     #[test]
-    fn a_silent_controller_disarms_the_motors() {
+    fn a_silent_controller_is_reported_and_the_motors_hold() {
         let fake = FakePwmRoot::new("watchdog", 0, &[0, 1, 2, 3]);
         let mut motors = open(&fake);
         motors.apply(&command(true, 0.7), Time::from_micros(1_000_000)).expect("write");
-        assert!(!motors.watchdog(Time::from_micros(1_090_000)).expect("check"));
+        assert!(!motors.watchdog(Time::from_micros(1_090_000)));
+        assert!(motors.watchdog(Time::from_micros(1_101_000)), "the silence begins");
+        assert!(!motors.watchdog(Time::from_micros(1_200_000)), "reported once");
         assert_eq!(duty(&fake, 1), "1700000");
-        assert!(motors.watchdog(Time::from_micros(1_101_000)).expect("check"));
+        assert!(motors.is_armed());
+        motors.apply(&command(true, 0.6), Time::from_micros(1_300_000)).expect("write");
+        assert!(motors.watchdog(Time::from_micros(1_401_000)), "a second silence");
+        assert_eq!(motors.silences(), 2);
+        motors.apply(&command(false, 0.6), Time::from_micros(1_500_000)).expect("write");
+        assert!(!motors.watchdog(Time::from_micros(2_000_000)), "disarmed: nothing to hold");
         assert_eq!(duty(&fake, 1), "1000000");
-        assert!(!motors.is_armed());
     }
 
     #[test]

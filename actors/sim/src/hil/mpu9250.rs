@@ -142,12 +142,18 @@ impl Mpu9250Emulator {
     /// A chip at `path` answering WHO_AM_I with `who_am_i` (0x71 for an MPU-9250; anything else
     /// is a wrong part), with fuse-ROM adjustment values `asa` in its AK8963, level and still.
     pub fn new(path: &Path, who_am_i: u8, asa: [u8; 3]) -> Mpu9250Emulator {
+        Mpu9250Emulator::with_world(path, who_am_i, asa, Mpu9250World::default())
+    }
+
+    /// The same chip sensing through an existing `world` handle (a chip reopened by a
+    /// restarted driver, powered up afresh in the same world).
+    pub fn with_world(path: &Path, who_am_i: u8, asa: [u8; 3], world: Mpu9250World) -> Mpu9250Emulator {
         let mut chip = Mpu9250Emulator {
             path: path.to_owned(),
             who_am_i,
             registers: [0; 128],
             ak: Ak8963 { registers: [0; 0x13], asa, read_number: 0 },
-            world: Mpu9250World::default(),
+            world,
         };
         chip.reset();
         chip.ak.reset(0);

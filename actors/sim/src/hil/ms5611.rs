@@ -9,6 +9,7 @@
 //! driver's rounding towards −∞ lands on the simulated value.
 
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use kestrel_proto::bus::{BusError, I2cBus};
 
@@ -35,13 +36,35 @@ enum Pointer {
     Adc,
 }
 
+/// What the chip senses, set by the simulator while the driver owns the chip as its bus:
+/// static pressure (Pa) and the sensor's temperature (°C).
+#[derive(Clone, Debug)]
+pub struct Ms5611World(Arc<Mutex<(f64, f64)>>);
+
+impl Default for Ms5611World {
+    /// ISA sea level: 101 325 Pa at 15 °C.
+    fn default() -> Ms5611World {
+        Ms5611World(Arc::new(Mutex::new((101_325.0, 15.0))))
+    }
+}
+
+impl Ms5611World {
+    /// What the world reads now: static pressure (Pa) and the sensor's temperature (°C).
+    pub fn set_reading(&self, pressure_pa: f64, temperature_c: f64) {
+        *self.0.lock().unwrap_or_else(PoisonError::into_inner) = (pressure_pa, temperature_c);
+    }
+
+    fn reading(&self) -> (f64, f64) {
+        *self.0.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+}
+
 /// An MS5611 at `path` reading the simulated pressure and temperature.
 #[derive(Clone, Debug)]
 pub struct Ms5611Emulator {
     path: PathBuf,
     prom: [u16; 8],
-    pressure_pa: f64,
-    temperature_c: f64,
+    world: Ms5611World,
     /// The conversion result the ADC holds: set by a convert command, cleared by reading it
     /// (a read without a conversion returns 0, as the chip does).
     adc: u32,
@@ -58,17 +81,20 @@ impl Ms5611Emulator {
         Ms5611Emulator {
             path: path.to_owned(),
             prom,
-            pressure_pa: 101_325.0,
-            temperature_c: 15.0,
+            world: Ms5611World::default(),
             adc: 0,
             pointer: Pointer::None,
         }
     }
 
-    /// What the world reads now: static pressure (Pa) and the sensor's temperature (°C).
+    /// What the world reads now (the same as through [`Ms5611Emulator::world`]).
     pub fn set_reading(&mut self, pressure_pa: f64, temperature_c: f64) {
-        self.pressure_pa = pressure_pa;
-        self.temperature_c = temperature_c;
+        self.world.set_reading(pressure_pa, temperature_c);
+    }
+
+    /// The handle through which the simulator sets what the chip senses.
+    pub fn world(&self) -> Ms5611World {
+        self.world.clone()
     }
 
     /// The PROM image (words 0..7).
@@ -78,9 +104,10 @@ impl Ms5611Emulator {
 
     /// The raw conversions (D1, D2) the chip returns for the current reading.
     pub fn raw(&self) -> (u32, u32) {
+        let (pressure_pa, temperature_c) = self.world.reading();
         let c = |i: usize| self.prom[i] as f64;
         // The middle of the driver's 0.01 °C step, then dT from TEMP = 2000 + dT·C6/2²³ − T2.
-        let temp = (self.temperature_c * 100.0).floor() + 0.5;
+        let temp = (temperature_c * 100.0).floor() + 0.5;
         let k = c(6) / 2f64.powi(23);
         let dt = if temp >= 2000.0 {
             (temp - 2000.0) / k
@@ -107,7 +134,7 @@ impl Ms5611Emulator {
             sens -= sens2;
         }
         // P = (D1·SENS/2²¹ − OFF)/2¹⁵ at the middle of the 1 Pa step.
-        let p = self.pressure_pa.floor() + 0.5;
+        let p = pressure_pa.floor() + 0.5;
         let d1 = ((p * 2f64.powi(15) + off as f64) * 2f64.powi(21) / sens.max(1) as f64).round();
         (d1.clamp(0.0, ADC_MAX as f64) as u32, d2 as u32)
     }
