@@ -357,8 +357,8 @@ fn whole_records_end_from(bytes: &[u8], mut at: usize) -> usize {
 const MAX_CHUNK_BYTES: u64 = 256 << 20;
 
 /// The length of the file's prefix that the `mcap` reader can be given: everything up to the
-/// first chunk that does not decompress to its stated size and CRC, or whose records do not
-/// fit in it; the whole file when every chunk holds together.
+/// first record that runs past the end of the file, or the first chunk that does not parse,
+/// does not decompress to its stated size and CRC, or whose records do not fit in it.
 fn sound_prefix(bytes: &[u8]) -> usize {
     let mut at = mcap::MAGIC.len();
     while let Some(header) = bytes.get(at..at + RECORD_HEADER_BYTES) {
@@ -370,13 +370,19 @@ fn sound_prefix(bytes: &[u8]) -> usize {
             .and_then(|n| body_start.checked_add(n))
             .filter(|&end| end <= bytes.len())
         else {
-            break;
-        };
-        if let Ok(mcap::records::Record::Chunk { header, data }) =
-            mcap::read::parse_record(header[0], &bytes[body_start..end])
-            && !chunk_holds_together(&header, &data)
-        {
+            // A record that runs past the end (a cut file, or a damaged length): the stream
+            // reader would take whatever the length says, so it stops before it.
             return at;
+        };
+        // A chunk whose header does not parse is damage too: the stream reader parses it its
+        // own way and may size a buffer from what it makes of it.
+        let body = &bytes[body_start..end];
+        match mcap::read::parse_record(header[0], body) {
+            Ok(mcap::records::Record::Chunk { header, data }) if !chunk_holds_together(&header, &data) => {
+                return at;
+            }
+            Err(_) if header[0] == mcap::records::op::CHUNK => return at,
+            _ => {}
         }
         at = end;
     }
