@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
-use kestrel_proto::{Clock, Message, Publisher, Setup, Time};
+use kestrel_proto::{Clock, Keepsake, Message, Publisher, Setup, Time};
 
 use crate::activity::{Activity, Busy};
 use crate::config::{ActorDecl, ConfigError, Source};
@@ -280,6 +280,8 @@ pub struct TimerSpec {
 #[derive(Default)]
 pub struct PortTable {
     ports: HashMap<&'static str, (PortKind, Arc<dyn Any + Send + Sync>)>,
+    /// The actor's keepsakes by name: the table outlives incarnations, so they do too.
+    keepsakes: HashMap<&'static str, Arc<dyn Any + Send + Sync>>,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -564,6 +566,23 @@ impl<I: Send + 'static> Setup<I> for Wiring<'_, I> {
         if let Some(mailbox) = mailbox {
             self.declared.inputs.push(Arc::new(BoundInput { mailbox: Arc::clone(&mailbox), wrap: tick }));
             self.declared.timers.push(TimerSpec { mailbox, period });
+        }
+    }
+
+    fn keepsake<T: Clone + Send + 'static>(&mut self, name: &'static str) -> Keepsake<T> {
+        let stored = self.table.keepsakes.get(name).map(|any| Arc::clone(any).downcast::<Keepsake<T>>());
+        match stored {
+            Some(Ok(kept)) => (*kept).clone(),
+            Some(Err(_)) => {
+                self.errors
+                    .push(format!("actor '{}' changed the type of keepsake '{name}' on restart", self.name));
+                Keepsake::new()
+            }
+            None => {
+                let kept = Keepsake::<T>::new();
+                self.table.keepsakes.insert(name, Arc::new(kept.clone()));
+                kept
+            }
         }
     }
 }

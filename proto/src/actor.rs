@@ -20,6 +20,7 @@ use std::time::Duration;
 use tokio_util::sync::CancellationToken;
 
 use crate::clock::Clock;
+use crate::keepsake::Keepsake;
 use crate::message::Message;
 use crate::time::Time;
 
@@ -79,6 +80,14 @@ pub trait Setup<I> {
     /// since the clock's origin, the actor receives `tick(scheduled_time)`. A tick that is still
     /// unhandled when the next one is due is conflated and counted as missed.
     fn timer(&mut self, port: &'static str, period: Duration, tick: fn(Time) -> I);
+
+    /// The actor's keepsake `name`: the same slot in every incarnation of this actor, so what
+    /// one keeps its restarted successor can take ([`Keepsake`]). By default an empty slot of
+    /// its own, for a harness that never builds the actor twice.
+    fn keepsake<T: Clone + Send + 'static>(&mut self, name: &'static str) -> Keepsake<T> {
+        let _ = name;
+        Keepsake::new()
+    }
 }
 
 /// Handed to a running actor with every call.

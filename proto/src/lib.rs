@@ -20,6 +20,7 @@ pub mod calibration;
 pub mod clock;
 pub mod frame_layout;
 pub mod geo;
+pub mod keepsake;
 pub mod message;
 pub mod messages;
 pub mod param_def;
@@ -31,5 +32,6 @@ pub mod units;
 
 pub use actor::{Actor, ActorError, Context, Publisher, Setup, Sink};
 pub use clock::Clock;
+pub use keepsake::Keepsake;
 pub use message::Message;
 pub use time::Time;

@@ -19,6 +19,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::actor::{Context, Publisher, Setup, Sink};
 use crate::clock::{Clock, Sleep};
+use crate::keepsake::Keepsake;
 use crate::message::Message;
 use crate::time::Time;
 
@@ -73,6 +74,8 @@ pub struct TestSetup<I> {
     outputs: Vec<&'static str>,
     inputs: Vec<(&'static str, Box<dyn Any + Send>)>,
     timers: Vec<Timer<I>>,
+    /// Kept across builds on this setup, so a test builds an actor again as a restart does.
+    keepsakes: HashMap<&'static str, Box<dyn Any + Send>>,
 }
 
 /// A declared timer: port, period and how its tick becomes an input.
@@ -89,6 +92,7 @@ impl<I: 'static> TestSetup<I> {
             outputs: Vec::new(),
             inputs: Vec::new(),
             timers: Vec::new(),
+            keepsakes: HashMap::new(),
         }
     }
 
@@ -186,6 +190,11 @@ impl<I: 'static> Setup<I> for TestSetup<I> {
 
     fn timer(&mut self, port: &'static str, period: Duration, tick: fn(Time) -> I) {
         self.timers.push((port, period, tick));
+    }
+
+    fn keepsake<T: Clone + Send + 'static>(&mut self, name: &'static str) -> Keepsake<T> {
+        let kept = self.keepsakes.entry(name).or_insert_with(|| Box::new(Keepsake::<T>::new()));
+        kept.downcast_ref::<Keepsake<T>>().expect("one type per keepsake name in a test").clone()
     }
 }
 

@@ -1,32 +1,45 @@
 //! The estimator actor: feeds the [`Ekf`] from its mailbox and publishes what it estimates.
 //!
-//! Ports: inputs `imu` ([`ImuSample`]), `gps` ([`GpsFix`]), `baro` ([`BaroSample`]), `mag`
-//! ([`MagSample`]) — route them with *queue* mailboxes, every sample matters — and `param_set`
+//! Ports: inputs `imu` ([`ImuSample`]) and, on a board with two IMUs, `imu2` (the prediction
+//! moves to it when `imu` falls silent: [`crate::imu_selection`]), `gps` ([`GpsFix`]), `baro`
+//! ([`BaroSample`]), `mag` ([`MagSample`]) — route them with *queue* mailboxes, every sample
+//! matters — and `param_set`
 //! ([`ParamSet`], queue); outputs `nav_state` ([`NavState`], one per IMU sample once aligned),
 //! `estimator_status` ([`EstimatorStatus`], every 100 ms of IMU time) and `param_decl`
 //! ([`ParamDecl`]: the live noises and gates of [`crate::live_params`], at start and after each
 //! `param_set` naming one of them). Parameters: [`EkfParams`]. The actor never
 //! reads the clock for its estimate (only to stamp the parameter declaration it publishes at
 //! start): all timing comes from the samples' own stamps, so it replays exactly.
+//!
+//! A restarted estimator (after a panic) resumes the filter its predecessor kept every
+//! [`KEEP_PERIOD_US`] ([`Keepsake`]) when that filter is sound, instead of aligning again — which
+//! needs a still vehicle and so, in flight, would never happen. The IMU samples that arrived
+//! while it was down wait in its queue and are predicted through.
 
 use kestrel_proto::messages::{
     BaroSample, EstimatorStatus, GpsFix, ImuSample, MagSample, NavState, ParamDecl, ParamSet,
 };
 use kestrel_proto::param_def::{self, ParamChange};
-use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
+use kestrel_proto::{Actor, ActorError, Context, Keepsake, Publisher, Setup, Time};
 
 use crate::ekf::Ekf;
 use crate::error::InputError;
+use crate::imu_selection::{ImuSelection, ImuVerdict};
 use crate::live_params;
 use crate::params::EkfParams;
 
 /// Interval of `estimator_status` in IMU time (µs).
 const STATUS_PERIOD_US: u64 = 100_000;
+/// Interval at which the filter is kept for a restarted successor, in IMU time (µs): what a
+/// restart loses is at most this much prediction (an attitude error of rate × interval), and
+/// keeping copies the filter's buffers (some 100 kB) this often.
+pub const KEEP_PERIOD_US: u64 = 20_000;
 
 /// Everything the estimator handles.
 #[derive(Clone, Debug)]
 pub enum EstimatorInput {
-    Imu(ImuSample),
+    /// A sample of IMU `.0` (0 for `imu`, 1 for `imu2`).
+    Imu(usize, ImuSample),
     Gps(GpsFix),
     Baro(BaroSample),
     Mag(MagSample),
@@ -44,13 +57,27 @@ pub struct EstimatorActor {
     name: String,
     last_status: Option<Time>,
     rejected_inputs: u64,
+    imus: ImuSelection,
+    /// The filter as last kept for a successor, and when (IMU time).
+    keepsake: Keepsake<Ekf>,
+    last_kept: Option<Time>,
 }
 
 impl EstimatorActor {
     fn handle_sample(&mut self, input: EstimatorInput) -> Result<(), InputError> {
         match input {
-            EstimatorInput::Imu(sample) => {
-                self.ekf.push_imu(&sample)?;
+            EstimatorInput::Imu(instance, sample) => {
+                match self.imus.on_sample(instance, sample.time) {
+                    ImuVerdict::Use => self.ekf.push_imu(&sample)?,
+                    ImuVerdict::SwitchedTo(_) => self.ekf.push_imu_from_new_source(&sample)?,
+                    ImuVerdict::Watch => return Ok(()),
+                }
+                if self.last_kept.is_none_or(|t| sample.time.as_micros() >= t.as_micros() + KEEP_PERIOD_US)
+                    && self.ekf.is_sound()
+                    && self.keepsake.keep(&self.ekf)
+                {
+                    self.last_kept = Some(sample.time);
+                }
                 if let Some(nav) = self.ekf.nav_state() {
                     self.nav_state.publish(nav);
                 }
@@ -102,8 +129,20 @@ impl Actor for EstimatorActor {
         params: &EkfParams,
         setup: &mut impl Setup<EstimatorInput>,
     ) -> Result<EstimatorActor, ActorError> {
-        let ekf = Ekf::new(params.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
-        setup.input("imu", EstimatorInput::Imu);
+        let fresh = Ekf::new(params.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
+        let keepsake = setup.keepsake::<Ekf>("filter");
+        let ekf = match keepsake.take() {
+            Some(kept) if kept.is_sound() => {
+                tracing::warn!(
+                    actor = setup.name(),
+                    "restarted: resuming the filter kept before the failure"
+                );
+                kept.resumed()
+            }
+            _ => fresh,
+        };
+        setup.input("imu", |s| EstimatorInput::Imu(0, s));
+        setup.input("imu2", |s| EstimatorInput::Imu(1, s));
         setup.input("gps", EstimatorInput::Gps);
         setup.input("baro", EstimatorInput::Baro);
         setup.input("mag", EstimatorInput::Mag);
@@ -116,6 +155,9 @@ impl Actor for EstimatorActor {
             name: setup.name().to_owned(),
             last_status: None,
             rejected_inputs: 0,
+            imus: ImuSelection::default(),
+            keepsake,
+            last_kept: None,
         })
     }
 

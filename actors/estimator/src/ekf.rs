@@ -80,6 +80,10 @@ pub struct Ekf {
     imu_rejected: u64,
     /// Times the IMU stream stopped and resumed in flight.
     imu_gaps: u32,
+    /// Times the prediction moved to another IMU ([`Ekf::push_imu_from_new_source`]).
+    imu_switches: u32,
+    /// Times this filter resumed in a restarted estimator ([`Ekf::resumed`]).
+    warm_starts: u32,
     /// Accepted IMU samples with a clipped axis, for the health report.
     imu_clipped: u64,
     /// Whether the previous accepted IMU sample was clipped: one warning per clipping episode,
@@ -120,6 +124,8 @@ impl Ekf {
             newest_gyro_rad_s: Vector3::zeros(),
             imu_rejected: 0,
             imu_gaps: 0,
+            imu_switches: 0,
+            warm_starts: 0,
             imu_clipped: 0,
             imu_clipping: false,
             arrivals: DroppedSamples::default(),
@@ -225,6 +231,41 @@ impl Ekf {
             self.step_delayed(&d);
         }
         Ok(())
+    }
+
+    /// Takes the first sample of another IMU after the one in use fell silent
+    /// ([`crate::imu_selection`]). What the filter learnt of the old IMU's biases is forgotten
+    /// (zero, with their initial uncertainty, for GPS velocity to find the new ones), and the
+    /// sample's rate and specific force are held over the whole silence since the last sample
+    /// (at most [`IMU_GAP_S`]): the switch waits out a timeout, and that time must be predicted
+    /// across, not dropped. A longer silence is an IMU gap as for one IMU.
+    pub fn push_imu_from_new_source(&mut self, sample: &ImuSample) -> Result<(), InputError> {
+        self.check_imu(sample)?;
+        self.imu_switches += 1;
+        let mut bridged = sample.clone();
+        if let Some(newest) = self.newest_imu {
+            let silence_s = (sample.time - newest).as_secs_f64();
+            if silence_s <= IMU_GAP_S {
+                bridged.dt_s = silence_s.clamp(sample.dt_s, MAX_IMU_DT_S);
+            }
+        }
+        if let Some(running) = self.running.as_mut() {
+            tracing::warn!(time = %sample.time, switches = self.imu_switches, "IMU in use changed: its biases are learnt again");
+            running.filter.forget_imu_biases();
+        }
+        self.push_imu(&bridged)
+    }
+
+    /// Whether this filter can be resumed by a restarted estimator: aligned, with a finite
+    /// state and covariance (a filter that failed numerically is not handed on).
+    pub fn is_sound(&self) -> bool {
+        self.running.as_ref().is_some_and(|r| r.filter.is_finite())
+    }
+
+    /// This filter, resuming in a restarted estimator: counted, reported in the status.
+    pub fn resumed(mut self) -> Ekf {
+        self.warm_starts += 1;
+        self
     }
 
     /// The IMU stream resumed at `time` after a silence: what was buffered before it is
@@ -493,6 +534,8 @@ impl Ekf {
                     .map_or(0, |r| r.filter.numerical_faults + r.filter.covariance_resets),
                 imu_rejected: self.imu_rejected,
                 imu_gaps: self.imu_gaps,
+                imu_switches: self.imu_switches,
+                warm_starts: self.warm_starts,
                 baro_faulty: self.baro.faulty(),
                 imu_clipped: self.imu_clipped,
             },

@@ -179,6 +179,24 @@ impl Filter {
         reset_block(&mut self.cov, ACCEL_BIAS, 3, INERTIAL_RESET_ACCEL_BIAS_M_S2.powi(2));
     }
 
+    /// After the prediction moved to another IMU: the bias states were the old IMU's, so they
+    /// start again from zero with their initial uncertainty, uncorrelated.
+    pub fn forget_imu_biases(&mut self) {
+        self.state.gyro_bias_rad_s = Vector3::zeros();
+        self.state.accel_bias_m_s2 = Vector3::zeros();
+        reset_block(&mut self.cov, GYRO_BIAS, 3, INIT_GYRO_BIAS_RAD_S * INIT_GYRO_BIAS_RAD_S);
+        reset_block(&mut self.cov, ACCEL_BIAS, 3, INIT_ACCEL_BIAS_M_S2 * INIT_ACCEL_BIAS_M_S2);
+    }
+
+    /// Whether the state and covariance are all finite.
+    pub fn is_finite(&self) -> bool {
+        let s = &self.state;
+        let vectors = [s.vel_ned_m_s, s.pos_ned_m, s.gyro_bias_rad_s, s.accel_bias_m_s2];
+        s.attitude.coords.iter().all(|x| x.is_finite())
+            && vectors.iter().all(|v| v.iter().all(|x| x.is_finite()))
+            && self.cov.iter().all(|x| x.is_finite())
+    }
+
     /// Sets the NED velocity to `vel_ned_m_s` with variance `variance`, forgetting correlations.
     pub fn reset_velocity(&mut self, vel_ned_m_s: Vector3<f64>, variance: f64) {
         let delta = vel_ned_m_s - self.state.vel_ned_m_s;

@@ -11,7 +11,7 @@
 //! Layout (after EKF2): `state` (what is estimated), `filter` (prediction, correction
 //! primitives, resets), `covariance` (sparse `F P Fᵀ + G N Gᵀ`, scalar fusion, limits),
 //! `delay_buffer`, `arrivals` (which lagged samples may enter it), `output_predictor`, `init`
-//! (alignment), `aiding::{gps, baro, mag, mag_yaw_reset}` (when to fuse each sensor and the
+//! (alignment), `imu_selection` (which of two IMUs is predicted from), `aiding::{gps, baro, mag, mag_yaw_reset}` (when to fuse each sensor and the
 //! maths of its observation), `params`.
 
 pub mod actor;
@@ -22,6 +22,7 @@ pub mod delay_buffer;
 pub mod ekf;
 pub mod error;
 pub mod filter;
+pub mod imu_selection;
 pub mod init;
 pub mod live_params;
 pub mod output_predictor;

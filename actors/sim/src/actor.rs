@@ -85,7 +85,7 @@ pub enum SimInput {
     Inject(FailureInjection),
 }
 
-/// The simulator actor. Outputs: `imu`, `gps`, `baro`, `mag`, `ground_truth`, `battery`,
+/// The simulator actor. Outputs: `imu`, `imu2` (the second IMU, when the vehicle has one), `gps`, `baro`, `mag`, `ground_truth`, `battery`,
 /// `sim_fault` (each start and end of a world-file fault, also logged at INFO), and
 /// `obstacle_map` once, on the first step. Like a driver it owns the sensor calibration
 /// (`param_decl`: [`CALIBRATION_PARAMS`], applied to the samples as they are set) and, while a
@@ -95,6 +95,7 @@ pub enum SimInput {
 pub struct SimActor {
     sim: Simulator,
     imu: Publisher<ImuSample>,
+    imu2: Publisher<ImuSample>,
     gps: Publisher<GpsFix>,
     baro: Publisher<BaroSample>,
     mag: Publisher<MagSample>,
@@ -138,6 +139,7 @@ impl Actor for SimActor {
         Ok(SimActor {
             sim,
             imu: setup.output("imu"),
+            imu2: setup.output("imu2"),
             gps: setup.output("gps"),
             baro: setup.output("baro"),
             mag: setup.output("mag"),
@@ -205,6 +207,7 @@ impl Actor for SimActor {
                 for output in self.sim.drain() {
                     match output {
                         SimOutput::Imu(m) => self.imu.publish(m),
+                        SimOutput::Imu2(m) => self.imu2.publish(m),
                         SimOutput::Gps(m) => self.gps.publish(m),
                         SimOutput::Baro(m) => self.baro.publish(m),
                         SimOutput::Mag(m) => self.mag.publish(m),

@@ -30,7 +30,7 @@ use crate::obstacles::Collisions;
 use crate::rigid_body::{RigidBody, RigidBodyState, Wrench};
 use crate::sensors::baro::Baro;
 use crate::sensors::gps::Gps;
-use crate::sensors::imu::Imu;
+use crate::sensors::imu::{Imu, ImuFaults};
 use crate::sensors::mag::Mag;
 use crate::sensors::noise::{Stream, rng};
 use crate::sensors::schedule::{Delayed, Periodic, period_us};
@@ -86,6 +86,8 @@ pub struct InitialState {
 #[derive(Clone, Debug, PartialEq)]
 pub enum SimOutput {
     Imu(ImuSample),
+    /// A sample of the second IMU (`[sensors.imu2]`), at the same tick as the first's.
+    Imu2(ImuSample),
     Gps(GpsFix),
     Baro(BaroSample),
     Mag(MagSample),
@@ -110,6 +112,7 @@ pub struct Simulator {
     frame: LocalFrame,
     field_ned_gauss: Vector3<f64>,
     imu: Imu,
+    imu2: Option<Imu>,
     gps: Gps,
     baro: Baro,
     mag: Mag,
@@ -181,6 +184,10 @@ impl Simulator {
             frame: LocalFrame::new(world.home.geodetic()),
             field_ned_gauss: world.magnetic_field.ned_gauss(),
             imu: Imu::new(&sensors.imu, sensors.board_rotation(), rng(seed, Stream::Imu)),
+            imu2: sensors
+                .imu2
+                .as_ref()
+                .map(|p| Imu::new(p, sensors.board_rotation(), rng(seed, Stream::Imu2))),
             gps: Gps::new(&sensors.gps, rng(seed, Stream::Gps)),
             baro: Baro::new(&sensors.baro, rng(seed, Stream::Baro)),
             mag: Mag::new(&sensors.mag, sensors.board_rotation(), rng(seed, Stream::Mag)),
@@ -385,6 +392,11 @@ impl Simulator {
         }
         if !faults.imu.stopped {
             self.outputs.push(SimOutput::Imu(imu));
+        }
+        if let Some(imu2) = &mut self.imu2 {
+            // The faults are the first IMU's: one stream stopping is what the second is for.
+            let sample = imu2.measure(now, tick_s, &self.state, &self.accel_ned_m_s2, &ImuFaults::default());
+            self.outputs.push(SimOutput::Imu2(sample));
         }
         if self.gps_due.due(now) {
             let fix = self.gps.measure(now, &self.state, &self.frame, &faults.gps);

@@ -25,6 +25,7 @@ fn record(seconds: f64, seed: u64) -> (Simulator, Vec<(Time, SimOutput)>) {
 fn stamp(o: &SimOutput) -> (&'static str, Time) {
     match o {
         SimOutput::Imu(m) => ("imu", m.time),
+        SimOutput::Imu2(m) => ("imu2", m.time),
         SimOutput::Gps(m) => ("gps", m.time),
         SimOutput::Baro(m) => ("baro", m.time),
         SimOutput::Mag(m) => ("mag", m.time),

@@ -57,6 +57,13 @@ pub struct EstimatorHealth {
     /// The barometer disagreed with GPS height or was rejected for too long: height from GPS.
     #[serde(default)]
     pub baro_faulty: bool,
+    /// Times the prediction moved to another IMU because the one in use fell silent.
+    #[serde(default)]
+    pub imu_switches: u32,
+    /// Times a restarted estimator resumed the state its predecessor kept (instead of aligning
+    /// again, which needs a still vehicle).
+    #[serde(default)]
+    pub warm_starts: u32,
 }
 
 /// The estimator's innovations, gate test ratios, counters and health, published at ~10 Hz.

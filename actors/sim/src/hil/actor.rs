@@ -182,6 +182,8 @@ impl World {
                     chip_axes(m.gyro_rad_s),
                     self.board_temperature_c,
                 ),
+                // The bench emulates the MPU-9250 only: there is no LSM9DS1 driver to read a second.
+                SimOutput::Imu2(_) => {}
                 SimOutput::Mag(m) => bench.imu.set_field(chip_axes(m.field_gauss), BENCH_ASA),
                 SimOutput::Baro(m) => {
                     self.board_temperature_c = m.temperature_c;

@@ -36,8 +36,13 @@ pub struct SensorParams {
     /// that turns board axes into airframe axes; the sensors read airframe vectors turned into
     /// the board. Default level, `[0, 0, 0]`.
     pub board_rotation_deg: [f64; 3],
-    /// `[sensors.imu]`
+    /// `[sensors.imu]`: the first IMU, the one the estimator uses while it delivers (the
+    /// Navio2's MPU-9250). Faults and calibration apply to it.
     pub imu: ImuParams,
+    /// `[sensors.imu2]`: a second IMU on the board (the Navio2's LSM9DS1), published on `imu2`
+    /// with its own noise and biases, so that the first one stopping is a failover; absent on a
+    /// board with one. Its `rate_hz` must be the first's (both sample on the simulator's tick).
+    pub imu2: Option<ImuParams>,
     /// `[sensors.gps]`
     pub gps: GpsParams,
     /// `[sensors.baro]`
@@ -53,6 +58,18 @@ impl SensorParams {
             return Err(InvalidParam::new("board_rotation_deg", "angles must lie within ±180°"));
         }
         self.imu.validate().map_err(|e| e.within("imu"))?;
+        if let Some(imu2) = &self.imu2 {
+            imu2.validate().map_err(|e| e.within("imu2"))?;
+            if imu2.rate_hz != self.imu.rate_hz {
+                return Err(InvalidParam::new(
+                    "imu2.rate_hz",
+                    format!(
+                        "must equal imu.rate_hz ({} Hz): both sample on the simulator's tick",
+                        self.imu.rate_hz
+                    ),
+                ));
+            }
+        }
         self.gps.validate().map_err(|e| e.within("gps"))?;
         self.baro.validate().map_err(|e| e.within("baro"))?;
         self.mag.validate().map_err(|e| e.within("mag"))

@@ -14,6 +14,8 @@ pub(crate) enum Stream {
     Gps,
     Baro,
     Mag,
+    /// The second IMU (`[sensors.imu2]`): last, so the other streams stay as they were.
+    Imu2,
 }
 
 /// The generator for `stream` of the run seeded with `seed`.
