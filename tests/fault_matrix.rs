@@ -49,17 +49,20 @@ struct Case {
     /// The `[[faults]]` entries, `at_s` excluded (it is [`FAULT_AT_S`]).
     fault: &'static str,
     vehicle: &'static str,
+    /// TOML tables appended to the graph (parameters the case needs), or empty.
+    graph: &'static str,
     expect: Expect,
 }
 
 /// Every row, in table order: the test of each row names its case here, and the table is
 /// complete when all have written their line.
-const CASES: [Case; 15] = [
+const CASES: [Case; 16] = [
     Case {
         order: 1,
         name: "GPS jump 50 m for 5 s",
         fault: "for_s = 5.0\nkind = \"gps_jump\"\nned_m = [50.0, 0.0, 0.0]",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Continue { event: "gps_rejected" },
     },
     Case {
@@ -67,6 +70,7 @@ const CASES: [Case; 15] = [
         name: "GPS lost 30 s mid-mission",
         fault: "for_s = 30.0\nkind = \"gps_off\"",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Failsafe { cause: "estimator_unhealthy", action: "land" },
     },
     Case {
@@ -74,6 +78,7 @@ const CASES: [Case; 15] = [
         name: "GPS lost for good",
         fault: "kind = \"gps_off\"",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Failsafe { cause: "estimator_unhealthy", action: "land" },
     },
     Case {
@@ -81,6 +86,7 @@ const CASES: [Case; 15] = [
         name: "magnetometer +0.3 G anomaly",
         fault: "for_s = 20.0\nkind = \"mag_anomaly\"\ngauss = [0.3, 0.0, 0.0]",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Continue { event: "mag_rejected" },
     },
     Case {
@@ -88,6 +94,7 @@ const CASES: [Case; 15] = [
         name: "baro drift 1 m/s",
         fault: "for_s = 20.0\nkind = \"baro_drift\"\nm_s = 1.0",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Continue { event: "baro_faulty" },
     },
     Case {
@@ -95,6 +102,7 @@ const CASES: [Case; 15] = [
         name: "gyro bias step 5 °/s",
         fault: "kind = \"gyro_bias\"\nrad_s = [0.0873, 0.0, 0.0]",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Continue { event: "gps_rejected" },
     },
     Case {
@@ -102,6 +110,7 @@ const CASES: [Case; 15] = [
         name: "accel bias step 0.5 m/s²",
         fault: "kind = \"accel_bias\"\nm_s2 = [0.0, 0.0, 0.5]",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Continue { event: "" },
     },
     Case {
@@ -109,6 +118,7 @@ const CASES: [Case; 15] = [
         name: "IMU 1 of 2 stops for 3 s",
         fault: "for_s = 3.0\nkind = \"imu_stop\"",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Continue { event: "imu_switched" },
     },
     Case {
@@ -116,6 +126,7 @@ const CASES: [Case; 15] = [
         name: "estimator actor panics",
         fault: "for_s = 0.01\nkind = \"actor_panic\"\nactor = \"estimator\"",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Failsafe { cause: "critical_actor_failed", action: "land" },
     },
     Case {
@@ -123,6 +134,7 @@ const CASES: [Case; 15] = [
         name: "controller actor panics",
         fault: "for_s = 0.01\nkind = \"actor_panic\"\nactor = \"controller\"",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Failsafe { cause: "critical_actor_failed", action: "land" },
     },
     Case {
@@ -130,6 +142,7 @@ const CASES: [Case; 15] = [
         name: "motor 1 lost on a hexa",
         fault: "kind = \"motor_lost\"\nmotor = 1",
         vehicle: "hexa_x",
+        graph: "",
         expect: Expect::Continue { event: "" },
     },
     Case {
@@ -137,6 +150,7 @@ const CASES: [Case; 15] = [
         name: "wind 12 m/s with 4 m/s gusts",
         fault: "for_s = 30.0\nkind = \"wind\"\nned_m_s = [12.0, 0.0, 0.0]\ngust_m_s = 4.0",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Continue { event: "" },
     },
     Case {
@@ -144,6 +158,7 @@ const CASES: [Case; 15] = [
         name: "motor 1 lost on a quad",
         fault: "kind = \"motor_lost\"\nmotor = 1",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Failsafe { cause: "motor_failure", action: "land" },
     },
     Case {
@@ -151,6 +166,7 @@ const CASES: [Case; 15] = [
         name: "battery low: pack sags 3.5 V",
         fault: "kind = \"battery_sag\"\nvolts = 3.5",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Failsafe { cause: "battery_low", action: "return_to_launch" },
     },
     Case {
@@ -159,7 +175,17 @@ const CASES: [Case; 15] = [
         // The first entry is the case's (at FAULT_AT_S); 1 V more from 5 s into the return.
         fault: "kind = \"battery_sag\"\nvolts = 3.5\n\n[[faults]]\nat_s = 30.0\nkind = \"battery_sag\"\nvolts = 1.0",
         vehicle: "quad_x",
+        graph: "",
         expect: Expect::Failsafe { cause: "battery_critical", action: "land" },
+    },
+    Case {
+        order: 16,
+        name: "geofence breach: blown past a 42 m fence",
+        // A tailwind on the outbound leg carries the vehicle past the 40 m waypoint.
+        fault: "for_s = 30.0\nkind = \"wind\"\nned_m_s = [12.0, 0.0, 0.0]\ngust_m_s = 4.0",
+        vehicle: "quad_x",
+        graph: "[actors.commander.params.commander.geofence]\nmax_radius_m = 42.0\n",
+        expect: Expect::Failsafe { cause: "geofence_breach", action: "return_to_launch" },
     },
 ];
 
@@ -211,7 +237,7 @@ fn prepare(case: &Case) -> (PathBuf, PathBuf) {
         .replace(vehicle, &format!("\"vehicles/{}.toml\"", case.vehicle))
         .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()));
     let graph = dir.join("graph.toml");
-    std::fs::write(&graph, text).unwrap();
+    std::fs::write(&graph, format!("{text}\n{}", case.graph)).unwrap();
     (graph, out_and_back_plan(&dir))
 }
 
@@ -459,4 +485,9 @@ fn battery_low() {
 #[test]
 fn battery_critical() {
     run_case(15);
+}
+
+#[test]
+fn geofence_breach() {
+    run_case(16);
 }
