@@ -31,6 +31,7 @@ pub mod flight_controller;
 pub mod flip;
 pub mod live_params;
 pub mod mixer;
+pub mod motor_failure;
 pub mod params;
 pub mod pilot_script;
 pub mod plan;
