@@ -188,7 +188,7 @@ fn motor_1_weakened_to_70_percent_in_hover_stays_up_and_finishes() {
 }
 
 #[test]
-fn imu_stopping_for_half_a_second_in_hover_does_not_stall_the_lockstep_clock_and_lands() {
+fn imu_stopping_for_half_a_second_in_hover_does_not_stall_the_lockstep_clock_and_the_second_imu_takes_over() {
     let dir = scratch("imu-stop");
     let graph = graph_with_faults(&dir, "[[faults]]\nat_s = 30.0\nfor_s = 0.5\nkind = \"imu_stop\"\n");
     let report = fly("imu_stop", &graph, &hover_plan(&dir, 60.0), None);
@@ -202,11 +202,19 @@ fn imu_stopping_for_half_a_second_in_hover_does_not_stall_the_lockstep_clock_and
     // The run went on past the stop and ended itself on landing.
     assert!(f64_at(&report, "flight", "duration_s") > 31.0);
     assert_landed_intact("imu_stop", &report);
+    // The simulated board has two IMUs (config/vehicles/quad_x.toml): the estimator moves to the
+    // second within its 20 ms timeout, so the state never goes stale and no failsafe fires.
     let fired = failsafes(&report);
-    let (t_s, cause, action) = fired.first().expect("a failsafe fired").clone();
-    assert!((30.0..31.0).contains(&t_s), "{fired:?}");
-    assert_eq!((cause.as_str(), action.as_str()), ("nav_state_stale", "land"), "{fired:?}");
-    println!("imu_stop: failsafe {cause}/{action} {:.3} s after the stop", t_s - 30.0);
+    assert!(fired.is_empty(), "{fired:?}");
+    let switched: Vec<f64> = report["estimator_events"]
+        .as_array()
+        .expect("estimator_events")
+        .iter()
+        .filter(|e| e["event"] == "imu_switched")
+        .map(|e| e["t_s"].as_f64().expect("t_s"))
+        .collect();
+    assert!(switched.len() == 1 && (30.0..30.1).contains(&switched[0]), "{switched:?}");
+    println!("imu_stop: the estimator switched IMU {:.3} s after the stop", switched[0] - 30.0);
 }
 
 #[test]

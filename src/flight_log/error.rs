@@ -26,6 +26,11 @@ pub enum FlightLogError {
     )]
     NotALog { path: PathBuf, bytes: u64 },
 
+    /// The ULog parser (the px4-ulog crate) gave up on a damaged file by panicking: contained
+    /// here, never passed on as a crash of the replay.
+    #[error("ULog {} is damaged where the parser cannot follow it: {reason}", path.display())]
+    Unparsable { path: PathBuf, reason: String },
+
     /// The MCAP reader's error (it names the file and topic).
     #[error(transparent)]
     Mcap(#[from] RecorderError),

@@ -62,7 +62,7 @@ impl Log {
         if bytes.len() < HEADER_BYTES || !bytes.starts_with(&MAGIC) {
             return Err(FlightLogError::NotALog { path: path.to_owned(), bytes: bytes.len() as u64 });
         }
-        let parsed = read_file(name).map_err(io)?;
+        let parsed = contained(path, || read_file(name))?.map_err(io)?;
         let ended_early = match &parsed.completeness {
             Completeness::Complete => None,
             Completeness::Truncated => Some("it is cut short inside a message".to_owned()),
@@ -81,15 +81,21 @@ impl Log {
             })
             .collect();
         let mut params = HashMap::new();
-        read_file_with_simple_callback(name, &mut |msg| {
-            if let Message::ParameterMessage(p) = msg {
-                match p {
-                    ParameterMessage::Float(name, v, _) => params.insert((*name).to_owned(), f64::from(*v)),
-                    ParameterMessage::Int32(name, v, _) => params.insert((*name).to_owned(), f64::from(*v)),
-                };
-            }
-            SimpleCallbackResult::KeepReading
-        })
+        contained(path, || {
+            read_file_with_simple_callback(name, &mut |msg| {
+                if let Message::ParameterMessage(p) = msg {
+                    match p {
+                        ParameterMessage::Float(name, v, _) => {
+                            params.insert((*name).to_owned(), f64::from(*v))
+                        }
+                        ParameterMessage::Int32(name, v, _) => {
+                            params.insert((*name).to_owned(), f64::from(*v))
+                        }
+                    };
+                }
+                SimpleCallbackResult::KeepReading
+            })
+        })?
         .map_err(io)?;
         Ok(Log { path: path.to_owned(), topics, params, ended_early })
     }
@@ -174,6 +180,19 @@ impl Log {
 
 /// The end of the last whole message (byte offset), walking the messages' sizes from the
 /// header.
+/// Runs a px4-ulog parse, turning a panic inside it (some flipped bytes make it index past a
+/// buffer) into [`FlightLogError::Unparsable`] naming the file.
+fn contained<T>(path: &Path, parse: impl FnOnce() -> T) -> Result<T, FlightLogError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(parse)).map_err(|payload| {
+        let reason = payload
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| payload.downcast_ref::<&str>().map(|s| (*s).to_owned()))
+            .unwrap_or_else(|| "the parser panicked".to_owned());
+        FlightLogError::Unparsable { path: path.to_owned(), reason }
+    })
+}
+
 fn whole_messages_end(bytes: &[u8]) -> usize {
     let mut at = HEADER_BYTES;
     while let Some(header) = bytes.get(at..at + MESSAGE_HEADER_BYTES) {
