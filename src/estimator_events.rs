@@ -12,7 +12,7 @@ pub struct EstimatorEvent {
     /// IMU time of the status that showed it (s).
     pub t_s: f64,
     /// `gps_rejected`, `baro_rejected`, `mag_rejected` (a run of rejections began), `gps_lost`,
-    /// `dead_reckoning`, `baro_faulty`, `imu_gap`, `imu_switched`, `warm_start`, `numerical_fault`.
+    /// `dead_reckoning`, `baro_faulty`, `imu_gap`, `imu_switched`, `warm_start`, `realigned`, `numerical_fault`.
     pub event: String,
 }
 
@@ -53,6 +53,7 @@ impl EstimatorEvents {
             (h.imu_gaps > ph.imu_gaps, "imu_gap"),
             (h.imu_switches > ph.imu_switches, "imu_switched"),
             (h.warm_starts > ph.warm_starts, "warm_start"),
+            (h.realignments > ph.realignments, "realigned"),
             (h.numerical_faults > ph.numerical_faults, "numerical_fault"),
         ];
         for (rose, name) in edges {

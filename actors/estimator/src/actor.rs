@@ -3,8 +3,9 @@
 //! Ports: inputs `imu` ([`ImuSample`]) and, on a board with two IMUs, `imu2` (the prediction
 //! moves to it when `imu` falls silent: [`crate::imu_selection`]), `gps` ([`GpsFix`]), `baro`
 //! ([`BaroSample`]), `mag` ([`MagSample`]) — route them with *queue* mailboxes, every sample
-//! matters — and `param_set`
-//! ([`ParamSet`], queue); outputs `nav_state` ([`NavState`], one per IMU sample once aligned),
+//! matters — `param_set` ([`ParamSet`], queue) and `vehicle_status` ([`VehicleStatus`], latest:
+//! a sensor calibration changed on a disarmed vehicle makes the filter align again,
+//! [`crate::realign`]); outputs `nav_state` ([`NavState`], one per IMU sample once aligned),
 //! `estimator_status` ([`EstimatorStatus`], every 100 ms of IMU time) and `param_decl`
 //! ([`ParamDecl`]: the live noises and gates of [`crate::live_params`], at start and after each
 //! `param_set` naming one of them). Parameters: [`EkfParams`]. The actor never
@@ -17,7 +18,7 @@
 //! while it was down wait in its queue and are predicted through.
 
 use kestrel_proto::messages::{
-    BaroSample, EstimatorStatus, GpsFix, ImuSample, MagSample, NavState, ParamDecl, ParamSet,
+    BaroSample, EstimatorStatus, GpsFix, ImuSample, MagSample, NavState, ParamDecl, ParamSet, VehicleStatus,
 };
 use kestrel_proto::param_def::{self, ParamChange};
 use kestrel_proto::{Actor, ActorError, Context, Keepsake, Publisher, Setup, Time};
@@ -27,6 +28,7 @@ use crate::error::InputError;
 use crate::imu_selection::{ImuSelection, ImuVerdict};
 use crate::live_params;
 use crate::params::EkfParams;
+use crate::realign::RealignPolicy;
 
 /// Interval of `estimator_status` in IMU time (µs).
 const STATUS_PERIOD_US: u64 = 100_000;
@@ -45,6 +47,8 @@ pub enum EstimatorInput {
     Mag(MagSample),
     /// A parameter change from the link (applied when it names one of our noises or gates).
     Param(ParamSet),
+    /// The commander's status: whether the vehicle is armed.
+    Status(VehicleStatus),
 }
 
 /// The estimator in the actor graph.
@@ -61,6 +65,7 @@ pub struct EstimatorActor {
     /// The filter as last kept for a successor, and when (IMU time).
     keepsake: Keepsake<Ekf>,
     last_kept: Option<Time>,
+    realign: RealignPolicy,
 }
 
 impl EstimatorActor {
@@ -94,7 +99,19 @@ impl EstimatorActor {
             EstimatorInput::Baro(sample) => self.ekf.push_baro(&sample),
             EstimatorInput::Mag(sample) => self.ekf.push_mag(&sample),
             EstimatorInput::Param(p) => {
+                let was_pending = self.realign.pending();
+                if let Some(after) = self.realign.on_param(&p.name, p.value, p.time) {
+                    self.ekf.realign(after);
+                } else if self.realign.pending() && !was_pending {
+                    tracing::info!(param = %p.name, "sensor calibration changed on a vehicle not known to be disarmed: aligning again once it is");
+                }
                 self.on_param(&p);
+                Ok(())
+            }
+            EstimatorInput::Status(status) => {
+                if let Some(after) = self.realign.on_status(status.armed, status.time) {
+                    self.ekf.realign(after);
+                }
                 Ok(())
             }
         }
@@ -147,6 +164,7 @@ impl Actor for EstimatorActor {
         setup.input("baro", EstimatorInput::Baro);
         setup.input("mag", EstimatorInput::Mag);
         setup.input("param_set", EstimatorInput::Param);
+        setup.input("vehicle_status", EstimatorInput::Status);
         Ok(EstimatorActor {
             ekf,
             nav_state: setup.output("nav_state"),
@@ -158,6 +176,7 @@ impl Actor for EstimatorActor {
             imus: ImuSelection::default(),
             keepsake,
             last_kept: None,
+            realign: RealignPolicy::default(),
         })
     }
 

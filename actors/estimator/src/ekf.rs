@@ -84,6 +84,9 @@ pub struct Ekf {
     imu_switches: u32,
     /// Times this filter resumed in a restarted estimator ([`Ekf::resumed`]).
     warm_starts: u32,
+    /// Times an aligned filter was dropped to align again after a sensor calibration changed
+    /// ([`Ekf::realign`]); a burst of changes before the new alignment counts once.
+    realignments: u32,
     /// Accepted IMU samples with a clipped axis, for the health report.
     imu_clipped: u64,
     /// Whether the previous accepted IMU sample was clipped: one warning per clipping episode,
@@ -104,8 +107,13 @@ impl Ekf {
     /// A filter waiting for a still vehicle to align.
     pub fn new(params: EkfParams) -> Result<Ekf, ParamError> {
         params.validate()?;
+        Ok(Ekf::with_valid(params))
+    }
+
+    /// A filter waiting to align, with parameters that have validated.
+    fn with_valid(params: EkfParams) -> Ekf {
         let noise = process_noise(&params);
-        Ok(Ekf {
+        Ekf {
             horizon_us: (params.fusion_horizon_s() * 1e6).round() as u64,
             noise,
             alignment: Alignment::default(),
@@ -126,11 +134,12 @@ impl Ekf {
             imu_gaps: 0,
             imu_switches: 0,
             warm_starts: 0,
+            realignments: 0,
             imu_clipped: 0,
             imu_clipping: false,
             arrivals: DroppedSamples::default(),
             params,
-        })
+        }
     }
 
     /// Takes new noises and gates from the next step on (the state and covariance are kept).
@@ -266,6 +275,34 @@ impl Ekf {
     pub fn resumed(mut self) -> Ekf {
         self.warm_starts += 1;
         self
+    }
+
+    /// Forgets the estimate and aligns again from samples measured at or after `after`, as a
+    /// freshly started filter does: the sensor calibration changed at `after`, and what the
+    /// filter learnt before (tilt from the old accelerometer correction, yaw and the Earth field
+    /// from the old compass correction, biases and the height datum from both) is wrong by the
+    /// change. PX4 resets EKF2's biases and heading when a sensor's calibration count changes
+    /// (`EKF2::UpdateImuSample`, `UpdateMagSample`) rather than asking for a reboot as
+    /// ArduPilot does. For a vehicle at rest only: the caller keeps it from an armed vehicle.
+    /// The counters of rejected and clipped samples are kept; the NED origin is set again by
+    /// the first good GPS fix. A change while the filter is still aligning restarts the
+    /// alignment from `after`.
+    pub fn realign(&mut self, after: Time) {
+        let fresh = Ekf::with_valid(self.params.clone());
+        let kept = Ekf {
+            newest_imu: self.newest_imu,
+            imu_rejected: self.imu_rejected,
+            imu_gaps: self.imu_gaps,
+            imu_switches: self.imu_switches,
+            warm_starts: self.warm_starts,
+            realignments: self.realignments + u32::from(self.running.is_some()),
+            imu_clipped: self.imu_clipped,
+            arrivals: self.arrivals,
+            alignment: Alignment::from(after),
+            ..fresh
+        };
+        *self = kept;
+        tracing::info!(time = %after, realignments = self.realignments, "sensor calibration changed: aligning again");
     }
 
     /// The IMU stream resumed at `time` after a silence: what was buffered before it is
@@ -536,6 +573,7 @@ impl Ekf {
                 imu_gaps: self.imu_gaps,
                 imu_switches: self.imu_switches,
                 warm_starts: self.warm_starts,
+                realignments: self.realignments,
                 baro_faulty: self.baro.faulty(),
                 imu_clipped: self.imu_clipped,
             },

@@ -58,11 +58,23 @@ pub struct Alignment {
     baro_altitude_m: Mean<f64>,
     /// The newest magnetometer sample, for a magnetometer slower than the window.
     latest_mag: Option<MagSample>,
+    /// Samples measured before this are left out: they predate a sensor calibration
+    /// ([`Alignment::from`]).
+    not_before: Time,
 }
 
 impl Alignment {
+    /// An alignment from samples measured at or after `time` only: those earlier were corrected
+    /// by a calibration since replaced, and would tilt or turn the new alignment.
+    pub fn from(time: Time) -> Alignment {
+        Alignment { not_before: time, ..Alignment::default() }
+    }
+
     /// Adds a magnetometer sample measured within the still window to the yaw's mean.
     pub fn push_mag(&mut self, sample: &MagSample) {
+        if sample.time < self.not_before {
+            return;
+        }
         if self.start.is_some_and(|start| sample.time >= start) {
             self.mag_body_gauss.add(Vector3::from(sample.field_gauss));
         }
@@ -79,6 +91,9 @@ impl Alignment {
     /// Adds an IMU sample (finite, checked by the caller); returns the alignment once the vehicle
     /// has been still for `align_duration_s`.
     pub fn push_imu(&mut self, sample: &ImuSample, params: &EkfParams) -> Option<Aligned> {
+        if sample.time < self.not_before {
+            return None;
+        }
         let accel = Vector3::from(sample.accel_m_s2);
         let gyro = Vector3::from(sample.gyro_rad_s);
         let norm = accel.norm();

@@ -11,7 +11,8 @@
 //! Layout (after EKF2): `state` (what is estimated), `filter` (prediction, correction
 //! primitives, resets), `covariance` (sparse `F P Fᵀ + G N Gᵀ`, scalar fusion, limits),
 //! `delay_buffer`, `arrivals` (which lagged samples may enter it), `output_predictor`, `init`
-//! (alignment), `imu_selection` (which of two IMUs is predicted from), `aiding::{gps, baro, mag, mag_yaw_reset}` (when to fuse each sensor and the
+//! (alignment), `imu_selection` (which of two IMUs is predicted from), `realign` (when a calibration change
+//! makes it align again), `aiding::{gps, baro, mag, mag_yaw_reset}` (when to fuse each sensor and the
 //! maths of its observation), `params`.
 
 pub mod actor;
@@ -27,6 +28,7 @@ pub mod init;
 pub mod live_params;
 pub mod output_predictor;
 pub mod params;
+pub mod realign;
 pub mod state;
 
 pub use actor::{EstimatorActor, EstimatorInput};

@@ -14,7 +14,7 @@ fn setup() -> TestSetup<EstimatorInput> {
 fn declares_its_ports_and_publishes_nav_state_per_imu_sample_and_status_at_10_hz() {
     let mut setup = setup();
     let mut actor = EstimatorActor::build(&EkfParams::default(), &mut setup).expect("builds");
-    assert_eq!(setup.input_ports(), ["imu", "imu2", "gps", "baro", "mag", "param_set"]);
+    assert_eq!(setup.input_ports(), ["imu", "imu2", "gps", "baro", "mag", "param_set", "vehicle_status"]);
     assert_eq!(setup.output_ports(), ["nav_state", "estimator_status", "param_decl"]);
     assert!(setup.timers().is_empty(), "the estimator runs on sample time, not on timers");
 

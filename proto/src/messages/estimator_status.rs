@@ -64,6 +64,10 @@ pub struct EstimatorHealth {
     /// again, which needs a still vehicle).
     #[serde(default)]
     pub warm_starts: u32,
+    /// Times an aligned filter was dropped to align again on a vehicle at rest because a sensor
+    /// calibration changed (a burst of changes counts once).
+    #[serde(default)]
+    pub realignments: u32,
 }
 
 /// The estimator's innovations, gate test ratios, counters and health, published at ~10 Hz.
