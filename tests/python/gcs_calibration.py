@@ -6,14 +6,22 @@ MAVProxy's `accelcal`, `calibrate level` and `magcal` drive ArduPilot, and check
 PREFLIGHT_CALIBRATION param5=1 and each COMMAND_LONG(ACCELCAL_VEHICLE_POS) the vehicle sends is
 answered with the same position once "placed" (the simulator places it); param5=2 for level;
 DO_START_MAG_CAL, MAG_CAL_PROGRESS until MAG_CAL_REPORT, DO_ACCEPT_MAG_CAL; a bad command is
-refused with a reason; then the parameters are read (the vehicle is restarted before it flies, as after ArduPilot's
-compass calibration). `CAL_SCENARIO=verify` (after a restart): the parameters are read and arming is accepted.
-The results carry every parameter read; the test compares them with the vehicle file's truth.
+refused with a reason; then the parameters are read and, without a restart, the vehicle flies
+the plan in `CAL_PLAN` (PX4's way: the estimator aligns again on the new calibration while
+disarmed; ArduPilot would ask for a reboot). `CAL_SCENARIO=verify` (after a restart): the
+parameters are read and arming is accepted. `CAL_SCENARIO=reference`: the plan flown by a
+vehicle without sensor errors, for the yaw error to compare with.
+
+In flight, the estimator's yaw (ATTITUDE) is compared with the simulator's true yaw (SIMSTATE,
+which ArduPilot SITL sends too), each ATTITUDE with the SIMSTATE sent beside it.
+The results carry every parameter read and the flight's RMS yaw error; the test compares them
+with the vehicle file's truth.
 """
 
+import math
 import os
 
-from gcs_common import Failed, enum_name, main, mav
+from gcs_common import Failed, distance_m, enum_name, main, mav, plan_items, upload_and_download
 
 CALIBRATION_PREFIXES = ("COMPASS_", "INS_ACC", "INS_GYR", "AHRS_TRIM")
 
@@ -111,6 +119,51 @@ def bad_commands(gcs):
     gcs.command(mav.MAV_CMD_DO_ACCEPT_MAG_CAL, [0], "accept without a fit", expect=mav.MAV_RESULT_DENIED)
 
 
+class YawError:
+    """RMS of ATTITUDE.yaw − SIMSTATE.yaw while the vehicle is armed and 1 m up."""
+
+    def __init__(self, gcs):
+        self.gcs = gcs
+        self.truth = None
+        self.sum_sq = 0.0
+        self.samples = 0
+
+    def __call__(self, m):
+        if m.get_type() == "SIMSTATE":
+            self.truth = m.yaw
+        elif m.get_type() == "ATTITUDE" and self.truth is not None and self.gcs.armed \
+                and (self.gcs.rel_alt_m or 0.0) > 1.0:
+            error = math.remainder(m.yaw - self.truth, 2.0 * math.pi)
+            self.sum_sq += error * error
+            self.samples += 1
+
+    def rms_deg(self):
+        if self.samples == 0:
+            raise Failed("yaw error", "no ATTITUDE paired with a SIMSTATE in flight")
+        return math.degrees(math.sqrt(self.sum_sq / self.samples))
+
+
+def fly_plan(gcs):
+    """Uploads CAL_PLAN, arms, flies it in AUTO to its RTL and landing; returns the flight."""
+    items = plan_items(os.environ["CAL_PLAN"])
+    home = (items[0]["lat"], items[0]["lon"])
+    upload_and_download(gcs, items)
+    gcs.wait_ready(30.0)
+    yaw = YawError(gcs)
+    gcs.watchers.append(yaw)
+    gcs.set_mode_command("GUIDED", "guided")
+    gcs.arm("arm after calibration")
+    gcs.set_mode_command("AUTO", "auto")
+    waypoints = len(items) - 2  # all but home and the final RTL
+    gcs.pump(lambda m: len(gcs.reached) >= waypoints, 60.0, "waypoints reached")
+    gcs.pump(lambda m: gcs.heartbeat is not None and not gcs.armed
+             and gcs.landed_state == "MAV_LANDED_STATE_ON_GROUND", 60.0, "landed and disarmed")
+    flight = {"rms_yaw_deg": yaw.rms_deg(), "yaw_samples": yaw.samples,
+              "landed_from_home_m": distance_m(gcs.position, home), "reached": gcs.reached}
+    gcs.log(f"flight: {flight}")
+    return flight
+
+
 def body(gcs):
     gcs.identify()
     # Not `wait_ready`: SYS_STATUS shows the pre-arm check failing until calibrated.
@@ -125,9 +178,11 @@ def body(gcs):
         level(gcs)
         magcal(gcs)
         gcs.quiet(1.0)
-        # As after ArduPilot's compass calibration, the vehicle is restarted before it flies:
-        # the estimator ran through the tumble on the old values.
         gcs.results["params"] = calibration_params(gcs)
+        gcs.results["flight"] = fly_plan(gcs)
+        return
+    if scenario == "reference":
+        gcs.results["flight"] = fly_plan(gcs)
         return
     gcs.results["params"] = calibration_params(gcs)
     gcs.wait_ready(30.0)
@@ -137,4 +192,4 @@ def body(gcs):
 
 
 if __name__ == "__main__":
-    main(body)
+    main(body, deadline_s=150.0)

@@ -81,6 +81,9 @@ class Gcs:
         self.bad_data = 0
         self.home = None
         self.sensors_healthy = False
+        # Called with every message from the vehicle after it is observed (a scenario's own
+        # bookkeeping, such as pairing ATTITUDE with SIMSTATE).
+        self.watchers = []
 
     # -- transcript ---------------------------------------------------------------------------
 
@@ -111,6 +114,8 @@ class Gcs:
             return
         if not self.from_vehicle(msg):
             return
+        for watch in self.watchers:
+            watch(msg)
         boot_ms = getattr(msg, "time_boot_ms", None)
         if boot_ms is not None:
             self.boot_s = boot_ms / 1000.0
@@ -387,9 +392,10 @@ def distance_m(a, b):
     return math.hypot(north, east)
 
 
-def main(body):
-    """Runs `body(gcs)` and turns its outcome into the exit status and the last JSON line."""
-    gcs = Gcs()
+def main(body, deadline_s=50.0):
+    """Runs `body(gcs)` and turns its outcome into the exit status and the last JSON line; the
+    whole session must end within `deadline_s` of wall time."""
+    gcs = Gcs(deadline_s=deadline_s)
     try:
         body(gcs)
     except Failed as e:

@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationCommand, CalibrationEvent, CommandResult, DepthGrid,
-    EstimatorStatus, FailureInjection, FailureInjectionResult, GpsFix, ManualControl, Mission, NavState,
-    ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
+    EstimatorStatus, FailureInjection, FailureInjectionResult, GpsFix, GroundTruth, ManualControl, Mission,
+    NavState, ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -39,6 +39,9 @@ pub enum LinkInput {
     Depth(DepthGrid),
     /// The obstacle avoider's newest correction (port `avoidance`), sent as DEBUG_VECT.
     Avoidance(AvoidanceCommand),
+    /// The simulator's ground truth (port `ground_truth`; simulated graphs only), sent as
+    /// SIMSTATE as ArduPilot SITL does, so a ground station can judge the estimate.
+    Truth(Box<GroundTruth>),
     /// An actor's live parameters (port `param_decl`).
     ParamDecl(ParamDecl),
     /// The calibration's answers, progress and results (port `calibration_event`).
@@ -154,6 +157,7 @@ impl Actor for LinkActor {
         setup.input("estimator_status", |s| LinkInput::Estimator(Box::new(s)));
         setup.input("depth_grid", LinkInput::Depth);
         setup.input("avoidance", LinkInput::Avoidance);
+        setup.input("ground_truth", |t| LinkInput::Truth(Box::new(t)));
         setup.input("param_decl", LinkInput::ParamDecl);
         setup.input("calibration_event", LinkInput::Calibration);
         setup.input("failure_result", LinkInput::FailureResult);
@@ -233,6 +237,10 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Avoidance(a) => {
                     hub.vehicle().on_avoidance(a);
+                    Vec::new()
+                }
+                LinkInput::Truth(t) => {
+                    hub.vehicle().on_truth(*t);
                     Vec::new()
                 }
                 LinkInput::Status(s) => {

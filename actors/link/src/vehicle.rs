@@ -10,8 +10,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
-    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, GpsFix, NavState, ParamDecl,
-    VehicleStatus,
+    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, GpsFix, GroundTruth, NavState,
+    ParamDecl, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -285,6 +285,11 @@ impl Vehicle {
     /// The latest depth grid (for OBSTACLE_DISTANCE).
     pub fn on_depth(&mut self, depth: DepthGrid) {
         self.telemetry.snapshot.depth = Some(depth);
+    }
+
+    /// The simulator's latest ground truth (for SIMSTATE).
+    pub fn on_truth(&mut self, truth: GroundTruth) {
+        self.telemetry.snapshot.truth = Some(truth);
     }
 
     /// The avoider's latest correction (for DEBUG_VECT "AVOID").

@@ -6,14 +6,16 @@
     reason = "legacy MAVLink (MISSION_ITEM, REQUEST_DATA_STREAM, SET_MODE, *_INT frames) is still spoken by ground stations and must be accepted"
 )]
 
-use kestrel_proto::attitude::euler_rad;
+use kestrel_proto::attitude::{euler_rad, unit_quaternion};
+use kestrel_proto::units::GRAVITY_M_S2;
+use nalgebra::Vector3;
 use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_e7};
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, DepthGrid, EstimatorStatus, FailsafeCause, GpsFix, GpsFixType,
-    Innovation, LandedState, NavState, OBSTACLE_SECTORS, VehicleStatus,
+    GroundTruth, Innovation, LandedState, NavState, OBSTACLE_SECTORS, VehicleStatus,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
@@ -21,7 +23,7 @@ use mavlink::dialects::ardupilotmega::{
     EkfStatusFlags, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType as MavFix, HOME_POSITION_DATA,
     LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavBatteryFunction, MavBatteryType, MavDataStream,
     MavDistanceSensor, MavFrame, MavLandedState, MavMessage, MavResult, MavSysStatusSensor, MavVtolState,
-    MissionState, OBSTACLE_DISTANCE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
+    MissionState, OBSTACLE_DISTANCE_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
 };
 
 /// The graph's latest state, as telemetry needs it.
@@ -37,6 +39,8 @@ pub struct Snapshot {
     pub estimator: Option<EstimatorStatus>,
     /// Whether a flight mission is stored (for MISSION_CURRENT).
     pub mission_items: u16,
+    /// The simulator's ground truth (for SIMSTATE); never on hardware.
+    pub truth: Option<GroundTruth>,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -70,10 +74,36 @@ fn default_streams() -> Vec<Stream> {
         (MISSION_CURRENT_DATA::ID, hz(1.0)),
         (OBSTACLE_DISTANCE_DATA::ID, hz(5.0)),
         (DEBUG_VECT_DATA::ID, hz(5.0)),
+        // Only while the graph has a simulator's ground truth, as ArduPilot SITL sends it.
+        (SIMSTATE_DATA::ID, hz(10.0)),
     ]
     .into_iter()
     .map(|(id, default)| Stream { id, default, interval: default, next: Time::ZERO })
     .collect()
+}
+
+/// ArduPilot SITL's SIMSTATE from the simulator's truth: the true attitude (rad), what an ideal
+/// accelerometer would read (m/s², body FRD, gravity included) and the true rates (rad/s,
+/// body), and the true position. `None` for a truth without a valid attitude.
+fn simstate(truth: &GroundTruth) -> Option<SIMSTATE_DATA> {
+    let attitude = unit_quaternion(truth.attitude).ok()?;
+    let [roll, pitch, yaw] = euler_rad(truth.attitude);
+    let gravity_ned = Vector3::new(0.0, 0.0, GRAVITY_M_S2);
+    let specific_force = attitude.inverse() * (Vector3::from(truth.acceleration_ned_m_s2) - gravity_ned);
+    let [p, q, r] = truth.angular_velocity_rad_s;
+    Some(SIMSTATE_DATA {
+        roll: roll as f32,
+        pitch: pitch as f32,
+        yaw: yaw as f32,
+        xacc: specific_force.x as f32,
+        yacc: specific_force.y as f32,
+        zacc: specific_force.z as f32,
+        xgyro: p as f32,
+        ygyro: q as f32,
+        zgyro: r as f32,
+        lat: deg_e7(truth.lat_deg),
+        lng: deg_e7(truth.lon_deg),
+    })
 }
 
 /// The telemetry scheduler and message builder.
@@ -136,7 +166,7 @@ impl Telemetry {
             MavDataStream::MAV_DATA_STREAM_POSITION => {
                 &[GLOBAL_POSITION_INT_DATA::ID, LOCAL_POSITION_NED_DATA::ID]
             }
-            MavDataStream::MAV_DATA_STREAM_EXTRA1 => &[ATTITUDE_DATA::ID],
+            MavDataStream::MAV_DATA_STREAM_EXTRA1 => &[ATTITUDE_DATA::ID, SIMSTATE_DATA::ID],
             MavDataStream::MAV_DATA_STREAM_EXTRA2 => &[VFR_HUD_DATA::ID],
             MavDataStream::MAV_DATA_STREAM_EXTRA3 => &[BATTERY_STATUS_DATA::ID, EXTENDED_SYS_STATE_DATA::ID],
             _ => &[],
@@ -188,6 +218,7 @@ impl Telemetry {
                     yawspeed: r as f32,
                 })
             }
+            SIMSTATE_DATA::ID => MavMessage::SIMSTATE(simstate(snap.truth.as_ref()?)?),
             LOCAL_POSITION_NED_DATA::ID => {
                 let nav = snap.nav.as_ref()?;
                 let [x, y, z] = nav.position_ned_m.map(|v| v as f32);
@@ -611,6 +642,36 @@ mod tests {
         let Some(MavMessage::ATTITUDE(a)) = t.build(ATTITUDE_DATA::ID, Time::ZERO) else { panic!() };
         assert!((f64::from(a.yaw) - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
         assert!(t.build(GPS_RAW_INT_DATA::ID, Time::ZERO).is_none(), "no fix yet, nothing to send");
+    }
+
+    #[test]
+    fn simstate_carries_the_simulators_truth_and_only_when_there_is_one() {
+        let mut t = Telemetry::new();
+        assert!(t.build(SIMSTATE_DATA::ID, Time::ZERO).is_none(), "no truth on hardware, no SIMSTATE");
+        let half = std::f64::consts::FRAC_PI_4;
+        t.snapshot.truth = Some(GroundTruth {
+            // Facing east, climbing at 1 m/s² (up is −down), turning right at 0.1 rad/s.
+            attitude: [half.cos(), 0.0, 0.0, half.sin()],
+            acceleration_ned_m_s2: [0.0, 0.0, -1.0],
+            angular_velocity_rad_s: [0.0, 0.0, 0.1],
+            lat_deg: 6.7971,
+            lon_deg: 79.9017,
+            ..GroundTruth::default()
+        });
+        let Some(MavMessage::SIMSTATE(s)) = t.build(SIMSTATE_DATA::ID, Time::ZERO) else { panic!() };
+        assert!((f64::from(s.yaw) - std::f64::consts::FRAC_PI_2).abs() < 1e-6, "{s:?}");
+        assert!(s.roll.abs() < 1e-6 && s.pitch.abs() < 1e-6, "{s:?}");
+        // An accelerometer at rest reads −g on its down axis; climbing adds to it.
+        assert!((f64::from(s.zacc) + GRAVITY_M_S2 + 1.0).abs() < 1e-5, "{s:?}");
+        assert!(s.xacc.abs() < 1e-5 && s.yacc.abs() < 1e-5, "{s:?}");
+        assert_eq!((s.zgyro, s.lat, s.lng), (0.1, 67_971_000, 799_017_000));
+        assert_eq!(t.interval(SIMSTATE_DATA::ID), Some(Duration::from_millis(100)));
+        t.request_data_stream(MavDataStream::MAV_DATA_STREAM_EXTRA1, 4, true, Time::ZERO);
+        assert_eq!(
+            t.interval(SIMSTATE_DATA::ID),
+            Some(Duration::from_millis(250)),
+            "in EXTRA1, as ArduPilot"
+        );
     }
 
     #[test]
