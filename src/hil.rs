@@ -4,7 +4,9 @@
 //! and I2C paths the graph names, its u-blox receiver on a pseudo-terminal and its RCIO's PWM
 //! and `rcio` trees in a temporary directory, to which the GPS, motor and RCIO drivers' device
 //! paths are pointed — and a `hil_sim` actor is added that flies the simulated vehicle on the
-//! wall clock and drives the emulated devices.
+//! wall clock and drives the emulated devices. The emulated chips read the simulated vehicle's
+//! sensors, which need no calibration on the default vehicle, and nobody is at the desk to turn
+//! the board for one: the `calibration` actor's `required` list is emptied, and the log says so.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -110,6 +112,13 @@ pub fn apply_hil(config: &mut LoadedConfig, options: &HilOptions) -> Result<Arc<
     set_param(the_one(config, "ublox_gps")?.1, "device", &bench_config.gps_device());
     set_param(the_one(config, "pwm_motors")?.1, "root", &bench_config.pwm_root());
     set_param(the_one(config, "navio2_rcio")?.1, "root", &bench_config.rcio_root());
+    if let Ok((name, calibration)) = the_one(config, "calibration") {
+        let params =
+            calibration.params.get_or_insert_with(|| Spanned::new(0..0, toml::Table::new())).get_mut();
+        if params.insert("required".into(), toml::Value::Array(Vec::new())).is_some() {
+            tracing::info!(actor = %name, "hardware in the loop: no calibration required of the emulated board");
+        }
+    }
     let key = Spanned::new(0..0, HIL_SIM_ACTOR.to_owned());
     if config.graph.actors.contains_key(&key) {
         return Err(format!(

@@ -5,6 +5,11 @@
 //! otherwise it publishes the output rate, failed reads and clipped samples on `health`.
 //! A clipped average carries its per-axis flags in the `ImuSample` itself (for the estimator)
 //! and is also counted in the health report and logged.
+//!
+//! Like ArduPilot's `AP_InertialSensor` and `Compass`, the driver owns the board's calibration
+//! (`param_decl`: [`CALIBRATION_PARAMS`], set from `param_set`) and publishes corrected samples;
+//! while a calibration asks for a motion (`calibration_motion`) it also publishes the raw ones on
+//! `imu_raw` and `mag_raw` for the `calibration` actor, as the simulator does.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -12,7 +17,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use kestrel_proto::messages::{ImuSample, MagSample, SensorHealth};
+use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
+use kestrel_proto::messages::{
+    CalibrationMotion, ImuSample, MagSample, Motion, ParamDecl, ParamSet, SensorHealth,
+};
+use kestrel_proto::param_def::{answer, apply, declare};
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
@@ -20,6 +29,7 @@ use crate::bus::SpiBus;
 use crate::health::{Counters, HealthWindow};
 use crate::imu_decimator::ImuDecimator;
 use crate::linux::LinuxSpi;
+use crate::live_calibration::{CalibrationReader, LiveCalibration};
 use crate::mpu9250::{Mpu9250, Mpu9250Config};
 
 /// Consecutive failed reads after which the reader gives up.
@@ -57,6 +67,10 @@ impl Default for ImuActorParams {
 pub enum ImuInput {
     /// Timer `health_report`, every second; a port name of its own, apart from the `health` output.
     Health(Time),
+    /// A calibration parameter from the ground station (others' names are ignored).
+    Param(ParamSet),
+    /// How a running calibration wants the vehicle handled: anything but idle asks for raw samples.
+    Motion(CalibrationMotion),
 }
 
 /// Counters the reader thread shares with the actor.
@@ -71,7 +85,8 @@ struct ReaderStats {
 
 type Imu = Mpu9250<Box<dyn SpiBus + Send>>;
 
-/// The IMU actor. Outputs: `imu`, `mag`.
+/// The IMU actor. Outputs: `imu`, `mag` (corrected), `imu_raw`, `mag_raw` (while calibrating),
+/// `param_decl`, `health`.
 pub struct ImuActor {
     /// The configured chip until [`Actor::start`] hands it to the reader thread.
     imu: Option<Imu>,
@@ -81,6 +96,13 @@ pub struct ImuActor {
     output_period: Duration,
     imu_out: Publisher<ImuSample>,
     mag_out: Publisher<MagSample>,
+    raw: RawOutputs,
+    param_decl: Publisher<ParamDecl>,
+    /// The calibration as its parameters hold it, and as the reader applies it.
+    calibration: CalibrationParams,
+    live: Arc<LiveCalibration>,
+    /// Our name in the config: the owner named in `param_decl`.
+    name: String,
     /// The spidev node, for health reports.
     device: String,
     /// Opened in [`Actor::start`], on the running graph's clock.
@@ -106,6 +128,8 @@ impl ImuActor {
             .map_err(|e| ActorError::Failed(e.to_string()))?;
         let read_period = Duration::from_micros(1000 * (1 + u64::from(params.mpu9250.sample_rate_divider)));
         setup.timer("health_report", Duration::from_secs(1), ImuInput::Health);
+        setup.input("param_set", ImuInput::Param);
+        setup.input("calibration_motion", ImuInput::Motion);
         Ok(ImuActor {
             imu: Some(imu),
             reader: None,
@@ -114,10 +138,38 @@ impl ImuActor {
             output_period,
             imu_out: setup.output("imu"),
             mag_out: setup.output("mag"),
+            raw: RawOutputs { imu: setup.output("imu_raw"), mag: setup.output("mag_raw") },
+            param_decl: setup.output("param_decl"),
+            calibration: CalibrationParams::default(),
+            live: Arc::default(),
+            name: setup.name().to_owned(),
             device: bus_path,
             window: None,
             health_out: setup.output("health"),
         })
+    }
+
+    /// Applies a calibration parameter (checked as a whole calibration: a singular soft-iron
+    /// matrix is refused) and hands the calibration to the reader; the link is told the values
+    /// in use, applied or refused.
+    fn on_param(&mut self, p: &ParamSet) {
+        let outcome = apply(&CALIBRATION_PARAMS, &mut self.calibration, &p.name, p.value, |c| {
+            c.calibration().map(|_| ())
+        });
+        if let Ok(kestrel_proto::param_def::ParamChange::Applied) = outcome
+            && let Ok(calibration) = self.calibration.calibration()
+        {
+            self.live.set(calibration);
+        }
+        if answer(&self.name, p, outcome) {
+            self.param_decl.publish(declare(
+                &CALIBRATION_PARAMS,
+                &self.calibration,
+                &self.name,
+                false,
+                p.time,
+            ));
+        }
     }
 
     /// Ends the reader thread's run and returns its outcome (`Ok` if none was running).
@@ -130,6 +182,13 @@ impl ImuActor {
     }
 }
 
+/// The uncorrected samples, for a running calibration.
+#[derive(Clone)]
+struct RawOutputs {
+    imu: Publisher<ImuSample>,
+    mag: Publisher<MagSample>,
+}
+
 /// The reader loop: read, publish the magnetometer, average, publish the IMU, until shutdown.
 struct Reader {
     imu: Imu,
@@ -139,6 +198,8 @@ struct Reader {
     period: Duration,
     imu_out: Publisher<ImuSample>,
     mag_out: Publisher<MagSample>,
+    raw: RawOutputs,
+    calibration: CalibrationReader,
 }
 
 impl Reader {
@@ -151,15 +212,24 @@ impl Reader {
                 Ok(reading) => {
                     consecutive_errors = 0;
                     self.stats.reads.fetch_add(1, Ordering::Relaxed);
+                    let raw_wanted = self.calibration.raw_wanted();
+                    let calibration = self.calibration.current();
                     if let Some(field_gauss) = reading.mag_frd_gauss {
-                        self.mag_out.publish(MagSample { time, field_gauss });
+                        let raw = MagSample { time, field_gauss };
+                        self.mag_out.publish(calibration.apply_mag(&raw));
+                        if raw_wanted {
+                            self.raw.mag.publish(raw);
+                        }
                     }
                     if let Some(out) = self.decimator.push(&reading) {
                         if out.sample.is_clipped() {
                             self.stats.clipped.fetch_add(1, Ordering::Relaxed);
                         }
                         self.stats.published.fetch_add(1, Ordering::Relaxed);
-                        self.imu_out.publish(out.sample);
+                        self.imu_out.publish(calibration.apply_imu(&out.sample));
+                        if raw_wanted {
+                            self.raw.imu.publish(out.sample);
+                        }
                     }
                 }
                 Err(e) => {
@@ -205,6 +275,8 @@ impl Actor for ImuActor {
             period: self.read_period,
             imu_out: self.imu_out.clone(),
             mag_out: self.mag_out.clone(),
+            raw: self.raw.clone(),
+            calibration: self.live.reader(),
         };
         let shutdown = ctx.shutdown().clone();
         let handle = std::thread::Builder::new()
@@ -213,11 +285,22 @@ impl Actor for ImuActor {
             .map_err(|source| ActorError::Io { what: "cannot start the IMU reader thread".into(), source })?;
         self.reader = Some(handle);
         self.window = Some(HealthWindow::new(ctx.name(), &self.device, ctx.now()));
+        self.param_decl.publish(declare(&CALIBRATION_PARAMS, &self.calibration, &self.name, true, ctx.now()));
         Ok(())
     }
 
     async fn handle(&mut self, _ctx: &Context, input: ImuInput) -> Result<(), ActorError> {
-        let ImuInput::Health(now) = input;
+        let now = match input {
+            ImuInput::Health(now) => now,
+            ImuInput::Param(p) => {
+                self.on_param(&p);
+                return Ok(());
+            }
+            ImuInput::Motion(m) => {
+                self.live.set_raw_wanted(m.motion != Motion::Idle);
+                return Ok(());
+            }
+        };
         if self.reader.as_ref().is_some_and(JoinHandle::is_finished) {
             self.join_reader()?;
             return Err(ActorError::Failed("the IMU reader stopped".into()));
@@ -294,6 +377,68 @@ mod tests {
             ("/dev/spidev-fake", 0, 0)
         );
         assert!(health[0].rate_hz > 0.0, "{:?}", health[0]);
+    }
+
+    #[test]
+    fn the_ground_stations_calibration_corrects_the_samples_and_raw_ones_flow_while_calibrating() {
+        let mut fake = FakeMpu9250::new(0x71);
+        fake.set_motion([0, 0, 2048], 0, [0, 0, 0]);
+        fake.set_mag([100, -50, 200], false);
+        let mut setup = TestSetup::new("imu", ".");
+        let mut actor =
+            ImuActor::with_bus(Box::new(fake), &ImuActorParams::default(), &mut setup).expect("build");
+        let ctx = setup.context();
+        ready(actor.start(&ctx)).expect("start");
+        let set = |name: &str, value| ParamSet { time: Time::ZERO, name: name.into(), value };
+        // COMPASS_OFS_X is added to the reading (mG); INS_ACCOFFS_Z subtracted (m/s²).
+        ready(actor.handle(&ctx, ImuInput::Param(set("COMPASS_OFS_X", 120.0)))).expect("param");
+        ready(actor.handle(&ctx, ImuInput::Param(set("INS_ACCOFFS_Z", 0.25)))).expect("param");
+        ready(actor.handle(&ctx, ImuInput::Param(set("COMPASS_DIA_X", 0.0))))
+            .expect("a refusal is no failure");
+        ready(actor.handle(&ctx, ImuInput::Param(set("RTL_ALT_M", 25.0)))).expect("not ours");
+        let tumble = CalibrationMotion { time: Time::ZERO, motion: Motion::Tumble };
+        ready(actor.handle(&ctx, ImuInput::Motion(tumble))).expect("motion");
+        for k in 1..=5_000u64 {
+            setup.manual_clock().set(Time::from_micros(1000 * k));
+            std::thread::sleep(Duration::from_millis(1));
+            if setup.count("imu_raw") > 0 && setup.count("mag_raw") > 0 {
+                break;
+            }
+        }
+        ctx.shutdown().cancel();
+        ready(actor.stop(&ctx));
+
+        let decls: Vec<ParamDecl> = setup.published("param_decl");
+        assert_eq!(decls.len(), 4, "at start and after each of our three sets: {decls:?}");
+        assert!(decls[0].start && decls[0].params.len() == CALIBRATION_PARAMS.len());
+        let value = |name: &str| decls.last().unwrap().params.iter().find(|p| p.name == name).unwrap().value;
+        assert_eq!((value("COMPASS_OFS_X"), value("INS_ACCOFFS_Z")), (120.0, 0.25));
+        assert_eq!(value("COMPASS_DIA_X"), 1.0, "a singular soft-iron correction is refused");
+
+        let (mag, mag_raw): (Vec<MagSample>, Vec<MagSample>) =
+            (setup.published("mag"), setup.published("mag_raw"));
+        let raw = mag_raw.last().expect("raw mag");
+        let corrected = mag.iter().find(|m| m.time == raw.time).expect("the same sample, corrected");
+        let shift: Vec<f64> = (0..3).map(|i| corrected.field_gauss[i] - raw.field_gauss[i]).collect();
+        assert!(
+            (shift[0] - 0.120).abs() < 1e-12 && shift[1].abs() < 1e-12 && shift[2].abs() < 1e-12,
+            "{shift:?}"
+        );
+        let (imu, imu_raw): (Vec<ImuSample>, Vec<ImuSample>) =
+            (setup.published("imu"), setup.published("imu_raw"));
+        let raw = imu_raw.last().expect("raw imu");
+        let corrected = imu.iter().find(|s| s.time == raw.time).expect("the same sample, corrected");
+        assert!((raw.accel_m_s2[2] - corrected.accel_m_s2[2] - 0.25).abs() < 1e-12, "{raw:?} {corrected:?}");
+    }
+
+    #[test]
+    fn no_raw_samples_without_a_calibration_running() {
+        let mut fake = FakeMpu9250::new(0x71);
+        fake.set_motion([0, 0, 2048], 0, [0, 0, 0]);
+        fake.set_mag([100, 0, 0], false);
+        let setup = run_until_published(fake);
+        assert_eq!((setup.count("imu_raw"), setup.count("mag_raw")), (0, 0));
+        assert!(setup.count("imu") > 0 && setup.count("mag") > 0);
     }
 
     #[test]

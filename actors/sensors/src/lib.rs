@@ -39,6 +39,7 @@ pub mod health;
 pub mod imu_actor;
 pub mod imu_decimator;
 pub mod linux;
+pub mod live_calibration;
 pub mod motor_actor;
 pub mod mpu9250;
 pub mod ms5611;
