@@ -44,12 +44,31 @@ fn config(port: u16, dir: &Path, vehicle: &str, required: bool) -> String {
     required
 }
 
-/// Runs the client in `scenario` against `kestrel run` on `vehicle` (calibration `required` or
-/// not); returns its results JSON.
+/// Runs the pymavlink client in `scenario` against `kestrel run` on `vehicle` (calibration
+/// `required` or not); returns its results JSON.
 fn session(dir: &Path, scenario: &str, vehicle: &str, required: bool) -> serde_json::Value {
     let plan = root().join("config/missions/square.plan");
-    let (mut client, lines) =
-        python_client("gcs_calibration.py", |c| c.env("CAL_SCENARIO", scenario).env("CAL_PLAN", &plan));
+    client_session(
+        dir,
+        scenario,
+        vehicle,
+        required,
+        "gcs_calibration.py",
+        &[("CAL_SCENARIO", scenario.into()), ("CAL_PLAN", plan.display().to_string())],
+    )
+}
+
+/// Runs `script` (its environment `env`) against `kestrel run` on `vehicle`; returns the results
+/// JSON of its last line.
+fn client_session(
+    dir: &Path,
+    scenario: &str,
+    vehicle: &str,
+    required: bool,
+    script: &str,
+    env: &[(&str, String)],
+) -> serde_json::Value {
+    let (mut client, lines) = python_client(script, |c| c.envs(env.iter().map(|(k, v)| (k, v))));
     let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
     let port: u16 = first.strip_prefix("PORT ").and_then(|p| p.trim().parse().ok()).expect("client port");
     let config_path = dir.join(format!("{scenario}.toml"));
@@ -89,6 +108,35 @@ fn session(dir: &Path, scenario: &str, vehicle: &str, required: bool) -> serde_j
     let last = transcript.last().expect("a result line");
     let result: serde_json::Value = serde_json::from_str(last).expect("JSON result");
     result["results"].clone()
+}
+
+/// Checks `got` against the vehicle file's truth (config/vehicles/quad_x_miscalibrated.toml):
+/// within 5 % of each error (0.02 G of the hard iron, 0.015 m/s² of the offsets, 0.001 of the
+/// scales, 0.1° of the tilt).
+fn assert_recovers_the_truth(got: &SensorCalibration) {
+    let hard = got.mag.hard_iron_gauss();
+    let soft = got.mag.soft_iron();
+    let truth_soft = [[1.10, 0.05, -0.05], [0.05, 0.90, 0.05], [-0.05, 0.05, 1.05]];
+    println!("hard iron {hard:?} G, soft iron {soft:?}");
+    for (h, t) in hard.iter().zip([0.15, -0.1, 0.2]) {
+        assert!((h - t).abs() <= 0.02, "hard iron {hard:?}");
+    }
+    for (row, truth_row) in soft.iter().zip(truth_soft) {
+        for (s, t) in row.iter().zip(truth_row) {
+            assert!((s - t).abs() <= 0.05, "soft iron {soft:?}");
+        }
+    }
+    let (offset, scale) = (got.accel.offset_m_s2(), got.accel.scale());
+    println!("accel offset {offset:?} m/s², scale {scale:?}");
+    for (o, t) in offset.iter().zip([0.3, -0.3, 0.3]) {
+        assert!((o - t).abs() <= 0.05 * 0.3, "accel offset {offset:?}");
+    }
+    for (s, t) in scale.iter().zip([1.02, 0.98, 1.02]) {
+        assert!((s - t).abs() <= 0.05 * 0.02, "accel scale {scale:?}");
+    }
+    let (roll, pitch) = (got.level.roll_deg(), got.level.pitch_deg());
+    println!("board level roll {roll:.3}°, pitch {pitch:.3}°");
+    assert!((roll - 2.0).abs() <= 0.1 && (pitch + 2.24).abs() <= 0.112, "level {roll} {pitch}");
 }
 
 /// The calibration the parameters read over MAVLink hold.
@@ -154,32 +202,7 @@ fn a_ground_station_calibrates_the_vehicle_and_its_yaw_error_drops_to_the_error_
     assert_eq!(first["accel_positions"], serde_json::json!([1, 2, 3, 4, 5, 6]));
     assert_eq!(calibration_of(&first["before"]), SensorCalibration::default(), "nothing calibrated before");
 
-    // The vehicle file's truth (config/vehicles/quad_x_miscalibrated.toml).
-    let got = calibration_of(&first["params"]);
-    let hard = got.mag.hard_iron_gauss();
-    let soft = got.mag.soft_iron();
-    let truth_soft = [[1.10, 0.05, -0.05], [0.05, 0.90, 0.05], [-0.05, 0.05, 1.05]];
-    println!("hard iron {hard:?} G, soft iron {soft:?}");
-    for (h, t) in hard.iter().zip([0.15, -0.1, 0.2]) {
-        assert!((h - t).abs() <= 0.02, "hard iron {hard:?}");
-    }
-    for (row, truth_row) in soft.iter().zip(truth_soft) {
-        for (s, t) in row.iter().zip(truth_row) {
-            assert!((s - t).abs() <= 0.05, "soft iron {soft:?}");
-        }
-    }
-    let (offset, scale) = (got.accel.offset_m_s2(), got.accel.scale());
-    println!("accel offset {offset:?} m/s², scale {scale:?}");
-    for (o, t) in offset.iter().zip([0.3, -0.3, 0.3]) {
-        assert!((o - t).abs() <= 0.05 * 0.3, "accel offset {offset:?}");
-    }
-    // Within 5 % of each error: 0.015 m/s² of the offsets, 0.001 of the scales, 0.1° of the tilt.
-    for (s, t) in scale.iter().zip([1.02, 0.98, 1.02]) {
-        assert!((s - t).abs() <= 0.05 * 0.02, "accel scale {scale:?}");
-    }
-    let (roll, pitch) = (got.level.roll_deg(), got.level.pitch_deg());
-    println!("board level roll {roll:.3}°, pitch {pitch:.3}°");
-    assert!((roll - 2.0).abs() <= 0.1 && (pitch + 2.24).abs() <= 0.112, "level {roll} {pitch}");
+    assert_recovers_the_truth(&calibration_of(&first["params"]));
 
     // Flown without a restart, measured by the ground station against SIMSTATE, beside the
     // same flight of a vehicle without sensor errors (parameters of its own).
@@ -211,5 +234,19 @@ fn a_ground_station_calibrates_the_vehicle_and_its_yaw_error_drops_to_the_error_
     println!("rms_yaw_deg: error-free {free:.3}, uncalibrated {raw:.3}, calibrated {calibrated:.3}");
     assert!(raw > free + 2.0, "the sensor errors show in the yaw error: {raw} vs {free}");
     assert!((calibrated - free).abs() <= 1.0, "calibrated {calibrated} vs error-free {free}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn mavproxy_calibrates_the_vehicle_as_an_operator_types_it() {
+    let dir = temp_dir("calibration-mavproxy");
+    let env = [("MAVPROXY_SCENARIO", "calibrate".to_owned())];
+    let result = client_session(&dir, "mavproxy", VEHICLE, true, "mavproxy_session.py", &env);
+    assert_eq!(result["prearm_refusal"], "PreArm: 3D Accel calibration needed");
+    let positions = result["accel_positions"].as_array().expect("positions");
+    assert_eq!(positions.len(), 6, "{positions:?}");
+    println!("MAVProxy: positions {positions:?}, compass fitness {} mG", result["mag_fitness_mgauss"]);
+    assert_recovers_the_truth(&calibration_of(&result["params"]));
+    assert_eq!(result["armed_after"], true);
     let _ = std::fs::remove_dir_all(&dir);
 }

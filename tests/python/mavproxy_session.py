@@ -1,6 +1,7 @@
 """Drives MAVProxy (mavproxy.py from the test venv) against `kestrel run`, as an operator types.
 
-Usage: mavproxy_session.py   (run by tests/gcs.rs)
+Usage: mavproxy_session.py   (run by tests/gcs.rs; `MAVPROXY_SCENARIO=calibrate` by
+tests/calibration.rs: the sensor calibrations as an operator types them)
 
 MAVProxy listens on an ephemeral UDP port on 127.0.0.1 (`--master udpin:...`, as it listens on
 14550 by default); `PORT <n>` is printed first so the test points the vehicle's `udp_out` there.
@@ -28,7 +29,7 @@ import time
 
 # MAVProxy's periodic noise, left out of the transcript.
 NOISE = ("Unloading module", "Time has wrapped")
-DEADLINE_S = 50.0
+DEADLINE_S = 90.0 if os.environ.get("MAVPROXY_SCENARIO") == "calibrate" else 50.0
 
 
 class Failed(Exception):
@@ -154,6 +155,68 @@ def session(mp, results):
     results["flight"] = {"modes": ["LOITER", "GUIDED", "TAKEOFF", "RTL"], "climbed_m": climbed, "disarmed": True}
 
 
+CALIBRATION_PARAMS = [f"COMPASS_{k}_{a}" for k in ("OFS", "DIA", "ODI") for a in "XYZ"] \
+    + [f"INS_{k}_{a}" for k in ("ACCOFFS", "ACCSCAL") for a in "XYZ"] + ["AHRS_TRIM_X", "AHRS_TRIM_Y"]
+
+
+def calibration(mp, results):
+    """MAVProxy's `accelcal` (Enter at each "Place vehicle ..."), `ahrstrim` (level) and
+    `magcal start` (autosave), then the parameters and arming, all read off its console."""
+    mp.expect(r"^Detected vehicle 1:1 on link 0", 15.0, "detect")
+    mp.expect(r"^Received (\d+) parameters", 20.0, "parameter download")
+    mp.type("arm throttle")
+    results["prearm_refusal"] = mp.expect(r"PreArm: .*", 5.0, "arm refused").group(0)
+
+    mp.type("accelcal")
+    positions = []
+    while len(positions) < 6:
+        m = mp.expect(r"Place vehicle (.+) and press any key|Calibration FAILED.*", 20.0, "accelcal position")
+        if m.group(0).startswith("Calibration FAILED"):
+            raise Failed("accelcal", m.group(0))
+        positions.append(m.group(1))
+        # The operator sets the vehicle down as asked (the simulator does) and presses Enter.
+        time.sleep(0.3)
+        mp.type("")
+    mp.expect(r"^(?:AP: )?Calibration successful", 20.0, "accelcal done")
+    results["accel_positions"] = positions
+
+    mp.type("ahrstrim")
+    mp.expect(r"level calibration successful", 10.0, "level")
+
+    mp.type("magcal start")
+    report = mp.expect(r"^Calibration of compass 0 (\w+): fitness (\S+)", 60.0, "magcal report")
+    if report.group(1) != "SUCCESS":
+        raise Failed("magcal", report.group(0))
+    results["mag_fitness_mgauss"] = float(report.group(2))
+    mp.expect(r"Compass calibration successful and saved", 10.0, "magcal saved")
+
+    params = {}
+    for name in CALIBRATION_PARAMS:
+        mp.type(f"param fetch {name}")
+        params[name] = float(mp.expect(rf"^{name} = (\S+)", 5.0, f"param {name}").group(1))
+    results["params"] = params
+    if any(line.startswith("ARMED") for line in mp.seen):
+        raise Failed("arm refused", "the vehicle armed before it was calibrated")
+    # The estimator aligns again on the new calibration first: the operator retries until the
+    # vehicle accepts, as one would after ArduPilot's "PreArm: ..." texts.
+    refusals = []
+    end = time.monotonic() + 20.0
+    while True:
+        mp.type("arm throttle")
+        ack = mp.expect(r"^Got COMMAND_ACK: COMPONENT_ARM_DISARM: (\w+)", 5.0, "arm after calibration")
+        if ack.group(1) == "ACCEPTED":
+            break
+        refusals.append(mp.expect(r"^(?:AP: )?(.*(?:refused|PreArm).*)", 5.0, "arm refusal").group(1))
+        if time.monotonic() > end:
+            raise Failed("arm after calibration", refusals[-3:])
+        time.sleep(1.0)
+    results["arm_refusals_after"] = refusals
+    mp.expect(r"^ARMED", 5.0, "armed shown")
+    mp.type("disarm")
+    mp.expect(r"^DISARMED", 5.0, "disarmed shown")
+    results["armed_after"] = True
+
+
 def wait_altitude(mp, alt_m, timeout_s, step):
     """Polls `status GLOBAL_POSITION_INT` until relative_alt reaches `alt_m`; returns it (m)."""
     end = time.monotonic() + timeout_s
@@ -172,8 +235,9 @@ def main():
     results = {}
     with tempfile.TemporaryDirectory(prefix="kestrel-mavproxy-") as state_dir:
         mp = MavProxy(port, state_dir)
+        scenario = calibration if os.environ.get("MAVPROXY_SCENARIO") == "calibrate" else session
         try:
-            session(mp, results)
+            scenario(mp, results)
         except Failed as e:
             mp.log(f"FAILED {e.step}: {e.detail}")
             mp.close()

@@ -9,8 +9,8 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 
 use kestrel_proto::Time;
-use mavlink::dialects::ardupilotmega::MavMessage;
-use mavlink::{MavHeader, Message, SigningData};
+use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavMessage};
+use mavlink::{MavHeader, Message, MessageData, SigningData};
 use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
 
@@ -191,7 +191,16 @@ impl Hub {
         for dest in self.router.destinations(Some(link), target) {
             self.send_raw(dest, frame.bytes().to_vec());
         }
-        let Ok(msg) = msg else { return Vec::new() };
+        let Ok(msg) = msg else {
+            // QGroundControl (command 0) and MAVProxy (1..6) confirm an accelerometer calibration
+            // position with a COMMAND_ACK naming no MAV_CMD, which the dialect cannot decode; that
+            // an acknowledgement came is all ArduPilot's snoop reads of it.
+            if frame.message_id == COMMAND_ACK_DATA::ID {
+                let out = self.vehicle.on_gcs_ack();
+                return self.dispatch(out);
+            }
+            return Vec::new();
+        };
         if let MavMessage::RADIO_STATUS(r) = &msg
             && let Some(state) = self.links.get_mut(&link)
         {

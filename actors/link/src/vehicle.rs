@@ -62,6 +62,8 @@ pub struct Vehicle {
     pub unhandled: u64,
     /// The last id of a STATUSTEXT sent in chunks.
     text_id: u16,
+    /// A ground station's COMMAND_ACK confirming an accelerometer calibration position.
+    accelcal: calibration::AccelcalSnoop,
 }
 
 impl Vehicle {
@@ -77,6 +79,7 @@ impl Vehicle {
             offboard_rejects: OffboardRejects::default(),
             unhandled: 0,
             text_id: 0,
+            accelcal: calibration::AccelcalSnoop::default(),
         }
     }
 
@@ -144,6 +147,12 @@ impl Vehicle {
                 out
             }
             MavMessage::HEARTBEAT(_) | MavMessage::RADIO_STATUS(_) => Outputs::none(),
+            MavMessage::COMMAND_ACK(_) => match self.accelcal.on_ack() {
+                Some(request) => {
+                    Outputs { mav: Vec::new(), graph: vec![ToGraph::Calibration { id: 0, request }] }
+                }
+                None => Outputs::none(),
+            },
             MavMessage::COMMAND_LONG(c) => self.on_command(command_long(from, c), now),
             MavMessage::COMMAND_INT(c) => self.on_command(command_int(from, c), now),
             MavMessage::SET_MODE(m) => self.commands.set_mode(from, m.base_mode.bits(), m.custom_mode, now),
@@ -192,7 +201,20 @@ impl Vehicle {
         }
     }
 
+    /// A COMMAND_ACK from a ground station (decoded or not: see [`calibration::AccelcalSnoop`]):
+    /// the accelerometer calibration's position confirmed, when one is asked for; unanswered,
+    /// as an acknowledgement is.
+    pub fn on_gcs_ack(&mut self) -> Outputs {
+        match self.accelcal.on_ack() {
+            Some(request) => {
+                Outputs { mav: Vec::new(), graph: vec![ToGraph::Calibration { id: 0, request }] }
+            }
+            None => Outputs::none(),
+        }
+    }
+
     fn on_command(&mut self, request: CommandRequest, now: Time) -> Outputs {
+        self.accelcal.on_command(request.command);
         let ctx = command::Context {
             autopilot_version: self.autopilot_version(),
             heartbeat: self.heartbeat(),
@@ -258,7 +280,10 @@ impl Vehicle {
                 }
                 out
             }
-            _ => Outputs { mav: calibration::messages(event, &mut self.text_id), graph: Vec::new() },
+            update => {
+                self.accelcal.on_update(update);
+                Outputs { mav: calibration::messages(event, &mut self.text_id), graph: Vec::new() }
+            }
         }
     }
 

@@ -11,6 +11,13 @@
 //! (ACCEPTED when the calibration started; progress and results follow as STATUSTEXT,
 //! MAG_CAL_PROGRESS and MAG_CAL_REPORT, as ArduPilot acknowledges a started accelerometer or
 //! compass calibration).
+//!
+//! Ground stations confirm a position two ways. QGroundControl and MAVProxy (`accelcal`, then
+//! Enter) answer the "Place vehicle … and press any key." STATUSTEXT with a COMMAND_ACK, which
+//! ArduPilot's `AP_AccelCal::handleMessage` takes as "placed" for the position it asked for;
+//! newer scripts send COMMAND_LONG(ACCELCAL_VEHICLE_POS), after which ArduPilot stops
+//! listening for those acknowledgements (`gcs_vehicle_position` clears `_use_gcs_snoop`).
+//! [`AccelcalSnoop`] does the same.
 
 use kestrel_proto::messages::{
     CalibrationEvent, CalibrationRequest, CalibrationStep, CalibrationUpdate, MagCalState, Severity,
@@ -104,6 +111,46 @@ pub fn request(r: &CommandRequest) -> Result<CalibrationRequest, (MavResult, Str
             _ => denied(format!("Calibration refused: vehicle position {}", p[0])),
         },
         _ => Err((MavResult::MAV_RESULT_UNSUPPORTED, String::new())),
+    }
+}
+
+/// Turns a ground station's COMMAND_ACK into "the vehicle stands where asked" during an
+/// accelerometer calibration, as ArduPilot snoops for it.
+#[derive(Debug, Default)]
+pub struct AccelcalSnoop {
+    /// The position the vehicle asked for and no one has confirmed yet.
+    asked: Option<u32>,
+    /// This calibration's ground station answers with COMMAND_LONG(ACCELCAL_VEHICLE_POS).
+    answered_by_command: bool,
+}
+
+impl AccelcalSnoop {
+    /// A calibration update on its way to the ground station.
+    pub fn on_update(&mut self, update: &CalibrationUpdate) {
+        if let CalibrationUpdate::AccelPosition { position } = update {
+            self.asked = (1..=6).contains(position).then_some(*position);
+        }
+    }
+
+    /// A calibration command from a ground station: a start listens afresh, a position
+    /// command means that ground station answers by command.
+    pub fn on_command(&mut self, command: MavCmd) {
+        match command {
+            MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION => *self = AccelcalSnoop::default(),
+            MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS => {
+                self.answered_by_command = true;
+                self.asked = None;
+            }
+            _ => {}
+        }
+    }
+
+    /// A COMMAND_ACK from a ground station: the position asked for, if one waits for it.
+    pub fn on_ack(&mut self) -> Option<CalibrationRequest> {
+        if self.answered_by_command {
+            return None;
+        }
+        self.asked.take().map(|position| CalibrationRequest::AccelPosition { position })
     }
 }
 
@@ -257,6 +304,37 @@ mod tests {
         for bad in [0.0, 7.0, 1.5, f64::NAN] {
             assert!(pos(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn a_ground_stations_ack_confirms_the_position_asked_for_once() {
+        let mut snoop = AccelcalSnoop::default();
+        snoop.on_command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION);
+        assert_eq!(snoop.on_ack(), None, "nothing asked yet");
+        snoop.on_update(&CalibrationUpdate::AccelPosition { position: 1 });
+        assert_eq!(snoop.on_ack(), Some(CalibrationRequest::AccelPosition { position: 1 }));
+        assert_eq!(snoop.on_ack(), None, "one ACK, one position");
+        snoop.on_update(&CalibrationUpdate::AccelPosition { position: 2 });
+        assert_eq!(snoop.on_ack(), Some(CalibrationRequest::AccelPosition { position: 2 }));
+        snoop.on_update(&CalibrationUpdate::AccelPosition { position: 16_777_215 });
+        assert_eq!(snoop.on_ack(), None, "ACCELCAL_VEHICLE_POS_SUCCESS is no position");
+    }
+
+    #[test]
+    fn a_ground_station_answering_by_command_is_not_snooped() {
+        let mut snoop = AccelcalSnoop::default();
+        snoop.on_command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION);
+        snoop.on_update(&CalibrationUpdate::AccelPosition { position: 1 });
+        snoop.on_command(MavCmd::MAV_CMD_ACCELCAL_VEHICLE_POS);
+        snoop.on_update(&CalibrationUpdate::AccelPosition { position: 2 });
+        assert_eq!(snoop.on_ack(), None, "its ACKs answer something else");
+        snoop.on_command(MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION);
+        snoop.on_update(&CalibrationUpdate::AccelPosition { position: 1 });
+        assert_eq!(
+            snoop.on_ack(),
+            Some(CalibrationRequest::AccelPosition { position: 1 }),
+            "a new start listens again"
+        );
     }
 
     #[test]
