@@ -9,7 +9,7 @@ use std::time::Duration;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationCommand, CalibrationEvent, CommandResult, DepthGrid,
     EstimatorStatus, FailureInjection, FailureInjectionResult, GpsFix, GroundTruth, ManualControl, Mission,
-    NavState, ParamDecl, ParamSet, VehicleCommand, VehicleStatus,
+    NavState, ParamDecl, ParamSet, SensorHealth, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -39,6 +39,9 @@ pub enum LinkInput {
     Depth(DepthGrid),
     /// The obstacle avoider's newest correction (port `avoidance`), sent as DEBUG_VECT.
     Avoidance(AvoidanceCommand),
+    /// A driver's health report (port `sensor_health`; hardware graphs): errors become a
+    /// STATUSTEXT warning.
+    SensorHealth(SensorHealth),
     /// The simulator's ground truth (port `ground_truth`; simulated graphs only), sent as
     /// SIMSTATE as ArduPilot SITL does, so a ground station can judge the estimate.
     Truth(Box<GroundTruth>),
@@ -158,6 +161,7 @@ impl Actor for LinkActor {
         setup.input("depth_grid", LinkInput::Depth);
         setup.input("avoidance", LinkInput::Avoidance);
         setup.input("ground_truth", |t| LinkInput::Truth(Box::new(t)));
+        setup.input("sensor_health", LinkInput::SensorHealth);
         setup.input("param_decl", LinkInput::ParamDecl);
         setup.input("calibration_event", LinkInput::Calibration);
         setup.input("failure_result", LinkInput::FailureResult);
@@ -238,6 +242,10 @@ impl Actor for LinkActor {
                 LinkInput::Avoidance(a) => {
                     hub.vehicle().on_avoidance(a);
                     Vec::new()
+                }
+                LinkInput::SensorHealth(h) => {
+                    let out = hub.vehicle().on_sensor_health(&h);
+                    hub.dispatch(out)
                 }
                 LinkInput::Truth(t) => {
                     hub.vehicle().on_truth(*t);

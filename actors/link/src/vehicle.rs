@@ -11,7 +11,7 @@ use kestrel_proto::Time;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
     EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, GpsFix, GroundTruth, NavState,
-    ParamDecl, VehicleStatus,
+    ParamDecl, SensorHealth, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -312,6 +312,20 @@ impl Vehicle {
         self.telemetry.snapshot.depth = Some(depth);
     }
 
+    /// A driver's health report: errors in its window are a STATUSTEXT warning (one per report,
+    /// so at most one a second per driver), as ArduPilot reports a failing sensor.
+    pub fn on_sensor_health(&mut self, health: &SensorHealth) -> Outputs {
+        if health.errors == 0 {
+            return Outputs::none();
+        }
+        let text =
+            format!("{}: {} errors in the last second ({})", health.sensor, health.errors, health.device);
+        Outputs {
+            mav: calibration::chunked(MavSeverity::MAV_SEVERITY_WARNING, &text, &mut self.text_id),
+            graph: Vec::new(),
+        }
+    }
+
     /// The simulator's latest ground truth (for SIMSTATE).
     pub fn on_truth(&mut self, truth: GroundTruth) {
         self.telemetry.snapshot.truth = Some(truth);
@@ -404,6 +418,29 @@ mod tests {
             })
             .collect();
         Vehicle::new(7, ParamTable::new(specs).expect("valid"), Duration::from_secs(5))
+    }
+
+    #[test]
+    fn driver_errors_become_one_warning_per_report() {
+        let mut v = vehicle(0);
+        let health = |errors| SensorHealth {
+            time: Time::ZERO,
+            sensor: "motors".into(),
+            device: "/sys/class/pwm/pwmchip0".into(),
+            rate_hz: 1600.0,
+            errors,
+            errors_total: errors,
+            clipped: 0,
+        };
+        assert!(v.on_sensor_health(&health(0)).mav.is_empty(), "a healthy driver is quiet");
+        let out = v.on_sensor_health(&health(20));
+        let mut text = String::new();
+        for m in &out.mav {
+            let MavMessage::STATUSTEXT(t) = m else { panic!("{m:?}") };
+            assert_eq!(t.severity, MavSeverity::MAV_SEVERITY_WARNING);
+            text.push_str(String::from_utf8_lossy(&t.text.to_vec()).trim_end_matches('\0'));
+        }
+        assert_eq!(text, "motors: 20 errors in the last second (/sys/class/pwm/pwmchip0)");
     }
 
     fn status(reached: u32) -> VehicleStatus {

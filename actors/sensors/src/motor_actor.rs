@@ -1,14 +1,22 @@
-//! The motor output actor: actuator commands in, PWM pulses out, with a watchdog timer that
-//! reports a controller gone quiet while armed (the pulses are held; see
-//! [`MotorOutput::watchdog`]).
+//! The motor output actor: actuator commands in, PWM pulses out through the output thread
+//! ([`OutputThread`]), which outlives this actor's restarts (kept in a keepsake) so that a
+//! failure here never cuts the motors. A `watchdog` timer reports a controller gone quiet while
+//! armed (the pulses are held: [`CommandWatchdog`]); a `health_report` timer publishes the
+//! writes and failed writes on `health` ([`SensorHealth`], as the other drivers do). A motor
+//! without its pulse for `fail_after_s` while armed (the write keeps failing) fails this actor
+//! with the reason: the motors actor is flight-critical in `config/navio2.toml`, so that failure
+//! is the commander's failsafe (land), while the output thread keeps retrying.
 
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Duration;
 
-use kestrel_proto::messages::ActuatorOutputs;
-use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
+use kestrel_proto::messages::{ActuatorOutputs, SensorHealth};
+use kestrel_proto::{Actor, ActorError, Context, Keepsake, Publisher, Setup, Time};
 use serde::Deserialize;
 
-use crate::pwm::{MotorOutput, PulseConfig};
+use crate::health::{Counters, HealthWindow};
+use crate::pwm::{CommandWatchdog, MotorOutput, OutputThread, PulseConfig};
 
 /// `[actors.motors.params]`.
 #[derive(Clone, Debug, Deserialize)]
@@ -23,6 +31,10 @@ pub struct MotorActorParams {
     pub pulses: PulseConfig,
     /// Silence from the controller after which it is reported (s).
     pub timeout_s: f64,
+    /// How long a motor may go without the pulse it should have (its writes failing) while
+    /// armed before that is a failure of this actor, and so a failsafe (s). A transient error
+    /// (EIO for some milliseconds) is retried every 2.5 ms and stays below it.
+    pub fail_after_s: f64,
 }
 
 impl Default for MotorActorParams {
@@ -33,6 +45,7 @@ impl Default for MotorActorParams {
             channels: vec![0, 1, 2, 3],
             pulses: PulseConfig::default(),
             timeout_s: 0.1,
+            fail_after_s: 0.5,
         }
     }
 }
@@ -44,11 +57,33 @@ pub enum MotorInput {
     Actuators(ActuatorOutputs),
     /// Timer `watchdog`, at a quarter of the timeout.
     Watchdog(Time),
+    /// Timer `health_report`, every second.
+    Health(Time),
 }
 
-/// The motor output actor. No outputs.
+/// The outputs before the thread runs, or the thread.
+enum Output {
+    Opened(MotorOutput),
+    Running(Arc<OutputThread>),
+}
+
+/// The motor output actor. Output: `health`.
 pub struct MotorActor {
-    motors: MotorOutput,
+    output: Option<Output>,
+    keepsake: Keepsake<Arc<OutputThread>>,
+    watchdog: CommandWatchdog,
+    fail_after: Duration,
+    window: Option<HealthWindow>,
+    health: Publisher<SensorHealth>,
+}
+
+impl MotorActor {
+    fn thread(&self) -> Option<&Arc<OutputThread>> {
+        match &self.output {
+            Some(Output::Running(thread)) => Some(thread),
+            _ => None,
+        }
+    }
 }
 
 impl Actor for MotorActor {
@@ -60,69 +95,181 @@ impl Actor for MotorActor {
         setup: &mut impl Setup<MotorInput>,
     ) -> Result<MotorActor, ActorError> {
         let timeout = kestrel_proto::timing::positive_seconds("timeout_s", params.timeout_s, 60.0)?;
-        let root = setup.config_dir().join(&params.root);
-        let motors = MotorOutput::open(
-            &root,
-            params.chip,
-            &params.channels,
-            params.pulses.clone(),
-            timeout,
-            &mut std::thread::sleep,
-        )
-        .map_err(|e| ActorError::Failed(e.to_string()))?;
+        let fail_after = kestrel_proto::timing::positive_seconds("fail_after_s", params.fail_after_s, 60.0)?;
+        let keepsake = setup.keepsake::<Arc<OutputThread>>("output");
+        let output = match keepsake.take().filter(|thread| !thread.is_finished()) {
+            Some(thread) => {
+                tracing::warn!(
+                    actor = setup.name(),
+                    "restarted: the output thread held the motors at their last pulses"
+                );
+                keepsake.keep(&thread);
+                Output::Running(thread)
+            }
+            None => {
+                let root = setup.config_dir().join(&params.root);
+                let motors = MotorOutput::open(
+                    &root,
+                    params.chip,
+                    &params.channels,
+                    params.pulses.clone(),
+                    &mut std::thread::sleep,
+                )
+                .map_err(|e| ActorError::Failed(e.to_string()))?;
+                Output::Opened(motors)
+            }
+        };
         setup.input("actuators", MotorInput::Actuators);
         setup.timer("watchdog", timeout / 4, MotorInput::Watchdog);
-        Ok(MotorActor { motors })
+        setup.timer("health_report", Duration::from_secs(1), MotorInput::Health);
+        Ok(MotorActor {
+            output: Some(output),
+            keepsake,
+            watchdog: CommandWatchdog::new(timeout),
+            fail_after,
+            window: None,
+            health: setup.output("health"),
+        })
+    }
+
+    async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
+        let thread = match self.output.take() {
+            Some(Output::Opened(motors)) => {
+                let shutdown = ctx.shutdown().clone();
+                let thread = OutputThread::spawn(
+                    &format!("{}-output", ctx.name()),
+                    motors,
+                    Arc::clone(ctx.clock()),
+                    move || shutdown.is_cancelled(),
+                )
+                .map_err(|source| ActorError::Io {
+                    what: "cannot start the motor output thread".into(),
+                    source,
+                })?;
+                let thread = Arc::new(thread);
+                self.keepsake.keep(&thread);
+                thread
+            }
+            Some(Output::Running(thread)) => thread,
+            None => return Err(ActorError::Failed("motor outputs already started".into())),
+        };
+        self.window = Some(HealthWindow::new(ctx.name(), &thread.device, ctx.now()));
+        self.output = Some(Output::Running(thread));
+        Ok(())
     }
 
     async fn handle(&mut self, ctx: &Context, input: MotorInput) -> Result<(), ActorError> {
-        let result = match input {
-            MotorInput::Actuators(outputs) => self.motors.apply(&outputs, ctx.now()),
+        let Some(thread) = self.thread().cloned() else {
+            return Err(ActorError::Failed("motor outputs not started".into()));
+        };
+        match input {
+            MotorInput::Actuators(outputs) => {
+                self.watchdog.on_command(ctx.now(), outputs.armed);
+                thread.send(outputs);
+            }
             MotorInput::Watchdog(now) => {
-                if self.motors.watchdog(now) {
+                if self.watchdog.check(now) {
                     tracing::warn!(
-                        silences = self.motors.silences(),
+                        silences = self.watchdog.silences(),
                         "no actuator commands for the timeout while armed: holding the last pulses"
                     );
                 }
-                Ok(())
+                let failing = thread.failing_for(now);
+                if self.watchdog.armed() && failing > self.fail_after {
+                    return Err(ActorError::Failed(format!(
+                        "PWM output {}: a motor without its pulse for {:.2} s (writes failing, {} so far; still retrying)",
+                        thread.device,
+                        failing.as_secs_f64(),
+                        thread.counts().errors
+                    )));
+                }
             }
-        };
-        result.map_err(|e| ActorError::Failed(e.to_string()))
+            MotorInput::Health(now) => {
+                let counts = thread.counts();
+                if let Some(window) = &mut self.window {
+                    let totals = Counters { published: counts.writes, errors: counts.errors, clipped: 0 };
+                    let health = window.report(now, totals);
+                    if health.errors > 0 {
+                        tracing::warn!(errors = health.errors, device = %thread.device, "PWM writes failed in the last second (retried)");
+                    }
+                    self.health.publish(health);
+                }
+            }
+        }
+        Ok(())
     }
 
-    async fn stop(&mut self, _ctx: &Context) {
-        if let Err(e) = self.motors.disarm() {
-            tracing::error!("could not disarm the motors: {e}");
+    async fn stop(&mut self, ctx: &Context) {
+        // Only the graph's shutdown ends the outputs (disarmed); a restart keeps them running.
+        if ctx.shutdown().is_cancelled()
+            && let Some(thread) = self.thread()
+        {
+            thread.join();
         }
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use std::time::Duration;
-
     use kestrel_proto::messages::MAX_MOTORS;
     use kestrel_proto::testing::{TestSetup, ready};
 
     use super::*;
     use crate::pwm::sysfs::tests::FakePwmRoot;
 
+    fn armed(t_us: u64, level: f64) -> ActuatorOutputs {
+        ActuatorOutputs { time: Time::from_micros(t_us), armed: true, motors: [level; MAX_MOTORS] }
+    }
+
+    fn wait_for(fake: &FakePwmRoot, file: &str, value: &str) {
+        for _ in 0..2000 {
+            if fake.read(file) == value {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        panic!("{file} never read {value}: {}", fake.read(file));
+    }
+
     #[test]
-    fn drives_the_motors_and_holds_them_when_the_controller_stops() {
+    fn drives_the_motors_holds_them_across_a_restart_and_disarms_at_shutdown() {
         let fake = FakePwmRoot::new("actor", 0, &[0, 1, 2, 3]);
         let params = MotorActorParams { root: fake.root.clone(), ..MotorActorParams::default() };
         let mut setup = TestSetup::new("motors", "/");
         let mut actor = MotorActor::build(&params, &mut setup).expect("build");
-        assert_eq!(setup.timers(), [("watchdog", Duration::from_millis(25))]);
+        assert_eq!(
+            setup.timers(),
+            [("watchdog", Duration::from_millis(25)), ("health_report", Duration::from_secs(1))]
+        );
         let ctx = setup.context();
         setup.manual_clock().set(Time::from_micros(1_000_000));
-        let armed =
-            ActuatorOutputs { time: Time::from_micros(1_000_000), armed: true, motors: [0.25; MAX_MOTORS] };
-        ready(actor.handle(&ctx, setup.input("actuators", armed))).expect("apply");
-        assert_eq!(fake.read("pwmchip0/pwm2/duty_cycle"), "1250000");
+        ready(actor.start(&ctx)).expect("start");
+        ready(actor.handle(&ctx, setup.input("actuators", armed(1_000_000, 0.25)))).expect("apply");
+        wait_for(&fake, "pwmchip0/pwm2/duty_cycle", "1250000");
         ready(actor.handle(&ctx, setup.tick("watchdog", Time::from_micros(1_200_000)))).expect("watchdog");
         assert_eq!(fake.read("pwmchip0/pwm2/duty_cycle"), "1250000", "held, not cut");
+
+        // The actor fails and the supervisor builds it again: the motors keep their pulses.
+        drop(actor);
+        std::thread::sleep(Duration::from_millis(20));
+        assert_eq!(fake.read("pwmchip0/pwm2/duty_cycle"), "1250000", "a restart does not disarm");
+        let mut actor = MotorActor::build(&params, &mut setup).expect("build again");
+        ready(actor.start(&ctx)).expect("start again");
+        assert_eq!(fake.read("pwmchip0/pwm2/duty_cycle"), "1250000", "nor does the successor's start");
+        ready(actor.handle(&ctx, setup.input("actuators", armed(1_300_000, 0.5)))).expect("apply");
+        wait_for(&fake, "pwmchip0/pwm0/duty_cycle", "1500000");
+
+        let now = Time::from_micros(2_000_000);
+        setup.manual_clock().set(now);
+        ready(actor.handle(&ctx, setup.tick("health_report", now))).expect("health");
+        let health: Vec<SensorHealth> = setup.published("health");
+        assert_eq!(health.len(), 1);
+        assert_eq!(health[0].errors, 0, "{:?}", health[0]);
+        assert!(health[0].device.ends_with("pwmchip0"), "{:?}", health[0]);
+
+        ctx.shutdown().cancel();
+        ready(actor.stop(&ctx));
+        assert_eq!(fake.read("pwmchip0/pwm0/duty_cycle"), "1000000", "disarmed at shutdown");
     }
 
     #[test]

@@ -4,6 +4,8 @@
 //! `<root>/pwmchipN/pwmM/`. The root is configurable so tests use a temporary directory as
 //! a fake `/sys/class/pwm`.
 
+use std::fs::File;
+use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -32,11 +34,16 @@ fn write(path: PathBuf, value: impl std::fmt::Display) -> Result<(), PwmError> {
     std::fs::write(&path, value.to_string()).map_err(|source| PwmError::Io { path, source })
 }
 
-/// An exported, configured channel.
+/// An exported, configured channel, its `duty_cycle` kept open: a pulse is one `pwrite` at
+/// offset 0 (each write to a sysfs attribute is one `store` in the driver), with no open, no
+/// path and no allocation per command.
 #[derive(Debug)]
 pub struct PwmChannel {
     dir: PathBuf,
     duty_path: PathBuf,
+    duty: File,
+    /// Length of the last value written, to trim a longer one left in a regular file.
+    written_len: usize,
 }
 
 impl PwmChannel {
@@ -69,17 +76,50 @@ impl PwmChannel {
         write(dir.join("period"), period_ns)?;
         write(dir.join("duty_cycle"), duty_ns)?;
         write(dir.join("enable"), 1)?;
-        Ok(PwmChannel { duty_path: dir.join("duty_cycle"), dir })
+        let duty_path = dir.join("duty_cycle");
+        let duty = std::fs::OpenOptions::new()
+            .write(true)
+            .open(&duty_path)
+            .map_err(|source| PwmError::Io { path: duty_path.clone(), source })?;
+        let written_len = decimal(duty_ns, &mut [0; 20]).len();
+        Ok(PwmChannel { duty_path, dir, duty, written_len })
     }
 
-    /// Sets the pulse width (ns).
-    pub fn set_duty_ns(&self, duty_ns: u64) -> Result<(), PwmError> {
-        write(self.duty_path.clone(), duty_ns)
+    /// Sets the pulse width (ns). A regular file standing in for the attribute (tests, the HIL
+    /// bench) is cut to the new length; sysfs has no length to cut, and the error of trying is
+    /// not the write's.
+    pub fn set_duty_ns(&mut self, duty_ns: u64) -> std::io::Result<()> {
+        let mut buf = [0; 20];
+        let text = decimal(duty_ns, &mut buf);
+        self.duty.write_all_at(text, 0)?;
+        if text.len() < self.written_len {
+            let _ = self.duty.set_len(text.len() as u64);
+        }
+        self.written_len = text.len();
+        Ok(())
+    }
+
+    /// The `duty_cycle` file, for reports.
+    pub fn duty_path(&self) -> &Path {
+        &self.duty_path
     }
 
     /// The channel's directory.
     pub fn dir(&self) -> &Path {
         &self.dir
+    }
+}
+
+/// `value` in decimal ASCII, in `buf`.
+fn decimal(mut value: u64, buf: &mut [u8; 20]) -> &[u8] {
+    let mut start = buf.len();
+    loop {
+        start -= 1;
+        buf[start] = b'0' + (value % 10) as u8;
+        value /= 10;
+        if value == 0 {
+            return &buf[start..];
+        }
     }
 }
 
@@ -119,12 +159,24 @@ pub(crate) mod tests {
     #[test]
     fn configures_an_exported_channel() {
         let fake = FakePwmRoot::new("configure", 0, &[3]);
-        let channel = PwmChannel::open(&fake.root, 0, 3, 2_500_000, 1_000_000, &mut |_| {}).expect("open");
+        let mut channel =
+            PwmChannel::open(&fake.root, 0, 3, 2_500_000, 1_000_000, &mut |_| {}).expect("open");
         assert_eq!(fake.read("pwmchip0/pwm3/period"), "2500000");
         assert_eq!(fake.read("pwmchip0/pwm3/duty_cycle"), "1000000");
         assert_eq!(fake.read("pwmchip0/pwm3/enable"), "1");
         channel.set_duty_ns(1_500_000).expect("write");
         assert_eq!(fake.read("pwmchip0/pwm3/duty_cycle"), "1500000");
+        channel.set_duty_ns(900_000).expect("write");
+        assert_eq!(fake.read("pwmchip0/pwm3/duty_cycle"), "900000", "no digit of the longer value left");
+        channel.set_duty_ns(12_345_678).expect("write");
+        assert_eq!(fake.read("pwmchip0/pwm3/duty_cycle"), "12345678");
+    }
+
+    #[test]
+    fn decimal_is_the_number_in_ascii() {
+        for v in [0u64, 7, 10, 999_999, 1_000_000, u64::MAX] {
+            assert_eq!(decimal(v, &mut [0; 20]), v.to_string().as_bytes());
+        }
     }
 
     #[test]
