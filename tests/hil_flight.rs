@@ -4,14 +4,14 @@
 //! and its estimator is compared with the same mission flown by the lockstep graph
 //! (`config/sim.toml`) in the same test.
 //!
-//! The HIL flight is realtime: it takes the mission's real duration (about a minute), and it
-//! is ignored by default: on a loaded 2-core host the estimator and the motor actor (tokio
-//! workers at normal priority) are starved for more than 100 ms at a time while the SCHED_FIFO
-//! world and controller run, and the flight fails; see the hand-over note of issue 17. The
-//! Navio2 graph binds no fixed local port (its link sends to 192.168.1.2:14550 from an
-//! ephemeral port, its radio is absent), so it runs in the host's namespace, where SCHED_FIFO
-//! can be granted; the lockstep run binds the default ports and runs in a network namespace of
-//! its own.
+//! The HIL flight is realtime: it takes the mission's real duration (about a minute). It runs
+//! alone (`threads-required = 'num-cpus'` in `.config/nextest.toml`): with the rest of the
+//! suite beside it on a 2-core host, the tokio side of the graph was starved for more than
+//! 100 ms at a time while the SCHED_FIFO world and controller ran. The motor output no longer
+//! depends on a tokio worker (its own thread, `pwm/output_thread.rs`). The Navio2 graph binds
+//! no fixed local port (its link sends to 192.168.1.2:14550 from an ephemeral port, its radio
+//! is absent), so it runs in the host's namespace, where SCHED_FIFO can be granted; the
+//! lockstep run binds the default ports and runs in a network namespace of its own.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -35,7 +35,6 @@ fn figure(report: &Value, section: &str, key: &str) -> f64 {
 const COMPARED: [&str; 4] = ["rms_horizontal_m", "rms_vertical_m", "rms_velocity_m_s", "rms_roll_pitch_deg"];
 
 #[test]
-#[ignore = "realtime: on this 2-core host under the suite's load (10-12) the async side of the graph starves and the flight fails; run alone with --run-ignored only"]
 fn the_navio2_graph_flies_the_square_on_emulated_hardware() {
     let root = env!("CARGO_MANIFEST_DIR");
     let flight = ["--mission", "config/missions/square.plan", "--auto", "--exit-on-land", "--quiet"];
