@@ -10,6 +10,7 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
 
 /// A bus transfer that failed, naming the device node.
@@ -112,6 +113,34 @@ pub type I2cFactory = Arc<dyn Fn() -> Box<dyn I2cBus + Send> + Send + Sync>;
 struct Plugged {
     spi: HashMap<PathBuf, SpiFactory>,
     i2c: HashMap<(PathBuf, u8), I2cFactory>,
+    write_faults: HashMap<PathBuf, Arc<WriteFault>>,
+}
+
+/// A switch that makes a driver's writes to one file fail with EIO while it is on: how a
+/// hardware-in-the-loop bench makes an emulated sysfs attribute (a regular file, which never
+/// fails) fail as the RCIO co-processor's does when its SPI link hiccups. A driver looks its
+/// file up once, when it opens it ([`write_fault`]), and checks the switch before each write
+/// (one atomic load).
+#[derive(Debug, Default)]
+pub struct WriteFault {
+    failing: AtomicBool,
+}
+
+impl WriteFault {
+    /// Turns the failure on or off.
+    pub fn set(&self, failing: bool) {
+        self.failing.store(failing, Ordering::Relaxed);
+    }
+
+    /// `Err(EIO)` while the failure is on.
+    pub fn check(&self) -> std::io::Result<()> {
+        const EIO: i32 = 5; // Linux's "I/O error"
+        if self.failing.load(Ordering::Relaxed) {
+            Err(std::io::Error::from_raw_os_error(EIO))
+        } else {
+            Ok(())
+        }
+    }
 }
 
 static PLUGGED: Mutex<Option<Plugged>> = Mutex::new(None);
@@ -128,6 +157,16 @@ pub fn plug_spi(path: &Path, open: SpiFactory) {
 /// Plugs an I2C device in at `address` on bus `path` (e.g. `/dev/i2c-1`, 0x77).
 pub fn plug_i2c(path: &Path, address: u8, open: I2cFactory) {
     plugged(|p| p.i2c.insert((path.to_owned(), address), open));
+}
+
+/// The fault switch of the file at `path`, made off if there was none.
+pub fn plug_write_fault(path: &Path) -> Arc<WriteFault> {
+    plugged(|p| Arc::clone(p.write_faults.entry(path.to_owned()).or_default()))
+}
+
+/// The fault switch plugged in for the file at `path`, if any.
+pub fn write_fault(path: &Path) -> Option<Arc<WriteFault>> {
+    plugged(|p| p.write_faults.get(path).cloned())
 }
 
 /// The device plugged in at `path`, if any (else the driver opens the kernel's node).

@@ -7,7 +7,10 @@
 use std::fs::File;
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Duration;
+
+use kestrel_proto::bus::WriteFault;
 
 /// How long to wait for an exported channel's directory to appear (udev may also need to fix
 /// its permissions), in polls of [`EXPORT_POLL`].
@@ -44,6 +47,8 @@ pub struct PwmChannel {
     duty: File,
     /// Length of the last value written, to trim a longer one left in a regular file.
     written_len: usize,
+    /// A hardware-in-the-loop bench's fault switch for this file, if one is plugged in.
+    fault: Option<Arc<WriteFault>>,
 }
 
 impl PwmChannel {
@@ -82,13 +87,17 @@ impl PwmChannel {
             .open(&duty_path)
             .map_err(|source| PwmError::Io { path: duty_path.clone(), source })?;
         let written_len = decimal(duty_ns, &mut [0; 20]).len();
-        Ok(PwmChannel { duty_path, dir, duty, written_len })
+        let fault = kestrel_proto::bus::write_fault(&duty_path);
+        Ok(PwmChannel { duty_path, dir, duty, written_len, fault })
     }
 
     /// Sets the pulse width (ns). A regular file standing in for the attribute (tests, the HIL
     /// bench) is cut to the new length; sysfs has no length to cut, and the error of trying is
     /// not the write's.
     pub fn set_duty_ns(&mut self, duty_ns: u64) -> std::io::Result<()> {
+        if let Some(fault) = &self.fault {
+            fault.check()?;
+        }
         let mut buf = [0; 20];
         let text = decimal(duty_ns, &mut buf);
         self.duty.write_all_at(text, 0)?;

@@ -11,7 +11,7 @@ use std::io;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard, PoisonError};
 
-use kestrel_proto::bus::{I2cBus, SpiBus, plug_i2c, plug_spi};
+use kestrel_proto::bus::{I2cBus, SpiBus, WriteFault, plug_i2c, plug_spi, plug_write_fault};
 
 use super::mpu9250::{MPU9250_WHO_AM_I, Mpu9250World};
 use super::ms5611::{DATASHEET_COEFFICIENTS, Ms5611World};
@@ -99,6 +99,8 @@ pub struct Navio2Bench {
     pub pwm: PwmChip,
     pub rcio: RcioTree,
     gps: Mutex<GpsLine>,
+    /// Each PWM channel's `duty_cycle` fault switch.
+    pwm_faults: Vec<Arc<WriteFault>>,
 }
 
 static INSTALLED: Mutex<Option<Arc<Navio2Bench>>> = Mutex::new(None);
@@ -113,12 +115,19 @@ impl Navio2Bench {
         let rcio = RcioTree::create(&config.rcio_root())?;
         let imu = Mpu9250World::default();
         let baro_chip = Ms5611Emulator::new(&config.baro_device, DATASHEET_COEFFICIENTS);
+        let chip_dir = config.pwm_root().join(format!("pwmchip{}", config.pwm_chip));
+        let pwm_faults = config
+            .pwm_channels
+            .iter()
+            .map(|ch| plug_write_fault(&chip_dir.join(format!("pwm{ch}")).join("duty_cycle")))
+            .collect();
         let bench = Arc::new(Navio2Bench {
             imu: imu.clone(),
             baro: baro_chip.world(),
             pwm,
             rcio,
             gps: Mutex::new(GpsLine { receiver: UbloxReceiver::new(), pty: Some(pty) }),
+            pwm_faults,
             config: config.clone(),
         });
         let (path, who_am_i) = (config.imu_device.clone(), config.imu_who_am_i);
@@ -140,6 +149,13 @@ impl Navio2Bench {
     /// The bench installed in this process, if any.
     pub fn installed() -> Option<Arc<Navio2Bench>> {
         INSTALLED.lock().unwrap_or_else(PoisonError::into_inner).clone()
+    }
+
+    /// Makes every write to the PWM channels' `duty_cycle` fail with EIO (`true`) or work again.
+    pub fn fail_pwm_writes(&self, failing: bool) {
+        for fault in &self.pwm_faults {
+            fault.set(failing);
+        }
     }
 
     /// The receiver and its line.
