@@ -63,6 +63,7 @@ fn bench(c: &mut Criterion) {
         armed: true,
         target: SetpointTarget::Trajectory(target()),
         landing: false,
+        failed_motor: None,
     };
     let mut i = 0u64;
     c.bench_function("flight_controller_step", |b| {

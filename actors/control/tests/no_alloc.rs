@@ -68,6 +68,7 @@ fn a_loop_iteration_allocates_nothing() {
                 armed: true,
                 target,
                 landing: false,
+                failed_motor: None,
             }));
             nav_w.write(Some(nav(i)));
             if let (Some(sp), true) = sp_r.read() {

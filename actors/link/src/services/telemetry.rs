@@ -636,6 +636,7 @@ mod tests {
             armable: false,
             home: Some(Home { position_ned_m: [110.6, 0.0, -5.0], revision: 2 }),
             geofence_enabled: true,
+            failed_motor: None,
         });
         let moved = home(&t);
         assert!((moved.latitude - 67_981_000).abs() < 20, "{}", moved.latitude);
@@ -671,6 +672,7 @@ mod tests {
             armable: false,
             home: None,
             geofence_enabled: true,
+            failed_motor: None,
         };
         t.snapshot.status = Some(status(0, 0));
         assert_eq!(current(&t), (1, 6, MissionState::MISSION_STATE_ACTIVE));
