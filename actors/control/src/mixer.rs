@@ -75,8 +75,8 @@ const RANK_TOLERANCE: f64 = 1e-9;
 
 /// The effectiveness of `airframe`'s motors (rows roll, pitch, yaw torque in N·m and
 /// collective thrust in N per unit command; column i motor i), with motor `failed`'s column
-/// zeroed. Public for the tests' independent reference.
-pub fn effectiveness(airframe: &AirframeParams, failed: Option<usize>) -> DMatrix<f64> {
+/// zeroed.
+fn effectiveness(airframe: &AirframeParams, failed: Option<usize>) -> DMatrix<f64> {
     let rotors: Vec<_> = airframe.frame.motors(airframe.arm_length_m).collect();
     let t_max = airframe.max_thrust_per_motor_n;
     // Thrust along body up is -z; torque = r × (0, 0, -T) = (-y·T, x·T, 0) plus the
@@ -97,7 +97,7 @@ pub fn effectiveness(airframe: &AirframeParams, failed: Option<usize>) -> DMatri
 }
 
 /// Rank of `m` by its singular values.
-pub fn rank(m: &DMatrix<f64>) -> usize {
+fn rank(m: &DMatrix<f64>) -> usize {
     let sv = m.clone().svd(false, false).singular_values;
     let largest = sv.max();
     sv.iter().filter(|&&s| s > RANK_TOLERANCE * largest).count()
@@ -124,6 +124,11 @@ impl Allocation {
                 out.torque_to_command[i] = [roll, pitch, yaw_k];
                 out.thrust_to_command[i] = thrust;
             }
+        }
+        // Its row of the pseudo-inverse is zero up to rounding: make it exactly so.
+        if let Some(f) = failed {
+            out.torque_to_command[f] = [0.0; 3];
+            out.thrust_to_command[f] = 0.0;
         }
         out
     }

@@ -1,11 +1,13 @@
 //! Flying on after a motor failure, closed loop (true state, no estimator): the simulator's
 //! `motor_lost` fault, and the setpoint naming the failed motor from the detector's timeout on,
-//! as the commander does.
+//! as the commander does. A quad has no such test: on three rotors the one opposite the lost
+//! motor can push only one way about the diagonal through the other two, and the cascade here
+//! does not hold attitude so (the fault matrix's row 13 measures what happens).
 
 mod common;
 
 use common::{Loop, hold};
-use kestrel_proto::messages::{SetpointTarget, TrajectorySetpoint};
+use kestrel_proto::messages::SetpointTarget;
 use kestrel_sim::{FaultKind, World};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -43,27 +45,4 @@ fn a_hexa_that_lost_a_motor_holds_its_position_on_the_other_five() {
     );
     assert!(l.ctl.mixer().has_yaw_authority());
     assert!(!l.sim.crashed() && tilt < 0.5 && final_error < 0.5, "tilt {tilt} rad, error {final_error} m");
-}
-
-#[test]
-fn a_quad_that_lost_a_motor_stays_upright_while_it_descends() {
-    let mut l = Loop::new(World::default(), [0.0, 0.0, -10.0], UnitQuaternion::identity());
-    l.fly(hold([0.0, 0.0, -10.0], 0.0), 2.0, |_| {});
-    let descend = SetpointTarget::Trajectory(TrajectorySetpoint {
-        position_ned_m: [Some(0.0), Some(0.0), None],
-        velocity_ned_m_s: [None, None, Some(1.5)],
-        ..TrajectorySetpoint::default()
-    });
-    let (tilt, error) = lose_motor_1(&mut l, descend);
-    let s = l.sim.state();
-    println!(
-        "quad, motor 1 lost: worst tilt {:.1} deg, worst distance {error:.2} m, landed {} crashed {}, at {:?}, yaw rate {:.1} rad/s",
-        tilt.to_degrees(),
-        l.sim.landed(),
-        l.sim.crashed(),
-        s.position_ned_m,
-        s.angular_velocity_frd_rad_s.z
-    );
-    assert!(!l.ctl.mixer().has_yaw_authority());
-    assert!(l.sim.landed() && !l.sim.crashed());
 }
