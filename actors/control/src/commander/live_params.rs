@@ -310,7 +310,10 @@ mod tests {
         assert!(!params.failsafe.motor_failure.enabled);
         assert_eq!(apply(&mut params, "FD_ACT_MOT_TOUT", 0.25), Ok(ParamChange::Applied));
         assert_eq!(params.failsafe.motor_failure.timeout_s, 0.25);
-        assert!(apply(&mut params, "FD_ACT_MOT_THR", 1.0).is_err(), "a threshold of full throttle never judges");
+        assert!(
+            apply(&mut params, "FD_ACT_MOT_THR", 1.0).is_err(),
+            "a threshold of full throttle never judges"
+        );
         assert!(apply(&mut params, "FD_ACT_MOT_TOUT", f64::NAN).is_err());
     }
 }
