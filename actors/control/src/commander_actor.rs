@@ -226,7 +226,9 @@ impl CommanderActor {
         let due = |last: Option<Time>, rate_hz: f64| {
             last.is_none_or(|t| now.saturating_since(t).as_secs_f64() >= 1.0 / rate_hz)
         };
-        let changed = self.last_setpoint.is_none_or(|l| l.target != sp.target || l.armed != sp.armed);
+        let changed = self.last_setpoint.is_none_or(|l| {
+            l.target != sp.target || l.armed != sp.armed || l.failed_motor != sp.failed_motor
+        });
         if changed || due(self.last_setpoint.map(|s| s.time), p.setpoint_rate_hz) {
             self.setpoint.publish(sp);
             self.last_setpoint = Some(sp);
