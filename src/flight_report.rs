@@ -77,6 +77,20 @@ pub struct FlightReport {
     /// What the estimator noticed, in order; empty without an estimator.
     #[serde(default)]
     pub estimator_events: Vec<EstimatorEvent>,
+    /// Each motor the commander's failure detector declared failed (`VehicleStatus::failed_motor`),
+    /// when first reported; empty without ESC telemetry or failures. A hexa flies on without
+    /// a failsafe, so this is where its failure shows.
+    #[serde(default)]
+    pub motor_failures: Vec<MotorFailureEntry>,
+}
+
+/// A motor declared failed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MotorFailureEntry {
+    /// Graph time of the status that first reported it (s).
+    pub t_s: f64,
+    /// The motor, 1-based as the frame's motor table and the simulator's faults number them.
+    pub motor: u32,
 }
 
 /// A simulated fault starting or ending.
@@ -268,6 +282,7 @@ pub struct FlightReportActor {
     failsafes: Vec<FailsafeEntry>,
     faults: Vec<FaultEntry>,
     estimator_events: EstimatorEvents,
+    motor_failures: Vec<MotorFailureEntry>,
     frame_latency: FrameLatency,
     /// Graph time and host time of the first and the latest stereo frame.
     frames_span: Option<[(Time, Instant); 2]>,
@@ -367,6 +382,11 @@ impl FlightReportActor {
                 action: serde_name(&f.action),
             });
         }
+        let known = self.status.as_ref().and_then(|s| s.failed_motor);
+        if let Some(motor) = status.failed_motor.filter(|m| known != Some(*m)) {
+            self.motor_failures
+                .push(MotorFailureEntry { t_s: status.time.as_secs_f64(), motor: u32::from(motor) + 1 });
+        }
         self.status = Some(status);
     }
 
@@ -425,6 +445,7 @@ impl FlightReportActor {
             failsafes: self.failsafes.clone(),
             faults: self.faults.clone(),
             estimator_events: self.estimator_events.log.clone(),
+            motor_failures: self.motor_failures.clone(),
         }
     }
 }
@@ -459,6 +480,7 @@ impl Actor for FlightReportActor {
             failsafes: Vec::new(),
             faults: Vec::new(),
             estimator_events: EstimatorEvents::default(),
+            motor_failures: Vec::new(),
             frame_latency: FrameLatency::default(),
             frames_span: None,
             path_length_m: 0.0,

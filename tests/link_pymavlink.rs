@@ -53,6 +53,7 @@ impl Actor for StandInCommander {
                 armable: false,
                 home: None,
                 geofence_enabled: true,
+                failed_motor: None,
             },
             status_out: setup.output("vehicle_status"),
             result_out: setup.output("command_result"),

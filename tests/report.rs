@@ -178,8 +178,13 @@ fn synthetic_flight(path: &Path, with_obstacles: bool) {
                 position_ned_m: [Some(position_ned_m[0] + 1.0), Some(0.0), Some(-5.0)],
                 ..TrajectorySetpoint::default()
             };
-            let command =
-                Setpoint { time, armed: true, target: SetpointTarget::Trajectory(target), landing: false };
+            let command = Setpoint {
+                time,
+                armed: true,
+                target: SetpointTarget::Trajectory(target),
+                landing: false,
+                failed_motor: None,
+            };
             setpoint.record(time, &command);
         }
         if tick % 10 == 0 {

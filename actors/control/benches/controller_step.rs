@@ -2,13 +2,19 @@
 //! version of the same cascade: Euler-angle attitude error and a mixer that builds and
 //! pseudo-inverts the effectiveness matrix on the heap every step.
 //!
+//! Also the mixer's slowest path: around a failed hexa motor, with a demand so large that roll
+//! and pitch must be scaled (each scale tried searches the yaw torque that fits best).
+//!
 //! `cargo bench -p kestrel-control --bench controller_step`
 
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use kestrel_control::{ControlParams, FlightController, PositionController, PositionGains};
+use kestrel_control::{
+    AirframeParams, ControlParams, FlightController, Mixer, PositionController, PositionGains,
+};
 use kestrel_proto::Time;
+use kestrel_proto::frame_layout::FrameLayout;
 use kestrel_proto::messages::{NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
 use nalgebra::{DMatrix, DVector, Vector3};
 
@@ -63,6 +69,7 @@ fn bench(c: &mut Criterion) {
         armed: true,
         target: SetpointTarget::Trajectory(target()),
         landing: false,
+        failed_motor: None,
     };
     let mut i = 0u64;
     c.bench_function("flight_controller_step", |b| {
@@ -72,6 +79,12 @@ fn bench(c: &mut Criterion) {
             let _ = ctl.set_setpoint(&sp);
             black_box(ctl.update(black_box(&nav(i))))
         })
+    });
+    let mut mixer = Mixer::new(&AirframeParams { frame: FrameLayout::HexaX, ..AirframeParams::default() });
+    mixer.set_failed_motor(Some(0)).expect("a hexa's motor");
+    let saturating = Vector3::new(-8.0, 5.0, 1.0);
+    c.bench_function("mix_around_failed_motor_saturated", |b| {
+        b.iter(|| black_box(mixer.mix(black_box(&saturating), black_box(20.0))))
     });
     let mut pos = PositionController::new(PositionGains::default(), 0.334);
     c.bench_function("naive_step", |b| b.iter(|| black_box(naive_step(&mut pos, black_box(&nav(1))))));

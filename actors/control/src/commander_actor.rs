@@ -6,7 +6,9 @@
 //! `latest`; optional: routed only where the obstacle avoider runs, and from its first command
 //! on AUTO/GUIDED legs and POSHOLD's forward sticks blend its correction in and hold when it
 //! goes stale); timer `tick` at `tick_rate_hz`;
-//! input `param_set` (ParamSet, `queue`); outputs `setpoint` (Setpoint), `status`
+//! input `param_set` (ParamSet, `queue`); inputs `actuators` (ActuatorOutputs, `latest`) and
+//! `esc_telemetry` (EscTelemetry, `latest`; optional: routed only where ESCs report, as the
+//! simulator's do) for the motor-failure check; outputs `setpoint` (Setpoint), `status`
 //! (VehicleStatus), `command_result` (CommandResult: the answer to each command with an id, at
 //! once) and `param_decl` (ParamDecl: the live parameters, at start and after every
 //! `param_set` naming one of them, so the link serves the value really in use).
@@ -20,9 +22,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult, FlightMode, LandedState,
-    ManualControl, Mission, NavState, ParamDecl, ParamSet, Setpoint, SupervisorEvent, VehicleCommand,
-    VehicleStatus,
+    ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult,
+    EscTelemetry, FlightMode, LandedState, ManualControl, Mission, NavState, ParamDecl, ParamSet, Setpoint,
+    SupervisorEvent, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -78,6 +80,10 @@ pub enum CommanderInput {
     Param(ParamSet),
     /// Calibrations missing or running (port `calibration`; optional), for the pre-arm check.
     Calibration(CalibrationStatus),
+    /// The loop's motor commands (port `actuators`), for the motor check.
+    Actuators(ActuatorOutputs),
+    /// What the motors produce (port `esc_telemetry`; optional).
+    Esc(EscTelemetry),
     Tick(Time),
 }
 
@@ -130,6 +136,8 @@ impl Actor for CommanderActor {
         setup.input("avoidance", |cmd| CommanderInput::Avoidance(Box::new(cmd)));
         setup.input("param_set", CommanderInput::Param);
         setup.input("calibration", CommanderInput::Calibration);
+        setup.input("actuators", CommanderInput::Actuators);
+        setup.input("esc_telemetry", CommanderInput::Esc);
         setup.timer("tick", tick_period, CommanderInput::Tick);
         Ok(CommanderActor {
             commander,
@@ -168,6 +176,15 @@ impl Actor for CommanderActor {
             }
             CommanderInput::Battery(b) => self.commander.on_battery(&b),
             CommanderInput::Calibration(c) => self.commander.on_calibration(&c),
+            CommanderInput::Actuators(a) => self.commander.on_actuators(&a),
+            CommanderInput::Esc(e) => {
+                let known = self.commander.failed_motor();
+                self.commander.on_esc_telemetry(&e);
+                // A failure goes to the loop and the status at once, not at the next NavState.
+                if self.commander.failed_motor() != known {
+                    self.step(ctx, e.time);
+                }
+            }
             CommanderInput::Manual(m) => self.commander.on_manual(&m),
             CommanderInput::Supervisor(e) => self.commander.on_supervisor(&e),
             CommanderInput::Avoidance(cmd) => self.commander.on_avoidance(&cmd),
@@ -209,7 +226,9 @@ impl CommanderActor {
         let due = |last: Option<Time>, rate_hz: f64| {
             last.is_none_or(|t| now.saturating_since(t).as_secs_f64() >= 1.0 / rate_hz)
         };
-        let changed = self.last_setpoint.is_none_or(|l| l.target != sp.target || l.armed != sp.armed);
+        let changed = self.last_setpoint.is_none_or(|l| {
+            l.target != sp.target || l.armed != sp.armed || l.failed_motor != sp.failed_motor
+        });
         if changed || due(self.last_setpoint.map(|s| s.time), p.setpoint_rate_hz) {
             self.setpoint.publish(sp);
             self.last_setpoint = Some(sp);

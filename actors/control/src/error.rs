@@ -53,6 +53,8 @@ pub enum RejectedInput {
     ThrustOutOfRange,
     #[error("navigation state holds a non-finite value")]
     NonFiniteNavState,
+    #[error("setpoint names failed motor {0} (0-based), which the frame does not have")]
+    NoSuchMotor(usize),
 }
 
 /// A QGroundControl `.plan` file that cannot be flown.

@@ -117,6 +117,11 @@ impl FlightController {
         self.position.set_gains(gains.position);
     }
 
+    /// The mixer, with the allocation in use.
+    pub fn mixer(&self) -> &Mixer {
+        &self.mixer
+    }
+
     /// What the loop counted.
     pub fn counters(&self) -> LoopCounters {
         self.counters
@@ -133,8 +138,13 @@ impl FlightController {
     }
 
     /// Takes a new setpoint; a malformed one is refused and counted, and the previous one kept.
+    /// Its failed motor, if any, is removed from the allocation from the next iteration on
+    /// (a copy of a precomputed allocation: no allocation on the loop).
     pub fn set_setpoint(&mut self, sp: &Setpoint) -> Result<(), RejectedInput> {
-        match check_setpoint(sp) {
+        let failed = sp.failed_motor.map(usize::from);
+        let checked = check_setpoint(sp)
+            .and_then(|()| self.mixer.set_failed_motor(failed).map_err(RejectedInput::NoSuchMotor));
+        match checked {
             Ok(()) => {
                 // A new kind of target starts a new heading hold; a moving one of the same kind
                 // keeps it.
@@ -335,6 +345,7 @@ mod tests {
                 ..TrajectorySetpoint::default()
             }),
             landing: false,
+            failed_motor: None,
         }
     }
 

@@ -10,13 +10,15 @@
 //! Without ESC telemetry (Navio2 PWM outputs have none) the detector has no input and never
 //! fires. Pure and allocation-free: it runs on the 400 Hz loop.
 
+use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 /// Most motors a detector tracks (octocopter).
 pub const MAX_MOTORS: usize = 8;
 
 /// Detector parameters, named after PX4's.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct MotorFailureParams {
     /// `FD_ACT_EN`: run the check at all.
     pub enabled: bool,
@@ -70,6 +72,19 @@ impl MotorFailureDetector {
             return Err(MotorFailureError::BadParams("FD_ACT_MOT_TOUT must be > 0"));
         }
         Ok(Self { params, shortfall_s: [0.0; MAX_MOTORS], failed: None })
+    }
+
+    /// Takes new (validated) parameters; the timers and a latched failure are kept.
+    pub fn set_params(&mut self, params: MotorFailureParams) -> Result<(), MotorFailureError> {
+        Self::new(params)?;
+        self.params = params;
+        Ok(())
+    }
+
+    /// Forgets the timers and the latched failure (a new flight).
+    pub fn reset(&mut self) {
+        self.shortfall_s = [0.0; MAX_MOTORS];
+        self.failed = None;
     }
 
     /// The first motor declared failed, 0-based, if any.

@@ -155,6 +155,7 @@ fn hover_setpoint(time: Time) -> Setpoint {
             thrust: 0.33,
         },
         landing: false,
+        failed_motor: None,
     }
 }
 

@@ -118,7 +118,7 @@ fn the_flip_rolls_a_full_turn_and_recovers_level_losing_little_height() {
     while !flip.done() && steps < 4000 {
         let nav = common::truth_nav(&l.sim);
         let target = flip.update(&nav);
-        let sp = Setpoint { time: l.sim.time(), armed: true, target, landing: false };
+        let sp = Setpoint { time: l.sim.time(), armed: true, target, landing: false, failed_motor: None };
         l.ctl.set_setpoint(&sp).expect("valid");
         l.step();
         rolled += l.sim.state().angular_velocity_frd_rad_s.x * 0.0025;

@@ -68,6 +68,8 @@ fn a_loop_iteration_allocates_nothing() {
                 armed: true,
                 target,
                 landing: false,
+                // Every other second a motor has failed: switching the allocation is a copy.
+                failed_motor: ((i / 800) % 2 == 1).then_some((i / 1600 % 4) as u8),
             }));
             nav_w.write(Some(nav(i)));
             if let (Some(sp), true) = sp_r.read() {

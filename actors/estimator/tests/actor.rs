@@ -34,7 +34,10 @@ fn declares_its_ports_and_publishes_nav_state_per_imu_sample_and_status_at_10_hz
                 SimOutput::Gps(f) => EstimatorInput::Gps(f),
                 SimOutput::Baro(b) => EstimatorInput::Baro(b),
                 SimOutput::Mag(m) => EstimatorInput::Mag(m),
-                SimOutput::GroundTruth(_) | SimOutput::Battery(_) | SimOutput::Fault(_) => continue,
+                SimOutput::GroundTruth(_)
+                | SimOutput::Battery(_)
+                | SimOutput::Esc(_)
+                | SimOutput::Fault(_) => continue,
             };
             ready(actor.handle(&ctx, input)).expect("handled");
         }

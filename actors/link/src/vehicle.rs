@@ -462,6 +462,7 @@ mod tests {
             armable: false,
             home: None,
             geofence_enabled: true,
+            failed_motor: None,
         }
     }
 

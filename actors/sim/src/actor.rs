@@ -6,8 +6,9 @@ use std::time::Duration;
 
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, CalibrationMotion, FailureInjection, FailureInjectionResult,
-    GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap, ParamDecl, ParamSet, SimFault, SimFaultPhase,
+    ActuatorOutputs, BaroSample, BatteryStatus, CalibrationMotion, EscTelemetry, FailureInjection,
+    FailureInjectionResult, GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap, ParamDecl, ParamSet,
+    SimFault, SimFaultPhase,
 };
 use kestrel_proto::param_def::{ParamChange, ParamRefused, answer, apply, declare};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
@@ -86,6 +87,7 @@ pub enum SimInput {
 }
 
 /// The simulator actor. Outputs: `imu`, `imu2` (the second IMU, when the vehicle has one), `gps`, `baro`, `mag`, `ground_truth`, `battery`,
+/// `esc_telemetry` (what each motor produces, every tick),
 /// `sim_fault` (each start and end of a world-file fault, also logged at INFO), and
 /// `obstacle_map` once, on the first step. Like a driver it owns the sensor calibration
 /// (`param_decl`: [`CALIBRATION_PARAMS`], applied to the samples as they are set) and, while a
@@ -101,6 +103,7 @@ pub struct SimActor {
     mag: Publisher<MagSample>,
     ground_truth: Publisher<GroundTruth>,
     battery: Publisher<BatteryStatus>,
+    esc_telemetry: Publisher<EscTelemetry>,
     obstacle_map: Publisher<ObstacleMap>,
     /// Each start and end of a world-file fault, as it takes effect.
     sim_fault: Publisher<SimFault>,
@@ -145,6 +148,7 @@ impl Actor for SimActor {
             mag: setup.output("mag"),
             ground_truth: setup.output("ground_truth"),
             battery: setup.output("battery"),
+            esc_telemetry: setup.output("esc_telemetry"),
             obstacle_map: setup.output("obstacle_map"),
             sim_fault: setup.output("sim_fault"),
             map_published: false,
@@ -213,6 +217,7 @@ impl Actor for SimActor {
                         SimOutput::Mag(m) => self.mag.publish(m),
                         SimOutput::GroundTruth(m) => self.ground_truth.publish(m),
                         SimOutput::Battery(m) => self.battery.publish(m),
+                        SimOutput::Esc(m) => self.esc_telemetry.publish(m),
                         SimOutput::Fault(m) => {
                             let what = if m.phase == SimFaultPhase::Started { "started" } else { "ended" };
                             tracing::info!(

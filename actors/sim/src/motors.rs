@@ -150,6 +150,17 @@ impl Motors {
         self.speed_rad_s[..n].iter().zip(&self.scale[..n]).map(|(w, scale)| k_m * scale * w.powi(3)).sum()
     }
 
+    /// Thrust each motor produces now over one healthy motor's full thrust, in mixer order
+    /// (entries past the frame's motors 0): what an ESC's telemetry tells of it.
+    pub(crate) fn thrust_fractions(&self) -> [f64; MAX_MOTORS] {
+        let mut out = [0.0; MAX_MOTORS];
+        let n = self.geometry.len();
+        for ((out, &speed), &scale) in out[..n].iter_mut().zip(&self.speed_rad_s).zip(&self.scale) {
+            *out = scale * (speed / self.params.max_speed_rad_s).powi(2);
+        }
+        out
+    }
+
     /// Current speeds of the frame's motors, in mixer order (rad/s).
     pub(crate) fn speeds_rad_s(&self) -> &[f64] {
         &self.speed_rad_s[..self.geometry.len()]

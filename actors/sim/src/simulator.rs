@@ -16,7 +16,8 @@ use kestrel_proto::Time;
 use kestrel_proto::calibration::SensorCalibration;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample, Motion, SimFault,
+    ActuatorOutputs, BaroSample, BatteryStatus, EscTelemetry, GpsFix, GroundTruth, ImuSample, MagSample,
+    Motion, SimFault,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -93,6 +94,9 @@ pub enum SimOutput {
     Mag(MagSample),
     GroundTruth(GroundTruth),
     Battery(BatteryStatus),
+    /// What the motors produce, every tick, as bidirectional-DShot ESCs report it with each
+    /// command (the fault included: a lost motor reports no thrust).
+    Esc(EscTelemetry),
     /// A fault started or ended at this tick (released before the tick's samples).
     Fault(SimFault),
 }
@@ -428,6 +432,8 @@ impl Simulator {
             let status = self.battery_status();
             self.outputs.push(SimOutput::Battery(status));
         }
+        let esc = self.esc_telemetry();
+        self.outputs.push(SimOutput::Esc(esc));
     }
 
     /// Takes everything released so far, in release order. Undrained outputs accumulate.
@@ -484,6 +490,15 @@ impl Simulator {
             crashed: self.ground.crashed,
             collisions: self.collisions.count,
             clearance_m: Some(self.collisions.clearance_m).filter(|c| c.is_finite()),
+        }
+    }
+
+    /// The ESC telemetry for now.
+    pub fn esc_telemetry(&self) -> EscTelemetry {
+        EscTelemetry {
+            time: self.time,
+            count: self.vehicle.frame.motor_count() as u8,
+            thrust: self.motors.thrust_fractions(),
         }
     }
 

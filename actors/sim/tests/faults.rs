@@ -5,8 +5,8 @@
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, GpsFix, GpsFixType, GroundTruth, ImuSample, MAX_MOTORS,
-    MagSample, SimFault, SimFaultPhase,
+    ActuatorOutputs, BaroSample, BatteryStatus, EscTelemetry, GpsFix, GpsFixType, GroundTruth, ImuSample,
+    MAX_MOTORS, MagSample, SimFault, SimFaultPhase,
 };
 use kestrel_sim::sensors::gps::NO_FIX_ACCURACY;
 use kestrel_sim::{
@@ -48,6 +48,9 @@ fn baro(out: &[SimOutput]) -> Vec<BaroSample> {
 }
 fn battery(out: &[SimOutput]) -> Vec<BatteryStatus> {
     out.iter().filter_map(|o| if let SimOutput::Battery(m) = o { Some(m.clone()) } else { None }).collect()
+}
+fn esc(out: &[SimOutput]) -> Vec<EscTelemetry> {
+    out.iter().filter_map(|o| if let SimOutput::Esc(m) = o { Some(m.clone()) } else { None }).collect()
 }
 fn truth(out: &[SimOutput]) -> Vec<GroundTruth> {
     out.iter()
@@ -276,6 +279,17 @@ fn a_lost_motor_takes_a_quarter_of_the_thrust_and_a_weak_one_its_share() {
         );
         // It also rolls and pitches away from the failed motor (1 is front right on a quad-X).
         assert!(after.angular_velocity_rad_s[0].abs() > 0.0 && after.angular_velocity_rad_s[1].abs() > 0.0);
+        // The ESCs report what the motors produce: the hover command before, and after it the
+        // fault's share on motor 1 (hover speed is unchanged within 20 ms of open loop).
+        let escs = esc(&out);
+        let at = |t: f64| escs.iter().find(|e| e.time == Time::from_secs_f64(t)).expect("esc");
+        let hover = hover_throttle(&v);
+        assert_eq!(at(0.98).count, 4);
+        assert!(at(0.98).thrust[..4].iter().all(|t| (t - hover).abs() < 1e-9), "{:?}", at(0.98));
+        let kept = 1.0 - 4.0 * lost_share;
+        assert!((at(1.02).thrust[0] - kept * hover).abs() < 1e-9, "{kind:?}: {:?}", at(1.02));
+        assert!(at(1.02).thrust[1..4].iter().all(|t| (t - hover).abs() < 1e-9), "{:?}", at(1.02));
+        assert!(at(1.02).thrust[4..].iter().all(|&t| t == 0.0));
     }
 }
 

@@ -31,6 +31,7 @@ fn stamp(o: &SimOutput) -> (&'static str, Time) {
         SimOutput::Mag(m) => ("mag", m.time),
         SimOutput::GroundTruth(m) => ("ground_truth", m.time),
         SimOutput::Battery(m) => ("battery", m.time),
+        SimOutput::Esc(m) => ("esc_telemetry", m.time),
         SimOutput::Fault(m) => ("sim_fault", m.time),
     }
 }
@@ -65,6 +66,7 @@ fn rates_and_lags_match_the_config_over_60_seconds() {
         ("mag", (sensors.mag.rate_hz, sensors.mag.lag_s)),
         ("ground_truth", (50.0, 0.0)),
         ("battery", (10.0, 0.0)),
+        ("esc_telemetry", (sensors.imu.rate_hz, 0.0)),
     ]);
     for (&topic, &(rate_hz, lag_s)) in &configured {
         let samples: Vec<(Time, Time)> = released

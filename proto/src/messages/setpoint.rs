@@ -69,5 +69,10 @@ pub struct Setpoint {
     /// True while the commander is landing the vehicle (for logs and tools); the loop flies
     /// the target like any other.
     pub landing: bool,
+    /// The motor (0-based, the frame's motor order) the commander's failure detector declared
+    /// failed: the mixer allocates around it (PX4's `failure_detector_status` read by the
+    /// control allocator with `CA_FAILURE_MODE = 1`). `None` while every motor is healthy.
+    #[serde(default)]
+    pub failed_motor: Option<u8>,
 }
 crate::impl_message!(Setpoint);

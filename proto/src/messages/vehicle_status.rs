@@ -74,6 +74,9 @@ pub enum FailsafeCause {
     NavStateStale,
     /// A flight-critical actor failed (supervisor report).
     CriticalActorFailed,
+    /// A motor stopped producing thrust (ESC telemetry short of its command) and the others
+    /// cannot hold every axis without it (PX4's `COM_ACT_FAIL_ACT`).
+    MotorFailure,
     /// The pilot's sticks (RC or MAVLink MANUAL_CONTROL) stopped while a mode flown from them
     /// was active (ArduPilot's radio failsafe, PX4's `COM_RC_LOSS_T`).
     ManualControlLost,
@@ -140,6 +143,11 @@ pub struct VehicleStatus {
     /// Whether a geofence breach triggers its failsafe (MAV_CMD_DO_FENCE_ENABLE).
     #[serde(default = "fence_on")]
     pub geofence_enabled: bool,
+    /// The motor (0-based, the frame's motor order) the failure detector declared failed this
+    /// flight, from ESC telemetry (PX4's `failure_detector_status`); `None` while every motor
+    /// is healthy or nothing reports on them.
+    #[serde(default)]
+    pub failed_motor: Option<u8>,
 }
 
 /// The geofence is on unless a ground station switched it off (older logs did not say).

@@ -73,5 +73,6 @@ pub fn flying_north(seconds: f64, speed_m_s: f64) -> Setpoint {
             ..TrajectorySetpoint::default()
         }),
         landing: false,
+        failed_motor: None,
     }
 }

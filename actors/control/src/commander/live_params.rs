@@ -237,6 +237,33 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         get: |p| p.geofence.max_altitude_m,
         set: |p, v| p.geofence.max_altitude_m = v,
     },
+    ParamDef {
+        name: "FD_ACT_EN",
+        unit: "",
+        min: 0.0,
+        max: 1.0,
+        description: "Motor-failure detection from ESC telemetry: 1 on, 0 off",
+        get: |p| f64::from(u8::from(p.failsafe.motor_failure.enabled)),
+        set: |p, v| p.failsafe.motor_failure.enabled = v >= 0.5,
+    },
+    ParamDef {
+        name: "FD_ACT_MOT_THR",
+        unit: "",
+        min: 0.0,
+        max: 0.99,
+        description: "Motor command (0..1) above which a motor must produce thrust",
+        get: |p| f64::from(p.failsafe.motor_failure.throttle_threshold),
+        set: |p, v| p.failsafe.motor_failure.throttle_threshold = v as f32,
+    },
+    ParamDef {
+        name: "FD_ACT_MOT_TOUT",
+        unit: "s",
+        min: 0.01,
+        max: 10.0,
+        description: "How long a motor's thrust must fall short before it counts as failed",
+        get: |p| f64::from(p.failsafe.motor_failure.timeout_s),
+        set: |p, v| p.failsafe.motor_failure.timeout_s = v as f32,
+    },
 ];
 
 /// Sets the live parameter `name` to `value` in `params`, keeping the old value when it is out
@@ -274,5 +301,19 @@ mod tests {
             "critical above low (0.25) fails the commander's own validation"
         );
         assert_eq!(params, before);
+    }
+
+    #[test]
+    fn the_motor_failure_detector_is_tuned_live_under_px4_names() {
+        let mut params = CommanderParams::default();
+        assert_eq!(apply(&mut params, "FD_ACT_EN", 0.0), Ok(ParamChange::Applied));
+        assert!(!params.failsafe.motor_failure.enabled);
+        assert_eq!(apply(&mut params, "FD_ACT_MOT_TOUT", 0.25), Ok(ParamChange::Applied));
+        assert_eq!(params.failsafe.motor_failure.timeout_s, 0.25);
+        assert!(
+            apply(&mut params, "FD_ACT_MOT_THR", 1.0).is_err(),
+            "a threshold of full throttle never judges"
+        );
+        assert!(apply(&mut params, "FD_ACT_MOT_TOUT", f64::NAN).is_err());
     }
 }

@@ -18,15 +18,17 @@ mod live_params;
 mod mission_current;
 mod mission_runner;
 mod modes;
+mod motor_check;
 mod params;
 
 use kestrel_proto::Time;
 use kestrel_proto::attitude::unit_quaternion;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, FailsafeAction, FailsafeCause, FlightMode,
-    Home, LandedState, ManualControl, Mission, MissionProgress, NavState, ParamDecl, Setpoint,
-    SetpointTarget, SupervisorEvent, SupervisorEventKind, VehicleCommand, VehicleStatus,
+    ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, EscTelemetry,
+    FailsafeAction, FailsafeCause, FlightMode, Home, LandedState, ManualControl, Mission, MissionProgress,
+    NavState, ParamDecl, Setpoint, SetpointTarget, SupervisorEvent, SupervisorEventKind, VehicleCommand,
+    VehicleStatus,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -36,6 +38,7 @@ pub use failsafe::{FailsafeMonitor, FailsafeRecord, HeldFor};
 pub use kestrel_proto::param_def::{ParamChange, ParamRefused};
 pub use land_detector::LandDetector;
 pub use mission_runner::{MissionRunner, MissionStep};
+pub use motor_check::{COMMAND_STALE_S, MotorCheck};
 pub use params::{CommanderParams, FailsafeParams, FeasibilityParams, GeofenceParams};
 
 use crate::error::InvalidParam;
@@ -109,6 +112,8 @@ pub struct Commander {
     failsafes: FailsafeMonitor,
     applied_action: Option<FailsafeAction>,
     critical_failure: bool,
+    /// ESC telemetry against the motor commands: a motor that stopped.
+    motors: MotorCheck,
     /// The pack voltage under `battery_low_volt` / `battery_critical_volt`, and since when.
     low_volt: HeldFor,
     critical_volt: HeldFor,
@@ -122,7 +127,10 @@ pub struct Commander {
 impl Commander {
     pub fn new(params: CommanderParams) -> Result<Commander, InvalidParam> {
         params.validate()?;
+        let motors = MotorCheck::new(params.failsafe.motor_failure)
+            .map_err(|e| InvalidParam::new("failsafe.motor_failure", e.to_string()))?;
         Ok(Commander {
+            motors,
             takeoff_height_m: params.takeoff_altitude_m,
             params,
             armed: false,
@@ -175,7 +183,12 @@ impl Commander {
     /// A ground station changed parameter `name` (MAVLink name, see `live_params`): applied if
     /// it is one of the commander's and the result validates, otherwise the old value stays.
     pub fn on_param(&mut self, name: &str, value: f64) -> Result<ParamChange, ParamRefused> {
-        live_params::apply(&mut self.params, name, value)
+        let change = live_params::apply(&mut self.params, name, value)?;
+        // `apply` validated the whole set, the detector's part with it.
+        self.motors
+            .set_params(self.params.failsafe.motor_failure)
+            .map_err(|e| ParamRefused::Invalid { name: name.to_owned(), reason: e.to_string() })?;
+        Ok(change)
     }
 
     /// The commander's live parameters with their current values, for the link (`param_decl`;
@@ -231,6 +244,31 @@ impl Commander {
             self.frame = Some(frame);
         }
         self.nav = Some(nav.clone());
+    }
+
+    /// The motor commands the loop published, for the motor check.
+    pub fn on_actuators(&mut self, outputs: &ActuatorOutputs) {
+        self.motors.on_actuators(outputs);
+    }
+
+    /// What the ESCs say the motors produce: a motor declared failed is announced (STATUSTEXT),
+    /// shown in the status, left out of the allocation, and a failsafe where the others cannot
+    /// hold every axis.
+    pub fn on_esc_telemetry(&mut self, esc: &EscTelemetry) {
+        if !self.armed {
+            return;
+        }
+        if let Some(motor) = self.motors.on_telemetry(esc) {
+            let continues = self.motors.others_hold_all_axes();
+            tracing::warn!(motor = motor + 1, at = %esc.time, continues, "motor failure detected");
+            let what = if continues { "flying on the others" } else { "cannot hold yaw" };
+            self.announce(format!("Motor {} failure: {what}", motor + 1));
+        }
+    }
+
+    /// The motor declared failed this flight (0-based), if any.
+    pub fn failed_motor(&self) -> Option<usize> {
+        self.motors.failed()
     }
 
     pub fn on_battery(&mut self, battery: &BatteryStatus) {
@@ -457,6 +495,7 @@ impl Commander {
         self.failsafes.clear();
         self.applied_action = None;
         self.critical_failure = false;
+        self.motors.reset();
         self.enter(self.mode);
         if self.mode == FlightMode::Auto {
             self.runner = self.new_runner();
@@ -622,7 +661,8 @@ impl Commander {
             self.mission_start = None;
         }
         let landing = self.armed && self.landed == LandedState::Landing;
-        Setpoint { time: now, armed: self.armed, target, landing }
+        let failed_motor = self.failed_motor_u8();
+        Setpoint { time: now, armed: self.armed, target, landing, failed_motor }
     }
 
     /// The status to report at `now`.
@@ -641,7 +681,13 @@ impl Commander {
                 .home_ned
                 .map(|h| Home { position_ned_m: [h.x, h.y, h.z], revision: self.home_revision }),
             geofence_enabled: self.geofence_enabled,
+            failed_motor: self.failed_motor_u8(),
         }
+    }
+
+    fn failed_motor_u8(&self) -> Option<u8> {
+        // At most `MAX_MOTORS` (8) motors: the index fits.
+        self.motors.failed().and_then(|m| u8::try_from(m).ok())
     }
 
     fn check_failsafes(&mut self, now: Time) {
@@ -690,6 +736,8 @@ impl Commander {
             fs.critical_actor_action,
         );
         m.set(now, FailsafeCause::ManualControlLost, armed && sticks_lost, fs.manual_action);
+        let motor_failed = self.motors.failed().is_some() && !self.motors.others_hold_all_axes();
+        m.set(now, FailsafeCause::MotorFailure, armed && motor_failed, fs.motor_failure_action);
         self.apply_failsafe(now);
     }
 

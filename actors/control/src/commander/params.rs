@@ -5,6 +5,7 @@ use kestrel_proto::messages::FailsafeAction;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{InvalidParam, positive, within};
+use crate::motor_failure::{MotorFailureDetector, MotorFailureParams};
 
 /// The commander's parameters (`[actors.commander.params]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -135,6 +136,14 @@ pub struct FailsafeParams {
     pub manual_timeout_s: f64,
     /// What losing the sticks does (ArduPilot `FS_THR_ENABLE` = RTL, PX4 `NAV_RCL_ACT` = Return).
     pub manual_action: FailsafeAction,
+    /// `[failsafe.motor_failure]`: the ESC-telemetry check (PX4's `FD_ACT_EN`,
+    /// `FD_ACT_MOT_THR`, `FD_ACT_MOT_TOUT`); idle where no ESC telemetry is routed.
+    pub motor_failure: MotorFailureParams,
+    /// What a failed motor does when the others cannot hold every axis (a quad), PX4's
+    /// `COM_ACT_FAIL_ACT` (its default is a warning; ours lands, as a spinning quad should).
+    /// With four or more left (hexa, octo) the mixer flies on without it and the commander
+    /// only reports it, as PX4 with `CA_FAILURE_MODE = 1`.
+    pub motor_failure_action: FailsafeAction,
 }
 
 impl Default for FailsafeParams {
@@ -154,6 +163,8 @@ impl Default for FailsafeParams {
             critical_actor_action: FailsafeAction::Land,
             manual_timeout_s: 1.0,
             manual_action: FailsafeAction::ReturnToLaunch,
+            motor_failure: MotorFailureParams::default(),
+            motor_failure_action: FailsafeAction::Land,
         }
     }
 }
@@ -256,6 +267,8 @@ impl CommanderParams {
             ));
         }
         within("failsafe.battery_volt_timer_s", self.failsafe.battery_volt_timer_s, 0.0, 120.0)?;
+        MotorFailureDetector::new(self.failsafe.motor_failure)
+            .map_err(|e| InvalidParam::new("failsafe.motor_failure", e.to_string()))?;
         let polygon = &self.geofence.polygon;
         if !polygon.is_empty() && polygon.len() < 3 {
             return Err(InvalidParam::new("geofence.polygon", "needs at least 3 vertices"));

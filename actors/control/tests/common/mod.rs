@@ -61,6 +61,8 @@ pub fn truth_nav(sim: &Simulator) -> NavState {
 pub struct Loop {
     pub sim: Simulator,
     pub ctl: FlightController,
+    /// The failed motor the setpoints of [`Loop::fly`] name (what the commander would say).
+    pub failed_motor: Option<u8>,
 }
 
 impl Loop {
@@ -94,7 +96,7 @@ impl Loop {
         let params = ControlParams { airframe: airframe_of(&vehicle), ..ControlParams::default() };
         let sim = Simulator::new(vehicle, world, options).expect("valid simulator");
         let ctl = FlightController::new(params).expect("valid params");
-        Loop { sim, ctl }
+        Loop { sim, ctl, failed_motor: None }
     }
 
     /// One 400 Hz iteration: truth → controller → motors → physics.
@@ -111,7 +113,8 @@ impl Loop {
     pub fn fly(&mut self, target: SetpointTarget, seconds: f64, mut watch: impl FnMut(&Simulator)) {
         let steps = (seconds * 400.0).round() as usize;
         for _ in 0..steps {
-            let sp = Setpoint { time: self.sim.time(), armed: true, target, landing: false };
+            let failed_motor = self.failed_motor;
+            let sp = Setpoint { time: self.sim.time(), armed: true, target, landing: false, failed_motor };
             self.ctl.set_setpoint(&sp).expect("valid setpoint");
             self.step();
             watch(&self.sim);

@@ -274,7 +274,7 @@ pub fn fly_with_sensors(
                     }
                 }
                 // The second IMU is a failover this single-filter flight does not exercise.
-                SimOutput::Imu2(_) | SimOutput::Battery(_) | SimOutput::Fault(_) => {}
+                SimOutput::Imu2(_) | SimOutput::Battery(_) | SimOutput::Esc(_) | SimOutput::Fault(_) => {}
             }
         }
     }

@@ -31,6 +31,7 @@ fn cause_text(cause: FailsafeCause) -> &'static str {
         FailsafeCause::NavStateStale => "navigation stale",
         FailsafeCause::CriticalActorFailed => "critical task failed",
         FailsafeCause::ManualControlLost => "radio (sticks) lost",
+        FailsafeCause::MotorFailure => "motor failure",
     }
 }
 
@@ -100,6 +101,7 @@ mod tests {
             armable: false,
             home: None,
             geofence_enabled: true,
+            failed_motor: None,
         };
         assert!(status_changes(None, &a).is_empty());
         let b = VehicleStatus {

@@ -116,6 +116,7 @@ mod tests {
             armable: false,
             home: None,
             geofence_enabled: true,
+            failed_motor: None,
         }
     }
 

@@ -384,7 +384,8 @@ impl Telemetry {
     /// SYS_STATUS: what is present and healthy, as ArduPilot reports it — the IMU, compass and
     /// AHRS healthy once the attitude estimate is, the barometer and GPS once their parts of
     /// the position are, the battery once reported, the depth camera once a grid came, and the
-    /// pre-arm bit while the commander's pre-arm checks pass (MAVSDK's `is_armable`).
+    /// pre-arm bit while the commander's pre-arm checks pass (MAVSDK's `is_armable`), and the
+    /// motor outputs unhealthy once a motor was declared failed.
     fn sys_status(&self) -> SYS_STATUS_DATA {
         type S = MavSysStatusSensor;
         let snap = &self.snapshot;
@@ -423,7 +424,10 @@ impl Telemetry {
         }
         // The geofence: enabled as switched, healthy unless breached (MAVProxy says "fence
         // breach" when the bit is present and enabled but not healthy).
-        present |= S::MAV_SYS_STATUS_GEOFENCE;
+        present |= S::MAV_SYS_STATUS_GEOFENCE | S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+        if snap.status.as_ref().is_none_or(|s| s.failed_motor.is_none()) {
+            health |= S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+        }
         let mut enabled = present;
         if let Some(s) = &snap.status {
             if !s.geofence_enabled {
@@ -697,11 +701,40 @@ mod tests {
             armable: false,
             home: Some(Home { position_ned_m: [110.6, 0.0, -5.0], revision: 2 }),
             geofence_enabled: true,
+            failed_motor: None,
         });
         let moved = home(&t);
         assert!((moved.latitude - 67_981_000).abs() < 20, "{}", moved.latitude);
         assert_eq!((moved.longitude, moved.altitude), (799_017_000, 25_000));
         assert_eq!((moved.x, moved.y, moved.z), (110.6, 0.0, -5.0));
+    }
+
+    #[test]
+    fn sys_status_shows_the_motor_outputs_unhealthy_once_a_motor_failed() {
+        use kestrel_proto::messages::{FlightMode, LandedState, MissionProgress};
+        type S = MavSysStatusSensor;
+        let mut t = Telemetry::new();
+        let status = |failed_motor| VehicleStatus {
+            time: Time::ZERO,
+            armed: true,
+            mode: FlightMode::Auto,
+            landed: LandedState::InAir,
+            failsafe: None,
+            mission: MissionProgress::default(),
+            last_refusal: None,
+            refusals: 0,
+            armable: false,
+            home: None,
+            geofence_enabled: true,
+            failed_motor,
+        };
+        let motors = S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
+        t.snapshot.status = Some(status(None));
+        let healthy = t.sys_status();
+        assert!(healthy.onboard_control_sensors_present.contains(motors));
+        assert!(healthy.onboard_control_sensors_health.contains(motors));
+        t.snapshot.status = Some(status(Some(2)));
+        assert!(!t.sys_status().onboard_control_sensors_health.contains(motors));
     }
 
     #[test]
@@ -732,6 +765,7 @@ mod tests {
             armable: false,
             home: None,
             geofence_enabled: true,
+            failed_motor: None,
         };
         t.snapshot.status = Some(status(0, 0));
         assert_eq!(current(&t), (1, 6, MissionState::MISSION_STATE_ACTIVE));

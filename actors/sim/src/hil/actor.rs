@@ -184,6 +184,8 @@ impl World {
                 ),
                 // The bench emulates the MPU-9250 only: there is no LSM9DS1 driver to read a second.
                 SimOutput::Imu2(_) => {}
+                // The Navio2 drives its ESCs by PWM, which reports nothing back.
+                SimOutput::Esc(_) => {}
                 SimOutput::Mag(m) => bench.imu.set_field(chip_axes(m.field_gauss), BENCH_ASA),
                 SimOutput::Baro(m) => {
                     self.board_temperature_c = m.temperature_c;
