@@ -11,9 +11,10 @@ use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_link::LinkActor;
 use kestrel_proto::geo::Geodetic;
 use kestrel_proto::messages::{
-    Command, CommandResult, FlightMode, Home, LandedState, MissionProgress, NavState, NavValidity,
-    VehicleCommand, VehicleStatus,
+    Command, CommandResult, FlightMode, Home, LandedState, NavState, NavValidity, VehicleCommand,
+    VehicleStatus,
 };
+use kestrel_proto::testing::vehicle_status;
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
 /// The stand-in commander takes no parameters.
@@ -41,20 +42,7 @@ impl Actor for StandInCommander {
         setup.input("vehicle_command", StandInInput::Command);
         setup.timer("tick", Duration::from_millis(100), StandInInput::Tick);
         Ok(StandInCommander {
-            status: VehicleStatus {
-                time: Time::ZERO,
-                armed: false,
-                mode: FlightMode::Stabilize,
-                landed: LandedState::OnGround,
-                failsafe: None,
-                mission: MissionProgress::default(),
-                last_refusal: None,
-                refusals: 0,
-                armable: false,
-                home: None,
-                geofence_enabled: true,
-                failed_motor: None,
-            },
+            status: vehicle_status(Time::ZERO, false, FlightMode::Stabilize, LandedState::OnGround),
             status_out: setup.output("vehicle_status"),
             result_out: setup.output("command_result"),
             nav_out: setup.output("nav_state"),

@@ -207,3 +207,28 @@ pub fn ready<F: Future>(future: F) -> F::Output {
         Poll::Pending => panic!("the handler waited on something"),
     }
 }
+
+/// A commander's status with nothing to report beyond arming, mode and landed state: no
+/// failsafe, no mission, no refusal, home unknown, geofence on, every motor healthy. Tests set
+/// the fields they are about on top of it.
+pub fn vehicle_status(
+    time: Time,
+    armed: bool,
+    mode: crate::messages::FlightMode,
+    landed: crate::messages::LandedState,
+) -> crate::messages::VehicleStatus {
+    crate::messages::VehicleStatus {
+        time,
+        armed,
+        mode,
+        landed,
+        failsafe: None,
+        mission: crate::messages::MissionProgress::default(),
+        last_refusal: None,
+        refusals: 0,
+        armable: false,
+        home: None,
+        geofence_enabled: true,
+        failed_motor: None,
+    }
+}

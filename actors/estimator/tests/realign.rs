@@ -10,10 +10,8 @@
 use kestrel_estimator::{EkfParams, EstimatorActor, EstimatorInput};
 use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
 use kestrel_proto::calibration::{MagCalibration, SensorCalibration};
-use kestrel_proto::messages::{
-    EstimatorStatus, FlightMode, LandedState, MissionProgress, NavState, ParamSet, VehicleStatus,
-};
-use kestrel_proto::testing::{TestSetup, ready};
+use kestrel_proto::messages::{EstimatorStatus, FlightMode, LandedState, NavState, ParamSet};
+use kestrel_proto::testing::{TestSetup, ready, vehicle_status};
 use kestrel_proto::{Actor, Context, Time};
 use kestrel_sim::{SimOptions, SimOutput, Simulator, VehicleParams, World};
 
@@ -49,19 +47,7 @@ impl Bench {
     }
 
     fn status(&mut self, armed: bool) {
-        let status = VehicleStatus {
-            time: self.sim.time(),
-            armed,
-            mode: FlightMode::PosHold,
-            landed: LandedState::OnGround,
-            failsafe: None,
-            mission: MissionProgress::default(),
-            last_refusal: None,
-            refusals: 0,
-            armable: false,
-            home: None,
-            geofence_enabled: true,
-        };
+        let status = vehicle_status(self.sim.time(), armed, FlightMode::PosHold, LandedState::OnGround);
         self.send(EstimatorInput::Status(status));
     }
 

@@ -445,11 +445,6 @@ mod tests {
 
     fn status(reached: u32) -> VehicleStatus {
         VehicleStatus {
-            time: Time::ZERO,
-            armed: true,
-            mode: FlightMode::Auto,
-            landed: LandedState::InAir,
-            failsafe: None,
             mission: MissionProgress {
                 current: reached,
                 reached,
@@ -457,12 +452,7 @@ mod tests {
                 total: 5,
                 completed: false,
             },
-            last_refusal: None,
-            refusals: 0,
-            armable: false,
-            home: None,
-            geofence_enabled: true,
-            failed_motor: None,
+            ..kestrel_proto::testing::vehicle_status(Time::ZERO, true, FlightMode::Auto, LandedState::InAir)
         }
     }
 

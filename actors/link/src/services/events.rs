@@ -74,7 +74,8 @@ pub fn status_changes(old: Option<&VehicleStatus>, new: &VehicleStatus) -> Vec<M
 #[cfg(test)]
 mod tests {
     use kestrel_proto::Time;
-    use kestrel_proto::messages::{Failsafe, FailsafeAction, FlightMode, LandedState, MissionProgress};
+    use kestrel_proto::messages::{Failsafe, FailsafeAction, FlightMode, LandedState};
+    use kestrel_proto::testing::vehicle_status;
 
     use super::*;
 
@@ -89,20 +90,7 @@ mod tests {
 
     #[test]
     fn arming_mode_failsafe_and_refusal_are_announced() {
-        let a = VehicleStatus {
-            time: Time::ZERO,
-            armed: false,
-            mode: FlightMode::Stabilize,
-            landed: LandedState::OnGround,
-            failsafe: None,
-            mission: MissionProgress::default(),
-            last_refusal: None,
-            refusals: 0,
-            armable: false,
-            home: None,
-            geofence_enabled: true,
-            failed_motor: None,
-        };
+        let a = vehicle_status(Time::ZERO, false, FlightMode::Stabilize, LandedState::OnGround);
         assert!(status_changes(None, &a).is_empty());
         let b = VehicleStatus {
             armed: true,

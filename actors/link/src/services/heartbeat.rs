@@ -99,25 +99,13 @@ impl GcsWatch {
 
 #[cfg(test)]
 mod tests {
-    use kestrel_proto::messages::{Failsafe, LandedState, MissionProgress};
+    use kestrel_proto::messages::{Failsafe, LandedState};
+    use kestrel_proto::testing::vehicle_status;
 
     use super::*;
 
     fn status(armed: bool, mode: FlightMode) -> VehicleStatus {
-        VehicleStatus {
-            time: Time::ZERO,
-            armed,
-            mode,
-            landed: LandedState::OnGround,
-            failsafe: None,
-            mission: MissionProgress::default(),
-            last_refusal: None,
-            refusals: 0,
-            armable: false,
-            home: None,
-            geofence_enabled: true,
-            failed_motor: None,
-        }
+        vehicle_status(Time::ZERO, armed, mode, LandedState::OnGround)
     }
 
     #[test]

@@ -680,7 +680,8 @@ mod tests {
 
     #[test]
     fn home_position_follows_the_commanders_home() {
-        use kestrel_proto::messages::{FlightMode, Home, LandedState, MissionProgress};
+        use kestrel_proto::messages::{FlightMode, Home, LandedState};
+        use kestrel_proto::testing::vehicle_status;
         let mut t = Telemetry::new();
         t.snapshot.nav = Some(nav());
         let home = |t: &Telemetry| match t.build(HOME_POSITION_DATA::ID, Time::ZERO) {
@@ -690,18 +691,8 @@ mod tests {
         let origin = home(&t);
         assert_eq!((origin.latitude, origin.longitude, origin.altitude), (67_971_000, 799_017_000, 20_000));
         t.snapshot.status = Some(VehicleStatus {
-            time: Time::ZERO,
-            armed: true,
-            mode: FlightMode::PosHold,
-            landed: LandedState::InAir,
-            failsafe: None,
-            mission: MissionProgress::default(),
-            last_refusal: None,
-            refusals: 0,
-            armable: false,
             home: Some(Home { position_ned_m: [110.6, 0.0, -5.0], revision: 2 }),
-            geofence_enabled: true,
-            failed_motor: None,
+            ..vehicle_status(Time::ZERO, true, FlightMode::PosHold, LandedState::InAir)
         });
         let moved = home(&t);
         assert!((moved.latitude - 67_981_000).abs() < 20, "{}", moved.latitude);
@@ -711,22 +702,13 @@ mod tests {
 
     #[test]
     fn sys_status_shows_the_motor_outputs_unhealthy_once_a_motor_failed() {
-        use kestrel_proto::messages::{FlightMode, LandedState, MissionProgress};
+        use kestrel_proto::messages::{FlightMode, LandedState};
+        use kestrel_proto::testing::vehicle_status;
         type S = MavSysStatusSensor;
         let mut t = Telemetry::new();
         let status = |failed_motor| VehicleStatus {
-            time: Time::ZERO,
-            armed: true,
-            mode: FlightMode::Auto,
-            landed: LandedState::InAir,
-            failsafe: None,
-            mission: MissionProgress::default(),
-            last_refusal: None,
-            refusals: 0,
-            armable: false,
-            home: None,
-            geofence_enabled: true,
             failed_motor,
+            ..vehicle_status(Time::ZERO, true, FlightMode::Auto, LandedState::InAir)
         };
         let motors = S::MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS;
         t.snapshot.status = Some(status(None));
@@ -740,6 +722,7 @@ mod tests {
     #[test]
     fn mission_current_counts_items_after_home_and_never_points_past_the_last() {
         use kestrel_proto::messages::{FlightMode, LandedState, MissionProgress};
+        use kestrel_proto::testing::vehicle_status;
         let mut t = Telemetry::new();
         let current = |t: &Telemetry| match t.build(MISSION_CURRENT_DATA::ID, Time::ZERO) {
             Some(MavMessage::MISSION_CURRENT(m)) => (m.seq, m.total, m.mission_state),
@@ -748,11 +731,6 @@ mod tests {
         assert_eq!(current(&t), (0, u16::MAX, MissionState::MISSION_STATE_NO_MISSION));
         t.snapshot.mission_items = 7; // home, take-off, four waypoints, RTL
         let status = |current, reached| VehicleStatus {
-            time: Time::ZERO,
-            armed: true,
-            mode: FlightMode::Auto,
-            landed: LandedState::InAir,
-            failsafe: None,
             mission: MissionProgress {
                 current,
                 reached,
@@ -760,12 +738,7 @@ mod tests {
                 total: 6,
                 completed: reached >= 6,
             },
-            last_refusal: None,
-            refusals: 0,
-            armable: false,
-            home: None,
-            geofence_enabled: true,
-            failed_motor: None,
+            ..vehicle_status(Time::ZERO, true, FlightMode::Auto, LandedState::InAir)
         };
         t.snapshot.status = Some(status(0, 0));
         assert_eq!(current(&t), (1, 6, MissionState::MISSION_STATE_ACTIVE));
