@@ -160,6 +160,17 @@ pub struct ControlSection {
     pub period_p99_us: f64,
     pub period_max_us: f64,
     pub overruns: u64,
+    /// Wall-clock time one iteration took, 99th percentile (µs).
+    #[serde(default)]
+    pub execution_p99_us: f64,
+    /// What the loop thread got of the OS (all false / `None` in lockstep): SCHED_FIFO,
+    /// memory locked (`mlockall`), the CPU it is pinned to.
+    #[serde(default)]
+    pub sched_fifo: bool,
+    #[serde(default)]
+    pub memory_locked: bool,
+    #[serde(default)]
+    pub pinned_cpu: Option<u32>,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -432,6 +443,10 @@ impl FlightReportActor {
                 period_p99_us: l.period_p99_us,
                 period_max_us: l.period_max_us,
                 overruns: l.overruns,
+                execution_p99_us: l.execution_p99_us,
+                sched_fifo: l.realtime_priority,
+                memory_locked: l.memory_locked,
+                pinned_cpu: l.pinned_cpu,
             }),
             avoidance: self.frame_latency.percentiles_ms().map(|(p50, p95)| AvoidanceSection {
                 frame_to_setpoint_p50_ms: p50,

@@ -34,7 +34,9 @@ use serde::Deserialize;
 use crate::flight_controller::FlightController;
 use crate::live_params::{Gains, Tuning};
 use crate::params::ControlParams;
-use crate::rt::{ControlThread, LoopStats, Reader, ThreadInputs, ThreadOutput, Writer, triple_buffer};
+use crate::rt::{
+    ControlThread, LoopStats, Reader, RealtimeSettings, ThreadInputs, ThreadOutput, Writer, triple_buffer,
+};
 
 /// How the loop is clocked.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -54,6 +56,11 @@ pub struct ControllerActorParams {
     pub loop_mode: LoopMode,
     /// SCHED_FIFO priority of the loop thread, 1..=99 (PX4 runs its rate loop near the top).
     pub priority: i32,
+    /// Lock the process's memory into RAM for the loop thread (`mlockall`, as ArduPilot's Linux
+    /// scheduler does); refused without the privilege, and said so.
+    pub lock_memory: bool,
+    /// Pin the loop thread to this CPU (0-based; ArduPilot's `--cpu-affinity`); none: unpinned.
+    pub cpu: Option<usize>,
     /// Gains, limits and airframe; defaults fly `config/vehicles/quad_x.toml`.
     pub control: ControlParams,
 }
@@ -63,6 +70,8 @@ impl Default for ControllerActorParams {
         ControllerActorParams {
             loop_mode: LoopMode::Lockstep,
             priority: 80,
+            lock_memory: true,
+            cpu: None,
             control: ControlParams::default(),
         }
     }
@@ -163,7 +172,7 @@ enum Loop {
         pending: Option<Pending>,
         thread: Option<ControlThread>,
         relay: Option<tokio::task::JoinHandle<()>>,
-        priority: i32,
+        os: RealtimeSettings,
     },
 }
 
@@ -230,7 +239,11 @@ impl Actor for ControllerActor {
                     }),
                     thread: None,
                     relay: None,
-                    priority: params.priority,
+                    os: RealtimeSettings {
+                        priority: params.priority,
+                        lock_memory: params.lock_memory,
+                        cpu: params.cpu,
+                    },
                 }
             }
         };
@@ -244,14 +257,14 @@ impl Actor for ControllerActor {
 
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
         self.param_decl.publish(self.tuning.decl(&self.name, true, ctx.now()));
-        if let Loop::Thread { pending, thread, relay, priority, .. } = &mut self.inner
+        if let Loop::Thread { pending, thread, relay, os, .. } = &mut self.inner
             && let Some(Pending { ctl, nav, setpoint, gains, outputs, relay: publisher }) = pending.take()
         {
             let inputs = ThreadInputs { nav, setpoint, gains };
             let spawned =
-                ControlThread::spawn(*ctl, inputs, ctx.clock().clone(), outputs, *priority).map_err(
-                    |source| ActorError::Io { what: "cannot start the control thread".into(), source },
-                )?;
+                ControlThread::spawn(*ctl, inputs, ctx.clock().clone(), outputs, *os).map_err(|source| {
+                    ActorError::Io { what: "cannot start the control thread".into(), source }
+                })?;
             *thread = Some(spawned);
             *relay = Some(tokio::spawn(publisher.run(ctx.shutdown().clone().cancelled_owned())));
         }

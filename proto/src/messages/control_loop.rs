@@ -13,6 +13,12 @@ pub struct ControlLoopStats {
     pub dedicated_thread: bool,
     /// True when that thread got real-time (SCHED_FIFO) priority.
     pub realtime_priority: bool,
+    /// True when the process's memory is locked into RAM (`mlockall`) for the loop.
+    #[serde(default)]
+    pub memory_locked: bool,
+    /// The CPU the loop thread is pinned to, when pinning was asked for and granted.
+    #[serde(default)]
+    pub pinned_cpu: Option<u32>,
     /// Loop iterations so far.
     pub iterations: u64,
     /// Time between iteration starts (µs): on the thread, wall-clock; in lockstep, between

@@ -129,6 +129,8 @@ impl LoopStats {
             time,
             dedicated_thread: thread,
             realtime_priority: realtime,
+            memory_locked: false,
+            pinned_cpu: None,
             iterations: self.execution.count(),
             period_p50_us: self.period.quantile_us(0.5),
             period_p99_us: self.period.quantile_us(0.99),

@@ -1,12 +1,16 @@
 //! The real-time side of the control loop: the dedicated thread, the lock-free hand-over of
 //! inputs, and its timing record.
 
+mod affinity;
 mod loop_stats;
+mod memory;
 mod priority;
 mod thread;
 mod triple_buffer;
 
+pub use affinity::pin_to_cpu;
 pub use loop_stats::{Histogram, LoopStats};
+pub use memory::lock_memory;
 pub use priority::{RealtimePriority, set_realtime_priority};
-pub use thread::{ControlThread, ThreadInputs, ThreadOutput};
+pub use thread::{ControlThread, RealtimeSettings, ThreadInputs, ThreadOutput};
 pub use triple_buffer::{Reader, Writer, triple_buffer};

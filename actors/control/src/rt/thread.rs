@@ -13,7 +13,9 @@ use std::time::{Duration, Instant};
 use kestrel_proto::Clock;
 use kestrel_proto::messages::{ActuatorOutputs, ControlLoopStats, NavState, Setpoint};
 
+use super::affinity::pin_to_cpu;
 use super::loop_stats::LoopStats;
+use super::memory::lock_memory;
 use super::priority::{RealtimePriority, set_realtime_priority};
 use super::triple_buffer::Reader;
 use crate::flight_controller::FlightController;
@@ -36,6 +38,18 @@ pub struct ThreadInputs {
     pub gains: Reader<Option<Gains>>,
 }
 
+/// What the loop thread asks of the OS, each granted or refused with a log line and reported
+/// in its [`ControlLoopStats`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RealtimeSettings {
+    /// SCHED_FIFO priority (1..=99).
+    pub priority: i32,
+    /// Lock the process's memory into RAM (`mlockall`) before the loop's buffers are made.
+    pub lock_memory: bool,
+    /// Pin the loop thread to this CPU.
+    pub cpu: Option<usize>,
+}
+
 /// A running control thread; stopped and joined on drop.
 pub struct ControlThread {
     stop: Arc<AtomicBool>,
@@ -44,20 +58,41 @@ pub struct ControlThread {
 }
 
 impl ControlThread {
-    /// Starts the loop at `ctl.params().timing.rate_hz` with SCHED_FIFO `priority` if permitted.
+    /// Starts the loop at `ctl.params().timing.rate_hz` with what `os` asks for, where permitted.
     pub fn spawn(
         mut ctl: FlightController,
         inputs: ThreadInputs,
         clock: Arc<dyn Clock>,
         mut output: impl ThreadOutput,
-        priority: i32,
+        os: RealtimeSettings,
     ) -> std::io::Result<ControlThread> {
         let stop = Arc::new(AtomicBool::new(false));
         let realtime = Arc::new(AtomicBool::new(false));
         let (stop_flag, realtime_flag) = (Arc::clone(&stop), Arc::clone(&realtime));
         let ThreadInputs { mut nav, mut setpoint, mut gains } = inputs;
         let handle = std::thread::Builder::new().name("kestrel-control".into()).spawn(move || {
-            let got_fifo = match set_realtime_priority(priority) {
+            let memory_locked = os.lock_memory
+                && match lock_memory() {
+                    Ok(()) => {
+                        tracing::info!("control loop: memory locked (mlockall)");
+                        true
+                    }
+                    Err(why) => {
+                        tracing::warn!(%why, "control loop: memory not locked");
+                        false
+                    }
+                };
+            let pinned_cpu = os.cpu.and_then(|cpu| match pin_to_cpu(cpu) {
+                Ok(()) => {
+                    tracing::info!(cpu, "control loop pinned to its CPU");
+                    u32::try_from(cpu).ok()
+                }
+                Err(why) => {
+                    tracing::warn!(%why, "control loop not pinned");
+                    None
+                }
+            });
+            let got_fifo = match set_realtime_priority(os.priority) {
                 RealtimePriority::Fifo(p) => {
                     tracing::info!(priority = p, "control loop on a SCHED_FIFO thread");
                     true
@@ -108,7 +143,8 @@ impl ControlThread {
                 );
                 iteration += 1;
                 if iteration.is_multiple_of(stats_every) {
-                    output.stats(stats.message(now, ctl.counters(), true, got_fifo));
+                    let message = stats.message(now, ctl.counters(), true, got_fifo);
+                    output.stats(ControlLoopStats { memory_locked, pinned_cpu, ..message });
                 }
                 next += period;
                 let late = Instant::now();
