@@ -6,10 +6,10 @@
 //!
 //! The HIL flight is realtime: it takes the mission's real duration (about a minute). It is
 //! ignored by default. Run by itself (`cargo nextest run -E 'binary(hil_flight)'
-//! --run-ignored all`) it passed three times in four on this 2-core host (horizontal RMS
-//! 0.311-0.361 m against lockstep's 0.307 m); inside the whole suite, even alone
-//! (`threads-required = 'num-cpus'` in `.config/nextest.toml`) and first, it failed all three
-//! tries of each of two runs (1.40-2.35 m), and why is not known yet. The motor output no longer
+//! --run-ignored all`) it passed both times on this 2-core host (horizontal RMS 0.311 and
+//! 0.361 m against lockstep's 0.307 m); inside the whole suite, even alone
+//! (`threads-required = 'num-cpus'` in `.config/nextest.toml`) and first, it failed all four
+//! attempts of two runs (1.40-2.35 m), and why is not known yet. The motor output no longer
 //! depends on a tokio worker (its own thread, `pwm/output_thread.rs`). The Navio2 graph binds
 //! no fixed local port (its link sends to 192.168.1.2:14550 from an ephemeral port, its radio
 //! is absent), so it runs in the host's namespace, where SCHED_FIFO can be granted; the
