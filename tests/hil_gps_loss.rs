@@ -8,17 +8,13 @@
 //!
 //! Realtime, so it runs alone (`.config/nextest.toml`), like `tests/hil_flight.rs`.
 
-use std::path::Path;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+mod hil_square;
 
-use kestrel::hil::{HilOptions, apply_hil};
+use std::time::Duration;
+
 use kestrel::recorder::LogReader;
-use kestrel::{LoadedConfig, Registry, RunOptions};
 use kestrel_proto::messages::{EstimatorStatus, GpsFix, SensorHealth, SupervisorEvent};
 use kestrel_sim::hil::UbloxReceiver;
-use kestrel_sim::hil::navio2_sysfs::EscInput;
 use kestrel_sim::hil::pty::Pty;
 
 /// How long the line is gone.
@@ -26,65 +22,20 @@ const UNPLUGGED: Duration = Duration::from_secs(10);
 
 #[test]
 fn the_gps_line_gone_for_10_s_in_flight_is_dead_reckoned_reported_and_taken_up_again() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = std::env::temp_dir().join(format!("kestrel-hil-gps-{}", std::process::id()));
-    let mut config = LoadedConfig::load(&root.join("config/navio2.toml")).expect("navio2.toml loads");
-    for actor in config.graph.actors.values_mut() {
-        if actor.kind.get_ref() == "commander" {
-            let params =
-                actor.params.get_or_insert_with(|| toml::Spanned::new(0..0, toml::Table::new())).get_mut();
-            let plan = root.join("config/missions/square.plan").display().to_string();
-            params.insert("mission".into(), plan.into());
-            params.insert("auto".into(), true.into());
-            params.insert("exit_on_land".into(), true.into());
-        }
-    }
-    let options = HilOptions { dir: dir.join("bench"), ..HilOptions::new() };
-    let bench = apply_hil(&mut config, &options).expect("the bench builds");
+    let (config, bench) = hil_square::square_on_the_bench(&dir);
+    // The line goes, then comes back as a receiver that lost power (at its factory rate).
+    let injector = hil_square::when_airborne(&bench, |bench| {
+        bench.gps().pty = None;
+        std::thread::sleep(UNPLUGGED);
+        let pty = Pty::open(&bench.config.gps_device(), 9600).expect("the line again");
+        let mut line = bench.gps();
+        line.receiver = UbloxReceiver::new();
+        line.pty = Some(pty);
+    });
+    let (report, record) = hil_square::fly(&config, &dir);
+    assert!(injector.join().expect("injector"), "the motors never spun up: nothing was injected");
 
-    // 5 s after the motors first spin past 30 % (airborne), the line goes for 10 s.
-    let replugged = Arc::new(AtomicBool::new(false));
-    let injector = {
-        let (bench, replugged) = (Arc::clone(&bench), Arc::clone(&replugged));
-        std::thread::spawn(move || {
-            let deadline = Instant::now() + Duration::from_secs(120);
-            let spinning = || {
-                bench
-                    .pwm
-                    .read()
-                    .is_ok_and(|escs| escs.iter().all(|e| matches!(e, EscInput::Throttle(t) if *t > 0.3)))
-            };
-            while !spinning() {
-                if Instant::now() > deadline {
-                    return;
-                }
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            std::thread::sleep(Duration::from_secs(5));
-            bench.gps().pty = None;
-            std::thread::sleep(UNPLUGGED);
-            let pty = Pty::open(&bench.config.gps_device(), 9600).expect("the line again");
-            let mut line = bench.gps();
-            line.receiver = UbloxReceiver::new();
-            line.pty = Some(pty);
-            replugged.store(true, Ordering::Relaxed);
-        })
-    };
-
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    let (record, report_path) = (dir.join("flight.mcap"), dir.join("report.json"));
-    let options = RunOptions {
-        duration: Some(Duration::from_secs(200)),
-        record: Some(record.clone()),
-        report: Some(report_path.clone()),
-        ..Default::default()
-    };
-    kestrel::run(&config, &Registry::standard(), options).expect("the HIL flight ran");
-    injector.join().expect("injector");
-    assert!(replugged.load(Ordering::Relaxed), "the motors never spun up: nothing was injected");
-
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report_path).expect("report")).expect("JSON");
     println!("report: flight {} failsafes {}", report["flight"], report["failsafes"]);
     assert_eq!(report["flight"]["landed"], true, "landed intact: {report:#}");
     assert_eq!(report["flight"]["crashed"], false, "{report:#}");

@@ -6,79 +6,26 @@
 //!
 //! Realtime, so it runs alone (`.config/nextest.toml`), like `tests/hil_flight.rs`.
 
-use std::path::Path;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Duration, Instant};
+mod hil_square;
 
-use kestrel::hil::{HilOptions, apply_hil};
 use kestrel::recorder::LogReader;
-use kestrel::{LoadedConfig, Registry, RunOptions};
 use kestrel_proto::messages::SensorHealth;
-use kestrel_sim::hil::navio2_sysfs::EscInput;
 
 /// How long the writes fail.
-const FAULT: Duration = Duration::from_millis(50);
+const FAULT: std::time::Duration = std::time::Duration::from_millis(50);
 
 #[test]
 fn pwm_writes_failing_with_eio_for_50_ms_in_flight_are_retried_counted_and_the_flight_goes_on() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = std::env::temp_dir().join(format!("kestrel-hil-pwm-{}", std::process::id()));
-    let mut config = LoadedConfig::load(&root.join("config/navio2.toml")).expect("navio2.toml loads");
-    for actor in config.graph.actors.values_mut() {
-        if actor.kind.get_ref() == "commander" {
-            let params =
-                actor.params.get_or_insert_with(|| toml::Spanned::new(0..0, toml::Table::new())).get_mut();
-            let plan = root.join("config/missions/square.plan").display().to_string();
-            params.insert("mission".into(), plan.into());
-            params.insert("auto".into(), true.into());
-            params.insert("exit_on_land".into(), true.into());
-        }
-    }
-    let options = HilOptions { dir: dir.join("bench"), ..HilOptions::new() };
-    let bench = apply_hil(&mut config, &options).expect("the bench builds");
+    let (config, bench) = hil_square::square_on_the_bench(&dir);
+    let injector = hil_square::when_airborne(&bench, |bench| {
+        bench.fail_pwm_writes(true);
+        std::thread::sleep(FAULT);
+        bench.fail_pwm_writes(false);
+    });
+    let (report, record) = hil_square::fly(&config, &dir);
+    assert!(injector.join().expect("injector"), "the motors never spun up: nothing was injected");
 
-    // The operator's hand on the fault switch: 5 s after the motors first spin past 30 %
-    // (airborne), the writes fail for 50 ms.
-    let injected = Arc::new(AtomicBool::new(false));
-    let injector = {
-        let (bench, injected) = (Arc::clone(&bench), Arc::clone(&injected));
-        std::thread::spawn(move || {
-            let deadline = Instant::now() + Duration::from_secs(120);
-            let spinning = || {
-                bench
-                    .pwm
-                    .read()
-                    .is_ok_and(|escs| escs.iter().all(|e| matches!(e, EscInput::Throttle(t) if *t > 0.3)))
-            };
-            while !spinning() {
-                if Instant::now() > deadline {
-                    return;
-                }
-                std::thread::sleep(Duration::from_millis(20));
-            }
-            std::thread::sleep(Duration::from_secs(5));
-            bench.fail_pwm_writes(true);
-            std::thread::sleep(FAULT);
-            bench.fail_pwm_writes(false);
-            injected.store(true, Ordering::Relaxed);
-        })
-    };
-
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    let (record, report_path) = (dir.join("flight.mcap"), dir.join("report.json"));
-    let options = RunOptions {
-        duration: Some(Duration::from_secs(200)),
-        record: Some(record.clone()),
-        report: Some(report_path.clone()),
-        ..Default::default()
-    };
-    kestrel::run(&config, &Registry::standard(), options).expect("the HIL flight ran");
-    injector.join().expect("injector");
-    assert!(injected.load(Ordering::Relaxed), "the motors never spun up: nothing was injected");
-
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report_path).expect("report")).expect("JSON");
     println!(
         "report: mission {} flight {} failsafes {}",
         report["mission"], report["flight"], report["failsafes"]

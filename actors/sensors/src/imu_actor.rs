@@ -21,7 +21,7 @@ use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
 use kestrel_proto::messages::{
     CalibrationMotion, ImuSample, MagSample, Motion, ParamDecl, ParamSet, SensorHealth,
 };
-use kestrel_proto::param_def::{answer, apply, declare};
+use kestrel_proto::param_def::{ParamChange, answer, apply, declare};
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
@@ -156,7 +156,7 @@ impl ImuActor {
         let outcome = apply(&CALIBRATION_PARAMS, &mut self.calibration, &p.name, p.value, |c| {
             c.calibration().map(|_| ())
         });
-        if let Ok(kestrel_proto::param_def::ParamChange::Applied) = outcome
+        if let Ok(ParamChange::Applied) = outcome
             && let Ok(calibration) = self.calibration.calibration()
         {
             self.live.set(calibration);
