@@ -244,7 +244,7 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         max: 1.0,
         description: "Motor-failure detection from ESC telemetry: 1 on, 0 off",
         get: |p| f64::from(u8::from(p.failsafe.motor_failure.enabled)),
-        set: |p, v| p.failsafe.motor_failure.enabled = v >= 0.5,
+        set: |p, v| p.failsafe.motor_failure.enabled = v == 1.0,
     },
     ParamDef {
         name: "FD_ACT_MOT_THR",
@@ -266,9 +266,19 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
     },
 ];
 
+/// The live parameters that are switches: exactly 0 (off) or 1 (on); a value between answers
+/// neither.
+const SWITCHES: [&str; 1] = ["FD_ACT_EN"];
+
 /// Sets the live parameter `name` to `value` in `params`, keeping the old value when it is out
-/// of range or the result would not validate.
+/// of range, a switch is set to anything but 0 or 1, or the result would not validate.
 pub fn apply(params: &mut CommanderParams, name: &str, value: f64) -> Result<ParamChange, ParamRefused> {
+    if SWITCHES.contains(&name) && value != 0.0 && value != 1.0 {
+        return Err(ParamRefused::Invalid {
+            name: name.to_owned(),
+            reason: format!("is a switch: 0 or 1, got {value}"),
+        });
+    }
     param_def::apply(LIVE_PARAMS, params, name, value, CommanderParams::validate)
 }
 
@@ -277,6 +287,23 @@ mod tests {
     use kestrel_proto::Time;
 
     use super::*;
+
+    #[test]
+    fn a_switch_takes_exactly_0_or_1() {
+        let mut params = CommanderParams::default();
+        assert!(params.failsafe.motor_failure.enabled);
+        for bad in [0.5, 0.999, f64::NAN] {
+            assert!(
+                matches!(apply(&mut params, "FD_ACT_EN", bad), Err(ParamRefused::Invalid { .. })),
+                "{bad}"
+            );
+            assert!(params.failsafe.motor_failure.enabled, "kept after {bad}");
+        }
+        assert_eq!(apply(&mut params, "FD_ACT_EN", 0.0), Ok(ParamChange::Applied));
+        assert!(!params.failsafe.motor_failure.enabled);
+        assert_eq!(apply(&mut params, "FD_ACT_EN", 1.0), Ok(ParamChange::Applied));
+        assert!(params.failsafe.motor_failure.enabled);
+    }
 
     #[test]
     fn the_defaults_declare_a_valid_table() {
