@@ -171,6 +171,19 @@ pub struct ControlSection {
     pub memory_locked: bool,
     #[serde(default)]
     pub pinned_cpu: Option<u32>,
+    /// Iterations flown, and the longest one took (µs, wall clock).
+    #[serde(default)]
+    pub iterations: u64,
+    #[serde(default)]
+    pub execution_max_us: f64,
+    /// Age of the NavState each iteration ran on, from its IMU sample's measurement (µs; 0 in
+    /// lockstep), and the iterations the watchdog ran without a new one.
+    #[serde(default)]
+    pub nav_age_p50_us: f64,
+    #[serde(default)]
+    pub nav_age_p99_us: f64,
+    #[serde(default)]
+    pub watchdog_steps: u64,
 }
 
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -447,6 +460,11 @@ impl FlightReportActor {
                 sched_fifo: l.realtime_priority,
                 memory_locked: l.memory_locked,
                 pinned_cpu: l.pinned_cpu,
+                iterations: l.iterations,
+                execution_max_us: l.execution_max_us,
+                nav_age_p50_us: l.nav_age_p50_us,
+                nav_age_p99_us: l.nav_age_p99_us,
+                watchdog_steps: l.watchdog_steps,
             }),
             avoidance: self.frame_latency.percentiles_ms().map(|(p50, p95)| AvoidanceSection {
                 frame_to_setpoint_p50_ms: p50,

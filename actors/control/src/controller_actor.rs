@@ -14,15 +14,17 @@
 //!   since the previous one, and none fresh within `timing.nav_timeout_s`, runs the same
 //!   fallback as the thread — fly blind, or idle when the setpoint is disarmed — so the motors
 //!   never keep the last command forever. While NavStates arrive the ticks do nothing.
-//! * `thread` (hardware, `clock = "realtime"`): the loop runs on its own OS thread at
-//!   `control.timing.rate_hz` with SCHED_FIFO where permitted (logged either way); the handler
-//!   only drops each input into a lock-free triple buffer and returns. The thread hands its
-//!   motor commands and statistics back the same way (publishing locks the topic's mailboxes
-//!   and the recorder allocates, which the loop must not), and a tokio task started with the
-//!   actor publishes the newest of each at the loop rate until `ctx.shutdown()` or the thread
-//!   ends: outputs reach subscribers at most about one loop period after they were computed.
-//!   New gains go the other way through a third triple buffer, validated here first: the
-//!   thread copies them in before its next iteration.
+//! * `thread` (hardware, `clock = "realtime"`): the loop runs on its own OS thread with
+//!   SCHED_FIFO where permitted (logged either way), one iteration per NavState with a watchdog
+//!   at 1.5 periods (`rt/thread.rs`); the handler only drops each input into a lock-free triple
+//!   buffer (and wakes the thread for a NavState) and returns. The thread hands its motor
+//!   commands back the same way and its timing through a sample ring (publishing locks the
+//!   topic's mailboxes and the recorder allocates, which the loop must not); a tokio task
+//!   started with the actor publishes the newest commands at the loop rate, keeps the loop's
+//!   statistics from the samples and publishes them about once a second, until
+//!   `ctx.shutdown()` or the thread ends: outputs reach subscribers at most about one loop
+//!   period after they were computed. New gains go the other way through a third triple
+//!   buffer, validated here first: the thread copies them in before its next iteration.
 
 use std::time::Duration;
 
@@ -31,12 +33,17 @@ use kestrel_proto::param_def::{self, ParamChange};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
-use crate::flight_controller::FlightController;
+use crate::flight_controller::{FlightController, LoopCounters};
 use crate::live_params::{Gains, Tuning};
 use crate::params::ControlParams;
 use crate::rt::{
-    ControlThread, LoopStats, Reader, RealtimeSettings, ThreadInputs, ThreadOutput, Writer, triple_buffer,
+    ControlThread, Granted, LoopSample, LoopStats, Reader, RealtimeSettings, RingReader, RingWriter,
+    ThreadInputs, ThreadOutput, Writer, sample_ring, triple_buffer,
 };
+
+/// Timing samples the relay can fall behind by before the loop's are dropped (and counted):
+/// about 2.5 s at 400 Hz.
+const SAMPLE_RING: usize = 1024;
 
 /// How the loop is clocked.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -93,36 +100,56 @@ struct Outputs {
     stats: Publisher<ControlLoopStats>,
 }
 
-/// The loop thread's side of its outputs: triple buffers, so it never locks or allocates.
+/// The loop thread's side of its outputs: triple buffers and a ring, so it never locks or
+/// allocates.
 struct BufferedOutputs {
+    granted: Writer<Option<Granted>>,
     actuators: Writer<Option<ActuatorOutputs>>,
-    stats: Writer<Option<ControlLoopStats>>,
+    samples: RingWriter<LoopSample>,
+    counters: Writer<LoopCounters>,
 }
 
 impl ThreadOutput for BufferedOutputs {
+    fn granted(&mut self, granted: Granted) {
+        self.granted.write(Some(granted));
+    }
+
     fn actuators(&mut self, outputs: &ActuatorOutputs) {
         self.actuators.write(Some(outputs.clone()));
     }
 
-    fn stats(&mut self, stats: ControlLoopStats) {
-        self.stats.write(Some(stats));
+    fn record(&mut self, sample: LoopSample, counters: LoopCounters) {
+        // A full ring is counted by the ring itself and reported as `dropped_samples`.
+        let _ = self.samples.push(sample);
+        self.counters.write(counters);
     }
 }
 
-/// The publishing side: a tokio task reads the buffers every period and publishes what is new.
+/// The publishing side: a tokio task reads the buffers every period, publishes the newest
+/// commands, and keeps and publishes the loop's statistics.
 struct Relay {
+    granted: Reader<Option<Granted>>,
     actuators: Reader<Option<ActuatorOutputs>>,
-    stats: Reader<Option<ControlLoopStats>>,
+    samples: RingReader<LoopSample>,
+    counters: Reader<LoopCounters>,
+    stats: LoopStats,
     outputs: Outputs,
     period: Duration,
+    /// Relay periods between statistics messages (about a second).
+    stats_every: u64,
 }
 
 impl Relay {
-    /// Publishes the newest outputs at the loop rate until `shutdown` or the thread is gone.
-    async fn run(mut self, shutdown: impl Future<Output = ()>) {
+    /// Publishes until `shutdown` or the thread is gone.
+    async fn run(
+        mut self,
+        clock: std::sync::Arc<dyn kestrel_proto::Clock>,
+        shutdown: impl Future<Output = ()>,
+    ) {
         let mut shutdown = std::pin::pin!(shutdown);
         let mut interval = tokio::time::interval(self.period);
         interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        let mut ticks = 0u64;
         loop {
             tokio::select! {
                 () = &mut shutdown => break,
@@ -133,8 +160,15 @@ impl Relay {
             if let (Some(out), true) = self.actuators.read() {
                 self.outputs.actuators.publish(out.clone());
             }
-            if let (Some(stats), true) = self.stats.read() {
-                self.outputs.stats.publish(stats.clone());
+            let stats = &mut self.stats;
+            self.samples.drain(|sample| stats.record(sample));
+            ticks += 1;
+            if ticks.is_multiple_of(self.stats_every) || gone {
+                let granted = self.granted.read().0.unwrap_or_default();
+                let counters = *self.counters.read().0;
+                let message =
+                    self.stats.message(clock.now(), counters, Some(granted), self.samples.dropped());
+                self.outputs.stats.publish(message);
             }
             if gone {
                 break;
@@ -169,7 +203,7 @@ enum Loop {
         setpoint: Writer<Option<Setpoint>>,
         gains: Writer<Option<Gains>>,
         /// What the thread takes when it starts.
-        pending: Option<Pending>,
+        pending: Option<Box<Pending>>,
         thread: Option<ControlThread>,
         relay: Option<tokio::task::JoinHandle<()>>,
         os: RealtimeSettings,
@@ -218,25 +252,31 @@ impl Actor for ControllerActor {
                 let (nav, nav_reader) = triple_buffer(None);
                 let (setpoint, setpoint_reader) = triple_buffer(None);
                 let (gains, gains_reader) = triple_buffer(None);
+                let (granted, granted_reader) = triple_buffer(None);
                 let (actuators, actuators_reader) = triple_buffer(None);
-                let (stats, stats_reader) = triple_buffer(None);
+                let (samples, samples_reader) = sample_ring(SAMPLE_RING, LoopSample::default());
+                let (counters, counters_reader) = triple_buffer(LoopCounters::default());
                 Loop::Thread {
                     nav,
                     setpoint,
                     gains,
-                    pending: Some(Pending {
+                    pending: Some(Box::new(Pending {
                         ctl: Box::new(ctl),
                         nav: nav_reader,
                         setpoint: setpoint_reader,
                         gains: gains_reader,
-                        outputs: BufferedOutputs { actuators, stats },
+                        outputs: BufferedOutputs { granted, actuators, samples, counters },
                         relay: Relay {
+                            granted: granted_reader,
                             actuators: actuators_reader,
-                            stats: stats_reader,
+                            samples: samples_reader,
+                            counters: counters_reader,
+                            stats: LoopStats::new(period_us),
                             outputs,
                             period: Duration::from_micros(period_us),
+                            stats_every: params.control.timing.rate_hz.round().max(1.0) as u64,
                         },
-                    }),
+                    })),
                     thread: None,
                     relay: None,
                     os: RealtimeSettings {
@@ -258,15 +298,17 @@ impl Actor for ControllerActor {
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
         self.param_decl.publish(self.tuning.decl(&self.name, true, ctx.now()));
         if let Loop::Thread { pending, thread, relay, os, .. } = &mut self.inner
-            && let Some(Pending { ctl, nav, setpoint, gains, outputs, relay: publisher }) = pending.take()
+            && let Some(pending) = pending.take()
         {
+            let Pending { ctl, nav, setpoint, gains, outputs, relay: publisher } = *pending;
             let inputs = ThreadInputs { nav, setpoint, gains };
             let spawned =
                 ControlThread::spawn(*ctl, inputs, ctx.clock().clone(), outputs, *os).map_err(|source| {
                     ActorError::Io { what: "cannot start the control thread".into(), source }
                 })?;
             *thread = Some(spawned);
-            *relay = Some(tokio::spawn(publisher.run(ctx.shutdown().clone().cancelled_owned())));
+            let clock = ctx.clock().clone();
+            *relay = Some(tokio::spawn(publisher.run(clock, ctx.shutdown().clone().cancelled_owned())));
         }
         Ok(())
     }
@@ -285,7 +327,7 @@ impl Actor for ControllerActor {
                 *nav_since_tick = true;
                 let started = std::time::Instant::now();
                 let out = ctl.update(&nav);
-                lockstep_output(ctx, ctl, stats, outputs, iterations, nav.time, out, started);
+                lockstep_output(ctx, ctl, stats, outputs, iterations, nav.time, out, started, true);
             }
             (
                 Loop::Lockstep { ctl, stats, outputs, iterations, last_nav, nav_since_tick },
@@ -300,7 +342,7 @@ impl Actor for ControllerActor {
                 if !handled && !fresh {
                     let started = std::time::Instant::now();
                     let out = ctl.fly_blind(now);
-                    lockstep_output(ctx, ctl, stats, outputs, iterations, now, out, started);
+                    lockstep_output(ctx, ctl, stats, outputs, iterations, now, out, started, false);
                 }
             }
             (Loop::Lockstep { ctl, .. }, ControllerInput::Setpoint(sp)) => {
@@ -308,7 +350,12 @@ impl Actor for ControllerActor {
                     tracing::warn!(error = %e, rejected = ctl.counters().rejected_setpoints, "setpoint refused");
                 }
             }
-            (Loop::Thread { nav, .. }, ControllerInput::Nav(n)) => nav.write(Some(n)),
+            (Loop::Thread { nav, thread, .. }, ControllerInput::Nav(n)) => {
+                nav.write(Some(n));
+                if let Some(t) = thread {
+                    t.wake();
+                }
+            }
             (Loop::Thread { setpoint, .. }, ControllerInput::Setpoint(sp)) => setpoint.write(Some(sp)),
             // The thread keeps its own schedule; no timer is declared in this mode.
             (Loop::Thread { .. }, ControllerInput::Tick(_)) => {}
@@ -352,7 +399,8 @@ impl ControllerActor {
     }
 }
 
-/// Publishes one lockstep iteration's outputs and records its timing (statistics about 1 Hz).
+/// Publishes one lockstep iteration's outputs and records its timing (statistics about 1 Hz);
+/// `nav_driven`: a NavState ran it (its age is 0 on the graph clock), not the tick.
 #[allow(clippy::too_many_arguments)]
 fn lockstep_output(
     ctx: &Context,
@@ -363,13 +411,14 @@ fn lockstep_output(
     at: Time,
     out: ActuatorOutputs,
     started: std::time::Instant,
+    nav_driven: bool,
 ) {
-    let execution_us = u64::try_from(started.elapsed().as_micros()).unwrap_or(u64::MAX);
+    let execution_us = kestrel_proto::time::duration_micros(started.elapsed());
     outputs.actuators.publish(out);
-    stats.record(at.as_micros(), execution_us);
+    stats.record(LoopSample { start_us: at.as_micros(), execution_us, nav_age_us: nav_driven.then_some(0) });
     *iterations += 1;
     let every = ctl.params().timing.rate_hz.round().max(1.0) as u64;
     if iterations.is_multiple_of(every) {
-        outputs.stats.publish(stats.message(ctx.now(), ctl.counters(), false, false));
+        outputs.stats.publish(stats.message(ctx.now(), ctl.counters(), None, 0));
     }
 }

@@ -32,6 +32,18 @@ pub struct ControlLoopStats {
     pub execution_max_us: f64,
     /// Iterations that started more than half a period late, or took longer than a period.
     pub overruns: u64,
+    /// Age of the NavState an iteration ran on when it started (µs since its IMU sample was
+    /// measured: driver, estimator, routing and wake-up together); 0 in lockstep.
+    #[serde(default)]
+    pub nav_age_p50_us: f64,
+    #[serde(default)]
+    pub nav_age_p99_us: f64,
+    /// Iterations started without a new NavState (the thread's watchdog, the lockstep tick).
+    #[serde(default)]
+    pub watchdog_steps: u64,
+    /// Timing samples the statistics side could not take in time (not counted above).
+    #[serde(default)]
+    pub dropped_samples: u64,
     /// Setpoints refused (non-finite, out of range).
     pub rejected_setpoints: u64,
     /// NavStates refused (non-finite).

@@ -1,9 +1,12 @@
-//! Period and execution-time statistics of the control loop, in fixed histograms (1 µs bins
-//! up to 50 ms, everything above in the last bin), so recording never allocates.
+//! Period, execution-time and NavState-age statistics of the control loop, in fixed histograms
+//! (1 µs bins up to 50 ms, everything above in the last bin), so recording never allocates. On
+//! the real-time thread these are kept by the tokio side from the loop's samples
+//! (`sample_ring.rs`): the quantile scans never run on the loop's thread.
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::ControlLoopStats;
 
+use super::thread::{Granted, LoopSample};
 use crate::flight_controller::LoopCounters;
 
 const BINS: usize = 50_000;
@@ -61,7 +64,9 @@ pub struct LoopStats {
     nominal_us: u64,
     period: Histogram,
     execution: Histogram,
+    nav_age: Histogram,
     overruns: u64,
+    watchdog_steps: u64,
     last_start: Option<u64>,
     /// Whether an iteration that executes longer than the period is an overrun: on the real-time
     /// thread it is (the next deadline is missed); in lockstep the simulated clock waits for the
@@ -77,7 +82,9 @@ impl LoopStats {
             nominal_us,
             period: Histogram::default(),
             execution: Histogram::default(),
+            nav_age: Histogram::default(),
             overruns: 0,
+            watchdog_steps: 0,
             last_start: None,
             execution_deadline: true,
         }
@@ -89,8 +96,13 @@ impl LoopStats {
         LoopStats { execution_deadline: false, ..LoopStats::new(nominal_us) }
     }
 
-    /// Records one iteration that started at `start_us` and took `execution_us` (µs).
-    pub fn record(&mut self, start_us: u64, execution_us: u64) {
+    /// Records one iteration.
+    pub fn record(&mut self, sample: LoopSample) {
+        let LoopSample { start_us, execution_us, nav_age_us } = sample;
+        match nav_age_us {
+            Some(age) => self.nav_age.record(age),
+            None => self.watchdog_steps += 1,
+        }
         if let Some(last) = self.last_start {
             let period = start_us.saturating_sub(last);
             self.period.record(period);
@@ -117,20 +129,22 @@ impl LoopStats {
         self.overruns
     }
 
-    /// The message form, with the controller's counters.
+    /// The message form, with the controller's counters, what the OS granted the loop's thread
+    /// (`None`: no thread, lockstep) and samples lost before they reached these statistics.
     pub fn message(
         &self,
         time: Time,
         counters: LoopCounters,
-        thread: bool,
-        realtime: bool,
+        thread: Option<Granted>,
+        dropped_samples: u64,
     ) -> ControlLoopStats {
+        let granted = thread.unwrap_or_default();
         ControlLoopStats {
             time,
-            dedicated_thread: thread,
-            realtime_priority: realtime,
-            memory_locked: false,
-            pinned_cpu: None,
+            dedicated_thread: thread.is_some(),
+            realtime_priority: granted.sched_fifo,
+            memory_locked: granted.memory_locked,
+            pinned_cpu: granted.pinned_cpu,
             iterations: self.execution.count(),
             period_p50_us: self.period.quantile_us(0.5),
             period_p99_us: self.period.quantile_us(0.99),
@@ -139,6 +153,10 @@ impl LoopStats {
             execution_p99_us: self.execution.quantile_us(0.99),
             execution_max_us: self.execution.max_us(),
             overruns: self.overruns,
+            nav_age_p50_us: self.nav_age.quantile_us(0.5),
+            nav_age_p99_us: self.nav_age.quantile_us(0.99),
+            watchdog_steps: self.watchdog_steps,
+            dropped_samples,
             rejected_setpoints: counters.rejected_setpoints,
             rejected_nav: counters.rejected_nav,
             blind_steps: counters.blind_steps,
@@ -151,21 +169,42 @@ impl LoopStats {
 mod tests {
     use super::*;
 
+    fn sample(start_us: u64, execution_us: u64) -> LoopSample {
+        LoopSample { start_us, execution_us, nav_age_us: Some(0) }
+    }
+
     #[test]
     fn lockstep_loops_count_late_periods_but_not_slow_host_execution() {
         let mut s = LoopStats::lockstep(2500);
-        s.record(0, 9000);
-        s.record(2500, 100);
+        s.record(sample(0, 9000));
+        s.record(sample(2500, 100));
         assert_eq!(s.overruns(), 0, "a slow host step misses no simulated deadline");
-        s.record(9000, 100);
+        s.record(sample(9000, 100));
         assert_eq!(s.overruns(), 1, "a late period on the graph clock does");
+    }
+
+    #[test]
+    fn nav_ages_and_watchdog_steps_reach_the_message() {
+        let mut s = LoopStats::new(2500);
+        for i in 0..99u64 {
+            s.record(LoopSample { start_us: i * 2500, execution_us: 30, nav_age_us: Some(400 + i % 3) });
+        }
+        s.record(LoopSample { start_us: 99 * 2500 + 1250, execution_us: 30, nav_age_us: None });
+        let granted = Granted { sched_fifo: true, memory_locked: false, pinned_cpu: Some(3) };
+        let m = s.message(Time::from_micros(1), LoopCounters::default(), Some(granted), 2);
+        assert_eq!((m.nav_age_p50_us, m.nav_age_p99_us), (401.0, 402.0));
+        assert_eq!((m.watchdog_steps, m.dropped_samples, m.iterations), (1, 2, 100));
+        assert!(m.dedicated_thread && m.realtime_priority && !m.memory_locked);
+        assert_eq!(m.pinned_cpu, Some(3));
+        let lockstep = s.message(Time::from_micros(1), LoopCounters::default(), None, 0);
+        assert!(!lockstep.dedicated_thread && !lockstep.realtime_priority);
     }
 
     #[test]
     fn quantiles_and_overruns() {
         let mut s = LoopStats::new(2500);
         for i in 0..100u64 {
-            s.record(i * 2500 + if i == 50 { 2000 } else { 0 }, 40 + i % 2);
+            s.record(sample(i * 2500 + if i == 50 { 2000 } else { 0 }, 40 + i % 2));
         }
         assert_eq!(s.period().quantile_us(0.5), 2500.0);
         assert_eq!(s.period().max_us(), 4500.0);

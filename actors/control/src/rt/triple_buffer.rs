@@ -74,6 +74,11 @@ impl<T: Send> Reader<T> {
         (unsafe { &*self.shared.slots[usize::from(self.front)].get() }, fresh)
     }
 
+    /// Whether a value newer than the last read is waiting (a peek: nothing is taken).
+    pub fn has_fresh(&self) -> bool {
+        self.shared.middle.load(Ordering::Acquire) & FRESH != 0
+    }
+
     /// Whether the writing half has been dropped.
     pub fn writer_gone(&self) -> bool {
         Arc::strong_count(&self.shared) == 1
@@ -90,7 +95,9 @@ mod tests {
         assert_eq!(r.read(), (&0, false));
         w.write(1);
         w.write(2);
+        assert!(r.has_fresh() && r.has_fresh(), "a peek takes nothing");
         assert_eq!(r.read(), (&2, true));
+        assert!(!r.has_fresh());
         assert_eq!(r.read(), (&2, false));
         w.write(3);
         assert_eq!(r.read(), (&3, true));
