@@ -2,7 +2,9 @@
 //! complete, did the vehicle hit anything, how far was the estimate from the truth, how
 //! regular was the control loop, which failsafes fired, and which simulated faults were
 //! injected when (the simulator's `sim_fault`), and what the estimator noticed when
-//! (`estimator_status`, see [`crate::estimator_events`]).
+//! (`estimator_status`, see [`crate::estimator_events`]), which actors the supervisor restarted
+//! (`supervisor`) and what the commander announced (its status's refusals and notices, each a
+//! STATUSTEXT on the link).
 //!
 //! It is an ordinary actor fed through queue mailboxes, so under lockstep it sees every
 //! message and the report of a simulated flight is as repeatable as the flight itself. Each
@@ -16,7 +18,7 @@ use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
     AvoidanceCommand, ControlLoopStats, EstimatorStatus, GroundTruth, NavState, Setpoint, SetpointTarget,
-    SimFault, StereoFrame, VehicleStatus,
+    SimFault, StereoFrame, SupervisorEvent, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use serde::{Deserialize, Serialize};
@@ -35,7 +37,7 @@ pub struct FlightReportParams {
 
 /// The topics the report reads, with their message types, so the runtime can route the ones
 /// a graph has.
-pub const REPORT_INPUTS: [(&str, &str); 9] = [
+pub const REPORT_INPUTS: [(&str, &str); 10] = [
     ("ground_truth", <GroundTruth as kestrel_proto::Message>::TYPE_NAME),
     ("nav_state", <NavState as kestrel_proto::Message>::TYPE_NAME),
     ("vehicle_status", <VehicleStatus as kestrel_proto::Message>::TYPE_NAME),
@@ -45,6 +47,7 @@ pub const REPORT_INPUTS: [(&str, &str); 9] = [
     ("avoidance_command", <AvoidanceCommand as kestrel_proto::Message>::TYPE_NAME),
     ("sim_fault", <SimFault as kestrel_proto::Message>::TYPE_NAME),
     ("estimator_status", <EstimatorStatus as kestrel_proto::Message>::TYPE_NAME),
+    ("supervisor", <SupervisorEvent as kestrel_proto::Message>::TYPE_NAME),
 ];
 
 /// What the report actor handles.
@@ -59,6 +62,7 @@ pub enum ReportInput {
     Avoidance(AvoidanceCommand),
     Fault(SimFault),
     Estimator(Box<EstimatorStatus>),
+    Supervisor(SupervisorEvent),
 }
 
 /// The report, in the field layout other tools rely on (docs/design.md).
@@ -82,6 +86,33 @@ pub struct FlightReport {
     /// a failsafe, so this is where its failure shows.
     #[serde(default)]
     pub motor_failures: Vec<MotorFailureEntry>,
+    /// Every actor failure, restart and give-up the supervisor published, in order: where a
+    /// restarted actor that is not flight-critical (the stereo worker) shows.
+    #[serde(default)]
+    pub actor_events: Vec<ActorEventEntry>,
+    /// What the commander announced (a refusal, the avoider's stale hold), in order.
+    #[serde(default)]
+    pub notices: Vec<NoticeEntry>,
+}
+
+/// A supervisor event.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ActorEventEntry {
+    /// Graph time of the event (s).
+    pub t_s: f64,
+    pub actor: String,
+    /// `failed`, `restarted`, `gave_up` or `stopped`.
+    pub event: String,
+    /// The error or panic message.
+    pub reason: String,
+}
+
+/// A commander announcement (`VehicleStatus::last_refusal`, counted by `refusals`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NoticeEntry {
+    /// Graph time of the status that carried it (s).
+    pub t_s: f64,
+    pub text: String,
 }
 
 /// A motor declared failed.
@@ -307,6 +338,8 @@ pub struct FlightReportActor {
     faults: Vec<FaultEntry>,
     estimator_events: EstimatorEvents,
     motor_failures: Vec<MotorFailureEntry>,
+    actor_events: Vec<ActorEventEntry>,
+    notices: Vec<NoticeEntry>,
     frame_latency: FrameLatency,
     /// Graph time and host time of the first and the latest stereo frame.
     frames_span: Option<[(Time, Instant); 2]>,
@@ -406,6 +439,13 @@ impl FlightReportActor {
                 action: serde_name(&f.action),
             });
         }
+        if let Some(text) = status
+            .last_refusal
+            .as_ref()
+            .filter(|_| self.status.as_ref().is_none_or(|s| s.refusals != status.refusals))
+        {
+            self.notices.push(NoticeEntry { t_s: status.time.as_secs_f64(), text: text.clone() });
+        }
         let known = self.status.as_ref().and_then(|s| s.failed_motor);
         if let Some(motor) = status.failed_motor.filter(|m| known != Some(*m)) {
             self.motor_failures
@@ -479,6 +519,8 @@ impl FlightReportActor {
             faults: self.faults.clone(),
             estimator_events: self.estimator_events.log.clone(),
             motor_failures: self.motor_failures.clone(),
+            actor_events: self.actor_events.clone(),
+            notices: self.notices.clone(),
         }
     }
 }
@@ -497,6 +539,7 @@ impl Actor for FlightReportActor {
         setup.input("avoidance_command", ReportInput::Avoidance);
         setup.input("sim_fault", ReportInput::Fault);
         setup.input("estimator_status", |s| ReportInput::Estimator(Box::new(s)));
+        setup.input("supervisor", ReportInput::Supervisor);
         Ok(FlightReportActor {
             out: params.out.clone(),
             first: None,
@@ -514,6 +557,8 @@ impl Actor for FlightReportActor {
             faults: Vec::new(),
             estimator_events: EstimatorEvents::default(),
             motor_failures: Vec::new(),
+            actor_events: Vec::new(),
+            notices: Vec::new(),
             frame_latency: FrameLatency::default(),
             frames_span: None,
             path_length_m: 0.0,
@@ -556,6 +601,15 @@ impl Actor for FlightReportActor {
             ReportInput::Estimator(s) => {
                 self.seen(s.time);
                 self.estimator_events.on_status(&s);
+            }
+            ReportInput::Supervisor(e) => {
+                self.seen(e.time);
+                self.actor_events.push(ActorEventEntry {
+                    t_s: e.time.as_secs_f64(),
+                    actor: e.actor,
+                    event: serde_name(&e.kind),
+                    reason: e.reason,
+                });
             }
             ReportInput::Loop(l) => {
                 self.seen(l.time);

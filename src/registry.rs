@@ -46,8 +46,9 @@ impl Registry {
 
     /// Adds the actors that stand in for the world in simulations, benches and tests: the
     /// simulator and its camera, a recorded log (`log_replay`), and the test helpers
-    /// `truth_nav` (ground truth as the navigation state) and `pilot_script` (a pilot on a
-    /// timetable). None of them belongs in a vehicle's graph.
+    /// `truth_nav` (ground truth as the navigation state), `pilot_script` (a pilot on a
+    /// timetable) and `sim_gcs` (a ground station's heartbeats on the graph clock). None of them
+    /// belongs in a vehicle's graph.
     pub fn stand_ins(self) -> Registry {
         self.with::<kestrel_sim::SimActor>("sim")
             .with::<kestrel_sim::hil::HilSimActor>("hil_sim")
@@ -55,6 +56,7 @@ impl Registry {
             .with::<crate::log_replay::LogReplayActor>("log_replay")
             .with::<kestrel_control::TruthNavActor>("truth_nav")
             .with::<kestrel_control::PilotScriptActor>("pilot_script")
+            .with::<kestrel_link::SimGcsActor>("sim_gcs")
     }
 
     /// Adds actor type `A` under `name`.
@@ -81,7 +83,7 @@ mod tests {
     #[test]
     fn stand_ins_are_registered_apart_from_the_flight_actors() {
         let flight = Registry::flight().names();
-        for stand_in in ["sim", "sim_camera", "log_replay", "truth_nav", "pilot_script"] {
+        for stand_in in ["sim", "sim_camera", "log_replay", "truth_nav", "pilot_script", "sim_gcs"] {
             assert!(!flight.contains(&stand_in), "{stand_in} in {flight:?}");
             assert!(Registry::standard().get(stand_in).is_some(), "{stand_in}");
         }

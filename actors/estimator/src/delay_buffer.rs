@@ -3,17 +3,37 @@
 //! past states (PX4 EKF2's `RingBuffer`).
 //!
 //! Capacity is fixed at construction, so steady-state operation never allocates; pushing into a
-//! full buffer drops the oldest entry and counts it.
+//! full buffer drops the oldest entry and counts it. A copy has the same capacity, and copying
+//! into one (`clone_from`, the estimator's keepsake) reuses its storage.
 
 use std::collections::VecDeque;
 
 /// A ring buffer holding at most `capacity` entries.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct DelayBuffer<T> {
     items: VecDeque<T>,
     capacity: usize,
     /// Entries dropped because the buffer was full, for the status message.
     overflows: u64,
+}
+
+impl<T: Clone> Clone for DelayBuffer<T> {
+    fn clone(&self) -> Self {
+        let mut copy = DelayBuffer::new(self.capacity);
+        copy.clone_from(self);
+        copy
+    }
+
+    /// Copies `source` into this buffer's storage: no allocation when it already holds
+    /// `source`'s capacity (the derived `clone_from` would build a new buffer and drop this one).
+    fn clone_from(&mut self, source: &Self) {
+        let DelayBuffer { items, capacity, overflows } = source;
+        self.items.clear();
+        self.items.reserve(*capacity);
+        self.items.extend(items.iter().cloned());
+        self.capacity = *capacity;
+        self.overflows = *overflows;
+    }
 }
 
 impl<T> DelayBuffer<T> {
@@ -85,5 +105,24 @@ mod tests {
         assert_eq!(b.pop_oldest_if(|&x| x > 2), None);
         assert_eq!(b.pop_oldest_if(|&x| x == 2), Some(2));
         assert_eq!((b.oldest(), b.newest()), (Some(&3), Some(&4)));
+    }
+
+    #[test]
+    fn a_copy_into_another_buffer_holds_the_same_entries_and_capacity() {
+        let mut source = DelayBuffer::new(4);
+        for i in 0..7 {
+            source.push(i);
+        }
+        let mut copy = DelayBuffer::new(4);
+        copy.push(99);
+        copy.clone_from(&source);
+        let entries = |b: &DelayBuffer<i32>| b.items.iter().copied().collect::<Vec<_>>();
+        assert_eq!((entries(&copy), copy.overflows()), (vec![3, 4, 5, 6], 3));
+        // Full at the same capacity: the next push drops the oldest, as in the source.
+        copy.push(7);
+        source.push(7);
+        assert_eq!((entries(&copy), copy.overflows()), (entries(&source), source.overflows()));
+        let fresh = source.clone();
+        assert_eq!((entries(&fresh), fresh.capacity, fresh.overflows()), (entries(&source), 4, 4));
     }
 }

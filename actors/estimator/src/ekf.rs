@@ -45,7 +45,7 @@ const GPS_HEIGHT_AVAILABLE_S: f64 = 1.0;
 const NO_AIDING_INTERVAL_S: f64 = 0.2;
 
 /// The filter and its output once aligned.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 struct Running {
     filter: Filter,
     output: OutputPredictor,
@@ -58,7 +58,11 @@ struct Running {
 }
 
 /// The 16-state EKF with its delay buffers, aiding logic and output predictor.
-#[derive(Clone, Debug)]
+///
+/// `clone_from` copies into the buffers it already has (the estimator keeps a copy for a
+/// restarted successor every 20 ms, `KEEP_PERIOD_US`): no allocation once the copy holds a
+/// filter with the same buffer capacities, which every filter of one process has.
+#[derive(Debug)]
 pub struct Ekf {
     params: EkfParams,
     noise: ProcessNoise,
@@ -93,6 +97,94 @@ pub struct Ekf {
     /// not one per sample at 400 Hz.
     imu_clipping: bool,
     arrivals: DroppedSamples<Arrivals>,
+}
+
+impl Clone for Running {
+    fn clone(&self) -> Self {
+        let Running { filter, output, last_no_aiding_fusion, held_position_ne_m, aligned_at } = self;
+        Running {
+            filter: filter.clone(),
+            output: output.clone(),
+            last_no_aiding_fusion: *last_no_aiding_fusion,
+            held_position_ne_m: *held_position_ne_m,
+            aligned_at: *aligned_at,
+        }
+    }
+
+    fn clone_from(&mut self, source: &Self) {
+        let Running { filter, output, last_no_aiding_fusion, held_position_ne_m, aligned_at } = source;
+        self.filter.clone_from(filter);
+        self.output.clone_from(output);
+        self.last_no_aiding_fusion = *last_no_aiding_fusion;
+        self.held_position_ne_m = *held_position_ne_m;
+        self.aligned_at = *aligned_at;
+    }
+}
+
+impl Clone for Ekf {
+    /// A filter with the same buffer capacities, then the copy.
+    fn clone(&self) -> Self {
+        let mut copy = Ekf::with_valid(self.params.clone());
+        copy.clone_from(self);
+        copy
+    }
+
+    /// Field by field, into the buffers this filter has (the derived one would build a new
+    /// filter and drop this one). The pattern names every field, so a new one cannot be missed.
+    fn clone_from(&mut self, source: &Self) {
+        let Ekf {
+            params,
+            noise,
+            horizon_us,
+            alignment,
+            running,
+            imu_buffer,
+            gps_buffer,
+            baro_buffer,
+            climb_buffer,
+            mag_buffer,
+            climb_fit,
+            gps,
+            baro,
+            mag,
+            frame,
+            newest_imu,
+            newest_gyro_rad_s,
+            imu_rejected,
+            imu_gaps,
+            imu_switches,
+            warm_starts,
+            realignments,
+            imu_clipped,
+            imu_clipping,
+            arrivals,
+        } = source;
+        self.params.clone_from(params);
+        self.noise.clone_from(noise);
+        self.horizon_us = *horizon_us;
+        self.alignment.clone_from(alignment);
+        self.running.clone_from(running);
+        self.imu_buffer.clone_from(imu_buffer);
+        self.gps_buffer.clone_from(gps_buffer);
+        self.baro_buffer.clone_from(baro_buffer);
+        self.climb_buffer.clone_from(climb_buffer);
+        self.mag_buffer.clone_from(mag_buffer);
+        self.climb_fit.clone_from(climb_fit);
+        self.gps.clone_from(gps);
+        self.baro.clone_from(baro);
+        self.mag.clone_from(mag);
+        self.frame.clone_from(frame);
+        self.newest_imu = *newest_imu;
+        self.newest_gyro_rad_s = *newest_gyro_rad_s;
+        self.imu_rejected = *imu_rejected;
+        self.imu_gaps = *imu_gaps;
+        self.imu_switches = *imu_switches;
+        self.warm_starts = *warm_starts;
+        self.realignments = *realignments;
+        self.imu_clipped = *imu_clipped;
+        self.imu_clipping = *imu_clipping;
+        self.arrivals.clone_from(arrivals);
+    }
 }
 
 /// Per aiding sensor: lagged samples refused on arrival (see [`crate::arrivals`]).

@@ -29,7 +29,7 @@ pub struct OutputSample {
 }
 
 /// The present-time estimate.
-#[derive(Clone, Debug)]
+#[derive(Debug)]
 pub struct OutputPredictor {
     current: OutputSample,
     history: DelayBuffer<OutputSample>,
@@ -41,6 +41,49 @@ pub struct OutputPredictor {
     horizon_s: f64,
     /// Velocity and position tracking time constant (s).
     tau_s: f64,
+}
+
+impl Clone for OutputPredictor {
+    fn clone(&self) -> Self {
+        let OutputPredictor {
+            current,
+            history,
+            att_correction_rad,
+            vel_error_integral,
+            pos_error_integral,
+            horizon_s,
+            tau_s,
+        } = self;
+        OutputPredictor {
+            current: *current,
+            history: history.clone(),
+            att_correction_rad: *att_correction_rad,
+            vel_error_integral: *vel_error_integral,
+            pos_error_integral: *pos_error_integral,
+            horizon_s: *horizon_s,
+            tau_s: *tau_s,
+        }
+    }
+
+    /// Copies into this predictor's history buffer instead of a new one.
+    fn clone_from(&mut self, source: &Self) {
+        let OutputPredictor {
+            current,
+            history,
+            att_correction_rad,
+            vel_error_integral,
+            pos_error_integral,
+            horizon_s,
+            tau_s,
+        } = source;
+        self.current = *current;
+        self.history.clone_from(history);
+        self.att_correction_rad = *att_correction_rad;
+        self.vel_error_integral = *vel_error_integral;
+        self.pos_error_integral = *pos_error_integral;
+        self.horizon_s = *horizon_s;
+        self.tau_s = *tau_s;
+    }
 }
 
 impl OutputPredictor {

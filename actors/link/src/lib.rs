@@ -10,6 +10,8 @@
 //! * [`hub`] — links + router + vehicle: signatures, routing, per-link encoding, radio thinning.
 //! * [`transport`] — UDP client/server, TCP server and serial tasks feeding the hub.
 //! * [`actor`] — [`LinkActor`], the graph's side.
+//! * [`sim_gcs`] — [`SimGcsActor`], a ground station's heartbeats on the graph clock for
+//!   simulated flights (silenced by the simulator's `link_lost` fault); no vehicle runs it.
 //!
 //! Custom modes follow ArduCopter's numbering ([`modes`]), so ground stations show our modes.
 //!
@@ -26,8 +28,10 @@ pub mod hub;
 pub mod modes;
 pub mod router;
 pub mod services;
+pub mod sim_gcs;
 pub mod transport;
 pub mod vehicle;
 
 pub use actor::{LinkActor, LinkInput};
 pub use config::{EndpointConfig, EndpointKind, LinkParams, ParamKind, ParamSpec};
+pub use sim_gcs::SimGcsActor;

@@ -121,10 +121,14 @@ pub enum FaultKind {
     /// it would handle: a `for_s` shorter than the restart backoff is one panic); the simulator
     /// only reports its start and end.
     ActorPanic { actor: String },
+    /// `link_lost`: the ground station's radio link is down: the simulated ground station
+    /// (`sim_gcs`, in the link crate) sends nothing while it is active, so the vehicle stops
+    /// hearing its heartbeats; the simulator only reports its start and end.
+    LinkLost,
 }
 
 /// Every kind's `kind` spelling, in the order of the world file documentation.
-pub const KINDS: [&str; 19] = [
+pub const KINDS: [&str; 20] = [
     "gps_off",
     "gps_jump",
     "gps_noise",
@@ -144,6 +148,7 @@ pub const KINDS: [&str; 19] = [
     "camera_black",
     "camera_frozen",
     "actor_panic",
+    "link_lost",
 ];
 
 impl FaultKind {
@@ -169,6 +174,7 @@ impl FaultKind {
             FaultKind::CameraBlack => "camera_black",
             FaultKind::CameraFrozen => "camera_frozen",
             FaultKind::ActorPanic { .. } => "actor_panic",
+            FaultKind::LinkLost => "link_lost",
         }
     }
 
@@ -388,6 +394,7 @@ impl TryFrom<RawFault> for Fault {
             "camera_black" => (FaultKind::CameraBlack, &[]),
             "camera_frozen" => (FaultKind::CameraFrozen, &[]),
             "actor_panic" => (FaultKind::ActorPanic { actor: need(k, "actor", &raw.actor)? }, &["actor"]),
+            "link_lost" => (FaultKind::LinkLost, &[]),
             other => {
                 let known = KINDS.join(", ");
                 return Err(InvalidParam::new(
@@ -447,7 +454,8 @@ impl From<Fault> for RawFault {
             | FaultKind::ImuStop
             | FaultKind::CameraStop
             | FaultKind::CameraBlack
-            | FaultKind::CameraFrozen => {}
+            | FaultKind::CameraFrozen
+            | FaultKind::LinkLost => {}
         }
         raw
     }
@@ -551,7 +559,7 @@ impl FaultSchedule {
                 FaultKind::CameraStop => effects.camera.stop = true,
                 FaultKind::CameraBlack => effects.camera.black = true,
                 FaultKind::CameraFrozen => effects.camera.frozen = true,
-                FaultKind::ActorPanic { .. } => {}
+                FaultKind::ActorPanic { .. } | FaultKind::LinkLost => {}
             }
         }
         effects
@@ -692,7 +700,7 @@ mod tests {
 
     #[test]
     fn every_kind_parses_with_its_values() {
-        let cases: [(&str, FaultKind); 19] = [
+        let cases: [(&str, FaultKind); 20] = [
             ("kind = \"gps_off\"", FaultKind::GpsOff),
             (
                 "kind = \"gps_jump\"\nned_m = [50.0, -2.0, 1.0]",
@@ -730,6 +738,7 @@ mod tests {
                 "kind = \"actor_panic\"\nactor = \"estimator\"",
                 FaultKind::ActorPanic { actor: "estimator".into() },
             ),
+            ("kind = \"link_lost\"", FaultKind::LinkLost),
         ];
         for (values, kind) in cases {
             let fault = one(&format!("at_s = 12.5\nfor_s = 3.0\n{values}"))

@@ -80,6 +80,9 @@ pub enum FailsafeCause {
     /// The pilot's sticks (RC or MAVLink MANUAL_CONTROL) stopped while a mode flown from them
     /// was active (ArduPilot's radio failsafe, PX4's `COM_RC_LOSS_T`).
     ManualControlLost,
+    /// The obstacle avoider in the loop has given no fresh correction for longer than its
+    /// limit (camera or stereo gone): the stale hold would otherwise last until the battery.
+    AvoidanceLost,
 }
 
 /// A failsafe that is active now.

@@ -111,6 +111,9 @@ pub(crate) struct AvoidanceLoop {
     pub state: Option<(Vector3<f64>, Vector3<f64>)>,
     /// Holding because the stream is stale.
     pub holding: bool,
+    /// Stamp of the newest command that was not flagged stale (of the first command, until one
+    /// is): how long the avoider has had nothing to say, for the `avoidance_lost` failsafe.
+    pub last_fresh: Option<Time>,
 }
 
 /// The commander's settings for one step.
@@ -137,10 +140,18 @@ impl AvoidanceLoop {
         self.command.is_some()
     }
 
+    /// Seconds at `now` since the avoider's last fresh command; `None` outside the loop.
+    pub fn silent_for_s(&self, now: Time) -> Option<f64> {
+        self.last_fresh.map(|t| now.saturating_since(t).as_secs_f64())
+    }
+
     /// Takes a command; a non-finite one is ignored.
     pub fn on_command(&mut self, cmd: &AvoidanceCommand) -> bool {
         if cmd.velocity_frd_m_s.iter().all(|v| v.is_finite()) {
             self.command = Some(*cmd);
+            if !cmd.health.stale || self.last_fresh.is_none() {
+                self.last_fresh = Some(cmd.time);
+            }
             true
         } else {
             false

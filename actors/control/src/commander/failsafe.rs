@@ -4,7 +4,7 @@
 use kestrel_proto::Time;
 use kestrel_proto::messages::{Failsafe, FailsafeAction, FailsafeCause};
 
-const CAUSES: [FailsafeCause; 9] = [
+const CAUSES: [FailsafeCause; 10] = [
     FailsafeCause::DataLinkLost,
     FailsafeCause::BatteryLow,
     FailsafeCause::BatteryCritical,
@@ -14,10 +14,12 @@ const CAUSES: [FailsafeCause; 9] = [
     FailsafeCause::CriticalActorFailed,
     FailsafeCause::ManualControlLost,
     FailsafeCause::MotorFailure,
+    FailsafeCause::AvoidanceLost,
 ];
 
 /// Causes that stay active once fired, for the rest of the flight: a battery does not
-/// recharge, a motor that stopped is not trusted again, and an estimator or flight-critical actor that failed is not trusted again until
+/// recharge, a motor that stopped is not trusted again, nor is obstacle data that was gone for
+/// `avoidance_lost_s`, and an estimator or flight-critical actor that failed is not trusted again until
 /// the flight ends (the landing it started must not be undone by the mode change it caused).
 /// Every cause is cleared on disarm, as PX4 does; the pre-arm checks judge the next flight.
 fn latches(cause: FailsafeCause) -> bool {
@@ -28,6 +30,7 @@ fn latches(cause: FailsafeCause) -> bool {
             | FailsafeCause::CriticalActorFailed
             | FailsafeCause::EstimatorUnhealthy
             | FailsafeCause::MotorFailure
+            | FailsafeCause::AvoidanceLost
     )
 }
 

@@ -706,6 +706,7 @@ impl Commander {
         let unhealthy = nav.as_ref().is_some_and(|n| {
             fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
         });
+        let avoidance_lost = self.avoidance.silent_for_s(now).is_some_and(|s| s > fs.avoidance_lost_s);
         let sticks_lost = self.manual.is_some() && flown_from_sticks(self.mode) && self.sticks(now).is_none();
         let fence = self.geofence_enabled
             && nav.as_ref().is_some_and(|n| {
@@ -736,6 +737,7 @@ impl Commander {
             fs.critical_actor_action,
         );
         m.set(now, FailsafeCause::ManualControlLost, armed && sticks_lost, fs.manual_action);
+        m.set(now, FailsafeCause::AvoidanceLost, armed && avoidance_lost, fs.avoidance_action);
         let motor_failed = self.motors.failed().is_some() && !self.motors.others_hold_all_axes();
         m.set(now, FailsafeCause::MotorFailure, armed && motor_failed, fs.motor_failure_action);
         self.apply_failsafe(now);

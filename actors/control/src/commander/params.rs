@@ -144,6 +144,14 @@ pub struct FailsafeParams {
     /// With four or more left (hexa, octo) the mixer flies on without it and the commander
     /// only reports it, as PX4 with `CA_FAILURE_MODE = 1`.
     pub motor_failure_action: FailsafeAction,
+    /// Once the avoider is in the loop, no fresh correction for this long (s) fires
+    /// `avoidance_action`. Until then a stale stream holds the leg (the commander's stale hold,
+    /// as PX4's collision prevention allows no motion where it has no data, `CP_GO_NO_DATA` 0),
+    /// and a stream back within it resumes the mission; past it the data is taken as gone.
+    pub avoidance_lost_s: f64,
+    /// What losing the avoider's data does: LAND, straight down where the vehicle holds (it
+    /// flew there, and the forward camera never saw what lies on a way home).
+    pub avoidance_action: FailsafeAction,
 }
 
 impl Default for FailsafeParams {
@@ -165,6 +173,8 @@ impl Default for FailsafeParams {
             manual_action: FailsafeAction::ReturnToLaunch,
             motor_failure: MotorFailureParams::default(),
             motor_failure_action: FailsafeAction::Land,
+            avoidance_lost_s: 10.0,
+            avoidance_action: FailsafeAction::Land,
         }
     }
 }
@@ -242,6 +252,7 @@ impl CommanderParams {
             ("guided_timeout_s", self.guided_timeout_s),
             ("failsafe.link_timeout_s", self.failsafe.link_timeout_s),
             ("failsafe.manual_timeout_s", self.failsafe.manual_timeout_s),
+            ("failsafe.avoidance_lost_s", self.failsafe.avoidance_lost_s),
             ("feasibility.max_distance_m", self.feasibility.max_distance_m),
             ("feasibility.first_distance_m", self.feasibility.first_distance_m),
             ("feasibility.max_velocity_m_s", self.feasibility.max_velocity_m_s),

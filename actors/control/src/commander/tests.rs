@@ -547,6 +547,38 @@ fn a_stale_avoidance_stream_in_auto_slows_holds_and_says_why() {
 }
 
 #[test]
+fn avoidance_stale_past_avoidance_lost_s_lands_and_a_shorter_gap_only_holds() {
+    let lost_s = CommanderParams::default().failsafe.avoidance_lost_s;
+    // Stale for `gap_s` (flagged by the avoider on its staleness timer), then fresh again.
+    for (gap_s, lands) in [(lost_s - 1.0, false), (lost_s + 1.0, true)] {
+        let (mut c, mut t) = auto_leg();
+        let mut cause = None;
+        let gap = (3.0 * 1e6) as u64..((3.0 + gap_s) * 1e6) as u64;
+        while t < ((5.0 + lost_s) * 1e6) as u64 {
+            t += 2500;
+            c.on_nav(&nav_heading(t, -10.0, 0.0));
+            c.on_avoidance(&avoidance(t, [0.0; 3], gap.contains(&t)));
+            c.update(Time(t));
+            cause = cause.or(c.status(Time(t)).failsafe.map(|f| (f.cause, f.action, f.since)));
+        }
+        if lands {
+            let (cause, action, since) = cause.expect("the failsafe fired");
+            assert_eq!((cause, action), (FailsafeCause::AvoidanceLost, FailsafeAction::Land));
+            // The last fresh command was 2.5 ms before the gap; it fires at the first update past it.
+            let after_s = since.as_secs_f64() - (gap.start as f64 / 1e6 - 0.0025);
+            assert!(
+                after_s > lost_s && after_s < lost_s + 0.01,
+                "fired {after_s} s after the last fresh command"
+            );
+            assert_eq!(c.mode(), FlightMode::Land);
+        } else {
+            assert_eq!(cause, None, "a gap shorter than avoidance_lost_s only holds");
+            assert_eq!(c.mode(), FlightMode::Auto);
+        }
+    }
+}
+
+#[test]
 fn without_avoidance_commands_auto_flies_point_to_point_as_before() {
     let (mut c, mut t) = auto_leg();
     let mut sp = TrajectorySetpoint::default();

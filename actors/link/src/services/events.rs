@@ -32,6 +32,7 @@ fn cause_text(cause: FailsafeCause) -> &'static str {
         FailsafeCause::CriticalActorFailed => "critical task failed",
         FailsafeCause::ManualControlLost => "radio (sticks) lost",
         FailsafeCause::MotorFailure => "motor failure",
+        FailsafeCause::AvoidanceLost => "obstacle data lost",
     }
 }
 
