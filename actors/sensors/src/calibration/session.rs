@@ -4,12 +4,18 @@
 //! operator (the STATUSTEXT, MAG_CAL_* and ACCELCAL_VEHICLE_POS lines ArduPilot sends, so
 //! MAVProxy's `accelcal`, `magcal` and `calibrate level` read them), and hands a good result back
 //! as parameters; a refused fit changes nothing. The shell in `calibration_actor.rs` does the I/O.
+//!
+//! The ESC range calibration drives the motors, so it is held to more: it starts only disarmed,
+//! landed and with ESC telemetry flowing (the speed is its feedback), tells the operator to take
+//! the propellers off (PX4's "remove propellers"), and stops — pulses released to the disarmed
+//! pulse — on cancel, an arm request, a timeout, or telemetry that goes quiet.
 
 use kestrel_proto::Time;
 use kestrel_proto::calibration::{CalibrationParams, SensorCalibration};
+use kestrel_proto::esc::esc_range_names;
 use kestrel_proto::messages::{
-    ACCELCAL_FAILED, ACCELCAL_SUCCESS, CalibrationRequest, CalibrationStep, CalibrationUpdate, ImuSample,
-    MagCalState, MagReport, MagSample, Motion, Severity,
+    ACCELCAL_FAILED, ACCELCAL_SUCCESS, CalibrationRequest, CalibrationStep, CalibrationUpdate, EscTelemetry,
+    ImuSample, LandedState, MAX_MOTORS, MagCalState, MagReport, MagSample, Motion, Severity,
 };
 use std::time::Duration;
 
@@ -17,8 +23,9 @@ use nalgebra::Vector3;
 
 use super::coverage::{Coverage, REGIONS};
 use super::{
-    AccelSettings, GyroSettings, LevelSettings, MagFit, MagSettings, OrientationSamples, VehicleOrientation,
-    calibrate_accel, calibrate_gyro, calibrate_level, calibrate_mag,
+    AccelSettings, EscRamp, EscSample, EscSettings, GyroSettings, LevelSettings, MagFit, MagSettings,
+    OrientationSamples, VehicleOrientation, calibrate_accel, calibrate_esc, calibrate_gyro, calibrate_level,
+    calibrate_mag,
 };
 
 /// How a session samples.
@@ -40,6 +47,12 @@ pub struct SessionSettings {
     pub idle_timeout_s: f64,
     /// MAG_CAL_PROGRESS period (s).
     pub progress_period_s: f64,
+    pub esc: EscSettings,
+    pub esc_ramp: EscRamp,
+    /// ESC telemetry older than this stops (or refuses) the ESC calibration (s).
+    pub esc_telemetry_timeout_s: f64,
+    /// The ESC calibration fails this long after its ramp should have ended (s).
+    pub esc_margin_s: f64,
 }
 
 impl SessionSettings {
@@ -56,6 +69,17 @@ impl SessionSettings {
             mag_timeout_s: 40.0,
             idle_timeout_s: 120.0,
             progress_period_s: 0.5,
+            esc: EscSettings {
+                // The simulator's ESCs hold a speed of √throttle (thrust linear in command), so
+                // speed flattens near full: 98 % of top speed is 4 % of the range short of full,
+                // 99.8 % is 0.4 %. A measured speed is steady here (no load, no noise in the
+                // simulator); a noisy ESC's telemetry would need the 98 % default.
+                full_fraction: 0.998,
+                ..EscSettings::default()
+            },
+            esc_ramp: EscRamp::default(),
+            esc_telemetry_timeout_s: 0.3,
+            esc_margin_s: 10.0,
         }
     }
 }
@@ -86,6 +110,19 @@ enum State {
     MagDone {
         params: Vec<(String, f64)>,
     },
+    /// The ESC ramp at `step`, held since `since`; `ramps[i]` the samples of output `i`.
+    Esc {
+        step: usize,
+        since: Time,
+        ramps: Vec<Vec<EscSample>>,
+    },
+}
+
+/// The newest ESC telemetry: when, and how many motors it reports.
+#[derive(Clone, Copy, Debug)]
+struct EscFeedback {
+    time: Time,
+    count: usize,
 }
 
 /// The calibration session.
@@ -96,6 +133,8 @@ pub struct Session {
     /// The values the sensor path uses now (from its owner's declaration).
     current: CalibrationParams,
     armed: bool,
+    landed: bool,
+    esc_feedback: Option<EscFeedback>,
     motion: Motion,
     /// No raw sample counts before this (the vehicle is still settling).
     settle_until: Option<Time>,
@@ -112,6 +151,8 @@ impl Session {
             state: State::Idle,
             current: CalibrationParams::default(),
             armed: false,
+            landed: true,
+            esc_feedback: None,
             motion: Motion::Idle,
             settle_until: None,
             deadline: Time::ZERO,
@@ -132,7 +173,14 @@ impl Session {
             State::Still { step, .. } => Some(*step),
             State::Accel { .. } => Some(CalibrationStep::Accel),
             State::Mag { .. } | State::MagDone { .. } => Some(CalibrationStep::Mag),
+            State::Esc { .. } => Some(CalibrationStep::Esc),
         }
+    }
+
+    /// The pulse every output is to be driven at now (µs), while the ESC calibration runs.
+    pub fn esc_pulses_us(&self) -> Option<[f64; MAX_MOTORS]> {
+        let State::Esc { step, .. } = &self.state else { return None };
+        self.settings.esc_ramp.pulse_us(*step).map(|p| [f64::from(p); MAX_MOTORS])
     }
 
     /// The calibration values in use, as their owner declared them.
@@ -144,9 +192,30 @@ impl Session {
         &self.current
     }
 
-    /// Whether the vehicle is armed (no calibration starts then).
-    pub fn set_armed(&mut self, armed: bool) {
+    /// Whether the vehicle is armed (no calibration starts then; an ESC calibration stops) and
+    /// on the ground (an ESC calibration starts only there).
+    pub fn set_vehicle(&mut self, armed: bool, landed: LandedState) {
         self.armed = armed;
+        self.landed = landed == LandedState::OnGround;
+        if armed {
+            self.stop_esc("vehicle armed");
+        }
+    }
+
+    /// Someone asked to arm: an ESC calibration stops at once (the commander refuses the arming
+    /// while any calibration runs).
+    pub fn on_arm_request(&mut self) {
+        self.stop_esc("arming requested");
+    }
+
+    fn stop_esc(&mut self, why: &str) {
+        if matches!(self.state, State::Esc { .. }) {
+            self.text(
+                Severity::Critical,
+                format!("ESC calibration stopped: {why}; motors at the disarmed pulse"),
+            );
+            self.finish();
+        }
     }
 
     /// Steps of `required` without a result in the values in use.
@@ -221,6 +290,7 @@ impl Session {
                         self.set_motion(Motion::Level);
                         self.ask_position(0);
                     }
+                    CalibrationStep::Esc => return self.start_esc(now),
                     CalibrationStep::Mag => {
                         let start_at = now + Duration::from_secs_f64(delay_s);
                         let ends_at = start_at + Duration::from_secs_f64(self.settings.mag_timeout_s);
@@ -268,6 +338,96 @@ impl Session {
                 }
                 Ok(())
             }
+            CalibrationRequest::Cancel => {
+                match self.running() {
+                    Some(step) => {
+                        if matches!(self.state, State::Accel { .. }) {
+                            self.out.push(CalibrationUpdate::AccelPosition { position: ACCELCAL_FAILED });
+                        }
+                        self.text(Severity::Info, format!("{} calibration cancelled", step.name()));
+                        self.finish();
+                    }
+                    None => self.text(Severity::Info, "No calibration running"),
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Starts the ESC ramp, if the vehicle may turn its motors and their speed can be seen.
+    fn start_esc(&mut self, now: Time) -> Result<(), String> {
+        if !self.landed {
+            return Err("ESC calibration refused: vehicle not landed".to_owned());
+        }
+        let stale = Duration::from_secs_f64(self.settings.esc_telemetry_timeout_s);
+        let Some(feedback) =
+            self.esc_feedback.filter(|f| now.saturating_since(f.time) <= stale && f.count > 0)
+        else {
+            return Err("ESC calibration refused: no ESC telemetry (motor speed), which the ramp needs; \
+                 PWM ESCs without feedback are calibrated max-then-min with the ESC's own procedure"
+                .to_owned());
+        };
+        let ramp = self.settings.esc_ramp;
+        self.deadline = now + Duration::from_secs_f64(ramp.duration_s() + self.settings.esc_margin_s);
+        self.state =
+            State::Esc { step: 0, since: now, ramps: vec![Vec::with_capacity(ramp.steps()); feedback.count] };
+        self.set_motion(Motion::PropsOff);
+        self.text(
+            Severity::Critical,
+            "ESC calibration: REMOVE THE PROPELLERS. Motors will spin up to full speed",
+        );
+        self.text(
+            Severity::Info,
+            format!(
+                "ESC calibration: ramping {} outputs {}..{} µs over {:.0} s",
+                feedback.count,
+                ramp.from_us(),
+                ramp.to_us(),
+                ramp.duration_s()
+            ),
+        );
+        Ok(())
+    }
+
+    /// ESC telemetry: the ramp's feedback.
+    pub fn on_esc(&mut self, telemetry: &EscTelemetry) {
+        let count = usize::from(telemetry.count).min(MAX_MOTORS);
+        self.esc_feedback = Some(EscFeedback { time: telemetry.time, count });
+        let dwell = Duration::from_secs_f64(self.settings.esc_ramp.dwell_s());
+        let ramp = self.settings.esc_ramp;
+        let State::Esc { step, since, ramps } = &mut self.state else { return };
+        if telemetry.time < *since + dwell {
+            return;
+        }
+        let Some(pulse_us) = ramp.pulse_us(*step) else { return };
+        for (i, samples) in ramps.iter_mut().enumerate() {
+            let speed_rad_s = if i < count { telemetry.speed_rad_s[i] } else { f64::NAN };
+            samples.push(EscSample { pulse_us, speed_rad_s });
+        }
+        *step += 1;
+        *since = telemetry.time;
+        if *step >= ramp.steps() {
+            let ramps = std::mem::take(ramps);
+            self.finish();
+            self.fit_esc(&ramps);
+        }
+    }
+
+    fn fit_esc(&mut self, ramps: &[Vec<EscSample>]) {
+        match calibrate_esc(ramps, &self.settings.esc) {
+            Ok(ranges) => {
+                let mut params = Vec::with_capacity(2 * ranges.len());
+                let mut summary = Vec::with_capacity(ranges.len());
+                for (i, r) in ranges.iter().enumerate() {
+                    let (min, max) = esc_range_names(i);
+                    params.push((min.to_owned(), f64::from(r.start_us)));
+                    params.push((max.to_owned(), f64::from(r.full_us)));
+                    summary.push(format!("{} {}..{}", i + 1, r.start_us, r.full_us));
+                }
+                self.out.push(CalibrationUpdate::Results { params });
+                self.text(Severity::Info, format!("ESC calibration successful (µs): {}", summary.join(", ")));
+            }
+            Err(e) => self.text(Severity::Critical, format!("ESC calibration FAILED: {e}")),
         }
     }
 
@@ -362,6 +522,13 @@ impl Session {
                 self.next_progress = now + Duration::from_secs_f64(self.settings.progress_period_s);
             }
             return;
+        }
+        if let State::Esc { .. } = self.state {
+            let stale = Duration::from_secs_f64(self.settings.esc_telemetry_timeout_s);
+            if self.esc_feedback.is_none_or(|f| now.saturating_since(f.time) > stale) {
+                self.stop_esc("ESC telemetry stopped");
+                return;
+            }
         }
         if self.running().is_some() && now >= self.deadline {
             let step = self.running().map_or("", CalibrationStep::name);
@@ -499,5 +666,7 @@ fn calibrated(current: &CalibrationParams, step: CalibrationStep) -> bool {
         CalibrationStep::Accel => current.differs_from_default("INS_ACC"),
         CalibrationStep::Level => current.differs_from_default("AHRS_TRIM"),
         CalibrationStep::Mag => current.differs_from_default("COMPASS_OFS"),
+        // Not `required`-able (the actor refuses it): its result lives with the motor outputs.
+        CalibrationStep::Esc => true,
     }
 }
