@@ -76,7 +76,7 @@ impl MotorParams {
                 && full - start >= MIN_RANGE_US;
             if !ok {
                 return Err(InvalidParam::new(
-                    &format!("esc_range_us[{i}]"),
+                    format!("esc_range_us[{i}]"),
                     format!(
                         "[{start}, {full}] must be finite with {SAFE_PULSE_MIN_US} ≤ start, start + {MIN_RANGE_US} ≤ full ≤ {SAFE_PULSE_MAX_US} µs"
                     ),
@@ -178,9 +178,7 @@ impl Motors {
 
     /// Drives every motor at a pulse (µs) of its own, the mixer bypassed (ESC calibration).
     pub(crate) fn command_pulses(&mut self, pulses_us: &[f64; MAX_MOTORS]) {
-        for i in 0..MAX_MOTORS {
-            self.target_rad_s[i] = self.speed_for_pulse(i, pulses_us[i]);
-        }
+        self.target_rad_s = std::array::from_fn(|i| self.speed_for_pulse(i, pulses_us[i]));
     }
 
     /// Applies the motor faults active from now on.
@@ -282,6 +280,52 @@ mod tests {
         assert_eq!(p.commanded_speed_rad_s(f64::NAN), 0.0);
         assert_eq!(p.commanded_speed_rad_s(-1.0), 0.0);
         assert_eq!(p.commanded_speed_rad_s(7.0), p.max_speed_rad_s);
+    }
+
+    #[test]
+    fn each_esc_reads_the_pulse_against_its_own_range_and_a_calibrated_output_undoes_it() {
+        let nominal = MotorParams::default();
+        let mut motors = Motors::new(&nominal, FrameLayout::QuadX, 0.225);
+        let mut outputs = ActuatorOutputs { armed: true, ..ActuatorOutputs::default() };
+        outputs.motors[..4].copy_from_slice(&[0.0, 0.3, 0.61, 1.0]);
+        motors.command(&outputs);
+        for (target, &u) in motors.target_rad_s.iter().zip(&outputs.motors) {
+            assert_eq!(*target, nominal.commanded_speed_rad_s(u), "nominal ranges: the command itself, exactly");
+        }
+
+        let p = MotorParams { esc_range_us: vec![[1100.0, 1900.0]; 4], ..MotorParams::default() };
+        assert_eq!(p.validate(), Ok(()));
+        let mut motors = Motors::new(&p, FrameLayout::QuadX, 0.225);
+        outputs.motors[..4].copy_from_slice(&[0.1, 0.5, 0.3, 0.95]);
+        motors.command(&outputs);
+        // Uncalibrated: 0.1 → 1100 µs, the ESC's start; 0.5 → 1500 µs, half; 0.95 → past full.
+        let throttle = |w: f64| (w / p.max_speed_rad_s).powi(2);
+        assert_eq!(motors.target_rad_s[0], 0.0);
+        assert!((throttle(motors.target_rad_s[1]) - 0.5).abs() < 1e-12);
+        assert!((throttle(motors.target_rad_s[2]) - 0.25).abs() < 1e-12, "0.3 commanded, 0.25 given");
+        assert_eq!(motors.target_rad_s[3], p.max_speed_rad_s);
+        motors.set_output_ranges(&EscRanges::uniform(1100.0, 1900.0));
+        motors.command(&outputs);
+        for (target, &u) in motors.target_rad_s.iter().zip(&outputs.motors).take(4) {
+            assert!((throttle(*target) - u).abs() < 1e-12, "calibrated: throttle = command {u}");
+        }
+        motors.command_pulses(&[1300.0; MAX_MOTORS]);
+        assert!((throttle(motors.target_rad_s[2]) - 0.25).abs() < 1e-12);
+
+        // Propellers off: the motors turn and push nothing.
+        motors.settle();
+        motors.set_props_on(false);
+        let (force, torque) = motors.force_torque_frd();
+        assert_eq!((force.norm(), torque.norm(), motors.shaft_power_w()), (0.0, 0.0, 0.0));
+        assert_eq!(motors.thrust_fractions(), [0.0; MAX_MOTORS]);
+        assert!(motors.speeds_all_rad_s()[..4].iter().all(|&w| w > 400.0));
+
+        for bad in [vec![[1100.0, 1150.0]; 4], vec![[700.0, 1900.0]; 4], vec![[1100.0, f64::NAN]; 4]] {
+            let p = MotorParams { esc_range_us: bad.clone(), ..MotorParams::default() };
+            assert!(p.validate().is_err(), "{bad:?}");
+        }
+        let three = MotorParams { esc_range_us: vec![[1100.0, 1900.0]; 3], ..MotorParams::default() };
+        assert!(three.validate_for(4).is_err() && three.validate_for(3).is_ok());
     }
 
     #[test]
