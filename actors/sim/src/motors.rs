@@ -290,7 +290,11 @@ mod tests {
         outputs.motors[..4].copy_from_slice(&[0.0, 0.3, 0.61, 1.0]);
         motors.command(&outputs);
         for (target, &u) in motors.target_rad_s.iter().zip(&outputs.motors) {
-            assert_eq!(*target, nominal.commanded_speed_rad_s(u), "nominal ranges: the command itself, exactly");
+            assert_eq!(
+                *target,
+                nominal.commanded_speed_rad_s(u),
+                "nominal ranges: the command itself, exactly"
+            );
         }
 
         let p = MotorParams { esc_range_us: vec![[1100.0, 1900.0]; 4], ..MotorParams::default() };

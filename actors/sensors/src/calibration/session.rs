@@ -379,7 +379,7 @@ impl Session {
         self.text(
             Severity::Info,
             format!(
-                "ESC calibration: ramping {} outputs {}..{} µs over {:.0} s",
+                "ESC calibration: ramping {} outputs {}..{} us over {:.0} s",
                 feedback.count,
                 ramp.from_us(),
                 ramp.to_us(),
@@ -425,7 +425,7 @@ impl Session {
                     summary.push(format!("{} {}..{}", i + 1, r.start_us, r.full_us));
                 }
                 self.out.push(CalibrationUpdate::Results { params });
-                self.text(Severity::Info, format!("ESC calibration successful (µs): {}", summary.join(", ")));
+                self.text(Severity::Info, format!("ESC calibration successful (us): {}", summary.join(", ")));
             }
             Err(e) => self.text(Severity::Critical, format!("ESC calibration FAILED: {e}")),
         }
