@@ -5,7 +5,10 @@
 //! all-zero command, stopped by an arm request, then run to its end; the SERVOn_MIN/MAX read back
 //! with PARAM_REQUEST_READ must lie within 5 µs of each ESC's true start and full-speed pulse.
 //! Without ESC telemetry in the graph (the Navio2's PWM ESCs) it is refused, naming what is
-//! missing.
+//! missing. The square mission is then flown in-process three times — the nominal vehicle, the
+//! unequal one uncalibrated, and calibrated from the parameter file the link wrote — and the
+//! spread of the four motors' mean commands in the air (what the controller spends on making
+//! unequal ESCs push alike) is measured for each.
 
 mod sim_vehicle;
 
@@ -13,6 +16,9 @@ use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use kestrel::recorder::LogReader;
+use kestrel::{LoadedConfig, Registry, RunOptions, run};
+use kestrel_proto::messages::ActuatorOutputs;
 use sim_vehicle::{PARAM_TABLE, Proc, python_client, root, sim_config, stop, tail, temp_dir};
 
 const VEHICLE: &str = "config/vehicles/quad_x_unequal_escs.toml";
@@ -51,17 +57,16 @@ fn config(port: u16, dir: &Path, telemetry: bool) -> String {
 }
 
 /// Runs the client in `scenario` against `kestrel run`; returns its results JSON.
-fn session(scenario: &str, telemetry: bool) -> serde_json::Value {
-    let dir = temp_dir(&format!("esc-{scenario}"));
+fn session(dir: &Path, scenario: &str, telemetry: bool) -> serde_json::Value {
     let (mut client, lines) = python_client("gcs_esc_calibration.py", |c| c.env("ESC_SCENARIO", scenario));
     let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
     let port: u16 = first.strip_prefix("PORT ").and_then(|p| p.trim().parse().ok()).expect("client port");
     let config_path = dir.join(format!("{scenario}.toml"));
-    std::fs::write(&config_path, config(port, &dir, telemetry)).expect("config");
+    std::fs::write(&config_path, config(port, dir, telemetry)).expect("config");
     let log_path = dir.join(format!("{scenario}.log"));
     let mut kestrel = Proc(
         Command::new(env!("CARGO_BIN_EXE_kestrel"))
-            .current_dir(&dir)
+            .current_dir(dir)
             .env_remove("RUST_LOG")
             .args(["run", "--quiet", "--speedup", "5", "--duration", "600", "--config"])
             .arg(&config_path)
@@ -99,7 +104,8 @@ fn session(scenario: &str, telemetry: bool) -> serde_json::Value {
 
 #[test]
 fn a_ground_station_calibrates_each_escs_range_and_reads_it_back() {
-    let results = session("calibrate", true);
+    let dir = temp_dir("esc-calibrate");
+    let results = session(&dir, "calibrate", true);
     let param =
         |set: &str, name: String| results[set][&name].as_f64().unwrap_or_else(|| panic!("{set} {name}"));
     for i in 1..=4 {
@@ -125,11 +131,84 @@ fn a_ground_station_calibrates_each_escs_range_and_reads_it_back() {
             i + 1
         );
     }
+
+    let nominal = square_motor_spread(&dir, "nominal", "config/vehicles/quad_x.toml", None);
+    let uncalibrated = square_motor_spread(&dir, "uncalibrated", VEHICLE, None);
+    let calibrated = square_motor_spread(&dir, "calibrated", VEHICLE, Some(&dir.join("params.txt")));
+    println!(
+        "spread of the motors' mean commands in the air: nominal {nominal:.4}, unequal ESCs uncalibrated {uncalibrated:.4}, calibrated {calibrated:.4}"
+    );
+    assert!(
+        calibrated < uncalibrated / 2.0,
+        "calibration did not even the motors: {calibrated} vs {uncalibrated}"
+    );
+}
+
+/// Flies config/missions/square.plan in-process on `vehicle` with the link's parameter file
+/// `param_file` (if any), recording the actuator outputs; returns max − min over the four motors
+/// of each motor's mean command while armed and above a third of full (airborne).
+fn square_motor_spread(dir: &Path, label: &str, vehicle: &str, param_file: Option<&Path>) -> f64 {
+    let config_dir = root().join("config");
+    let mut config = LoadedConfig::load(&config_dir.join("sim.toml")).expect("sim.toml");
+    let table = |pairs: Vec<(&str, toml::Value)>| -> toml::Table {
+        pairs.into_iter().map(|(k, v)| (k.to_owned(), v)).collect()
+    };
+    for actor in config.graph.actors.values_mut() {
+        let params = match actor.kind.get_ref().as_str() {
+            "commander" => table(vec![
+                ("mission", config_dir.join("missions/square.plan").display().to_string().into()),
+                ("auto", true.into()),
+                ("exit_on_land", true.into()),
+            ]),
+            "sim" => table(vec![
+                ("vehicle", root().join(vehicle).display().to_string().into()),
+                ("world", config_dir.join("worlds/empty.toml").display().to_string().into()),
+                ("seed", 1.into()),
+            ]),
+            "link" => {
+                let mut t = table(vec![("endpoints", toml::Value::Array(Vec::new()))]);
+                if let Some(file) = param_file {
+                    t.insert("param_file".into(), file.display().to_string().into());
+                }
+                t
+            }
+            _ => continue,
+        };
+        actor.params = Some(toml::Spanned::new(0..0, params));
+    }
+    let record = dir.join(format!("{label}.mcap"));
+    let report_path = dir.join(format!("{label}-report.json"));
+    let options = RunOptions {
+        duration: Some(Duration::from_secs(200)),
+        speedup: Some(0.0),
+        record: Some(record.clone()),
+        report: Some(report_path.clone()),
+        ..Default::default()
+    };
+    run(&config, &Registry::standard(), options).expect("the flight ran");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report_path).expect("report")).expect("JSON");
+    assert_eq!(report["mission"]["completed"], true, "{label}: {report:#}");
+    let outputs =
+        LogReader::open(&record).expect("log").read::<ActuatorOutputs>("actuator_outputs").expect("outputs");
+    let airborne: Vec<[f64; 4]> = outputs
+        .iter()
+        .map(|r| &r.message)
+        .filter(|m| m.armed && m.motors[..4].iter().sum::<f64>() / 4.0 > 1.0 / 3.0)
+        .map(|m| [m.motors[0], m.motors[1], m.motors[2], m.motors[3]])
+        .collect();
+    assert!(airborne.len() > 4000, "{label}: {} airborne samples", airborne.len());
+    let n = airborne.len() as f64;
+    let means: Vec<f64> = (0..4).map(|i| airborne.iter().map(|m| m[i]).sum::<f64>() / n).collect();
+    let spread =
+        means.iter().copied().fold(f64::MIN, f64::max) - means.iter().copied().fold(f64::MAX, f64::min);
+    println!("{label}: mean commands {means:.4?} over {} samples, spread {spread:.4}", airborne.len());
+    spread
 }
 
 #[test]
 fn without_esc_telemetry_the_calibration_is_refused_naming_it() {
-    let results = session("no_telemetry", false);
+    let results = session(&temp_dir("esc-no-telemetry"), "no_telemetry", false);
     let refusal = &results["no_telemetry_refusal"];
     assert_ne!(refusal["result"], "MAV_RESULT_ACCEPTED", "{refusal}");
     assert!(refusal["text"].as_str().is_some_and(|t| t.contains("no ESC telemetry")), "{refusal}");
