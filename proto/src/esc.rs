@@ -79,7 +79,7 @@ impl EscRanges {
     }
 
     /// The pulse for `command` on `output` (µs): 0..1 onto `min_us..max_us`, clamped, NaN as 0.
-    /// An output past [`MAX_MOTORS`] gets its command 0's pulse of the last output.
+    /// An output index past [`MAX_MOTORS`] uses the last output's range.
     pub fn pulse_us(&self, output: usize, command: f64) -> f64 {
         let r = self.outputs[output.min(MAX_MOTORS - 1)];
         let c = if command.is_nan() { 0.0 } else { command.clamp(0.0, 1.0) };

@@ -304,6 +304,20 @@ fn the_esc_ramp_stops_on_cancel_arm_request_lost_telemetry_and_is_refused_unless
     println!("telemetry lost: stopped {after_s} s after the last report");
     assert!(after_s <= 0.31, "{after_s}");
 
+    // A ramp that outlasts its deadline fails and releases the pulses (here the margin is set
+    // 50 s short of the ramp's 60.2 s, so the deadline falls 10.2 s in).
+    let mut sim = esc_simulator(&ESC_TRUTH_US);
+    let mut settings = SessionSettings::new(EARTH_FIELD_GAUSS);
+    settings.esc_margin_s = -50.0;
+    let mut session = Session::new(settings);
+    let updates = run_esc(&mut sim, &mut session, 90.0, |_, _, _| {});
+    assert!(results(&updates).is_none());
+    assert!(texts(&updates).iter().any(|t| t.contains("ESC timed out")), "{:?}", texts(&updates));
+    let ended_s = sim.time().as_secs_f64();
+    println!("deadline: ended at {ended_s} s");
+    assert!((10.2..10.25).contains(&ended_s), "{ended_s}");
+    assert_eq!(session.esc_pulses_us(), None);
+
     // Refused: armed, in the air, without telemetry (PWM ESCs), while another calibration runs.
     let sim = esc_simulator(&ESC_TRUTH_US);
     let refusal = |session: &mut Session| {
