@@ -4,8 +4,9 @@
 //! (config/vehicles/quad_x_unequal_escs.toml); it is refused while armed, cancelled by the
 //! all-zero command, stopped by an arm request, then run to its end; the SERVOn_MIN/MAX read back
 //! with PARAM_REQUEST_READ must lie within 5 µs of each ESC's true start and full-speed pulse.
-//! Without ESC telemetry in the graph (the Navio2's PWM ESCs) it is refused, naming what is
-//! missing. The square mission is then flown in-process three times — the nominal vehicle, the
+//! Without ESC telemetry and without a battery monitor in the graph it is refused, naming what
+//! is missing (the Navio2's PWM ESCs get PX4's max-then-min, which needs the battery monitor:
+//! actors/sensors/tests/calibration_session.rs). The square mission is then flown in-process three times — the nominal vehicle, the
 //! unequal one uncalibrated, and calibrated from the parameter file the link wrote — and the
 //! spread of the four motors' mean commands in the air (what the controller spends on making
 //! unequal ESCs push alike) is measured for each.

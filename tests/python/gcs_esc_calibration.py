@@ -7,8 +7,8 @@ param7 = 1.
 calibration is refused while armed, with a STATUSTEXT saying so; started, it tells the operator
 to remove the propellers; PREFLIGHT_CALIBRATION with every parameter 0 cancels it; an arm request
 while it runs is refused and stops it; started again it runs to its end, and the parameters are
-read back one by one. `ESC_SCENARIO=no_telemetry` (a graph without ESC telemetry, as the Navio2's
-PWM ESCs): refused naming the missing telemetry. The results carry every parameter read and
+read back one by one. `ESC_SCENARIO=no_telemetry` (a graph without ESC telemetry or battery
+monitor): refused naming the missing telemetry. The results carry every parameter read and
 the STATUSTEXTs that answered; the test compares them with the vehicle file's truth.
 """
 

@@ -7,8 +7,10 @@
 //! ([`CalibrationMotion`], to the sensor source) and `status` ([`CalibrationStatus`], to the
 //! commander's pre-arm check, published when it changes and every second). For the ESC range
 //! calibration also `esc_telemetry` (the motors' speeds, its feedback) and `vehicle_command` (an
-//! arm request stops it), and the output `esc_pulses` ([`EscPulses`], to whatever drives the
-//! motors: repeated every 20 ms while the ramp runs, released when it ends).
+//! arm request stops it), `battery` (where PWM ESCs report nothing, PX4's max-then-min waits
+//! for the battery to be connected), and the output `esc_pulses` ([`EscPulses`], to whatever
+//! drives the motors: repeated every 20 ms while a calibration drives them, released when it
+//! ends). The `tick` timer runs at 50 Hz so the pulses repeat even when nothing else arrives.
 //!
 //! It lives apart from the sensor drivers so the simulator and the hardware share one session,
 //! and apart from the link so MAVLink stays a transport of requests and results.
@@ -17,8 +19,9 @@ use std::time::Duration;
 
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
 use kestrel_proto::messages::{
-    CalibrationCommand, CalibrationEvent, CalibrationMotion, CalibrationStatus, CalibrationStep, Command,
-    EscPulses, EscTelemetry, ImuSample, MAX_MOTORS, MagSample, ParamDecl, VehicleCommand, VehicleStatus,
+    BatteryStatus, CalibrationCommand, CalibrationEvent, CalibrationMotion, CalibrationStatus,
+    CalibrationStep, Command, EscPulses, EscTelemetry, ImuSample, MAX_MOTORS, MagSample, ParamDecl,
+    VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -53,6 +56,7 @@ pub enum CalibrationInput {
     Decl(ParamDecl),
     Esc(EscTelemetry),
     VehicleCommand(VehicleCommand),
+    Battery(BatteryStatus),
     Tick(Time),
 }
 
@@ -143,7 +147,8 @@ impl Actor for CalibrationActor {
         setup.input("param_decl", CalibrationInput::Decl);
         setup.input("esc_telemetry", CalibrationInput::Esc);
         setup.input("vehicle_command", CalibrationInput::VehicleCommand);
-        setup.timer("tick", Duration::from_millis(100), CalibrationInput::Tick);
+        setup.input("battery", CalibrationInput::Battery);
+        setup.timer("tick", PULSE_REPEAT, CalibrationInput::Tick);
         Ok(CalibrationActor {
             session: Session::new(SessionSettings::new(field)),
             required: params.required.clone(),
@@ -194,6 +199,10 @@ impl Actor for CalibrationActor {
                     self.session.on_arm_request();
                 }
                 c.time
+            }
+            CalibrationInput::Battery(b) => {
+                self.session.on_battery(b.voltage_v);
+                b.time
             }
             CalibrationInput::Tick(t) => {
                 self.session.on_tick(t);

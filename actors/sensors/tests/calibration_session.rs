@@ -339,3 +339,72 @@ fn the_esc_ramp_stops_on_cancel_arm_request_lost_telemetry_and_is_refused_unless
     session.take_updates();
     assert!(refusal(&mut session).contains("gyro calibration running"));
 }
+
+#[test]
+fn pwm_escs_without_telemetry_get_max_until_the_battery_is_connected_then_the_disarmed_pulse() {
+    let t = |s: f64| kestrel_proto::Time::from_secs_f64(s);
+    let mut session = Session::new(SessionSettings::new(EARTH_FIELD_GAUSS));
+    let answer = |session: &mut Session, id: u32, at: f64| {
+        session.on_request(id, start(CalibrationStep::Esc), t(at));
+        match session.take_updates().first() {
+            Some(CalibrationUpdate::Answer { refusal, .. }) => refusal.clone(),
+            other => panic!("no answer: {other:?}"),
+        }
+    };
+    // No speed and no battery monitor: nothing to go by.
+    let refusal = answer(&mut session, 1, 1.0).expect("refused");
+    assert!(refusal.contains("no ESC telemetry") && refusal.contains("no battery voltage"), "{refusal}");
+    // The battery connected: the ESCs would power up at an ordinary pulse (PX4: disconnect it).
+    session.on_battery(16.2);
+    let refusal = answer(&mut session, 2, 1.0).expect("refused");
+    assert!(refusal.contains("disconnect the battery"), "{refusal}");
+    session.on_battery(f64::NAN);
+    assert!(answer(&mut session, 3, 1.0).is_some(), "a NaN voltage is no disconnected battery");
+
+    // Disconnected: the maximum pulse, held until 5 s after the battery is connected.
+    session.on_battery(0.0);
+    assert_eq!(answer(&mut session, 4, 1.0), None);
+    assert_eq!(session.motion(), Motion::PropsOff);
+    let mut texts_seen = Vec::new();
+    let mut released_at = None;
+    for tick in 0..500u32 {
+        let now_s = 1.0 + f64::from(tick) * 0.02;
+        if now_s >= 4.0 {
+            session.on_battery(16.2);
+        }
+        session.on_tick(t(now_s));
+        texts_seen.extend(texts(&session.take_updates()).into_iter().map(str::to_owned));
+        match session.esc_pulses_us() {
+            Some(p) => assert_eq!(p, [2000.0; 8], "{now_s}"),
+            None => {
+                released_at = Some(now_s);
+                break;
+            }
+        }
+    }
+    let released_at = released_at.expect("released");
+    println!("PWM max-then-min: battery at 4.0 s, released at {released_at:.2} s; {texts_seen:?}");
+    assert!((9.0..9.05).contains(&released_at), "{released_at}");
+    assert!(texts_seen.iter().any(|t| t.contains("battery connected")));
+    assert!(texts_seen.iter().any(|t| t.contains("ESC calibration done")));
+    assert_eq!(session.running(), None);
+
+    // A battery never connected: it fails after 20 s, released.
+    session.on_battery(0.0);
+    assert_eq!(answer(&mut session, 5, 100.0), None);
+    session.on_request(6, CalibrationRequest::Cancel, t(100.5));
+    assert_eq!(session.esc_pulses_us(), None, "cancelled");
+    assert_eq!(answer(&mut session, 7, 101.0), None);
+    let mut failed = None;
+    for tick in 0..1200u32 {
+        let now_s = 101.0 + f64::from(tick) * 0.02;
+        session.on_tick(t(now_s));
+        if texts(&session.take_updates()).iter().any(|t| t.contains("timeout waiting for the battery")) {
+            failed = Some(now_s);
+            break;
+        }
+    }
+    let failed = failed.expect("failed");
+    assert!((121.0..121.1).contains(&failed), "{failed}");
+    assert_eq!(session.esc_pulses_us(), None);
+}

@@ -8,7 +8,10 @@
 //! The ESC range calibration drives the motors, so it is held to more: it starts only disarmed,
 //! landed and with ESC telemetry flowing (the speed is its feedback), tells the operator to take
 //! the propellers off (PX4's "remove propellers"), and stops — pulses released to the disarmed
-//! pulse — on cancel, an arm request, a timeout, or telemetry that goes quiet.
+//! pulse — on cancel, an arm request, a timeout, or telemetry that goes quiet. PWM ESCs that
+//! report no speed get PX4's procedure instead (`esc_calibration.cpp`): started only with the
+//! battery disconnected (≤ 3 V), the maximum pulse until the battery is connected (within 20 s),
+//! held 5 s more while the ESCs learn it, then released to the disarmed pulse, their minimum.
 
 use kestrel_proto::Time;
 use kestrel_proto::calibration::{CalibrationParams, SensorCalibration};
@@ -53,6 +56,13 @@ pub struct SessionSettings {
     pub esc_telemetry_timeout_s: f64,
     /// The ESC calibration fails this long after its ramp should have ended (s).
     pub esc_margin_s: f64,
+    /// Without speed feedback (PWM ESCs, PX4's procedure): the pulse the ESCs learn as full
+    /// (µs), how long to wait for the battery and to hold that pulse after it (s), and the
+    /// voltage above which the battery counts as connected (V).
+    pub esc_max_us: f64,
+    pub esc_battery_wait_s: f64,
+    pub esc_max_hold_s: f64,
+    pub esc_battery_connected_v: f64,
 }
 
 impl SessionSettings {
@@ -80,6 +90,10 @@ impl SessionSettings {
             esc_ramp: EscRamp::default(),
             esc_telemetry_timeout_s: 0.3,
             esc_margin_s: 10.0,
+            esc_max_us: 2000.0,
+            esc_battery_wait_s: 20.0,
+            esc_max_hold_s: 5.0,
+            esc_battery_connected_v: 3.0,
         }
     }
 }
@@ -116,6 +130,12 @@ enum State {
         since: Time,
         ramps: Vec<Vec<EscSample>>,
     },
+    /// PWM ESCs without feedback: the maximum pulse since `since`, the battery connected at
+    /// `connected` (then held [`SessionSettings::esc_max_hold_s`]).
+    EscMaxMin {
+        since: Time,
+        connected: Option<Time>,
+    },
 }
 
 /// The newest ESC telemetry: when, and how many motors it reports.
@@ -135,6 +155,8 @@ pub struct Session {
     armed: bool,
     landed: bool,
     esc_feedback: Option<EscFeedback>,
+    /// The newest battery voltage (V), if a battery monitor reports one.
+    battery_v: Option<f64>,
     motion: Motion,
     /// No raw sample counts before this (the vehicle is still settling).
     settle_until: Option<Time>,
@@ -153,6 +175,7 @@ impl Session {
             armed: false,
             landed: true,
             esc_feedback: None,
+            battery_v: None,
             motion: Motion::Idle,
             settle_until: None,
             deadline: Time::ZERO,
@@ -173,14 +196,24 @@ impl Session {
             State::Still { step, .. } => Some(*step),
             State::Accel { .. } => Some(CalibrationStep::Accel),
             State::Mag { .. } | State::MagDone { .. } => Some(CalibrationStep::Mag),
-            State::Esc { .. } => Some(CalibrationStep::Esc),
+            State::Esc { .. } | State::EscMaxMin { .. } => Some(CalibrationStep::Esc),
         }
     }
 
     /// The pulse every output is to be driven at now (µs), while the ESC calibration runs.
     pub fn esc_pulses_us(&self) -> Option<[f64; MAX_MOTORS]> {
-        let State::Esc { step, .. } = &self.state else { return None };
-        self.settings.esc_ramp.pulse_us(*step).map(|p| [f64::from(p); MAX_MOTORS])
+        match &self.state {
+            State::Esc { step, .. } => {
+                self.settings.esc_ramp.pulse_us(*step).map(|p| [f64::from(p); MAX_MOTORS])
+            }
+            State::EscMaxMin { .. } => Some([self.settings.esc_max_us; MAX_MOTORS]),
+            _ => None,
+        }
+    }
+
+    /// The battery monitor's voltage (V): PWM ESCs are calibrated by connecting it.
+    pub fn on_battery(&mut self, voltage_v: f64) {
+        self.battery_v = Some(voltage_v);
     }
 
     /// The calibration values in use, as their owner declared them.
@@ -209,7 +242,7 @@ impl Session {
     }
 
     fn stop_esc(&mut self, why: &str) {
-        if matches!(self.state, State::Esc { .. }) {
+        if self.running() == Some(CalibrationStep::Esc) {
             self.text(
                 Severity::Critical,
                 format!("ESC calibration stopped: {why}; motors at the disarmed pulse"),
@@ -363,9 +396,7 @@ impl Session {
         let Some(feedback) =
             self.esc_feedback.filter(|f| now.saturating_since(f.time) <= stale && f.count > 0)
         else {
-            return Err("ESC calibration refused: no ESC telemetry (motor speed), which the ramp needs; \
-                 PWM ESCs without feedback are calibrated max-then-min with the ESC's own procedure"
-                .to_owned());
+            return self.start_esc_max_min(now);
         };
         let ramp = self.settings.esc_ramp;
         self.deadline = now + Duration::from_secs_f64(ramp.duration_s() + self.settings.esc_margin_s);
@@ -387,6 +418,68 @@ impl Session {
             ),
         );
         Ok(())
+    }
+
+    /// PX4's calibration of PWM ESCs, which report nothing: needs a battery monitor, and the
+    /// battery disconnected (the ESCs must power up seeing the maximum pulse).
+    fn start_esc_max_min(&mut self, now: Time) -> Result<(), String> {
+        let connected_v = self.settings.esc_battery_connected_v;
+        match self.battery_v {
+            None => Err("ESC calibration refused: no ESC telemetry (motor speed) for the ramp, \
+                 and no battery voltage for the PWM ESCs' max-then-min"
+                .to_owned()),
+            Some(v) if !(v.is_finite() && v <= connected_v) => Err(format!(
+                "ESC calibration refused: no ESC telemetry (motor speed) for the ramp; for PWM ESCs disconnect the battery ({v:.1} V) and try again"
+            )),
+            Some(_) => {
+                let s = &self.settings;
+                self.deadline =
+                    now + Duration::from_secs_f64(s.esc_battery_wait_s + s.esc_max_hold_s + s.esc_margin_s);
+                self.state = State::EscMaxMin { since: now, connected: None };
+                self.set_motion(Motion::PropsOff);
+                self.text(
+                    Severity::Critical,
+                    "ESC calibration: REMOVE THE PROPELLERS. Connect the battery now",
+                );
+                self.text(
+                    Severity::Info,
+                    format!(
+                        "ESC calibration: no ESC telemetry, PWM max-then-min: {:.0} us until the battery is connected",
+                        self.settings.esc_max_us
+                    ),
+                );
+                Ok(())
+            }
+        }
+    }
+
+    /// The PWM procedure at `now`: wait for the battery, hold the maximum, then release.
+    fn step_esc_max_min(&mut self, now: Time) {
+        let (wait_s, hold_s, connected_v) = (
+            self.settings.esc_battery_wait_s,
+            self.settings.esc_max_hold_s,
+            self.settings.esc_battery_connected_v,
+        );
+        let battery_on = self.battery_v.is_some_and(|v| v > connected_v);
+        let State::EscMaxMin { since, connected } = self.state else { return };
+        match connected {
+            None if battery_on => {
+                self.state = State::EscMaxMin { since, connected: Some(now) };
+                self.text(Severity::Info, "ESC calibration: battery connected, holding the maximum pulse");
+            }
+            None if now.saturating_since(since).as_secs_f64() > wait_s => {
+                self.text(Severity::Critical, "ESC calibration FAILED: timeout waiting for the battery");
+                self.finish();
+            }
+            Some(at) if now.saturating_since(at).as_secs_f64() >= hold_s => {
+                self.finish();
+                self.text(
+                    Severity::Info,
+                    "ESC calibration done: the ESCs learnt the maximum and now the disarmed pulse as minimum",
+                );
+            }
+            _ => {}
+        }
     }
 
     /// ESC telemetry: the ramp's feedback.
@@ -522,6 +615,9 @@ impl Session {
                 self.next_progress = now + Duration::from_secs_f64(self.settings.progress_period_s);
             }
             return;
+        }
+        if let State::EscMaxMin { .. } = self.state {
+            self.step_esc_max_min(now);
         }
         if let State::Esc { .. } = self.state {
             let stale = Duration::from_secs_f64(self.settings.esc_telemetry_timeout_s);
