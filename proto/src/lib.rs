@@ -18,6 +18,7 @@ pub mod bad_input;
 pub mod bus;
 pub mod calibration;
 pub mod clock;
+pub mod esc;
 pub mod frame_layout;
 pub mod geo;
 pub mod keepsake;

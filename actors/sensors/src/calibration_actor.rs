@@ -5,7 +5,12 @@
 //! (no calibration while armed), `param_decl` (the calibration values the sensor path's owner
 //! flies with). Outputs: `event` ([`CalibrationEvent`], to the link), `motion`
 //! ([`CalibrationMotion`], to the sensor source) and `status` ([`CalibrationStatus`], to the
-//! commander's pre-arm check, published when it changes and every second).
+//! commander's pre-arm check, published when it changes and every second). For the ESC range
+//! calibration also `esc_telemetry` (the motors' speeds, its feedback) and `vehicle_command` (an
+//! arm request stops it), `battery` (where PWM ESCs report nothing, PX4's max-then-min waits
+//! for the battery to be connected), and the output `esc_pulses` ([`EscPulses`], to whatever
+//! drives the motors: repeated every 20 ms while a calibration drives them, released when it
+//! ends). The `tick` timer runs at 50 Hz so the pulses repeat even when nothing else arrives.
 //!
 //! It lives apart from the sensor drivers so the simulator and the hardware share one session,
 //! and apart from the link so MAVLink stays a transport of requests and results.
@@ -14,8 +19,9 @@ use std::time::Duration;
 
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
 use kestrel_proto::messages::{
-    CalibrationCommand, CalibrationEvent, CalibrationMotion, CalibrationStatus, CalibrationStep, ImuSample,
-    MagSample, ParamDecl, VehicleStatus,
+    BatteryStatus, CalibrationCommand, CalibrationEvent, CalibrationMotion, CalibrationStatus,
+    CalibrationStep, Command, EscPulses, EscTelemetry, ImuSample, MAX_MOTORS, MagSample, ParamDecl,
+    VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -48,8 +54,15 @@ pub enum CalibrationInput {
     Mag(MagSample),
     Status(Box<VehicleStatus>),
     Decl(ParamDecl),
+    Esc(EscTelemetry),
+    VehicleCommand(VehicleCommand),
+    Battery(BatteryStatus),
     Tick(Time),
 }
+
+/// Direct pulses are repeated this often while the ramp holds one (well inside the consumers'
+/// `DIRECT_PULSE_TIMEOUT`).
+const PULSE_REPEAT: Duration = Duration::from_millis(20);
 
 pub struct CalibrationActor {
     session: Session,
@@ -57,6 +70,9 @@ pub struct CalibrationActor {
     event: Publisher<CalibrationEvent>,
     motion: Publisher<CalibrationMotion>,
     status: Publisher<CalibrationStatus>,
+    esc_pulses: Publisher<EscPulses>,
+    /// The pulses last sent and when; `None` once released.
+    last_pulses: Option<(Time, [f64; MAX_MOTORS])>,
     last_motion: Option<kestrel_proto::messages::Motion>,
     last_status: Option<CalibrationStatus>,
     last_status_time: Time,
@@ -71,6 +87,23 @@ impl CalibrationActor {
         if self.last_motion != Some(motion) {
             self.motion.publish(CalibrationMotion { time: now, motion });
             self.last_motion = Some(motion);
+        }
+        match (self.session.esc_pulses_us(), self.last_pulses) {
+            (Some(pulses_us), last)
+                if last.is_none_or(|(at, p)| p != pulses_us || now.saturating_since(at) >= PULSE_REPEAT) =>
+            {
+                self.esc_pulses.publish(EscPulses { time: now, control: true, pulses_us });
+                self.last_pulses = Some((now, pulses_us));
+            }
+            (None, Some(_)) => {
+                self.esc_pulses.publish(EscPulses {
+                    time: now,
+                    control: false,
+                    pulses_us: [0.0; MAX_MOTORS],
+                });
+                self.last_pulses = None;
+            }
+            _ => {}
         }
         let status = CalibrationStatus {
             time: now,
@@ -101,18 +134,29 @@ impl Actor for CalibrationActor {
         if !(field.is_finite() && (0.05..=1.0).contains(&field)) {
             return Err(ActorError::Params(format!("expected_field_gauss = {field} is outside 0.05..=1 G")));
         }
+        if params.required.contains(&CalibrationStep::Esc) {
+            return Err(ActorError::Params(
+                "required: \"esc\" cannot be required (its result is the motor outputs' SERVOn_MIN/MAX)"
+                    .into(),
+            ));
+        }
         setup.input("command", CalibrationInput::Command);
         setup.input("imu_raw", CalibrationInput::Imu);
         setup.input("mag_raw", CalibrationInput::Mag);
         setup.input("vehicle_status", |s| CalibrationInput::Status(Box::new(s)));
         setup.input("param_decl", CalibrationInput::Decl);
-        setup.timer("tick", Duration::from_millis(100), CalibrationInput::Tick);
+        setup.input("esc_telemetry", CalibrationInput::Esc);
+        setup.input("vehicle_command", CalibrationInput::VehicleCommand);
+        setup.input("battery", CalibrationInput::Battery);
+        setup.timer("tick", PULSE_REPEAT, CalibrationInput::Tick);
         Ok(CalibrationActor {
             session: Session::new(SessionSettings::new(field)),
             required: params.required.clone(),
             event: setup.output("event"),
             motion: setup.output("motion"),
             status: setup.output("status"),
+            esc_pulses: setup.output("esc_pulses"),
+            last_pulses: None,
             last_motion: None,
             last_status: None,
             last_status_time: Time::ZERO,
@@ -134,7 +178,7 @@ impl Actor for CalibrationActor {
                 s.time
             }
             CalibrationInput::Status(s) => {
-                self.session.set_armed(s.armed);
+                self.session.set_vehicle(s.armed, s.landed);
                 s.time
             }
             CalibrationInput::Decl(d) => {
@@ -145,6 +189,20 @@ impl Actor for CalibrationActor {
                     self.session.set_current(current);
                 }
                 d.time
+            }
+            CalibrationInput::Esc(t) => {
+                self.session.on_esc(&t);
+                t.time
+            }
+            CalibrationInput::VehicleCommand(c) => {
+                if c.command == Command::Arm {
+                    self.session.on_arm_request();
+                }
+                c.time
+            }
+            CalibrationInput::Battery(b) => {
+                self.session.on_battery(b.voltage_v);
+                b.time
             }
             CalibrationInput::Tick(t) => {
                 self.session.on_tick(t);

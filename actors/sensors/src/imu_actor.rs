@@ -18,9 +18,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
-use kestrel_proto::messages::{
-    CalibrationMotion, ImuSample, MagSample, Motion, ParamDecl, ParamSet, SensorHealth,
-};
+use kestrel_proto::messages::{CalibrationMotion, ImuSample, MagSample, ParamDecl, ParamSet, SensorHealth};
 use kestrel_proto::param_def::{ParamChange, answer, apply, declare};
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -297,7 +295,7 @@ impl Actor for ImuActor {
                 return Ok(());
             }
             ImuInput::Motion(m) => {
-                self.live.set_raw_wanted(m.motion != Motion::Idle);
+                self.live.set_raw_wanted(m.motion.wants_raw_samples());
                 return Ok(());
             }
         };
@@ -334,6 +332,7 @@ mod tests {
 
     use super::*;
     use crate::mpu9250::FakeMpu9250;
+    use kestrel_proto::messages::Motion;
     use kestrel_proto::units::GRAVITY_M_S2;
 
     /// Runs the reader on `fake` until it has published an IMU and a mag sample, then takes a

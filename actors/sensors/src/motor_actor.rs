@@ -6,17 +6,25 @@
 //! without its pulse for `fail_after_s` while armed (the write keeps failing) fails this actor
 //! with the reason: the motors actor is flight-critical in `config/navio2.toml`, so that failure
 //! is the commander's failsafe (land), while the output thread keeps retrying.
+//!
+//! It maps each command onto its output's pulse range, the live `SERVOn_MIN`/`SERVOn_MAX` it
+//! owns and declares (`param_set` in, `param_decl` out; `pulses.min_us`/`max_us` until set, as
+//! an ESC range calibration sets them), and takes direct pulses while disarmed (`esc_pulses`,
+//! an ESC calibration's ramp), checked and dropped after 0.1 s by
+//! [`DirectPulses`](kestrel_proto::esc::DirectPulses): the disarmed pulse again.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
 
-use kestrel_proto::messages::{ActuatorOutputs, SensorHealth};
+use kestrel_proto::esc::{DirectPulses, EscRanges, esc_range_params};
+use kestrel_proto::messages::{ActuatorOutputs, EscPulses, ParamDecl, ParamSet, SensorHealth};
+use kestrel_proto::param_def::{answer, apply, declare};
 use kestrel_proto::{Actor, ActorError, Context, Keepsake, Publisher, Setup, Time};
 use serde::Deserialize;
 
 use crate::health::{Counters, HealthWindow};
-use crate::pwm::{CommandWatchdog, MotorOutput, OutputThread, PulseConfig};
+use crate::pwm::{CommandWatchdog, MotorOutput, OutputThread, PulseCommand, PulseConfig, pulse_widths_us};
 
 /// `[actors.motors.params]`.
 #[derive(Clone, Debug, Deserialize)]
@@ -59,6 +67,10 @@ pub enum MotorInput {
     Watchdog(Time),
     /// Timer `health_report`, every second.
     Health(Time),
+    /// Port `esc_pulses`: direct pulses while disarmed.
+    Pulses(EscPulses),
+    /// Port `param_set`: `SERVOn_MIN`/`SERVOn_MAX` (others' names are ignored).
+    Param(ParamSet),
 }
 
 /// The outputs before the thread runs, or the thread.
@@ -67,8 +79,19 @@ enum Output {
     Running(Arc<OutputThread>),
 }
 
-/// The motor output actor. Output: `health`.
+/// The motor output actor. Outputs: `health`, `param_decl`.
 pub struct MotorActor {
+    pulses: PulseConfig,
+    ranges: EscRanges,
+    /// How many outputs drive motors (their ranges are declared).
+    outputs: usize,
+    direct: DirectPulses,
+    /// Whether the newest actuator command armed the motors.
+    armed: bool,
+    /// Whether direct pulses were written last (so their timeout writes the disarmed pulse).
+    direct_written: bool,
+    param_decl: Publisher<ParamDecl>,
+    name: String,
     output: Option<Output>,
     keepsake: Keepsake<Arc<OutputThread>>,
     watchdog: CommandWatchdog,
@@ -83,6 +106,18 @@ impl MotorActor {
             Some(Output::Running(thread)) => Some(thread),
             _ => None,
         }
+    }
+}
+
+impl MotorActor {
+    /// While disarmed: the direct pulses when fresh, else the disarmed pulse.
+    fn write_direct_or_disarmed(&mut self, thread: &OutputThread, now: Time) {
+        let command = match self.direct.pulses_us(now, false) {
+            Some(pulses_us) => PulseCommand::direct(pulses_us),
+            None => PulseCommand::disarmed(&self.pulses),
+        };
+        self.direct_written = command != PulseCommand::disarmed(&self.pulses);
+        thread.send(command);
     }
 }
 
@@ -119,10 +154,22 @@ impl Actor for MotorActor {
                 Output::Opened(motors)
             }
         };
+        let ranges = params.pulses.ranges();
+        ranges.validate().map_err(|e| ActorError::Params(format!("pulses.min_us/max_us: {e}")))?;
         setup.input("actuators", MotorInput::Actuators);
+        setup.input("esc_pulses", MotorInput::Pulses);
+        setup.input("param_set", MotorInput::Param);
         setup.timer("watchdog", timeout / 4, MotorInput::Watchdog);
         setup.timer("health_report", Duration::from_secs(1), MotorInput::Health);
         Ok(MotorActor {
+            pulses: params.pulses.clone(),
+            ranges,
+            outputs: params.channels.len(),
+            direct: DirectPulses::default(),
+            armed: false,
+            direct_written: false,
+            param_decl: setup.output("param_decl"),
+            name: setup.name().to_owned(),
             output: Some(output),
             keepsake,
             watchdog: CommandWatchdog::new(timeout),
@@ -155,6 +202,13 @@ impl Actor for MotorActor {
         };
         self.window = Some(HealthWindow::new(ctx.name(), &thread.device, ctx.now()));
         self.output = Some(Output::Running(thread));
+        self.param_decl.publish(declare(
+            esc_range_params(self.outputs),
+            &self.ranges,
+            &self.name,
+            true,
+            ctx.now(),
+        ));
         Ok(())
     }
 
@@ -165,9 +219,51 @@ impl Actor for MotorActor {
         match input {
             MotorInput::Actuators(outputs) => {
                 self.watchdog.on_command(ctx.now(), outputs.armed);
-                thread.send(outputs);
+                self.armed = outputs.armed;
+                // Fresh direct pulses win while disarmed; otherwise the commands, each onto its
+                // output's range.
+                let command = match self.direct.pulses_us(ctx.now(), self.armed) {
+                    Some(pulses_us) => {
+                        self.direct_written = true;
+                        PulseCommand::direct(pulses_us)
+                    }
+                    None => {
+                        self.direct_written = false;
+                        pulse_widths_us(&outputs, &self.pulses, &self.ranges)
+                    }
+                };
+                thread.send(command);
+            }
+            MotorInput::Pulses(pulses) => {
+                if let Err(e) = self.direct.on_message(&pulses, ctx.now()) {
+                    tracing::warn!(actor = %self.name, "direct ESC pulses refused, outputs at the disarmed pulse: {e}");
+                }
+                if !self.armed {
+                    self.write_direct_or_disarmed(&thread, ctx.now());
+                }
+            }
+            MotorInput::Param(set) => {
+                let outcome = apply(
+                    esc_range_params(self.outputs),
+                    &mut self.ranges,
+                    &set.name,
+                    set.value,
+                    EscRanges::validate,
+                );
+                if answer(&self.name, &set, outcome) {
+                    self.param_decl.publish(declare(
+                        esc_range_params(self.outputs),
+                        &self.ranges,
+                        &self.name,
+                        false,
+                        set.time,
+                    ));
+                }
             }
             MotorInput::Watchdog(now) => {
+                if self.direct_written && self.direct.pulses_us(now, self.armed).is_none() {
+                    self.write_direct_or_disarmed(&thread, now);
+                }
                 if self.watchdog.check(now) {
                     tracing::warn!(
                         silences = self.watchdog.silences(),
@@ -270,6 +366,68 @@ mod tests {
         ctx.shutdown().cancel();
         ready(actor.stop(&ctx));
         assert_eq!(fake.read("pwmchip0/pwm0/duty_cycle"), "1000000", "disarmed at shutdown");
+    }
+
+    #[test]
+    fn servo_ranges_apply_live_and_direct_pulses_drive_only_disarmed_and_time_out() {
+        let fake = FakePwmRoot::new("actor-esc", 0, &[0, 1, 2, 3]);
+        let params = MotorActorParams { root: fake.root.clone(), ..MotorActorParams::default() };
+        let mut setup = TestSetup::new("motors", "/");
+        let mut actor = MotorActor::build(&params, &mut setup).expect("build");
+        let ctx = setup.context();
+        let clock = setup.manual_clock();
+        clock.set(Time::from_micros(1_000_000));
+        ready(actor.start(&ctx)).expect("start");
+        let decl: Vec<ParamDecl> = setup.published("param_decl");
+        let names: Vec<&str> = decl[0].params.iter().map(|p| p.name.as_str()).collect();
+        assert_eq!(names.len(), 8, "two per channel: {names:?}");
+        assert_eq!(decl[0].params[1].value, 2000.0, "SERVO1_MAX starts at pulses.max_us");
+
+        // SERVO2_MIN/MAX set: the same command maps onto output 2's own range at once.
+        for (name, value) in [("SERVO2_MIN", 1080.0), ("SERVO2_MAX", 1920.0), ("SERVO2_MAX", f64::NAN)] {
+            let set = ParamSet { time: Time::from_micros(1_000_000), name: name.into(), value };
+            ready(actor.handle(&ctx, setup.input("param_set", set))).expect("param");
+        }
+        let decl: Vec<ParamDecl> = setup.published("param_decl");
+        assert_eq!(decl.last().expect("declared again").params[3].value, 1920.0, "NaN refused, kept");
+        ready(actor.handle(&ctx, setup.input("actuators", armed(1_000_000, 0.5)))).expect("apply");
+        wait_for(&fake, "pwmchip0/pwm1/duty_cycle", "1500000");
+        ready(actor.handle(&ctx, setup.input("actuators", armed(1_002_500, 0.25)))).expect("apply");
+        wait_for(&fake, "pwmchip0/pwm1/duty_cycle", "1290000");
+        wait_for(&fake, "pwmchip0/pwm0/duty_cycle", "1250000");
+
+        // Armed: direct pulses are ignored.
+        let direct = |t_us: u64, pulse_us: f64| EscPulses {
+            time: Time::from_micros(t_us),
+            control: true,
+            pulses_us: [pulse_us; MAX_MOTORS],
+        };
+        clock.set(Time::from_micros(1_005_000));
+        ready(actor.handle(&ctx, setup.input("esc_pulses", direct(1_005_000, 1700.0)))).expect("pulses");
+        std::thread::sleep(Duration::from_millis(20));
+        assert_eq!(fake.read("pwmchip0/pwm0/duty_cycle"), "1250000", "armed: the mixer rules");
+
+        // Disarmed: they drive the ESCs, an out-of-range one drops to the disarmed pulse, and
+        // silence does after 0.1 s.
+        let disarmed =
+            ActuatorOutputs { time: Time::from_micros(1_010_000), armed: false, motors: [0.0; MAX_MOTORS] };
+        clock.set(Time::from_micros(1_010_000));
+        ready(actor.handle(&ctx, setup.input("actuators", disarmed))).expect("disarm");
+        ready(actor.handle(&ctx, setup.input("esc_pulses", direct(1_010_000, 1700.0)))).expect("pulses");
+        wait_for(&fake, "pwmchip0/pwm3/duty_cycle", "1700000");
+        ready(actor.handle(&ctx, setup.input("esc_pulses", direct(1_010_000, 2300.0)))).expect("pulses");
+        wait_for(&fake, "pwmchip0/pwm3/duty_cycle", "1000000");
+        ready(actor.handle(&ctx, setup.input("esc_pulses", direct(1_010_000, 1600.0)))).expect("pulses");
+        wait_for(&fake, "pwmchip0/pwm3/duty_cycle", "1600000");
+        clock.set(Time::from_micros(1_100_000));
+        ready(actor.handle(&ctx, setup.tick("watchdog", Time::from_micros(1_100_000)))).expect("watchdog");
+        std::thread::sleep(Duration::from_millis(20));
+        assert_eq!(fake.read("pwmchip0/pwm3/duty_cycle"), "1600000", "still fresh at 0.09 s");
+        clock.set(Time::from_micros(1_111_000));
+        ready(actor.handle(&ctx, setup.tick("watchdog", Time::from_micros(1_111_000)))).expect("watchdog");
+        wait_for(&fake, "pwmchip0/pwm3/duty_cycle", "1000000");
+        ctx.shutdown().cancel();
+        ready(actor.stop(&ctx));
     }
 
     #[test]

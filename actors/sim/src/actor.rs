@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
+use kestrel_proto::esc::{DirectPulses, EscRanges, esc_range_params};
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, CalibrationMotion, EscTelemetry, FailureInjection,
+    ActuatorOutputs, BaroSample, BatteryStatus, CalibrationMotion, EscPulses, EscTelemetry, FailureInjection,
     FailureInjectionResult, GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap, ParamDecl, ParamSet,
     SimFault, SimFaultPhase,
 };
@@ -84,12 +85,17 @@ pub enum SimInput {
     /// A MAV_CMD_INJECT_FAILURE from the link (port `inject_failure`), answered on
     /// `failure_result`.
     Inject(FailureInjection),
+    /// Direct pulses for the ESCs while disarmed (port `esc_pulses`, from an ESC calibration).
+    Pulses(EscPulses),
 }
 
 /// The simulator actor. Outputs: `imu`, `imu2` (the second IMU, when the vehicle has one), `gps`, `baro`, `mag`, `ground_truth`, `battery`,
 /// `esc_telemetry` (what each motor produces, every tick),
 /// `sim_fault` (each start and end of a world-file fault, also logged at INFO), and
-/// `obstacle_map` once, on the first step. Like a driver it owns the sensor calibration
+/// `obstacle_map` once, on the first step. Like the motor driver it owns the outputs' pulse
+/// ranges (`SERVOn_MIN`/`SERVOn_MAX`, applied to the commands as they are set) and takes direct
+/// pulses while disarmed (`esc_pulses`, checked and timed out by [`DirectPulses`]). Like a
+/// driver it owns the sensor calibration
 /// (`param_decl`: [`CALIBRATION_PARAMS`], applied to the samples as they are set) and, while a
 /// calibration asks for a motion, handles the vehicle so and publishes the raw board-frame
 /// samples on `imu_raw` and `mag_raw`. It also owns the live fault parameters
@@ -115,6 +121,10 @@ pub struct SimActor {
     mag_raw: Publisher<MagSample>,
     param_decl: Publisher<ParamDecl>,
     calibration: CalibrationParams,
+    esc_ranges: EscRanges,
+    direct: DirectPulses,
+    /// Whether the newest commands say armed (direct pulses are ignored then).
+    armed: bool,
     live: LiveFaults,
     failure_result: Publisher<FailureInjectionResult>,
     name: String,
@@ -138,6 +148,7 @@ impl Actor for SimActor {
         setup.input("calibration_motion", SimInput::Motion);
         setup.input("param_set", SimInput::Param);
         setup.input("inject_failure", SimInput::Inject);
+        setup.input("esc_pulses", SimInput::Pulses);
         setup.timer("step", Duration::from_micros(tick_us), SimInput::Step);
         Ok(SimActor {
             sim,
@@ -156,6 +167,9 @@ impl Actor for SimActor {
             mag_raw: setup.output("mag_raw"),
             param_decl: setup.output("param_decl"),
             calibration: CalibrationParams::default(),
+            esc_ranges: EscRanges::default(),
+            direct: DirectPulses::default(),
+            armed: false,
             live: LiveFaults::default(),
             failure_result: setup.output("failure_result"),
             name: setup.name().to_owned(),
@@ -167,9 +181,18 @@ impl Actor for SimActor {
         Ok(())
     }
 
-    async fn handle(&mut self, _ctx: &Context, input: SimInput) -> Result<(), ActorError> {
+    async fn handle(&mut self, ctx: &Context, input: SimInput) -> Result<(), ActorError> {
         match input {
-            SimInput::Actuators(outputs) => self.sim.set_actuators(&outputs),
+            SimInput::Actuators(outputs) => {
+                self.armed = outputs.armed;
+                self.sim.set_actuators(&outputs);
+            }
+            SimInput::Pulses(pulses) => {
+                if let Err(e) = self.direct.on_message(&pulses, ctx.now()) {
+                    tracing::warn!(actor = %self.name, "direct ESC pulses refused, outputs at the disarmed pulse: {e}");
+                }
+                self.sim.set_direct_pulses(self.direct.pulses_us(ctx.now(), self.armed));
+            }
             SimInput::Motion(m) => self.sim.set_calibration_motion(m.motion),
             SimInput::Param(p) => {
                 let mut outcome = apply(&CALIBRATION_PARAMS, &mut self.calibration, &p.name, p.value, |c| {
@@ -179,6 +202,9 @@ impl Actor for SimActor {
                     && let Ok(calibration) = self.calibration.calibration()
                 {
                     self.sim.set_calibration(calibration);
+                }
+                if let Ok(ParamChange::NotMine) = outcome {
+                    outcome = self.set_esc_range(&p);
                 }
                 if let Ok(ParamChange::NotMine) = outcome {
                     outcome = self.set_live_fault(&p);
@@ -201,6 +227,7 @@ impl Actor for SimActor {
                     self.obstacle_map.publish(obstacle_map(self.sim.world(), self.sim.time()));
                     self.map_published = true;
                 }
+                self.sim.set_direct_pulses(self.direct.pulses_us(time, self.armed));
                 self.sim.advance_to(time);
                 for raw in self.sim.drain_raw() {
                     match raw {
@@ -242,12 +269,26 @@ impl SimActor {
     /// faults, as one declaration (an owner's declaration is the whole of its parameters).
     fn declaration(&self, start: bool, time: Time) -> ParamDecl {
         let mut decl = declare(&CALIBRATION_PARAMS, &self.calibration, &self.name, start, time);
+        let motors = self.sim.vehicle().frame.motor_count();
+        decl.params
+            .extend(declare(esc_range_params(motors), &self.esc_ranges, &self.name, start, time).params);
         let mut live = declare(&LIVE_FAULT_PARAMS, self.live.params(), &self.name, start, time).params;
         for p in &mut live {
             p.integer = INTEGER_PARAMS.contains(&p.name.as_str());
         }
         decl.params.extend(live);
         decl
+    }
+
+    /// An output's pulse range: checked, then used for the commands from now on.
+    fn set_esc_range(&mut self, set: &ParamSet) -> Result<ParamChange, ParamRefused> {
+        let motors = self.sim.vehicle().frame.motor_count();
+        let change =
+            apply(esc_range_params(motors), &mut self.esc_ranges, &set.name, set.value, EscRanges::validate)?;
+        if change == ParamChange::Applied {
+            self.sim.set_esc_ranges(&self.esc_ranges);
+        }
+        Ok(change)
     }
 
     /// A live fault parameter: checked, then its group's fault restarted on the schedule.

@@ -43,7 +43,7 @@ pub fn placement_rad(position: u32) -> Option<(f64, f64)> {
 }
 
 /// The airframe's attitude (FRD → NED) `t_s` seconds into `motion`, starting from heading
-/// `yaw_rad`; `None` for [`Motion::Idle`] (the physics runs).
+/// `yaw_rad`; `None` for [`Motion::Idle`] and [`Motion::PropsOff`] (the physics runs).
 pub fn pose(motion: Motion, handling: Handling, t_s: f64, yaw_rad: f64) -> Option<UnitQuaternion<f64>> {
     let shake = if handling == Handling::Shaking {
         5f64.to_radians() * (std::f64::consts::TAU * 1.5 * t_s).sin()
@@ -51,7 +51,7 @@ pub fn pose(motion: Motion, handling: Handling, t_s: f64, yaw_rad: f64) -> Optio
         0.0
     };
     let (roll, pitch, yaw) = match motion {
-        Motion::Idle => return None,
+        Motion::Idle | Motion::PropsOff => return None,
         Motion::Tumble if handling == Handling::OneOrientation => (0.0, 0.0, yaw_rad),
         Motion::Tumble => {
             let [r, p, y] = TUMBLE_RAD_S.map(|w| w * t_s);

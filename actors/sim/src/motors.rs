@@ -4,7 +4,17 @@
 //! `ω_max·√u`, so steady thrust is `u·k_f·ω_max²`. That is what a mixer assumes when it adds
 //! thrust and torque demands linearly (PX4's `THR_MDL_FAC = 1`), and it makes the hover command
 //! a closed form. Supply voltage does not change the map: the ESCs are assumed to hold speed.
+//!
+//! Between command and speed lie the pulse and the ESC, as on a PWM vehicle: the command is
+//! mapped onto the output's pulse range (the live `SERVOn_MIN`/`SERVOn_MAX`,
+//! `kestrel_proto::esc::EscRanges`), and each ESC reads that pulse against its *own* range
+//! (`esc_range_us`, from the vehicle file): throttle `(pulse − start)/(full − start)`, clamped to
+//! 0..1. Where the two ranges are equal (the default, 1000..2000 µs both) the throttle is the
+//! command itself, exactly, so a vehicle without `esc_range_us` flies as it always did. An ESC
+//! range calibration drives the pulses directly ([`Motors::command_pulses`]) with the propellers
+//! off ([`Motors::set_props_on`]): the motors turn, push nothing, and report their speed.
 
+use kestrel_proto::esc::{EscRanges, MIN_RANGE_US, SAFE_PULSE_MAX_US, SAFE_PULSE_MIN_US};
 use kestrel_proto::messages::{ActuatorOutputs, MAX_MOTORS};
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -26,6 +36,11 @@ pub struct MotorParams {
     pub time_constant_s: f64,
     /// Shaft power over electrical power, 0..1; sets the battery current.
     pub efficiency: f64,
+    /// Each motor's ESC range `[start, full]` (µs), in the frame's motor order: the pulse at
+    /// which it starts to turn and the one from which it turns no faster. Empty (the default) =
+    /// every ESC on 1000..2000 µs, the nominal range the outputs assume until calibrated; else
+    /// one pair per motor, `800 ≤ start`, `start + 100 ≤ full ≤ 2200`.
+    pub esc_range_us: Vec<[f64; 2]>,
 }
 
 impl Default for MotorParams {
@@ -38,6 +53,7 @@ impl Default for MotorParams {
             max_speed_rad_s: 1000.0,
             time_constant_s: 0.04,
             efficiency: 0.75,
+            esc_range_us: Vec::new(),
         }
     }
 }
@@ -52,7 +68,38 @@ impl MotorParams {
         if self.efficiency > 1.0 {
             return Err(InvalidParam::new("efficiency", "must not exceed 1"));
         }
+        for (i, &[start, full]) in self.esc_range_us.iter().enumerate() {
+            let ok = start.is_finite()
+                && full.is_finite()
+                && start >= SAFE_PULSE_MIN_US
+                && full <= SAFE_PULSE_MAX_US
+                && full - start >= MIN_RANGE_US;
+            if !ok {
+                return Err(InvalidParam::new(
+                    format!("esc_range_us[{i}]"),
+                    format!(
+                        "[{start}, {full}] must be finite with {SAFE_PULSE_MIN_US} ≤ start, start + {MIN_RANGE_US} ≤ full ≤ {SAFE_PULSE_MAX_US} µs"
+                    ),
+                ));
+            }
+        }
         Ok(())
+    }
+
+    /// Checks `esc_range_us` holds none or one range per motor of a frame of `motors`.
+    pub(crate) fn validate_for(&self, motors: usize) -> Result<(), InvalidParam> {
+        if !self.esc_range_us.is_empty() && self.esc_range_us.len() != motors {
+            return Err(InvalidParam::new(
+                "esc_range_us",
+                format!("{} ranges for {motors} motors: give one per motor or none", self.esc_range_us.len()),
+            ));
+        }
+        Ok(())
+    }
+
+    /// ESC `motor`'s `[start, full]` (µs).
+    pub fn esc_range(&self, motor: usize) -> [f64; 2] {
+        self.esc_range_us.get(motor).copied().unwrap_or([1000.0, 2000.0])
     }
 
     /// Thrust of one motor at full command (N).
@@ -91,6 +138,12 @@ pub(crate) struct Motors {
     target_rad_s: [f64; MAX_MOTORS],
     /// Thrust and torque scale of each motor, from the faults active this tick.
     scale: [f64; MAX_MOTORS],
+    /// Each ESC's own `[start, full]` (µs).
+    esc_us: [[f64; 2]; MAX_MOTORS],
+    /// The outputs' command → pulse map.
+    outputs: EscRanges,
+    /// Propellers on: off (an ESC calibration) the motors turn and push nothing.
+    props_on: bool,
 }
 
 impl Motors {
@@ -101,7 +154,31 @@ impl Motors {
             speed_rad_s: [0.0; MAX_MOTORS],
             target_rad_s: [0.0; MAX_MOTORS],
             scale: [1.0; MAX_MOTORS],
+            esc_us: std::array::from_fn(|i| params.esc_range(i)),
+            outputs: EscRanges::default(),
+            props_on: true,
         }
+    }
+
+    /// The outputs' command → pulse map from now on (the next command uses it).
+    pub(crate) fn set_output_ranges(&mut self, ranges: &EscRanges) {
+        self.outputs = *ranges;
+    }
+
+    /// Propellers on or off.
+    pub(crate) fn set_props_on(&mut self, on: bool) {
+        self.props_on = on;
+    }
+
+    /// The speed ESC `i` holds for `pulse_us` (rad/s).
+    fn speed_for_pulse(&self, i: usize, pulse_us: f64) -> f64 {
+        let [start, full] = self.esc_us[i];
+        self.params.commanded_speed_rad_s((pulse_us - start) / (full - start))
+    }
+
+    /// Drives every motor at a pulse (µs) of its own, the mixer bypassed (ESC calibration).
+    pub(crate) fn command_pulses(&mut self, pulses_us: &[f64; MAX_MOTORS]) {
+        self.target_rad_s = std::array::from_fn(|i| self.speed_for_pulse(i, pulses_us[i]));
     }
 
     /// Applies the motor faults active from now on.
@@ -111,8 +188,16 @@ impl Motors {
 
     /// Takes new commands; a disarmed output stops every motor.
     pub(crate) fn command(&mut self, outputs: &ActuatorOutputs) {
-        for (target, &u) in self.target_rad_s.iter_mut().zip(&outputs.motors) {
-            *target = if outputs.armed { self.params.commanded_speed_rad_s(u) } else { 0.0 };
+        for (i, &u) in outputs.motors.iter().enumerate() {
+            let range = self.outputs.outputs[i];
+            self.target_rad_s[i] = if !outputs.armed {
+                0.0
+            } else if [range.min_us, range.max_us] == self.esc_us[i] {
+                // The ESC reads the pulse as the output meant it: the throttle is the command.
+                self.params.commanded_speed_rad_s(u)
+            } else {
+                self.speed_for_pulse(i, self.outputs.pulse_us(i, u))
+            };
         }
     }
 
@@ -133,6 +218,9 @@ impl Motors {
     pub(crate) fn force_torque_frd(&self) -> (Vector3<f64>, Vector3<f64>) {
         let mut force = Vector3::zeros();
         let mut torque = Vector3::zeros();
+        if !self.props_on {
+            return (force, torque);
+        }
         for ((motor, &speed), &scale) in self.geometry.iter().zip(&self.speed_rad_s).zip(&self.scale) {
             let w2 = speed * speed * scale;
             let thrust = Vector3::new(0.0, 0.0, -self.params.thrust_coefficient_n_per_rad2_s2 * w2);
@@ -145,6 +233,9 @@ impl Motors {
 
     /// Mechanical power the propellers absorb (W): drag torque times speed.
     pub(crate) fn shaft_power_w(&self) -> f64 {
+        if !self.props_on {
+            return 0.0;
+        }
         let k_m = self.params.torque_coefficient_n_m_per_rad2_s2;
         let n = self.geometry.len();
         self.speed_rad_s[..n].iter().zip(&self.scale[..n]).map(|(w, scale)| k_m * scale * w.powi(3)).sum()
@@ -154,10 +245,19 @@ impl Motors {
     /// (entries past the frame's motors 0): what an ESC's telemetry tells of it.
     pub(crate) fn thrust_fractions(&self) -> [f64; MAX_MOTORS] {
         let mut out = [0.0; MAX_MOTORS];
-        let n = self.geometry.len();
+        let n = if self.props_on { self.geometry.len() } else { 0 };
         for ((out, &speed), &scale) in out[..n].iter_mut().zip(&self.speed_rad_s).zip(&self.scale) {
             *out = scale * (speed / self.params.max_speed_rad_s).powi(2);
         }
+        out
+    }
+
+    /// Current speeds of all motor slots, in mixer order (rad/s; 0 past the frame's motors): what
+    /// an ESC's telemetry reports.
+    pub(crate) fn speeds_all_rad_s(&self) -> [f64; MAX_MOTORS] {
+        let mut out = [0.0; MAX_MOTORS];
+        let n = self.geometry.len();
+        out[..n].copy_from_slice(&self.speed_rad_s[..n]);
         out
     }
 
@@ -180,6 +280,56 @@ mod tests {
         assert_eq!(p.commanded_speed_rad_s(f64::NAN), 0.0);
         assert_eq!(p.commanded_speed_rad_s(-1.0), 0.0);
         assert_eq!(p.commanded_speed_rad_s(7.0), p.max_speed_rad_s);
+    }
+
+    #[test]
+    fn each_esc_reads_the_pulse_against_its_own_range_and_a_calibrated_output_undoes_it() {
+        let nominal = MotorParams::default();
+        let mut motors = Motors::new(&nominal, FrameLayout::QuadX, 0.225);
+        let mut outputs = ActuatorOutputs { armed: true, ..ActuatorOutputs::default() };
+        outputs.motors[..4].copy_from_slice(&[0.0, 0.3, 0.61, 1.0]);
+        motors.command(&outputs);
+        for (target, &u) in motors.target_rad_s.iter().zip(&outputs.motors) {
+            assert_eq!(
+                *target,
+                nominal.commanded_speed_rad_s(u),
+                "nominal ranges: the command itself, exactly"
+            );
+        }
+
+        let p = MotorParams { esc_range_us: vec![[1100.0, 1900.0]; 4], ..MotorParams::default() };
+        assert_eq!(p.validate(), Ok(()));
+        let mut motors = Motors::new(&p, FrameLayout::QuadX, 0.225);
+        outputs.motors[..4].copy_from_slice(&[0.1, 0.5, 0.3, 0.95]);
+        motors.command(&outputs);
+        // Uncalibrated: 0.1 → 1100 µs, the ESC's start; 0.5 → 1500 µs, half; 0.95 → past full.
+        let throttle = |w: f64| (w / p.max_speed_rad_s).powi(2);
+        assert_eq!(motors.target_rad_s[0], 0.0);
+        assert!((throttle(motors.target_rad_s[1]) - 0.5).abs() < 1e-12);
+        assert!((throttle(motors.target_rad_s[2]) - 0.25).abs() < 1e-12, "0.3 commanded, 0.25 given");
+        assert_eq!(motors.target_rad_s[3], p.max_speed_rad_s);
+        motors.set_output_ranges(&EscRanges::uniform(1100.0, 1900.0));
+        motors.command(&outputs);
+        for (target, &u) in motors.target_rad_s.iter().zip(&outputs.motors).take(4) {
+            assert!((throttle(*target) - u).abs() < 1e-12, "calibrated: throttle = command {u}");
+        }
+        motors.command_pulses(&[1300.0; MAX_MOTORS]);
+        assert!((throttle(motors.target_rad_s[2]) - 0.25).abs() < 1e-12);
+
+        // Propellers off: the motors turn and push nothing.
+        motors.settle();
+        motors.set_props_on(false);
+        let (force, torque) = motors.force_torque_frd();
+        assert_eq!((force.norm(), torque.norm(), motors.shaft_power_w()), (0.0, 0.0, 0.0));
+        assert_eq!(motors.thrust_fractions(), [0.0; MAX_MOTORS]);
+        assert!(motors.speeds_all_rad_s()[..4].iter().all(|&w| w > 400.0));
+
+        for bad in [vec![[1100.0, 1150.0]; 4], vec![[700.0, 1900.0]; 4], vec![[1100.0, f64::NAN]; 4]] {
+            let p = MotorParams { esc_range_us: bad.clone(), ..MotorParams::default() };
+            assert!(p.validate().is_err(), "{bad:?}");
+        }
+        let three = MotorParams { esc_range_us: vec![[1100.0, 1900.0]; 3], ..MotorParams::default() };
+        assert!(three.validate_for(4).is_err() && three.validate_for(3).is_ok());
     }
 
     #[test]

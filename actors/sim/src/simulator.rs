@@ -14,10 +14,11 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::calibration::SensorCalibration;
+use kestrel_proto::esc::EscRanges;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    ActuatorOutputs, BaroSample, BatteryStatus, EscTelemetry, GpsFix, GroundTruth, ImuSample, MagSample,
-    Motion, SimFault,
+    ActuatorOutputs, BaroSample, BatteryStatus, EscTelemetry, GpsFix, GroundTruth, ImuSample, MAX_MOTORS,
+    MagSample, Motion, SimFault,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -147,6 +148,10 @@ pub struct Simulator {
     handling: Handling,
     /// Raw board-frame samples (before `calibration`) taken while a motion is asked for.
     raw: Vec<RawSample>,
+    /// The newest motor commands.
+    actuators: ActuatorOutputs,
+    /// Direct pulses the ESCs get instead while disarmed (µs; ESC calibration).
+    direct_pulses_us: Option<[f64; MAX_MOTORS]>,
 }
 
 /// A sensor sample before calibration, for the calibration itself.
@@ -216,6 +221,8 @@ impl Simulator {
             motion_yaw_rad: 0.0,
             handling: Handling::Careful,
             raw: Vec::new(),
+            actuators: options.initial.actuators.clone(),
+            direct_pulses_us: None,
             vehicle,
             world,
         })
@@ -269,6 +276,8 @@ impl Simulator {
         }
         self.motion = motion;
         self.motion_since = self.time;
+        // The simulated person takes the propellers off for an ESC calibration, and back on.
+        self.motors.set_props_on(motion != Motion::PropsOff);
         if motion == Motion::Idle {
             self.state.attitude = UnitQuaternion::from_euler_angles(0.0, 0.0, self.motion_yaw_rad);
             self.state.angular_velocity_frd_rad_s = Vector3::zeros();
@@ -301,7 +310,30 @@ impl Simulator {
 
     /// Sets the motor commands used from now on.
     pub fn set_actuators(&mut self, outputs: &ActuatorOutputs) {
-        self.motors.command(outputs);
+        self.actuators.clone_from(outputs);
+        self.command_motors();
+    }
+
+    /// The outputs' command → pulse map (`SERVOn_MIN`/`SERVOn_MAX`) from now on.
+    pub fn set_esc_ranges(&mut self, ranges: &EscRanges) {
+        self.motors.set_output_ranges(ranges);
+        self.command_motors();
+    }
+
+    /// Pulses (µs) the ESCs get directly while the commands say disarmed, or `None` for the
+    /// commands again: the caller has checked and timed them out (`kestrel_proto::esc::DirectPulses`).
+    pub fn set_direct_pulses(&mut self, pulses_us: Option<&[f64; MAX_MOTORS]>) {
+        if self.direct_pulses_us.as_ref() != pulses_us {
+            self.direct_pulses_us = pulses_us.copied();
+            self.command_motors();
+        }
+    }
+
+    fn command_motors(&mut self) {
+        match &self.direct_pulses_us {
+            Some(pulses_us) if !self.actuators.armed => self.motors.command_pulses(pulses_us),
+            _ => self.motors.command(&self.actuators),
+        }
     }
 
     /// Runs whole ticks until the next one would pass `time`.
@@ -387,7 +419,7 @@ impl Simulator {
         let now = self.time;
         let faults = &self.effects;
         let mut imu = self.imu.measure(now, tick_s, &self.state, &self.accel_ned_m_s2, &faults.imu);
-        let raw = self.motion != Motion::Idle;
+        let raw = self.motion.wants_raw_samples();
         if raw {
             self.raw.push(RawSample::Imu(imu.clone()));
         }
@@ -499,6 +531,7 @@ impl Simulator {
             time: self.time,
             count: self.vehicle.frame.motor_count() as u8,
             thrust: self.motors.thrust_fractions(),
+            speed_rad_s: self.motors.speeds_all_rad_s(),
         }
     }
 

@@ -70,6 +70,7 @@ impl VehicleParams {
         }
         positive("arm_length_m", self.arm_length_m)?;
         self.motor.validate().map_err(|e| e.within("motor"))?;
+        self.motor.validate_for(self.frame.motor_count()).map_err(|e| e.within("motor"))?;
         self.drag.validate().map_err(|e| e.within("drag"))?;
         self.battery.validate().map_err(|e| e.within("battery"))?;
         self.contact.validate().map_err(|e| e.within("contact"))?;

@@ -23,7 +23,10 @@ fn publishes_every_stream_at_its_rate_and_flies_on_actuators() {
         "vehicle = \"vehicles/quad_x.toml\"\nworld = \"worlds/empty.toml\"\nseed = 3\ninitial_position_ned_m = [0.0, 0.0, -5.0]\n",
     );
     let mut actor = SimActor::build(&params, &mut setup).expect("builds");
-    assert_eq!(setup.input_ports(), ["actuators", "calibration_motion", "param_set", "inject_failure"]);
+    assert_eq!(
+        setup.input_ports(),
+        ["actuators", "calibration_motion", "param_set", "inject_failure", "esc_pulses"]
+    );
     assert_eq!(setup.timers(), [("step", Duration::from_micros(2500))]);
     let ctx = setup.context();
     let hover = hover_throttle(actor.simulator().vehicle());

@@ -28,11 +28,19 @@ pub enum CalibrationStep {
     /// Compass hard and soft iron (DO_START_MAG_CAL); "compass" in config files.
     #[serde(rename = "compass")]
     Mag,
+    /// Each ESC's pulse range from a ramp with speed feedback (param7 = 1), props off; its
+    /// result is the motor outputs' `SERVOn_MIN`/`SERVOn_MAX`, so it cannot be `required`.
+    Esc,
 }
 
 impl CalibrationStep {
-    pub const ALL: [CalibrationStep; 4] =
-        [CalibrationStep::Gyro, CalibrationStep::Accel, CalibrationStep::Level, CalibrationStep::Mag];
+    pub const ALL: [CalibrationStep; 5] = [
+        CalibrationStep::Gyro,
+        CalibrationStep::Accel,
+        CalibrationStep::Level,
+        CalibrationStep::Mag,
+        CalibrationStep::Esc,
+    ];
 
     /// The pre-arm refusal while this step is required and missing, in ArduPilot's words where
     /// ArduPilot has the check ("3D Accel calibration needed", "Compass not calibrated").
@@ -42,6 +50,7 @@ impl CalibrationStep {
             CalibrationStep::Accel => "PreArm: 3D Accel calibration needed",
             CalibrationStep::Level => "PreArm: Level calibration needed",
             CalibrationStep::Mag => "PreArm: Compass not calibrated",
+            CalibrationStep::Esc => "PreArm: ESC calibration needed",
         }
     }
 
@@ -52,6 +61,7 @@ impl CalibrationStep {
             CalibrationStep::Accel => "accel",
             CalibrationStep::Level => "level",
             CalibrationStep::Mag => "compass",
+            CalibrationStep::Esc => "ESC",
         }
     }
 }
@@ -70,6 +80,9 @@ pub enum CalibrationRequest {
     MagAccept,
     /// DO_CANCEL_MAG_CAL: stop the compass calibration and keep the old values.
     MagCancel,
+    /// PREFLIGHT_CALIBRATION with every parameter 0 (ArduPilot's cancel): stop whatever
+    /// calibration runs, keep the old values, motors to the disarmed pulse.
+    Cancel,
 }
 
 /// A [`CalibrationRequest`] the link numbered: the answer with the same `id` becomes its
@@ -95,6 +108,16 @@ pub enum Motion {
     Tumble,
     /// Set down still in ACCELCAL_VEHICLE_POS `position` (1 level .. 6 upside down).
     Place { position: u32 },
+    /// Standing on its legs with the propellers taken off (ESC range calibration): the motors
+    /// turn and push nothing. No raw samples are needed.
+    PropsOff,
+}
+
+impl Motion {
+    /// Whether the sensor source publishes raw samples for this motion.
+    pub fn wants_raw_samples(self) -> bool {
+        !matches!(self, Motion::Idle | Motion::PropsOff)
+    }
 }
 
 /// The motion the calibration asks for now.

@@ -22,5 +22,10 @@ pub struct EscTelemetry {
     /// 1 = full), the unit the mixer commands in; entries from `count` on are 0. A motor that
     /// lost its propeller or stopped reports 0 whatever it is commanded.
     pub thrust: [f64; MAX_MOTORS],
+    /// Each motor's speed (rad/s; ESCs report electrical rpm, which the pole count turns into
+    /// this), the ESC range calibration's feedback; entries from `count` on are 0. It turns with
+    /// the propeller off too, when `thrust` is 0.
+    #[serde(default)]
+    pub speed_rad_s: [f64; MAX_MOTORS],
 }
 crate::impl_message!(EscTelemetry);

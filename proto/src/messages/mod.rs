@@ -7,6 +7,7 @@ mod battery;
 mod calibration;
 mod control_loop;
 mod depth_grid;
+mod esc_pulses;
 mod esc_telemetry;
 mod estimator_status;
 mod failure_injection;
@@ -39,6 +40,7 @@ pub use calibration::{
 };
 pub use control_loop::ControlLoopStats;
 pub use depth_grid::{DepthGrid, GridRegion, OBSTACLE_SECTORS, ObstacleSectors, SECTOR_UNKNOWN};
+pub use esc_pulses::EscPulses;
 pub use esc_telemetry::EscTelemetry;
 pub use estimator_status::{AidingCounters, EstimatorHealth, EstimatorStatus, Innovation};
 pub use failure_injection::{

@@ -1173,7 +1173,7 @@ fn motors_run(
         c.on_actuators(&ActuatorOutputs { time: Time(t), armed: true, motors });
         let mut thrust = motors;
         thrust[lost] = lost_thrust;
-        c.on_esc_telemetry(&EscTelemetry { time: Time(t), count, thrust });
+        c.on_esc_telemetry(&EscTelemetry { time: Time(t), count, thrust, speed_rad_s: [0.0; 8] });
         c.on_nav(&nav(Time(t), -5.0, true));
         c.update(Time(t));
     }
@@ -1229,7 +1229,12 @@ fn bad_or_stale_telemetry_is_never_judged_and_a_new_flight_starts_healthy() {
     c.on_actuators(&stale);
     for _ in 0..200 {
         t += 2500;
-        c.on_esc_telemetry(&EscTelemetry { time: Time(t + 30_000), count: 4, thrust: [0.0; 8] });
+        c.on_esc_telemetry(&EscTelemetry {
+            time: Time(t + 30_000),
+            count: 4,
+            thrust: [0.0; 8],
+            speed_rad_s: [0.0; 8],
+        });
     }
     assert_eq!(c.failed_motor(), None);
     // A failure, then a landing and a new arming: the detector starts afresh.

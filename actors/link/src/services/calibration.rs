@@ -1,6 +1,7 @@
 //! Sensor calibration over MAVLink as ArduCopter speaks it (issue 19), between the ground station
 //! and the calibration actor: MAV_CMD_PREFLIGHT_CALIBRATION (gyro param1 = 1, accelerometer
-//! param5 = 1, level param5 = 2), MAV_CMD_DO_START_MAG_CAL / DO_ACCEPT_MAG_CAL /
+//! param5 = 1, level param5 = 2, ESC range param7 = 1 as the MAVLink spec names it, every
+//! parameter 0 cancels the running one as in ArduPilot), MAV_CMD_DO_START_MAG_CAL / DO_ACCEPT_MAG_CAL /
 //! DO_CANCEL_MAG_CAL, and COMMAND_LONG(MAV_CMD_ACCELCAL_VEHICLE_POS) both ways — the vehicle
 //! asks for a position, the ground station answers when the vehicle stands there (ArduPilot's
 //! `AP_AccelCal`, MAVProxy's `accelcal`).
@@ -52,8 +53,8 @@ pub fn request(r: &CommandRequest) -> Result<CalibrationRequest, (MavResult, Str
     match r.command {
         MavCmd::MAV_CMD_PREFLIGHT_CALIBRATION => {
             // param2 compass (ArduPilot: use DO_START_MAG_CAL), param3 baro, param4 radio,
-            // param6 compass-motor, param7 ESC: none of them is run this way here.
-            for i in [1, 2, 3, 5, 6] {
+            // param6 compass-motor: none of them is run this way here.
+            for i in [1, 2, 3, 5] {
                 if p[i] != 0.0 {
                     return Err((
                         MavResult::MAV_RESULT_UNSUPPORTED,
@@ -61,15 +62,22 @@ pub fn request(r: &CommandRequest) -> Result<CalibrationRequest, (MavResult, Str
                     ));
                 }
             }
-            match (p[0], p[4]) {
-                (1.0, 0.0) => start(CalibrationStep::Gyro),
-                (0.0, 1.0) => start(CalibrationStep::Accel),
-                (0.0, 2.0) => start(CalibrationStep::Level),
-                (0.0, 0.0) => denied("Calibration refused: no calibration selected".to_owned()),
-                (g, a) if (g == 0.0 || g == 1.0) && (a == 0.0 || a == 1.0 || a == 2.0) => {
+            if p[6] != 0.0 && p[6] != 1.0 {
+                return Err((
+                    MavResult::MAV_RESULT_UNSUPPORTED,
+                    format!("Calibration refused: param7 = {} not supported (1: ESC range)", p[6]),
+                ));
+            }
+            match (p[0], p[4], p[6]) {
+                (1.0, 0.0, 0.0) => start(CalibrationStep::Gyro),
+                (0.0, 1.0, 0.0) => start(CalibrationStep::Accel),
+                (0.0, 2.0, 0.0) => start(CalibrationStep::Level),
+                (0.0, 0.0, 1.0) => start(CalibrationStep::Esc),
+                (0.0, 0.0, 0.0) => Ok(CalibrationRequest::Cancel),
+                (g, a, _) if (g == 0.0 || g == 1.0) && (a == 0.0 || a == 1.0 || a == 2.0) => {
                     denied("Calibration refused: one calibration at a time".to_owned())
                 }
-                (g, a) => Err((
+                (g, a, _) => Err((
                     MavResult::MAV_RESULT_UNSUPPORTED,
                     format!("Calibration refused: param1 = {g}, param5 = {a} not supported"),
                 )),
@@ -283,7 +291,17 @@ mod tests {
             let (result, reason) = r.expect_err("refused");
             assert!(result != MavResult::MAV_RESULT_ACCEPTED && !reason.is_empty(), "{bad}: {reason}");
         }
-        assert_eq!(req(pre, [0.0; 7]).unwrap_err().0, MavResult::MAV_RESULT_DENIED);
+        assert_eq!(req(pre, [0.0; 7]), Ok(CalibrationRequest::Cancel));
+        assert_eq!(step(req(pre, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0])), Some(CalibrationStep::Esc));
+        for bad in [0.5, 2.0, -1.0] {
+            let r = req(pre, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, bad]);
+            assert_eq!(r.unwrap_err().0, MavResult::MAV_RESULT_UNSUPPORTED, "param7 = {bad}");
+        }
+        assert_eq!(
+            req(pre, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]).unwrap_err().0,
+            MavResult::MAV_RESULT_DENIED,
+            "gyro and ESC at once"
+        );
         assert_eq!(
             req(pre, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]).unwrap_err().0,
             MavResult::MAV_RESULT_DENIED

@@ -4,12 +4,21 @@
 //! operator (the STATUSTEXT, MAG_CAL_* and ACCELCAL_VEHICLE_POS lines ArduPilot sends, so
 //! MAVProxy's `accelcal`, `magcal` and `calibrate level` read them), and hands a good result back
 //! as parameters; a refused fit changes nothing. The shell in `calibration_actor.rs` does the I/O.
+//!
+//! The ESC range calibration drives the motors, so it is held to more: it starts only disarmed,
+//! landed and with ESC telemetry flowing (the speed is its feedback), tells the operator to take
+//! the propellers off (PX4's "remove propellers"), and stops — pulses released to the disarmed
+//! pulse — on cancel, an arm request, a timeout, or telemetry that goes quiet. PWM ESCs that
+//! report no speed get PX4's procedure instead (`esc_calibration.cpp`): started only with the
+//! battery disconnected (≤ 3 V), the maximum pulse until the battery is connected (within 20 s),
+//! held 5 s more while the ESCs learn it, then released to the disarmed pulse, their minimum.
 
 use kestrel_proto::Time;
 use kestrel_proto::calibration::{CalibrationParams, SensorCalibration};
+use kestrel_proto::esc::esc_range_names;
 use kestrel_proto::messages::{
-    ACCELCAL_FAILED, ACCELCAL_SUCCESS, CalibrationRequest, CalibrationStep, CalibrationUpdate, ImuSample,
-    MagCalState, MagReport, MagSample, Motion, Severity,
+    ACCELCAL_FAILED, ACCELCAL_SUCCESS, CalibrationRequest, CalibrationStep, CalibrationUpdate, EscTelemetry,
+    ImuSample, LandedState, MAX_MOTORS, MagCalState, MagReport, MagSample, Motion, Severity,
 };
 use std::time::Duration;
 
@@ -17,8 +26,9 @@ use nalgebra::Vector3;
 
 use super::coverage::{Coverage, REGIONS};
 use super::{
-    AccelSettings, GyroSettings, LevelSettings, MagFit, MagSettings, OrientationSamples, VehicleOrientation,
-    calibrate_accel, calibrate_gyro, calibrate_level, calibrate_mag,
+    AccelSettings, EscRamp, EscSample, EscSettings, GyroSettings, LevelSettings, MagFit, MagSettings,
+    OrientationSamples, VehicleOrientation, calibrate_accel, calibrate_esc, calibrate_gyro, calibrate_level,
+    calibrate_mag,
 };
 
 /// How a session samples.
@@ -40,6 +50,19 @@ pub struct SessionSettings {
     pub idle_timeout_s: f64,
     /// MAG_CAL_PROGRESS period (s).
     pub progress_period_s: f64,
+    pub esc: EscSettings,
+    pub esc_ramp: EscRamp,
+    /// ESC telemetry older than this stops (or refuses) the ESC calibration (s).
+    pub esc_telemetry_timeout_s: f64,
+    /// The ESC calibration fails this long after its ramp should have ended (s).
+    pub esc_margin_s: f64,
+    /// Without speed feedback (PWM ESCs, PX4's procedure): the pulse the ESCs learn as full
+    /// (µs), how long to wait for the battery and to hold that pulse after it (s), and the
+    /// voltage above which the battery counts as connected (V).
+    pub esc_max_us: f64,
+    pub esc_battery_wait_s: f64,
+    pub esc_max_hold_s: f64,
+    pub esc_battery_connected_v: f64,
 }
 
 impl SessionSettings {
@@ -56,6 +79,21 @@ impl SessionSettings {
             mag_timeout_s: 40.0,
             idle_timeout_s: 120.0,
             progress_period_s: 0.5,
+            esc: EscSettings {
+                // The simulator's ESCs hold a speed of √throttle (thrust linear in command), so
+                // speed flattens near full: 98 % of top speed is 4 % of the range short of full,
+                // 99.8 % is 0.4 %. A measured speed is steady here (no load, no noise in the
+                // simulator); a noisy ESC's telemetry would need the 98 % default.
+                full_fraction: 0.998,
+                ..EscSettings::default()
+            },
+            esc_ramp: EscRamp::default(),
+            esc_telemetry_timeout_s: 0.3,
+            esc_margin_s: 10.0,
+            esc_max_us: 2000.0,
+            esc_battery_wait_s: 20.0,
+            esc_max_hold_s: 5.0,
+            esc_battery_connected_v: 3.0,
         }
     }
 }
@@ -86,6 +124,25 @@ enum State {
     MagDone {
         params: Vec<(String, f64)>,
     },
+    /// The ESC ramp at `step`, held since `since`; `ramps[i]` the samples of output `i`.
+    Esc {
+        step: usize,
+        since: Time,
+        ramps: Vec<Vec<EscSample>>,
+    },
+    /// PWM ESCs without feedback: the maximum pulse since `since`, the battery connected at
+    /// `connected` (then held [`SessionSettings::esc_max_hold_s`]).
+    EscMaxMin {
+        since: Time,
+        connected: Option<Time>,
+    },
+}
+
+/// The newest ESC telemetry: when, and how many motors it reports.
+#[derive(Clone, Copy, Debug)]
+struct EscFeedback {
+    time: Time,
+    count: usize,
 }
 
 /// The calibration session.
@@ -96,6 +153,10 @@ pub struct Session {
     /// The values the sensor path uses now (from its owner's declaration).
     current: CalibrationParams,
     armed: bool,
+    landed: bool,
+    esc_feedback: Option<EscFeedback>,
+    /// The newest battery voltage (V), if a battery monitor reports one.
+    battery_v: Option<f64>,
     motion: Motion,
     /// No raw sample counts before this (the vehicle is still settling).
     settle_until: Option<Time>,
@@ -112,6 +173,9 @@ impl Session {
             state: State::Idle,
             current: CalibrationParams::default(),
             armed: false,
+            landed: true,
+            esc_feedback: None,
+            battery_v: None,
             motion: Motion::Idle,
             settle_until: None,
             deadline: Time::ZERO,
@@ -132,7 +196,24 @@ impl Session {
             State::Still { step, .. } => Some(*step),
             State::Accel { .. } => Some(CalibrationStep::Accel),
             State::Mag { .. } | State::MagDone { .. } => Some(CalibrationStep::Mag),
+            State::Esc { .. } | State::EscMaxMin { .. } => Some(CalibrationStep::Esc),
         }
+    }
+
+    /// The pulse every output is to be driven at now (µs), while the ESC calibration runs.
+    pub fn esc_pulses_us(&self) -> Option<[f64; MAX_MOTORS]> {
+        match &self.state {
+            State::Esc { step, .. } => {
+                self.settings.esc_ramp.pulse_us(*step).map(|p| [f64::from(p); MAX_MOTORS])
+            }
+            State::EscMaxMin { .. } => Some([self.settings.esc_max_us; MAX_MOTORS]),
+            _ => None,
+        }
+    }
+
+    /// The battery monitor's voltage (V): PWM ESCs are calibrated by connecting it.
+    pub fn on_battery(&mut self, voltage_v: f64) {
+        self.battery_v = Some(voltage_v);
     }
 
     /// The calibration values in use, as their owner declared them.
@@ -144,9 +225,30 @@ impl Session {
         &self.current
     }
 
-    /// Whether the vehicle is armed (no calibration starts then).
-    pub fn set_armed(&mut self, armed: bool) {
+    /// Whether the vehicle is armed (no calibration starts then; an ESC calibration stops) and
+    /// on the ground (an ESC calibration starts only there).
+    pub fn set_vehicle(&mut self, armed: bool, landed: LandedState) {
         self.armed = armed;
+        self.landed = landed == LandedState::OnGround;
+        if armed {
+            self.stop_esc("vehicle armed");
+        }
+    }
+
+    /// Someone asked to arm: an ESC calibration stops at once (the commander refuses the arming
+    /// while any calibration runs).
+    pub fn on_arm_request(&mut self) {
+        self.stop_esc("arming requested");
+    }
+
+    fn stop_esc(&mut self, why: &str) {
+        if self.running() == Some(CalibrationStep::Esc) {
+            self.text(
+                Severity::Critical,
+                format!("ESC calibration stopped: {why}; motors at the disarmed pulse"),
+            );
+            self.finish();
+        }
     }
 
     /// Steps of `required` without a result in the values in use.
@@ -221,6 +323,7 @@ impl Session {
                         self.set_motion(Motion::Level);
                         self.ask_position(0);
                     }
+                    CalibrationStep::Esc => return self.start_esc(now),
                     CalibrationStep::Mag => {
                         let start_at = now + Duration::from_secs_f64(delay_s);
                         let ends_at = start_at + Duration::from_secs_f64(self.settings.mag_timeout_s);
@@ -268,6 +371,156 @@ impl Session {
                 }
                 Ok(())
             }
+            CalibrationRequest::Cancel => {
+                match self.running() {
+                    Some(step) => {
+                        if matches!(self.state, State::Accel { .. }) {
+                            self.out.push(CalibrationUpdate::AccelPosition { position: ACCELCAL_FAILED });
+                        }
+                        self.text(Severity::Info, format!("{} calibration cancelled", step.name()));
+                        self.finish();
+                    }
+                    None => self.text(Severity::Info, "No calibration running"),
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Starts the ESC ramp, if the vehicle may turn its motors and their speed can be seen.
+    fn start_esc(&mut self, now: Time) -> Result<(), String> {
+        if !self.landed {
+            return Err("ESC calibration refused: vehicle not landed".to_owned());
+        }
+        let stale = Duration::from_secs_f64(self.settings.esc_telemetry_timeout_s);
+        let Some(feedback) =
+            self.esc_feedback.filter(|f| now.saturating_since(f.time) <= stale && f.count > 0)
+        else {
+            return self.start_esc_max_min(now);
+        };
+        let ramp = self.settings.esc_ramp;
+        self.deadline = now + Duration::from_secs_f64(ramp.duration_s() + self.settings.esc_margin_s);
+        self.state =
+            State::Esc { step: 0, since: now, ramps: vec![Vec::with_capacity(ramp.steps()); feedback.count] };
+        self.set_motion(Motion::PropsOff);
+        self.text(
+            Severity::Critical,
+            "ESC calibration: REMOVE THE PROPELLERS. Motors will spin up to full speed",
+        );
+        self.text(
+            Severity::Info,
+            format!(
+                "ESC calibration: ramping {} outputs {}..{} us over {:.0} s",
+                feedback.count,
+                ramp.from_us(),
+                ramp.to_us(),
+                ramp.duration_s()
+            ),
+        );
+        Ok(())
+    }
+
+    /// PX4's calibration of PWM ESCs, which report nothing: needs a battery monitor, and the
+    /// battery disconnected (the ESCs must power up seeing the maximum pulse).
+    fn start_esc_max_min(&mut self, now: Time) -> Result<(), String> {
+        let connected_v = self.settings.esc_battery_connected_v;
+        match self.battery_v {
+            None => Err("ESC calibration refused: no ESC telemetry (motor speed) for the ramp, \
+                 and no battery voltage for the PWM ESCs' max-then-min"
+                .to_owned()),
+            Some(v) if !(v.is_finite() && v <= connected_v) => Err(format!(
+                "ESC calibration refused: no ESC telemetry (motor speed) for the ramp; for PWM ESCs disconnect the battery ({v:.1} V) and try again"
+            )),
+            Some(_) => {
+                let s = &self.settings;
+                self.deadline =
+                    now + Duration::from_secs_f64(s.esc_battery_wait_s + s.esc_max_hold_s + s.esc_margin_s);
+                self.state = State::EscMaxMin { since: now, connected: None };
+                self.set_motion(Motion::PropsOff);
+                self.text(
+                    Severity::Critical,
+                    "ESC calibration: REMOVE THE PROPELLERS. Connect the battery now",
+                );
+                self.text(
+                    Severity::Info,
+                    format!(
+                        "ESC calibration: no ESC telemetry, PWM max-then-min: {:.0} us until the battery is connected",
+                        self.settings.esc_max_us
+                    ),
+                );
+                Ok(())
+            }
+        }
+    }
+
+    /// The PWM procedure at `now`: wait for the battery, hold the maximum, then release.
+    fn step_esc_max_min(&mut self, now: Time) {
+        let (wait_s, hold_s, connected_v) = (
+            self.settings.esc_battery_wait_s,
+            self.settings.esc_max_hold_s,
+            self.settings.esc_battery_connected_v,
+        );
+        let battery_on = self.battery_v.is_some_and(|v| v > connected_v);
+        let State::EscMaxMin { since, connected } = self.state else { return };
+        match connected {
+            None if battery_on => {
+                self.state = State::EscMaxMin { since, connected: Some(now) };
+                self.text(Severity::Info, "ESC calibration: battery connected, holding the maximum pulse");
+            }
+            None if now.saturating_since(since).as_secs_f64() > wait_s => {
+                self.text(Severity::Critical, "ESC calibration FAILED: timeout waiting for the battery");
+                self.finish();
+            }
+            Some(at) if now.saturating_since(at).as_secs_f64() >= hold_s => {
+                self.finish();
+                self.text(
+                    Severity::Info,
+                    "ESC calibration done: the ESCs learnt the maximum and now the disarmed pulse as minimum",
+                );
+            }
+            _ => {}
+        }
+    }
+
+    /// ESC telemetry: the ramp's feedback.
+    pub fn on_esc(&mut self, telemetry: &EscTelemetry) {
+        let count = usize::from(telemetry.count).min(MAX_MOTORS);
+        self.esc_feedback = Some(EscFeedback { time: telemetry.time, count });
+        let dwell = Duration::from_secs_f64(self.settings.esc_ramp.dwell_s());
+        let ramp = self.settings.esc_ramp;
+        let State::Esc { step, since, ramps } = &mut self.state else { return };
+        if telemetry.time < *since + dwell {
+            return;
+        }
+        let Some(pulse_us) = ramp.pulse_us(*step) else { return };
+        for (i, samples) in ramps.iter_mut().enumerate() {
+            let speed_rad_s = if i < count { telemetry.speed_rad_s[i] } else { f64::NAN };
+            samples.push(EscSample { pulse_us, speed_rad_s });
+        }
+        *step += 1;
+        *since = telemetry.time;
+        if *step >= ramp.steps() {
+            let ramps = std::mem::take(ramps);
+            self.finish();
+            self.fit_esc(&ramps);
+        }
+    }
+
+    fn fit_esc(&mut self, ramps: &[Vec<EscSample>]) {
+        match calibrate_esc(ramps, &self.settings.esc) {
+            Ok(ranges) => {
+                let mut params = Vec::with_capacity(2 * ranges.len());
+                let mut summary = Vec::with_capacity(ranges.len());
+                for (i, r) in ranges.iter().enumerate() {
+                    let (min, max) = esc_range_names(i);
+                    params.push((min.to_owned(), f64::from(r.start_us)));
+                    params.push((max.to_owned(), f64::from(r.full_us)));
+                    summary.push(format!("{} {}..{}", i + 1, r.start_us, r.full_us));
+                }
+                self.out.push(CalibrationUpdate::Results { params });
+                self.text(Severity::Info, format!("ESC calibration successful (us): {}", summary.join(", ")));
+            }
+            Err(e) => self.text(Severity::Critical, format!("ESC calibration FAILED: {e}")),
         }
     }
 
@@ -362,6 +615,16 @@ impl Session {
                 self.next_progress = now + Duration::from_secs_f64(self.settings.progress_period_s);
             }
             return;
+        }
+        if let State::EscMaxMin { .. } = self.state {
+            self.step_esc_max_min(now);
+        }
+        if let State::Esc { .. } = self.state {
+            let stale = Duration::from_secs_f64(self.settings.esc_telemetry_timeout_s);
+            if self.esc_feedback.is_none_or(|f| now.saturating_since(f.time) > stale) {
+                self.stop_esc("ESC telemetry stopped");
+                return;
+            }
         }
         if self.running().is_some() && now >= self.deadline {
             let step = self.running().map_or("", CalibrationStep::name);
@@ -499,5 +762,7 @@ fn calibrated(current: &CalibrationParams, step: CalibrationStep) -> bool {
         CalibrationStep::Accel => current.differs_from_default("INS_ACC"),
         CalibrationStep::Level => current.differs_from_default("AHRS_TRIM"),
         CalibrationStep::Mag => current.differs_from_default("COMPASS_OFS"),
+        // Not `required`-able (the actor refuses it): its result lives with the motor outputs.
+        CalibrationStep::Esc => true,
     }
 }

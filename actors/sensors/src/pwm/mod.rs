@@ -13,6 +13,6 @@ pub mod watchdog;
 
 pub use motor_output::{MotorOutput, PwmOut};
 pub use output_thread::{OutputCounts, OutputThread};
-pub use pulses::{PulseConfig, pulse_widths_us};
+pub use pulses::{PulseCommand, PulseConfig, pulse_widths_us};
 pub use sysfs::{PwmChannel, PwmError};
 pub use watchdog::CommandWatchdog;

@@ -9,9 +9,9 @@ use std::path::Path;
 use std::time::Duration;
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{ActuatorOutputs, MAX_MOTORS};
+use kestrel_proto::messages::MAX_MOTORS;
 
-use crate::pwm::pulses::{PulseConfig, pulse_widths_us};
+use crate::pwm::pulses::{PulseCommand, PulseConfig};
 use crate::pwm::sysfs::{PwmChannel, PwmError};
 
 /// One PWM output: the sysfs channel, or a test's stand-in.
@@ -105,9 +105,9 @@ impl<C: PwmOut> MotorOutput<C> {
     }
 
     /// Takes a command at `now` and writes its pulses.
-    pub fn apply(&mut self, outputs: &ActuatorOutputs, now: Time) {
-        self.armed = outputs.armed;
-        self.target_us = pulse_widths_us(outputs, &self.config);
+    pub fn apply(&mut self, command: &PulseCommand, now: Time) {
+        self.armed = command.armed;
+        self.target_us = command.pulses_us;
         self.write_all(now);
     }
 
@@ -223,8 +223,11 @@ pub(crate) mod tests {
         fake.read(&format!("pwmchip0/pwm{channel}/duty_cycle"))
     }
 
-    fn command(armed: bool, level: f64) -> ActuatorOutputs {
-        ActuatorOutputs { time: Time::ZERO, armed, motors: [level; MAX_MOTORS] }
+    fn command(armed: bool, level: f64) -> PulseCommand {
+        let outputs =
+            kestrel_proto::messages::ActuatorOutputs { time: Time::ZERO, armed, motors: [level; MAX_MOTORS] };
+        let config = PulseConfig::default();
+        crate::pwm::pulse_widths_us(&outputs, &config, &config.ranges())
     }
 
     #[test]

@@ -12,10 +12,10 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use kestrel_proto::messages::ActuatorOutputs;
 use kestrel_proto::{Clock, Time};
 
 use crate::pwm::motor_output::{MotorOutput, PwmOut};
+use crate::pwm::pulses::PulseCommand;
 
 /// Interval of retries of a failed write, and of checks for shutdown: the 400 Hz loop's period.
 pub const RETRY_PERIOD: Duration = Duration::from_micros(2500);
@@ -24,7 +24,7 @@ pub const RETRY_PERIOD: Duration = Duration::from_micros(2500);
 #[derive(Debug, Default)]
 struct Shared {
     /// The newest command not yet written (a newer one replaces it: only the latest matters).
-    next: Mutex<Option<ActuatorOutputs>>,
+    next: Mutex<Option<PulseCommand>>,
     wake: Condvar,
     writes: AtomicU64,
     errors: AtomicU64,
@@ -95,7 +95,7 @@ impl OutputThread {
 
     /// Hands `command` to the thread (replacing one it has not taken yet); never waits for a
     /// write.
-    pub fn send(&self, command: ActuatorOutputs) {
+    pub fn send(&self, command: PulseCommand) {
         *self.shared.next.lock().unwrap_or_else(|e| e.into_inner()) = Some(command);
         self.shared.wake.notify_one();
     }
@@ -143,8 +143,11 @@ mod tests {
     use crate::pwm::PulseConfig;
     use crate::pwm::motor_output::tests::FakeChannel;
 
-    fn command(armed: bool, level: f64) -> ActuatorOutputs {
-        ActuatorOutputs { time: Time::ZERO, armed, motors: [level; MAX_MOTORS] }
+    fn command(armed: bool, level: f64) -> PulseCommand {
+        let outputs =
+            kestrel_proto::messages::ActuatorOutputs { time: Time::ZERO, armed, motors: [level; MAX_MOTORS] };
+        let config = PulseConfig::default();
+        crate::pwm::pulse_widths_us(&outputs, &config, &config.ranges())
     }
 
     fn wait_until(what: &str, done: impl Fn() -> bool) {
