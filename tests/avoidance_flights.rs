@@ -6,6 +6,7 @@
 //! ephemeral local port (tests run in parallel, and a flight needs no ground station).
 
 mod flights;
+mod qgc_plan;
 
 use std::path::{Path, PathBuf};
 
@@ -59,6 +60,34 @@ fn thesis_test_1_a_large_tree_across_the_leg_is_flown_around_and_the_mission_com
     assert_eq!(collisions(&report), 0, "{report:#}");
     assert!(clearance_m(&report) > 0.3, "{report:#}");
     assert!(completed(&report), "{report:#}");
+}
+
+#[test]
+fn rtl_flies_around_a_tree_taller_than_its_altitude() {
+    // The tree of tree.toml, 25 m tall, on the way home: RTL climbs to 15 m at 40 m north and
+    // returns straight at it (blind, it flew into the tree).
+    let dir = scratch("avoid-rtl", "tall-tree");
+    let stock = std::fs::read_to_string(world("tree.toml")).unwrap();
+    let tall = stock.replace("height_m = 14.0", "height_m = 25.0");
+    assert_ne!(tall, stock, "the tree was raised");
+    let world = dir.join("tall-tree.toml");
+    std::fs::write(&world, tall).unwrap();
+    let plan = qgc_plan::write(
+        &dir,
+        "out-and-rtl.plan",
+        &[
+            qgc_plan::Item::north(qgc_plan::TAKEOFF, 0.0, 6.0),
+            qgc_plan::Item::north(qgc_plan::WAYPOINT, 40.0, 6.0),
+            qgc_plan::Item::north(qgc_plan::RETURN_TO_LAUNCH, 0.0, 0.0),
+        ],
+    );
+    let report = fly("rtl-tall-tree", &world, &plan.display().to_string(), 150);
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_eq!(collisions(&report), 0, "{report:#}");
+    assert!(clearance_m(&report) > 0.3, "{report:#}");
+    assert_eq!(report["flight"]["landed"], Value::Bool(true), "{report:#}");
+    let from_home = report["flight"]["landing_distance_from_home_m"].as_f64().expect("landing distance");
+    assert!(from_home < 2.0, "landed {from_home} m from home: {report:#}");
 }
 
 #[test]

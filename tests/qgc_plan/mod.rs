@@ -1,6 +1,8 @@
 //! QGroundControl `.plan` files for flight tests: mission items around the simulator's home
 //! (config/sim.toml), written as QGroundControl writes them.
 
+#![allow(dead_code, reason = "each flight test binary uses only the commands it flies")]
+
 use std::path::{Path, PathBuf};
 
 /// The simulator's home (degrees): the University of Moratuwa.
@@ -8,8 +10,9 @@ pub const HOME_DEG: (f64, f64) = (6.7971, 79.9017);
 /// Degrees of latitude per metre north, near enough for test legs of tens of metres.
 pub const DEG_PER_M_NORTH: f64 = 1.0 / 111_000.0;
 
-/// MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LAND, MAV_CMD_NAV_TAKEOFF.
+/// MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_RETURN_TO_LAUNCH, MAV_CMD_NAV_LAND, MAV_CMD_NAV_TAKEOFF.
 pub const WAYPOINT: u32 = 16;
+pub const RETURN_TO_LAUNCH: u32 = 20;
 pub const LAND: u32 = 21;
 pub const TAKEOFF: u32 = 22;
 

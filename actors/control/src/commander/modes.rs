@@ -123,7 +123,7 @@ impl Commander {
                 }
                 traj([Some(p.x), Some(p.y), Some(down)], [None; 3], Some(yaw))
             }
-            FlightMode::ReturnToLaunch => self.rtl(now, &nav),
+            FlightMode::ReturnToLaunch => self.rtl(now, dt_s, &nav),
             FlightMode::Land => {
                 let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
                 self.land_at(&nav, Some([p.x, p.y]))
@@ -328,7 +328,7 @@ impl Commander {
             MissionStep::ReturnToLaunch => {
                 self.last_progress = runner.progress();
                 self.enter(FlightMode::ReturnToLaunch);
-                self.rtl(now, nav)
+                self.rtl(now, dt_s, nav)
             }
             MissionStep::Finished => self.hold_here(nav),
         }
@@ -362,7 +362,16 @@ impl Commander {
         traj(at(&p), [None; 3], Some(yaw))
     }
 
-    fn rtl(&mut self, now: Time, nav: &NavState) -> SetpointTarget {
+    /// RTL: climb where it is to the RTL altitude (or stay higher), fly home at that altitude,
+    /// loiter, land. With the avoider in the loop the way home is flown as an AUTO leg is
+    /// ([`Leg::To`]): the nose turns homewards so that the forward camera looks along it, and
+    /// what stands in the way (a tree above the RTL altitude) is sidestepped or climbed over as
+    /// the avoider says, as ArduCopter's object avoidance acts in RTL (`OA_TYPE`); a stale stream
+    /// slows and holds there, as in AUTO, until it is fresh again or a failsafe lands. The straight
+    /// line is kept rather than the flown path retraced: the avoider corrects any leg, and a
+    /// retraced path is no clearer once the wind or a moved obstacle has changed it. The climb
+    /// and the descent are vertical, where the forward camera sees nothing to avoid.
+    fn rtl(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
         let Some(home) = self.home_ned else { return self.land_at(nav, None) };
         let pos = Vector3::from(nav.position_ned_m);
         let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
@@ -383,12 +392,20 @@ impl Commander {
                     RtlPhase::Return { .. } if distance < HOME_RADIUS_M && speed < HOME_SPEED_M_S => {
                         let loiter = std::time::Duration::from_secs_f64(self.params.rtl_loiter_s);
                         self.rtl = RtlPhase::Loiter { down_m, until: now + loiter };
+                        self.avoidance.reset();
                     }
                     RtlPhase::Loiter { until, .. } if now >= until => {
                         self.rtl = RtlPhase::Land;
                         self.hold.down_m = None;
                     }
                     _ => {}
+                }
+                if matches!(self.rtl, RtlPhase::Return { .. }) && self.avoidance.active() {
+                    let leg = Leg::To {
+                        target: Vector3::new(home.x, home.y, down_m),
+                        speed_m_s: self.params.rtl_speed_m_s,
+                    };
+                    return SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint);
                 }
                 SetpointTarget::Trajectory(TrajectorySetpoint {
                     position_ned_m: [Some(home.x), Some(home.y), Some(down_m)],

@@ -1248,3 +1248,49 @@ fn bad_or_stale_telemetry_is_never_judged_and_a_new_flight_starts_healthy() {
     at(&mut c, t, Command::Arm).expect("arm");
     assert_eq!(c.failed_motor(), None);
 }
+
+/// In RTL's return leg, 20 m north of home at the RTL altitude, with the avoider streaming
+/// `frd` (stale when `stale`) from `stale_from` on; the nav heading follows the commanded yaw.
+/// Returns the commander, the last setpoint and the time.
+fn rtl_return(frd: [f64; 3], stale_from: Option<u64>, until: u64) -> (Commander, TrajectorySetpoint, u64) {
+    let mut c = hovering();
+    let rtl_down = -CommanderParams::default().rtl_altitude_m;
+    let at_north = |t: u64, yaw: f64| NavState {
+        position_ned_m: [20.0, 0.0, rtl_down],
+        ..nav_heading(t, rtl_down, yaw)
+    };
+    c.on_nav(&at_north(2500, 0.0));
+    at(&mut c, 2500, Command::ReturnToLaunch).expect("rtl");
+    let (mut t, mut yaw, mut sp) = (2500, 0.0, TrajectorySetpoint::default());
+    while t < until {
+        t += 2500;
+        c.on_nav(&at_north(t, yaw));
+        c.on_avoidance(&avoidance(t, frd, stale_from.is_some_and(|s| t >= s)));
+        sp = trajectory(c.update(Time(t)).target);
+        yaw = sp.yaw_rad.expect("yaw");
+    }
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
+    (c, sp, t)
+}
+
+#[test]
+fn rtl_flies_home_with_the_avoider_in_the_loop_facing_the_way_home() {
+    // The avoider asks for 1 m/s to the right: once the nose faces home (south), right is west.
+    let (c, sp, t) = rtl_return([0.0, 1.0, 0.0], None, 8_000_000);
+    let speed = CommanderParams::default().rtl_speed_m_s;
+    let yaw = sp.yaw_rad.expect("yaw");
+    // Within a milliradian: the setpoint the bearing is taken from has moved a step west.
+    assert!((yaw.abs() - std::f64::consts::PI).abs() < 1e-3, "the forward camera looks home: yaw {yaw}");
+    let v = velocity(&sp);
+    assert!((v[0] + speed).abs() < 1e-2 && (v[1] + 1.0).abs() < 1e-2 && v[2].abs() < 1e-6, "{v:?}");
+    assert_eq!(c.status(Time(t)).last_refusal, None);
+}
+
+#[test]
+fn rtl_with_a_stale_avoider_slows_and_holds_and_says_why() {
+    let (c, sp, t) = rtl_return([0.0; 3], Some(4_000_000), 9_000_000);
+    assert_eq!(velocity(&sp), [0.0; 3], "held");
+    assert!(c.avoidance_holding());
+    let why = c.status(Time(t)).last_refusal.expect("says why");
+    assert!(why.contains("avoidance stale"), "{why}");
+}
