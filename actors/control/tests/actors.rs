@@ -281,7 +281,12 @@ fn the_thread_loop_runs_on_each_navstate_with_the_newest_inputs_and_stops() {
     // How close the period keeps to 2.5 ms depends on the machine's load and is reported, not
     // asserted.
     assert!(s.iterations >= 100, "first report after {} iterations", s.iterations);
-    assert!(s.watchdog_steps < s.iterations / 2, "{} of {} iterations without a NavState", s.watchdog_steps, s.iterations);
+    assert!(
+        s.watchdog_steps < s.iterations / 2,
+        "{} of {} iterations without a NavState",
+        s.watchdog_steps,
+        s.iterations
+    );
     assert!(outs.iter().rev().take(100).filter(|o| o.armed).count() > 90);
     let count = outs.len();
     std::thread::sleep(Duration::from_millis(20));

@@ -239,7 +239,8 @@ impl Ekf {
     /// the delay buffers (the lags, lag compensation): those need a new filter.
     pub fn retune(&mut self, params: EkfParams) -> Result<(), ParamError> {
         params.validate()?;
-        let lags = |p: &EkfParams| (p.gps_lag_s, p.baro_lag_s, p.mag_lag_s, p.lag_compensation);
+        let lags =
+            |p: &EkfParams| (p.gps_lag_s, p.baro_lag_s, p.mag_lag_s, p.arrival_margin_s, p.lag_compensation);
         if lags(&params) != lags(&self.params) {
             return Err(ParamError::new("gps_lag_s", "sensor lags cannot change while the filter runs"));
         }

@@ -45,9 +45,18 @@ pub struct EkfParams {
     /// How long after measurement a magnetometer sample arrives (s).
     pub mag_lag_s: f64,
     /// Fuse each sample against the state at its measurement time (a delayed fusion horizon
-    /// as long as the largest lag). Off: fuse on arrival against the newest state, as a
-    /// filter without a delay buffer would.
+    /// as long as the largest lag plus `arrival_margin_s`). Off: fuse on arrival against the
+    /// newest state, as a filter without a delay buffer would.
     pub lag_compensation: bool,
+    /// How much later than its nominal lag a sample may arrive and still be fused (s): the
+    /// horizon runs this much further behind. A sample stamped with its time of validity (the
+    /// u-blox driver) or conversion (the MS5611's) reaches the estimator through a UART, a
+    /// tokio task and a mailbox, each adding jitter on a loaded board; with no margin every
+    /// sample a millisecond late was refused ("older than the delayed fusion horizon") and the
+    /// HIL flights dead-reckoned under load. 0 in lockstep, where lags are exact. PX4 and
+    /// ArduPilot stamp samples on arrival minus the configured delay instead
+    /// (`EKF2_GPS_DELAY`, `EK3_GPS_DELAY`), which hides the jitter in the timestamp.
+    pub arrival_margin_s: f64,
     /// Angle from true north to magnetic north, east positive (degrees).
     pub mag_declination_deg: f64,
     /// Relative deviation of the field strength from the aligned one beyond which a magnetometer
@@ -122,6 +131,7 @@ impl Default for EkfParams {
             baro_lag_s: 0.05,
             mag_lag_s: 0.0,
             lag_compensation: true,
+            arrival_margin_s: 0.0,
             mag_declination_deg: 0.0,
             mag_strength_tolerance: 0.3,
             in_flight_yaw_reset: true,
@@ -192,6 +202,19 @@ impl EkfParams {
                 return Err(ParamError::new(name, format!("must be within 0..={MAX_LAG_S} s, got {value}")));
             }
         }
+        let largest_lag_s = self.gps_lag_s.max(self.baro_lag_s).max(self.mag_lag_s);
+        if !(self.arrival_margin_s.is_finite()
+            && self.arrival_margin_s >= 0.0
+            && largest_lag_s + self.arrival_margin_s <= MAX_LAG_S)
+        {
+            return Err(ParamError::new(
+                "arrival_margin_s",
+                format!(
+                    "must be at least 0 and at most {MAX_LAG_S} s with the largest lag ({largest_lag_s} s), got {}",
+                    self.arrival_margin_s
+                ),
+            ));
+        }
         if !(self.mag_declination_deg.is_finite() && self.mag_declination_deg.abs() <= 180.0) {
             return Err(ParamError::new("mag_declination_deg", "must be within ±180°"));
         }
@@ -200,7 +223,11 @@ impl EkfParams {
 
     /// The delayed fusion horizon: how far behind the newest IMU sample the filter runs (s).
     pub fn fusion_horizon_s(&self) -> f64 {
-        if self.lag_compensation { self.gps_lag_s.max(self.baro_lag_s).max(self.mag_lag_s) } else { 0.0 }
+        if self.lag_compensation {
+            self.gps_lag_s.max(self.baro_lag_s).max(self.mag_lag_s) + self.arrival_margin_s
+        } else {
+            0.0
+        }
     }
 }
 

@@ -209,3 +209,43 @@ fn stale_backwards_and_future_samples_are_counted_and_do_not_block_fusion() {
     assert!((after.fusion_horizon_s - 0.22).abs() < 1e-9, "{after:?}");
     assert_eq!(bench.ekf.dropped_samples(), DroppedSamples { gps: 3, baro: 3, mag: 3 });
 }
+
+/// A fix arriving 30 ms later than its nominal 0.22 s lag (UART, task and mailbox jitter on a
+/// loaded board) is refused as behind the horizon without an arrival margin, and fused with one
+/// of 50 ms, whose horizon runs that much further behind.
+#[test]
+fn a_margin_lets_a_late_arrival_in_and_moves_the_horizon_back() {
+    for (margin_s, fused) in [(0.0, false), (0.05, true)] {
+        let mut bench = settled(EkfParams { arrival_margin_s: margin_s, ..EkfParams::default() });
+        // Half a second of IMU only, so that the fix below comes after the last one accepted.
+        for _ in 0..200 {
+            bench.t_us += 2500;
+            let imu = ImuSample {
+                time: Time::from_micros(bench.t_us),
+                gyro_rad_s: [0.0; 3],
+                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
+                dt_s: 0.0025,
+                gyro_clipped: [false; 3],
+                accel_clipped: [false; 3],
+            };
+            bench.ekf.push_imu(&imu).unwrap();
+        }
+        let horizon = bench.ekf.delayed_state().unwrap().time;
+        assert_eq!(horizon, Time::from_micros(bench.t_us - 220_000 - (margin_s * 1e6) as u64));
+        let late = GpsFix { time: Time::from_micros(bench.t_us - 250_000), ..bench.gps([0.0; 3]) };
+        let result = bench.ekf.push_gps(&late);
+        assert_eq!(result.is_ok(), fused, "margin {margin_s} s: {result:?}");
+        if !fused {
+            assert!(matches!(result, Err(InputError::BehindHorizon { .. })), "{result:?}");
+        }
+    }
+}
+
+#[test]
+fn a_margin_that_takes_the_horizon_past_the_delay_buffer_is_refused_by_name() {
+    for margin_s in [-0.01, f64::NAN, 0.9] {
+        let params = EkfParams { arrival_margin_s: margin_s, ..EkfParams::default() };
+        let e = params.validate().unwrap_err();
+        assert!(e.to_string().contains("arrival_margin_s"), "{margin_s}: {e}");
+    }
+}
