@@ -14,28 +14,19 @@
 mod sim_vehicle;
 
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
-use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_proto::calibration::{CalibrationParams, SensorCalibration};
-use sim_vehicle::{PARAM_TABLE, Proc, python_client, root, sim_config, stop, tail, temp_dir};
+use sim_vehicle::{
+    on_vehicle, root, scripted_session, session_link, sim_config, square_in_process, temp_dir,
+};
 
 const VEHICLE: &str = "config/vehicles/quad_x_miscalibrated.toml";
 const ERROR_FREE: &str = "config/vehicles/quad_x.toml";
-const CLIENT_LIMIT: Duration = Duration::from_secs(150);
 
 /// The calibration graph: config/sim.toml with `vehicle`, the calibration required when
 /// `required`, and the link's parameters persisted in `dir`.
 fn config(port: u16, dir: &Path, vehicle: &str, required: bool) -> String {
-    let link = format!(
-        "params.system_id = 1\nparams.param_file = \"{}\"\nparams.endpoints = [ {{ type = \"udp_out\", address = \"127.0.0.1:{port}\" }} ]\nparams.params = {PARAM_TABLE}\n",
-        dir.join("params.txt").display()
-    );
-    let text = sim_config(&link);
-    let default = format!("vehicle = \"{}\"", root().join(ERROR_FREE).display());
-    assert!(text.contains(&default), "config/sim.toml names vehicles/quad_x.toml");
-    let with_vehicle = text.replace(&default, &format!("vehicle = \"{}\"", root().join(vehicle).display()));
+    let with_vehicle = on_vehicle(&sim_config(&session_link(port, dir)), vehicle);
     if !required {
         return with_vehicle;
     }
@@ -48,66 +39,9 @@ fn config(port: u16, dir: &Path, vehicle: &str, required: bool) -> String {
 /// `required` or not); returns its results JSON.
 fn session(dir: &Path, scenario: &str, vehicle: &str, required: bool) -> serde_json::Value {
     let plan = root().join("config/missions/square.plan");
-    client_session(
-        dir,
-        scenario,
-        vehicle,
-        required,
-        "gcs_calibration.py",
-        &[("CAL_SCENARIO", scenario.into()), ("CAL_PLAN", plan.display().to_string())],
-    )
-}
-
-/// Runs `script` (its environment `env`) against `kestrel run` on `vehicle`; returns the results
-/// JSON of its last line.
-fn client_session(
-    dir: &Path,
-    scenario: &str,
-    vehicle: &str,
-    required: bool,
-    script: &str,
-    env: &[(&str, String)],
-) -> serde_json::Value {
-    let (mut client, lines) = python_client(script, |c| c.envs(env.iter().map(|(k, v)| (k, v))));
-    let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
-    let port: u16 = first.strip_prefix("PORT ").and_then(|p| p.trim().parse().ok()).expect("client port");
-    let config_path = dir.join(format!("{scenario}.toml"));
-    std::fs::write(&config_path, config(port, dir, vehicle, required)).expect("config");
-    let log_path = dir.join(format!("{scenario}.log"));
-    let mut kestrel = Proc(
-        Command::new(env!("CARGO_BIN_EXE_kestrel"))
-            .current_dir(dir)
-            .env_remove("RUST_LOG")
-            .args(["run", "--quiet", "--speedup", "5", "--duration", "600", "--config"])
-            .arg(&config_path)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log_path).expect("log"))
-            .spawn()
-            .expect("start kestrel run"),
-    );
-    println!("── {scenario} ──");
-    let started = Instant::now();
-    let mut transcript = Vec::new();
-    let exit = loop {
-        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
-            println!("  {line}");
-            transcript.push(line);
-        }
-        if let Some(status) = client.0.try_wait().expect("client status") {
-            transcript.extend(lines.try_iter());
-            break Some(status);
-        }
-        if started.elapsed() > CLIENT_LIMIT {
-            break None;
-        }
-    };
-    let log = || tail(&std::fs::read_to_string(&log_path).unwrap_or_default(), 30);
-    assert!(exit.is_some_and(|s| s.success()), "{scenario}: client {exit:?}\n{}", log());
-    assert!(stop(&mut kestrel, scenario).success(), "{scenario}: kestrel failed\n{}", log());
-    let last = transcript.last().expect("a result line");
-    let result: serde_json::Value = serde_json::from_str(last).expect("JSON result");
-    result["results"].clone()
+    let env = [("CAL_SCENARIO", scenario.to_owned()), ("CAL_PLAN", plan.display().to_string())];
+    scripted_session(dir, scenario, "gcs_calibration.py", &env, |port| config(port, dir, vehicle, required))["results"]
+        .clone()
 }
 
 /// Checks `got` against the vehicle file's truth (config/vehicles/quad_x_miscalibrated.toml):
@@ -149,45 +83,7 @@ fn calibration_of(params: &serde_json::Value) -> SensorCalibration {
 /// Flies config/missions/square.plan in-process on `vehicle` with the parameter file
 /// `param_file` (if any); returns the report's `estimator.rms_yaw_deg`.
 fn square_yaw_deg(dir: &Path, label: &str, vehicle: &str, param_file: Option<&Path>) -> f64 {
-    let config_dir = root().join("config");
-    let mut config = LoadedConfig::load(&config_dir.join("sim.toml")).expect("sim.toml");
-    let table = |pairs: Vec<(&str, toml::Value)>| -> toml::Table {
-        pairs.into_iter().map(|(k, v)| (k.to_owned(), v)).collect()
-    };
-    for actor in config.graph.actors.values_mut() {
-        let params = match actor.kind.get_ref().as_str() {
-            "commander" => table(vec![
-                ("mission", config_dir.join("missions/square.plan").display().to_string().into()),
-                ("auto", true.into()),
-                ("exit_on_land", true.into()),
-            ]),
-            "sim" => table(vec![
-                ("vehicle", root().join(vehicle).display().to_string().into()),
-                ("world", config_dir.join("worlds/empty.toml").display().to_string().into()),
-                ("seed", 1.into()),
-            ]),
-            "link" => {
-                let mut t = table(vec![("endpoints", toml::Value::Array(Vec::new()))]);
-                if let Some(file) = param_file {
-                    t.insert("param_file".into(), file.display().to_string().into());
-                }
-                t
-            }
-            _ => continue,
-        };
-        actor.params = Some(toml::Spanned::new(0..0, params));
-    }
-    let report_path = dir.join(format!("{label}-report.json"));
-    let options = RunOptions {
-        duration: Some(Duration::from_secs(200)),
-        speedup: Some(0.0),
-        report: Some(report_path.clone()),
-        ..Default::default()
-    };
-    run(&config, &Registry::standard(), options).expect("the flight ran");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report_path).expect("report")).expect("JSON");
-    assert_eq!(report["mission"]["completed"], true, "{label}: {report:#}");
+    let report = square_in_process(dir, label, vehicle, param_file, None);
     let yaw = report["estimator"]["rms_yaw_deg"].as_f64().expect("rms_yaw_deg");
     println!("{label}: rms_yaw_deg {yaw:.3}, estimator {}", report["estimator"]);
     yaw
@@ -241,7 +137,8 @@ fn a_ground_station_calibrates_the_vehicle_and_its_yaw_error_drops_to_the_error_
 fn mavproxy_calibrates_the_vehicle_as_an_operator_types_it() {
     let dir = temp_dir("calibration-mavproxy");
     let env = [("MAVPROXY_SCENARIO", "calibrate".to_owned())];
-    let result = client_session(&dir, "mavproxy", VEHICLE, true, "mavproxy_session.py", &env);
+    let config = |port| config(port, &dir, VEHICLE, true);
+    let result = scripted_session(&dir, "mavproxy", "mavproxy_session.py", &env, config)["results"].clone();
     assert_eq!(result["prearm_refusal"], "PreArm: 3D Accel calibration needed");
     let positions = result["accel_positions"].as_array().expect("positions");
     assert_eq!(positions.len(), 6, "{positions:?}");

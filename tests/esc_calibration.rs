@@ -14,30 +14,19 @@
 mod sim_vehicle;
 
 use std::path::Path;
-use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 use kestrel::recorder::LogReader;
-use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_proto::messages::ActuatorOutputs;
-use sim_vehicle::{PARAM_TABLE, Proc, python_client, root, sim_config, stop, tail, temp_dir};
+use sim_vehicle::{on_vehicle, scripted_session, session_link, sim_config, square_in_process, temp_dir};
 
 const VEHICLE: &str = "config/vehicles/quad_x_unequal_escs.toml";
-const CLIENT_LIMIT: Duration = Duration::from_secs(150);
 /// What the vehicle file says (µs): each ESC's [start, full].
 const TRUTH_US: [[f64; 2]; 4] = [[1083.0, 1917.0], [1047.0, 1951.0], [1118.0, 1886.0], [1062.0, 1934.0]];
 
 /// config/sim.toml on the unequal-ESC vehicle, the link sending to `port`; without any route of
 /// `esc_telemetry` unless `telemetry`.
 fn config(port: u16, dir: &Path, telemetry: bool) -> String {
-    let link = format!(
-        "params.system_id = 1\nparams.param_file = \"{}\"\nparams.endpoints = [ {{ type = \"udp_out\", address = \"127.0.0.1:{port}\" }} ]\nparams.params = {PARAM_TABLE}\n",
-        dir.join("params.txt").display()
-    );
-    let text = sim_config(&link);
-    let default = format!("vehicle = \"{}\"", root().join("config/vehicles/quad_x.toml").display());
-    assert!(text.contains(&default), "config/sim.toml names vehicles/quad_x.toml");
-    let text = text.replace(&default, &format!("vehicle = \"{}\"", root().join(VEHICLE).display()));
+    let text = on_vehicle(&sim_config(&session_link(port, dir)), VEHICLE);
     if telemetry {
         return text;
     }
@@ -59,47 +48,10 @@ fn config(port: u16, dir: &Path, telemetry: bool) -> String {
 
 /// Runs the client in `scenario` against `kestrel run`; returns its results JSON.
 fn session(dir: &Path, scenario: &str, telemetry: bool) -> serde_json::Value {
-    let (mut client, lines) = python_client("gcs_esc_calibration.py", |c| c.env("ESC_SCENARIO", scenario));
-    let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
-    let port: u16 = first.strip_prefix("PORT ").and_then(|p| p.trim().parse().ok()).expect("client port");
-    let config_path = dir.join(format!("{scenario}.toml"));
-    std::fs::write(&config_path, config(port, dir, telemetry)).expect("config");
-    let log_path = dir.join(format!("{scenario}.log"));
-    let mut kestrel = Proc(
-        Command::new(env!("CARGO_BIN_EXE_kestrel"))
-            .current_dir(dir)
-            .env_remove("RUST_LOG")
-            .args(["run", "--quiet", "--speedup", "5", "--duration", "600", "--config"])
-            .arg(&config_path)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log_path).expect("log"))
-            .spawn()
-            .expect("start kestrel run"),
-    );
-    println!("── {scenario} ──");
-    let started = Instant::now();
-    let mut transcript = Vec::new();
-    let exit = loop {
-        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
-            println!("  {line}");
-            transcript.push(line);
-        }
-        if let Some(status) = client.0.try_wait().expect("client status") {
-            transcript.extend(lines.try_iter());
-            break Some(status);
-        }
-        if started.elapsed() > CLIENT_LIMIT {
-            break None;
-        }
-    };
-    let log = || tail(&std::fs::read_to_string(&log_path).unwrap_or_default(), 30);
-    assert!(exit.is_some_and(|s| s.success()), "{scenario}: client {exit:?}\n{}", log());
-    assert!(stop(&mut kestrel, scenario).success(), "{scenario}: kestrel failed\n{}", log());
-    let result: serde_json::Value =
-        serde_json::from_str(transcript.last().expect("a result line")).expect("JSON result");
-    assert_eq!(result["ok"], true, "{scenario}: {result}\n{}", log());
-    println!("{scenario} took {:.1} s", started.elapsed().as_secs_f64());
+    let env = [("ESC_SCENARIO", scenario.to_owned())];
+    let result =
+        scripted_session(dir, scenario, "gcs_esc_calibration.py", &env, |port| config(port, dir, telemetry));
+    assert_eq!(result["ok"], true, "{scenario}: {result}");
     result["results"].clone()
 }
 
@@ -149,47 +101,8 @@ fn a_ground_station_calibrates_each_escs_range_and_reads_it_back() {
 /// `param_file` (if any), recording the actuator outputs; returns max − min over the four motors
 /// of each motor's mean command while armed and above a third of full (airborne).
 fn square_motor_spread(dir: &Path, label: &str, vehicle: &str, param_file: Option<&Path>) -> f64 {
-    let config_dir = root().join("config");
-    let mut config = LoadedConfig::load(&config_dir.join("sim.toml")).expect("sim.toml");
-    let table = |pairs: Vec<(&str, toml::Value)>| -> toml::Table {
-        pairs.into_iter().map(|(k, v)| (k.to_owned(), v)).collect()
-    };
-    for actor in config.graph.actors.values_mut() {
-        let params = match actor.kind.get_ref().as_str() {
-            "commander" => table(vec![
-                ("mission", config_dir.join("missions/square.plan").display().to_string().into()),
-                ("auto", true.into()),
-                ("exit_on_land", true.into()),
-            ]),
-            "sim" => table(vec![
-                ("vehicle", root().join(vehicle).display().to_string().into()),
-                ("world", config_dir.join("worlds/empty.toml").display().to_string().into()),
-                ("seed", 1.into()),
-            ]),
-            "link" => {
-                let mut t = table(vec![("endpoints", toml::Value::Array(Vec::new()))]);
-                if let Some(file) = param_file {
-                    t.insert("param_file".into(), file.display().to_string().into());
-                }
-                t
-            }
-            _ => continue,
-        };
-        actor.params = Some(toml::Spanned::new(0..0, params));
-    }
     let record = dir.join(format!("{label}.mcap"));
-    let report_path = dir.join(format!("{label}-report.json"));
-    let options = RunOptions {
-        duration: Some(Duration::from_secs(200)),
-        speedup: Some(0.0),
-        record: Some(record.clone()),
-        report: Some(report_path.clone()),
-        ..Default::default()
-    };
-    run(&config, &Registry::standard(), options).expect("the flight ran");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report_path).expect("report")).expect("JSON");
-    assert_eq!(report["mission"]["completed"], true, "{label}: {report:#}");
+    square_in_process(dir, label, vehicle, param_file, Some(record.clone()));
     let outputs =
         LogReader::open(&record).expect("log").read::<ActuatorOutputs>("actuator_outputs").expect("outputs");
     let airborne: Vec<[f64; 4]> = outputs

@@ -12,6 +12,7 @@
 //! passes when the client exits 0 and `kestrel` exits 0 on SIGTERM; on failure both are killed.
 
 mod merged_config;
+#[allow(dead_code, reason = "shared by the test binaries that run `kestrel run`; this one uses part of it")]
 mod sim_vehicle;
 
 use std::io::Read;

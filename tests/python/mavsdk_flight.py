@@ -19,6 +19,7 @@ when every check held, 1 with `FAILED step: why` otherwise.
 """
 
 import asyncio
+import gc
 import math
 import os
 import sys
@@ -294,11 +295,24 @@ async def run(name, args):
         if system is None:
             raise Failed("connect: no autopilot within 30 s")
         log("autopilot", f"{await system.autopilot_type()} system {await system.get_system_id()}")
-        await SCENARIOS[name](Vehicle(system), *args)
+        vehicle = Vehicle(system)
+        try:
+            await SCENARIOS[name](vehicle, *args)
+        finally:
+            # Every plugin must be gone before the Mavsdk instance (its C++ core aborts the
+            # process otherwise, exit 134). A plugin caught in a reference cycle (an error's
+            # traceback holds the executor frame that called it) lives until a collection, so
+            # collect here, on this thread, while the instance is still alive.
+            del vehicle, system
+            gc.collect()
 
 
 def main():
     name = sys.argv[1]
+    # No automatic collection: one run by whichever thread allocates (an executor or MAVSDK's
+    # callback thread) can finalise a plugin while the main thread destroys the Mavsdk
+    # instance; `run` collects once, at a safe point. Acyclic garbage is still freed at once.
+    gc.disable()
     try:
         asyncio.run(run(name, sys.argv[2:]))
     except Failed as e:

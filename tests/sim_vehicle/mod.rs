@@ -1,7 +1,8 @@
 //! What the tests that run `kestrel run` as a child process on the simulator share (tests/gcs.rs,
-//! tests/mavlink_sweep.rs): the repository and its Python venv, scratch directories,
-//! config/sim.toml with the link's params of the test's choosing, a child process that dies with
-//! the test, and stopping the vehicle as an operator does.
+//! tests/mavlink_sweep.rs, tests/calibration.rs, ...): the repository and its Python venv,
+//! scratch directories, config/sim.toml with the link's params and the vehicle of the test's
+//! choosing, a child process that dies with the test, a scripted ground-station session, and
+//! stopping the vehicle as an operator does.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -86,6 +87,133 @@ pub fn sim_config(link_params: &str) -> String {
     text.replace(link, &format!("{link}{link_params}"))
         .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()))
         .replace("\"worlds/", &format!("\"{}/worlds/", config_dir.display()))
+}
+
+/// The link's params of a scripted session: system 1, the parameters persisted in `dir`, MAVLink
+/// sent to the client's `port`, the vehicle's [`PARAM_TABLE`].
+pub fn session_link(port: u16, dir: &Path) -> String {
+    format!(
+        "params.system_id = 1\nparams.param_file = \"{}\"\nparams.endpoints = [ {{ type = \"udp_out\", address = \"127.0.0.1:{port}\" }} ]\nparams.params = {PARAM_TABLE}\n",
+        dir.join("params.txt").display()
+    )
+}
+
+/// `graph` (from [`sim_config`]) flying `vehicle` (a path in the repository) instead of
+/// config/vehicles/quad_x.toml.
+pub fn on_vehicle(graph: &str, vehicle: &str) -> String {
+    let default = format!("vehicle = \"{}\"", root().join("config/vehicles/quad_x.toml").display());
+    assert!(graph.contains(&default), "config/sim.toml names vehicles/quad_x.toml");
+    graph.replace(&default, &format!("vehicle = \"{}\"", root().join(vehicle).display()))
+}
+
+/// How long one scripted session may take on the wall clock (the vehicle at 5× speed-up).
+const CLIENT_LIMIT: Duration = Duration::from_secs(150);
+
+/// Runs the Python client `script` (with the environment `env`) against `kestrel run` at 5×
+/// speed-up on the graph `config` writes for the UDP port the client reports on its first line
+/// (`PORT n`), waits for the client to exit 0, stops the vehicle, and returns the JSON of the
+/// client's last line. `scenario` names the files in `dir` and the run in a failure.
+pub fn scripted_session(
+    dir: &Path,
+    scenario: &str,
+    script: &str,
+    env: &[(&str, String)],
+    config: impl FnOnce(u16) -> String,
+) -> serde_json::Value {
+    let (mut client, lines) = python_client(script, |c| c.envs(env.iter().map(|(k, v)| (k, v))));
+    let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
+    let port: u16 = first.strip_prefix("PORT ").and_then(|p| p.trim().parse().ok()).expect("client port");
+    let config_path = dir.join(format!("{scenario}.toml"));
+    std::fs::write(&config_path, config(port)).expect("config");
+    let log_path = dir.join(format!("{scenario}.log"));
+    let mut kestrel = Proc(
+        Command::new(env!("CARGO_BIN_EXE_kestrel"))
+            .current_dir(dir)
+            .env_remove("RUST_LOG")
+            .args(["run", "--quiet", "--speedup", "5", "--duration", "600", "--config"])
+            .arg(&config_path)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log_path).expect("log"))
+            .spawn()
+            .expect("start kestrel run"),
+    );
+    println!("── {scenario} ──");
+    let started = Instant::now();
+    let mut transcript = Vec::new();
+    let exit = loop {
+        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
+            println!("  {line}");
+            transcript.push(line);
+        }
+        if let Some(status) = client.0.try_wait().expect("client status") {
+            transcript.extend(lines.try_iter());
+            break Some(status);
+        }
+        if started.elapsed() > CLIENT_LIMIT {
+            break None;
+        }
+    };
+    let log = || tail(&std::fs::read_to_string(&log_path).unwrap_or_default(), 30);
+    assert!(exit.is_some_and(|s| s.success()), "{scenario}: client {exit:?}\n{}", log());
+    assert!(stop(&mut kestrel, scenario).success(), "{scenario}: kestrel failed\n{}", log());
+    println!("{scenario} took {:.1} s", started.elapsed().as_secs_f64());
+    let last = transcript.last().expect("a result line");
+    serde_json::from_str(last)
+        .unwrap_or_else(|e| panic!("{scenario}: the last line is no JSON result ({e}): {last}"))
+}
+
+/// Flies config/missions/square.plan in-process in lockstep on `vehicle` over the empty world
+/// (seed 1), with the link's parameter file `param_file` (if any) and no endpoints, recording to
+/// `record` (if any); returns the flight report, whose mission must have completed.
+pub fn square_in_process(
+    dir: &Path,
+    label: &str,
+    vehicle: &str,
+    param_file: Option<&Path>,
+    record: Option<PathBuf>,
+) -> serde_json::Value {
+    let config_dir = root().join("config");
+    let mut config = kestrel::LoadedConfig::load(&config_dir.join("sim.toml")).expect("sim.toml");
+    let table = |pairs: Vec<(&str, toml::Value)>| -> toml::Table {
+        pairs.into_iter().map(|(k, v)| (k.to_owned(), v)).collect()
+    };
+    for actor in config.graph.actors.values_mut() {
+        let params = match actor.kind.get_ref().as_str() {
+            "commander" => table(vec![
+                ("mission", config_dir.join("missions/square.plan").display().to_string().into()),
+                ("auto", true.into()),
+                ("exit_on_land", true.into()),
+            ]),
+            "sim" => table(vec![
+                ("vehicle", root().join(vehicle).display().to_string().into()),
+                ("world", config_dir.join("worlds/empty.toml").display().to_string().into()),
+                ("seed", 1.into()),
+            ]),
+            "link" => {
+                let mut t = table(vec![("endpoints", toml::Value::Array(Vec::new()))]);
+                if let Some(file) = param_file {
+                    t.insert("param_file".into(), file.display().to_string().into());
+                }
+                t
+            }
+            _ => continue,
+        };
+        actor.params = Some(toml::Spanned::new(0..0, params));
+    }
+    let report_path = dir.join(format!("{label}-report.json"));
+    let options = kestrel::RunOptions {
+        duration: Some(Duration::from_secs(200)),
+        speedup: Some(0.0),
+        record,
+        report: Some(report_path.clone()),
+        ..Default::default()
+    };
+    kestrel::run(&config, &kestrel::Registry::standard(), options).expect("the flight ran");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report_path).expect("report")).expect("JSON");
+    assert_eq!(report["mission"]["completed"], true, "{label}: {report:#}");
+    report
 }
 
 /// A child process killed (and reaped) when dropped, so a failing test leaves nothing behind.

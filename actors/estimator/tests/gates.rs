@@ -17,6 +17,18 @@ struct Bench {
     t_us: u64,
 }
 
+/// A 400 Hz sample of a vehicle standing still and level at `time`.
+fn still_imu(time: Time) -> ImuSample {
+    ImuSample {
+        time,
+        gyro_rad_s: [0.0; 3],
+        accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
+        dt_s: 0.0025,
+        gyro_clipped: [false; 3],
+        accel_clipped: [false; 3],
+    }
+}
+
 impl Bench {
     fn new(params: EkfParams) -> Bench {
         Bench { ekf: Ekf::new(params).unwrap(), t_us: 0 }
@@ -44,15 +56,7 @@ impl Bench {
         while self.t_us < end {
             self.t_us += 2500;
             let time = Time::from_micros(self.t_us);
-            let imu = ImuSample {
-                time,
-                gyro_rad_s: [0.0; 3],
-                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
-                dt_s: 0.0025,
-                gyro_clipped: [false; 3],
-                accel_clipped: [false; 3],
-            };
-            self.ekf.push_imu(&imu).unwrap();
+            self.ekf.push_imu(&still_imu(time)).unwrap();
             if self.t_us.is_multiple_of(200_000) {
                 let fix = self.gps([0.0; 3]);
                 self.ekf.push_gps(&fix).unwrap();
@@ -153,14 +157,7 @@ fn clipped_imu_samples_are_used_and_counted() {
             .enumerate()
     {
         bench.t_us += 2500;
-        let imu = ImuSample {
-            time: Time::from_micros(bench.t_us),
-            gyro_rad_s: [0.0; 3],
-            accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
-            dt_s: 0.0025,
-            gyro_clipped,
-            accel_clipped,
-        };
+        let imu = ImuSample { gyro_clipped, accel_clipped, ..still_imu(Time::from_micros(bench.t_us)) };
         bench.ekf.push_imu(&imu).unwrap_or_else(|e| panic!("sample {k}: {e}"));
     }
     let status = bench.ekf.status();
@@ -220,15 +217,7 @@ fn a_margin_lets_a_late_arrival_in_and_moves_the_horizon_back() {
         // Half a second of IMU only, so that the fix below comes after the last one accepted.
         for _ in 0..200 {
             bench.t_us += 2500;
-            let imu = ImuSample {
-                time: Time::from_micros(bench.t_us),
-                gyro_rad_s: [0.0; 3],
-                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
-                dt_s: 0.0025,
-                gyro_clipped: [false; 3],
-                accel_clipped: [false; 3],
-            };
-            bench.ekf.push_imu(&imu).unwrap();
+            bench.ekf.push_imu(&still_imu(Time::from_micros(bench.t_us))).unwrap();
         }
         let horizon = bench.ekf.delayed_state().unwrap().time;
         assert_eq!(horizon, Time::from_micros(bench.t_us - 220_000 - (margin_s * 1e6) as u64));
