@@ -11,6 +11,7 @@
 //! [actors.sim]
 //! type = "sim"                # which actor implementation (see `kestrel actors`)
 //! critical = false            # a failure past the restart limit escalates to the commander
+//! priority = 60               # realtime clock: a runtime thread of its own at SCHED_FIFO 60
 //! restart = { policy = "transient", max_restarts = 5, window_s = 60.0, backoff_initial_s = 0.1, backoff_max_s = 5.0 }
 //! params = { vehicle = "vehicles/quad_x.toml", world = "worlds/empty.toml" }
 //! inputs.actuators = { topic = "actuator_outputs", mailbox = "latest" }
@@ -43,6 +44,10 @@ pub const MAX_DURATION_S: f64 = 1e9;
 pub const SPEEDUP_RANGE: (f64, f64) = (1e-3, 1e6);
 /// `[run] status_period_s` range besides 0 (no status line) (s).
 pub const STATUS_PERIOD_RANGE_S: (f64, f64) = (0.1, 86_400.0);
+/// SCHED_FIFO priorities an actor may ask for: above every normal process, below the
+/// controller's loop thread (80 by default) and the HIL world (90).
+pub const PRIORITY_RANGE: (i32, i32) = (1, 79);
+
 /// Longest restart window or backoff (s): a day.
 pub const MAX_RESTART_S: f64 = 86_400.0;
 
@@ -345,6 +350,13 @@ pub struct ActorDecl {
     pub critical: bool,
     #[serde(default)]
     pub restart: RestartPolicy,
+    /// On the realtime clock, the actor runs on a runtime thread of its own at this SCHED_FIFO
+    /// priority ([`PRIORITY_RANGE`]), so that a busy machine cannot starve it: PX4 runs its
+    /// estimator and sensor drivers on high-priority work queues for the same reason. Without
+    /// it (and always in lockstep, which is one deterministic thread) the actor shares the
+    /// runtime's workers.
+    #[serde(default)]
+    pub priority: Option<i32>,
     /// The actor's own parameters.
     #[serde(default)]
     pub params: Option<Spanned<toml::Table>>,
@@ -444,6 +456,15 @@ impl LoadedConfig {
                 let line = at.unwrap_or_else(|| self.source.line_of(name.span().start));
                 self.source.error_on_line(Some(line), format!("actor '{}': {m}", name.get_ref()))
             })?;
+            let (lo, hi) = PRIORITY_RANGE;
+            if let Some(p) = decl.priority.filter(|p| !(lo..=hi).contains(p)) {
+                let at = self.source.line_of_key(&["actors", name.get_ref(), "priority"]);
+                let line = at.unwrap_or_else(|| self.source.line_of(name.span().start));
+                return Err(self.source.error_on_line(
+                    Some(line),
+                    format!("actor '{}': priority = {p}: expected {lo}..={hi} (SCHED_FIFO)", name.get_ref()),
+                ));
+            }
             for (port, route) in &decl.inputs {
                 route.mailbox.get_ref().parse::<MailboxKind>().map_err(|m| {
                     self.source.error_at(
@@ -519,6 +540,16 @@ mod tests {
         let err = parse("[actors.a]\ntype = \"sim\"\nrestart = { window_s = 1e30 }\n").unwrap_err();
         assert_eq!(err.line, Some(3), "{err}");
         assert!(err.message.contains("window_s"), "{err}");
+    }
+
+    #[test]
+    fn a_priority_outside_the_actors_range_is_a_located_error() {
+        for p in [0, -1, 80, 99] {
+            let err = parse(&format!("[actors.a]\ntype = \"sim\"\npriority = {p}\n")).unwrap_err();
+            assert_eq!(err.line, Some(3), "{p}: {err}");
+            assert!(err.message.contains(&format!("priority = {p}: expected 1..=79")), "{err}");
+        }
+        assert!(parse("[actors.a]\ntype = \"sim\"\npriority = 79\n").is_ok());
     }
 
     #[test]

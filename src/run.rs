@@ -195,6 +195,7 @@ async fn run_graph(
         }),
         log: Arc::clone(&log),
         panics,
+        dedicated_threads: config.graph.run.clock == ClockKind::Realtime,
     };
     let supervisors: Vec<_> = prepared.into_iter().map(|p| p.spawn(supervisor_ctx.clone())).collect();
     tokio::spawn(cancel_on_signal(shutdown.clone()));
@@ -275,6 +276,7 @@ fn flight_report_actor(
     let decl = ActorDecl {
         kind: nowhere("flight_report"),
         critical: false,
+        priority: None,
         restart: Default::default(),
         params: Some(Spanned::new(0..0, params)),
         inputs,

@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
 use kestrel_proto::messages::{SupervisorEvent, SupervisorEventKind};
+use kestrel_proto::realtime::{RealtimePriority, set_realtime_priority};
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Time};
 use tokio::task::JoinHandle;
 use tokio_util::sync::CancellationToken;
@@ -37,6 +38,9 @@ pub struct SupervisorContext {
     pub log: Arc<Mutex<Vec<SupervisorEvent>>>,
     /// The world file's `actor_panic` faults.
     pub panics: Arc<PanicSchedule>,
+    /// Whether an actor's `priority` is honoured (the realtime clock): lockstep runs every
+    /// actor on its one thread, which is what makes it deterministic.
+    pub dedicated_threads: bool,
 }
 
 /// An actor type the config can name.
@@ -101,6 +105,7 @@ impl<A: Actor> ActorKind for KindOf<A> {
         Ok(Box::new(Prepared::<A> {
             name: Arc::from(name),
             critical: decl.critical,
+            priority: decl.priority,
             policy: decl.restart.clone(),
             config_dir: source.dir().to_owned(),
             params,
@@ -158,6 +163,8 @@ fn param_line(source: &Source, name: &str, decl: &ActorDecl, message: &str) -> O
 struct Prepared<A: Actor> {
     name: Arc<str>,
     critical: bool,
+    /// SCHED_FIFO priority of a runtime thread of its own (`priority` in the graph).
+    priority: Option<i32>,
     policy: RestartPolicy,
     config_dir: PathBuf,
     params: A::Params,
@@ -168,7 +175,55 @@ struct Prepared<A: Actor> {
 
 impl<A: Actor> Supervised for Prepared<A> {
     fn spawn(self: Box<Self>, ctx: SupervisorContext) -> JoinHandle<()> {
-        tokio::spawn(supervise(*self, ctx))
+        match self.priority.filter(|_| ctx.dedicated_threads) {
+            Some(priority) => on_own_thread(*self, ctx, priority),
+            None => tokio::spawn(supervise(*self, ctx)),
+        }
+    }
+}
+
+/// Supervises `prepared` on an OS thread of its own at SCHED_FIFO `priority`, in a
+/// single-threaded runtime of its own: its incarnations, timers and I/O run there, so no busy
+/// worker of the shared runtime delays them. Mailboxes and publishers work across runtimes
+/// unchanged. A refused priority is logged and the actor keeps its thread at normal priority;
+/// a thread or runtime the OS refuses leaves the actor on the shared runtime, said in the log.
+/// The returned task ends when the supervision does.
+fn on_own_thread<A: Actor>(prepared: Prepared<A>, ctx: SupervisorContext, priority: i32) -> JoinHandle<()> {
+    let runtime = match tokio::runtime::Builder::new_current_thread().enable_all().build() {
+        Ok(runtime) => runtime,
+        Err(e) => {
+            tracing::error!(actor = %prepared.name, "no runtime of its own ({e}): the actor shares the workers");
+            return tokio::spawn(supervise(prepared, ctx));
+        }
+    };
+    let (handover, taken) = std::sync::mpsc::channel::<(Prepared<A>, SupervisorContext)>();
+    let (done, ended) = tokio::sync::oneshot::channel::<()>();
+    let name = Arc::clone(&prepared.name);
+    let thread = std::thread::Builder::new().name(format!("actor-{name}")).spawn(move || {
+        let Ok((prepared, ctx)) = taken.recv() else { return };
+        match set_realtime_priority(priority) {
+            RealtimePriority::Fifo(p) => {
+                tracing::info!(actor = %name, priority = p, "actor on a SCHED_FIFO thread")
+            }
+            RealtimePriority::Normal(why) => {
+                tracing::warn!(actor = %name, %why, "actor on a thread of its own at normal priority")
+            }
+        }
+        runtime.block_on(supervise(prepared, ctx));
+        drop(done);
+    });
+    match thread {
+        Ok(_) => {
+            // The thread is waiting for exactly this; it cannot have gone.
+            let _ = handover.send((prepared, ctx));
+            tokio::spawn(async move {
+                let _ = ended.await;
+            })
+        }
+        Err(e) => {
+            tracing::error!(actor = %prepared.name, "no thread of its own ({e}): the actor shares the workers");
+            tokio::spawn(supervise(prepared, ctx))
+        }
     }
 }
 

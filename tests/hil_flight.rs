@@ -4,20 +4,33 @@
 //! and its estimator is compared with the same mission flown by the lockstep graph
 //! (`config/sim.toml`) in the same test.
 //!
-//! The HIL flight is realtime: it takes the mission's real duration (about 50 s of wall time).
-//! It is ignored by default, for a vertical error not understood yet. Measured on this 2-core
-//! host (`cargo nextest run -E 'binary(hil_flight)' --run-ignored all`, and the same graph run
-//! by hand):
-//! * the horizontal error came from the fusion horizon, now mended: the emulated u-blox
-//!   delivers each fix its 0.22 s lag after its time of validity plus the transport's
-//!   jitter, and with a horizon of exactly 0.22 s most fixes arrived a fraction of a
-//!   millisecond behind it and were refused (73 in one flight, 2.34 m RMS). With
-//!   `arrival_margin_s = 0.1` in `config/navio2.toml` none was refused: 0.298 m RMS against
-//!   lockstep's 0.307 m;
-//! * the height error still varies from flight to flight with no estimator event: 0.28, 0.71,
-//!   0.83 and 0.92 m RMS against lockstep's 0.077 m (2x is the limit), and 0.086 m once;
-//! * under the load of two other builds one flight crashed: the estimator's tokio task fell
-//!   behind, NavStates went stale and the stale-NavState failsafe landed it too late.
+//! The HIL flight is realtime: it takes the mission's real duration (about 45 s of wall time).
+//! A single lockstep flight is one draw of the sensors' noise, and the HIL flight another (its
+//! noise is drawn at wall-clock instants): the lockstep square's height error alone ranges
+//! 0.077..0.207 m RMS over the seeds of `--instance 0..=5` (`kestrel run --speedup 0 ... --report`,
+//! by hand). So each figure is compared with the worst of four lockstep seeds, and may be at
+//! most twice that. What this catches, measured on this 2-core host
+//! (`cargo nextest run -E 'binary(hil_flight)'`, and the same graph run by hand):
+//! * the fusion horizon: the emulated u-blox delivers each fix its 0.22 s lag after its time of
+//!   validity plus the transport's jitter, and with a horizon of exactly 0.22 s most fixes
+//!   arrived a fraction of a millisecond behind it and were refused (73 in one flight, 2.34 m
+//!   RMS). With `arrival_margin_s = 0.1` in `config/navio2.toml` none was refused;
+//! * a busy machine: under two compiler jobs (load average 4), with the drivers and the
+//!   estimator on the shared tokio workers, GPS fixes came up to 2 s late and were refused, and
+//!   the vehicle crashed (1.89 m height, 22° tilt RMS). With each on a SCHED_FIFO thread of its
+//!   own (`priority` in config/navio2.toml and config/base/navio2-sensors.toml) no fix was late
+//!   under the same load: 0.32 m horizontal, 0.30 and 0.14 m height RMS in two flights. Two
+//!   of the next three flights, with the controller actor's side still on the shared workers,
+//!   crashed (NavStates held back from the loop, which flew blind); with it at SCHED_FIFO 78
+//!   too, the next flight flew clean but for its height.
+//!
+//! It is ignored by default for that height error, which still varies from flight to flight
+//! (0.12, 0.30, 0.73 m RMS, where four lockstep seeds give 0.077..0.207 m). Checked in a
+//! recorded HIL flight (`--record`, read with tests/python's `mcap` reader): the MS5611 samples
+//! against the truth at their stamps are unbiased (+0.03 m mean, 0.25 m SD, best aligned at
+//! zero shift), and the IMU's `dt_s` equals its stamps' spacing; the estimator's baro noise is
+//! 2 m (as ArduPilot's EK3_ALT_M_NSE), so its height leans on the accelerometer and the GPS
+//! climb rate, where the emulated MPU-9250 and u-blox differ from lockstep's sensors.
 //!
 //! When run it goes alone and last (`threads-required = 'num-cpus'` in `.config/nextest.toml`).
 //! The Navio2 graph binds no fixed local port (its link sends to 192.168.1.2:14550 from an
@@ -46,25 +59,36 @@ fn figure(report: &Value, section: &str, key: &str) -> f64 {
 /// The estimator figures compared: position, height, velocity and tilt.
 const COMPARED: [&str; 4] = ["rms_horizontal_m", "rms_vertical_m", "rms_velocity_m_s", "rms_roll_pitch_deg"];
 
+/// Lockstep seeds the HIL flight is compared with (`--instance N` draws the noise from seed 1 + N).
+const LOCKSTEP_SEEDS: u32 = 4;
+
+/// The same mission flown by config/sim.toml in lockstep as `--instance instance`: its report.
+fn lockstep_report(flight: &[&str], instance: u32) -> Value {
+    let json = temp_path(&format!("lockstep-{instance}.json"));
+    let out = Command::new("unshare")
+        .args(["--net", "--map-root-user", "sh", "-c", "ip link set lo up && exec \"$0\" \"$@\""])
+        .arg(env!("CARGO_BIN_EXE_kestrel"))
+        .args(["run", "--config", "config/sim.toml", "--speedup", "0", "--duration", "300"])
+        .args(["--instance", &instance.to_string()])
+        .args(flight)
+        .arg("--report")
+        .arg(&json)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("unshare (util-linux)");
+    assert!(out.status.success(), "lockstep run {instance}: {}", String::from_utf8_lossy(&out.stderr));
+    let report = report(&json);
+    std::fs::remove_file(&json).ok();
+    report
+}
+
 #[test]
 #[ignore = "realtime; the height error varies from flight to flight (see the module doc)"]
 fn the_navio2_graph_flies_the_square_on_emulated_hardware() {
     let root = env!("CARGO_MANIFEST_DIR");
     let flight = ["--mission", "config/missions/square.plan", "--auto", "--exit-on-land", "--quiet"];
-
-    let lockstep_json = temp_path("lockstep.json");
-    let out = Command::new("unshare")
-        .args(["--net", "--map-root-user", "sh", "-c", "ip link set lo up && exec \"$0\" \"$@\""])
-        .arg(env!("CARGO_BIN_EXE_kestrel"))
-        .args(["run", "--config", "config/sim.toml", "--speedup", "0", "--duration", "300"])
-        .args(flight)
-        .arg("--report")
-        .arg(&lockstep_json)
-        .current_dir(root)
-        .output()
-        .expect("unshare (util-linux)");
-    assert!(out.status.success(), "lockstep run: {}", String::from_utf8_lossy(&out.stderr));
-    let lockstep = report(&lockstep_json);
+    let lockstep: Vec<Value> = (0..LOCKSTEP_SEEDS).map(|i| lockstep_report(&flight, i)).collect();
+    let worst = |key: &str| lockstep.iter().map(|r| figure(r, "estimator", key)).fold(0.0, f64::max);
 
     let hil_json = temp_path("hil.json");
     let started = std::time::Instant::now();
@@ -81,11 +105,9 @@ fn the_navio2_graph_flies_the_square_on_emulated_hardware() {
     let hil = report(&hil_json);
     eprintln!("HIL flight took {:.0} s of wall time", started.elapsed().as_secs_f64());
     for key in COMPARED.iter().chain(&["rms_yaw_deg"]) {
-        eprintln!(
-            "{key}: lockstep {:.3}, HIL {:.3}",
-            figure(&lockstep, "estimator", key),
-            figure(&hil, "estimator", key)
-        );
+        let seeds: Vec<String> =
+            lockstep.iter().map(|r| format!("{:.3}", figure(r, "estimator", key))).collect();
+        eprintln!("{key}: lockstep {}, HIL {:.3}", seeds.join(" "), figure(&hil, "estimator", key));
     }
     eprintln!("HIL control: {}", hil["control"]);
 
@@ -94,8 +116,8 @@ fn the_navio2_graph_flies_the_square_on_emulated_hardware() {
     let from_home = figure(&hil, "flight", "landing_distance_from_home_m");
     assert!(from_home < 1.5, "landed {from_home} m from home");
     for key in COMPARED {
-        let (l, h) = (figure(&lockstep, "estimator", key), figure(&hil, "estimator", key));
-        assert!(h <= 2.0 * l, "{key}: HIL {h} is more than twice lockstep's {l}");
+        let (l, h) = (worst(key), figure(&hil, "estimator", key));
+        assert!(h <= 2.0 * l, "{key}: HIL {h} is more than twice the worst lockstep seed's {l}");
     }
     assert!(figure(&hil, "estimator", "samples") > 1000.0, "{hil}");
     // The loop ran on the NavStates, the watchdog only filling gaps.
@@ -104,6 +126,5 @@ fn the_navio2_graph_flies_the_square_on_emulated_hardware() {
     assert!(iterations > 1000.0 && watchdog < 0.5 * iterations, "{}", hil["control"]);
     // The drivers, not a stand-in, fed the estimator: the receiver was switched and answered.
     assert!(stderr.contains("emulated u-blox receiver switched its UART baud=115200"), "{stderr}");
-    std::fs::remove_file(&lockstep_json).ok();
     std::fs::remove_file(&hil_json).ok();
 }

@@ -147,6 +147,38 @@ impl Actor for Misconfigured {
     }
 }
 
+/// Checks on each tick which thread runs it: the actor's own (`actor-NAME`, its `priority` on
+/// the realtime clock) when `own_thread`, a shared one otherwise; fails where it is wrong, and
+/// publishes a count where it is right.
+struct Placed {
+    own_thread: bool,
+    out: Publisher<Count>,
+}
+
+#[derive(serde::Deserialize)]
+struct PlacedParams {
+    own_thread: bool,
+}
+
+impl Actor for Placed {
+    type Params = PlacedParams;
+    type Input = Time;
+
+    fn build(p: &PlacedParams, setup: &mut impl Setup<Time>) -> Result<Self, ActorError> {
+        setup.timer("tick", Duration::from_millis(10), |t| t);
+        Ok(Placed { own_thread: p.own_thread, out: setup.output("placed") })
+    }
+
+    async fn handle(&mut self, ctx: &Context, t: Time) -> Result<(), ActorError> {
+        let thread = std::thread::current().name().unwrap_or_default().to_owned();
+        if (thread == format!("actor-{}", ctx.name())) != self.own_thread {
+            return Err(ActorError::Failed(format!("ran on thread '{thread}'")));
+        }
+        self.out.publish(Count { time: t, n: 1 });
+        Ok(())
+    }
+}
+
 /// Takes battery messages (a type no test actor publishes).
 struct BatteryWatcher;
 
@@ -173,6 +205,7 @@ fn registry() -> Registry {
         .with::<Quitter>("quitter")
         .with::<Stopper>("stopper")
         .with::<Misconfigured>("misconfigured")
+        .with::<Placed>("placed")
 }
 
 fn run_text(text: &str, seconds: f64) -> Result<RunReport, RunError> {
@@ -322,7 +355,7 @@ fn unknown_actor_type_is_named_with_file_and_line() {
     assert!(err.starts_with("graph.toml:6: unknown actor type 'warp_drive' for actor 'b'"), "{err}");
     assert!(
         err.contains(
-            "known types: battery_watcher, counter, misconfigured, panicker, quitter, stopper, ticker"
+            "known types: battery_watcher, counter, misconfigured, panicker, placed, quitter, stopper, ticker"
         ),
         "{err}"
     );
@@ -368,6 +401,25 @@ fn realtime_clock_ticks_on_the_wall_clock() {
     );
     let ticks = published(&report, "count");
     assert!((10..=31).contains(&ticks), "about 30 ticks of 10 ms in 0.3 s, got {ticks}");
+}
+
+/// A `priority` actor runs on a thread of its own on the realtime clock, where it publishes to
+/// and is heard by actors on the shared workers as any other; in lockstep, the one thread that
+/// keeps the run deterministic runs it.
+#[test]
+fn an_actor_with_a_priority_gets_its_own_thread_on_the_realtime_clock_only() {
+    let graph = |clock: &str, own: bool| {
+        format!(
+            "[run]\nclock = \"{clock}\"\n\n[actors.pinned]\ntype = \"placed\"\npriority = 10\nparams = {{ own_thread = {own} }}\n\n[actors.sink]\ntype = \"counter\"\ninputs.count = {{ topic = \"placed\", mailbox = \"queue(64)\" }}\n"
+        )
+    };
+    for (clock, own) in [("realtime", true), ("lockstep", false)] {
+        let report = run_text(&graph(clock, own), 0.3).unwrap();
+        assert!(report.supervisor_events.is_empty(), "{clock}: {:?}", report.supervisor_events);
+        let (placed, handled) = (published(&report, "placed"), published(&report, "handled"));
+        assert!(placed >= 10, "{clock}: {placed} ticks in 0.3 s");
+        assert_eq!(handled, placed, "{clock}: the counter on the shared workers heard every one");
+    }
 }
 
 #[test]

@@ -4,7 +4,6 @@
 mod affinity;
 mod loop_stats;
 mod memory;
-mod priority;
 mod sample_ring;
 mod thread;
 mod triple_buffer;
@@ -12,7 +11,6 @@ mod triple_buffer;
 pub use affinity::pin_to_cpu;
 pub use loop_stats::{Histogram, LoopStats};
 pub use memory::lock_memory;
-pub use priority::{RealtimePriority, set_realtime_priority};
 pub use sample_ring::{RingReader, RingWriter, sample_ring};
 pub use thread::{
     ControlThread, Granted, LoopSample, RealtimeSettings, ThreadInputs, ThreadOutput, WATCHDOG_PERIODS,

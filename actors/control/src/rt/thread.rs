@@ -19,10 +19,10 @@ use kestrel_proto::time::duration_micros;
 
 use super::affinity::pin_to_cpu;
 use super::memory::lock_memory;
-use super::priority::{RealtimePriority, set_realtime_priority};
 use super::triple_buffer::Reader;
 use crate::flight_controller::{FlightController, LoopCounters};
 use crate::live_params::Gains;
+use kestrel_proto::realtime::{RealtimePriority, set_realtime_priority};
 
 /// Periods without a NavState after which the watchdog runs an iteration: half a period of
 /// jitter is tolerated before the loop acts on its own.

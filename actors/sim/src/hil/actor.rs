@@ -11,6 +11,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use kestrel_proto::messages::{ActuatorOutputs, GroundTruth, MAX_MOTORS, SimFault, SimFaultPhase};
+use kestrel_proto::realtime::{RealtimePriority, set_realtime_priority};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
 use super::bench::{BENCH_ASA, Navio2Bench};
@@ -99,9 +100,11 @@ impl Actor for HilSimActor {
         let thread = std::thread::Builder::new()
             .name("hil-world".into())
             .spawn(move || {
-                match set_fifo(WORLD_PRIORITY) {
-                    Ok(()) => tracing::info!(priority = WORLD_PRIORITY, "HIL world on a SCHED_FIFO thread"),
-                    Err(e) => tracing::warn!("HIL world on a normal thread (SCHED_FIFO refused: {e})"),
+                match set_realtime_priority(WORLD_PRIORITY) {
+                    RealtimePriority::Fifo(p) => {
+                        tracing::info!(priority = p, "HIL world on a SCHED_FIFO thread")
+                    }
+                    RealtimePriority::Normal(why) => tracing::warn!("HIL world on a normal thread ({why})"),
                 }
                 let mut next = Instant::now();
                 while !shutdown.is_cancelled() {
@@ -148,17 +151,6 @@ impl HilSimActor {
             Some(Ok(Err(e))) => Err(e),
             Some(Err(_)) => Err(ActorError::Failed("the HIL world thread panicked".into())),
         }
-    }
-}
-
-/// SCHED_FIFO at `priority` for the calling thread.
-fn set_fifo(priority: i32) -> std::io::Result<()> {
-    let param = libc::sched_param { sched_priority: priority };
-    // SAFETY: pid 0 is the calling thread; `param` is initialised and outlives the call.
-    if unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) } == 0 {
-        Ok(())
-    } else {
-        Err(std::io::Error::last_os_error())
     }
 }
 

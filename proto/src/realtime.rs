@@ -1,5 +1,7 @@
 //! Real-time scheduling for the calling thread: SCHED_FIFO where the OS grants it (root or
 //! `CAP_SYS_NICE`, or an `rtprio` limit), otherwise the thread stays a normal one and says so.
+//! The controller's loop, the runtime threads of flight-critical actors (`priority` in the
+//! graph) and the HIL world all ask here, so the policy and its refusal read the same.
 
 /// What the calling thread got.
 #[derive(Clone, Debug, PartialEq, Eq)]
