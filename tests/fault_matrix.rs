@@ -91,7 +91,7 @@ struct Case {
 
 /// Every row, in table order: the test of each row names its case here, and the table is
 /// complete when all have written their line.
-const CASES: [Case; 20] = [
+const CASES: [Case; 22] = [
     Case {
         order: 1,
         name: "GPS jump 50 m for 5 s",
@@ -273,6 +273,24 @@ const CASES: [Case; 20] = [
         name: "camera frames stop for good",
         flight: Flight::PerceptionLeg,
         fault: "kind = \"camera_stop\"",
+        vehicle: "quad_x",
+        graph: "",
+        expect: Expect::Failsafe { cause: "avoidance_lost", action: "land" },
+    },
+    Case {
+        order: 21,
+        name: "camera black for good (lens cap)",
+        flight: Flight::PerceptionLeg,
+        fault: "kind = \"camera_black\"",
+        vehicle: "quad_x",
+        graph: "",
+        expect: Expect::Failsafe { cause: "avoidance_lost", action: "land" },
+    },
+    Case {
+        order: 22,
+        name: "camera frozen for good",
+        flight: Flight::PerceptionLeg,
+        fault: "kind = \"camera_frozen\"",
         vehicle: "quad_x",
         graph: "",
         expect: Expect::Failsafe { cause: "avoidance_lost", action: "land" },
@@ -675,4 +693,14 @@ fn camera_stop_3_s() {
 #[test]
 fn camera_stop_for_good() {
     run_case(20);
+}
+
+#[test]
+fn camera_black_for_good() {
+    run_case(21);
+}
+
+#[test]
+fn camera_frozen_for_good() {
+    run_case(22);
 }

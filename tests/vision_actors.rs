@@ -10,7 +10,8 @@ use kestrel::{LoadedConfig, Registry, RunOptions, run};
 use kestrel_proto::messages::SupervisorEventKind;
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use kestrel_vision::{
-    CameraActor, Geometry, PipelineParams, StereoActor, StereoFrame, StereoParams, StereoPipeline,
+    CameraActor, Geometry, PipelineParams, StereoActor, StereoFrame, StereoInput, StereoParams,
+    StereoPipeline,
 };
 
 /// The stereo actor with a fault injected: it panics on frame 2.
@@ -18,17 +19,19 @@ struct FaultyStereo(StereoActor);
 
 impl Actor for FaultyStereo {
     type Params = StereoParams;
-    type Input = StereoFrame;
+    type Input = StereoInput;
 
-    fn build(params: &StereoParams, setup: &mut impl Setup<StereoFrame>) -> Result<Self, ActorError> {
+    fn build(params: &StereoParams, setup: &mut impl Setup<StereoInput>) -> Result<Self, ActorError> {
         StereoActor::build(params, setup).map(FaultyStereo)
     }
 
-    async fn handle(&mut self, ctx: &Context, frame: StereoFrame) -> Result<(), ActorError> {
-        if frame.sequence == 2 {
+    async fn handle(&mut self, ctx: &Context, input: StereoInput) -> Result<(), ActorError> {
+        if let StereoInput::Frame(frame) = &input
+            && frame.sequence == 2
+        {
             panic!("injected fault in the stereo worker at frame {}", frame.sequence);
         }
-        self.0.handle(ctx, frame).await
+        self.0.handle(ctx, input).await
     }
 }
 
