@@ -397,10 +397,40 @@ pub(crate) fn radiance(albedo: f32, light: f32) -> f32 {
 /// levels) if any, rounded and saturated at 0 and 255.
 fn quantise(radiance: &[f32], gain: f32, noise: Option<&mut (&Normal<f64>, Pcg64)>) -> Vec<u8> {
     match noise {
-        None => radiance.iter().map(|&r| (gain * r).round().clamp(0.0, 255.0) as u8).collect(),
+        None => radiance.iter().map(|&r| grey_level(gain * r)).collect(),
         Some((noise, rng)) => radiance
             .iter()
             .map(|&r| (f64::from(gain * r) + noise.sample(rng)).round().clamp(0.0, 255.0) as u8)
             .collect(),
+    }
+}
+
+/// `x.round().clamp(0.0, 255.0) as u8` (NaN to 0) in operations that vectorise on any x86-64,
+/// which has no rounding instruction before SSE 4.1: clamping first changes nothing, and the
+/// fraction left after truncation is exact.
+#[inline(always)]
+fn grey_level(x: f32) -> u8 {
+    let level = if x.is_nan() { 0.0 } else { x.clamp(0.0, 255.0) };
+    // SAFETY: `level` is in [0, 255], so it truncates to a u32.
+    let whole = unsafe { level.to_int_unchecked::<u32>() };
+    (whole + u32::from(level - whole as f32 >= 0.5)) as u8
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    proptest::proptest! {
+        /// On random bit patterns (NaNs, infinities and subnormals among them) and on grey
+        /// levels near half-integers.
+        #[test]
+        fn grey_levels_round_and_saturate_as_the_float_operations_do(
+            bits in proptest::num::u32::ANY,
+            level in -2.0f32..258.0,
+        ) {
+            for x in [f32::from_bits(bits), level, level.floor() + 0.5, (level.floor() + 0.5).next_down()] {
+                proptest::prop_assert_eq!(grey_level(x), x.round().clamp(0.0, 255.0) as u8, "{}", x);
+            }
+        }
     }
 }
