@@ -4,12 +4,15 @@
 //! bands of [`BAND_ROWS`] rows; a row then tests only the obstacles of its band whose
 //! rectangle spans it, and only over the columns it spans.
 //!
-//! A row is cast in passes over arrays, one column per entry, so the loops are simple enough
-//! for the compiler to vectorise: the ray and the ground (or sky) of every column, then each
-//! obstacle over its columns, then the surfaces, then the texture of all textured columns at
-//! once ([`Texture::sample_batch`]), the part that costs most. On x86-64 hosts with AVX2 the
-//! same code is compiled a second time for AVX2 (found at run time), which gives the texture
-//! its 8-lane vector loop and rounding; the arithmetic is IEEE the same either way, so the
+//! A row is cast in passes over arrays, one column per entry ([`Columns`], borrowed as slices
+//! of the row's width so the loops keep their pointers in registers and check no index), each
+//! a loop without branches that the compiler vectorises: the ray and the ground (or sky) of
+//! every column; each obstacle over its columns, prepared once per view for the origin
+//! ([`ShapeFrom`]); the surfaces, the light and the texel footprints; the texture of the row
+//! ([`Texture::sample_batch`](crate::camera::texture), the part that costs most); the radiance.
+//! Only the obstacles' surfaces (an arc tangent per cylinder pixel) are computed a column at a
+//! time. On x86-64 hosts with AVX2 the same code is compiled a second time for AVX2 (found at
+//! run time), which gives the loops 8 lanes; the arithmetic is IEEE the same either way, so the
 //! images are too. The result is bit for bit the per-pixel reference renderer's
 //! (`camera/reference.rs`, the test and bench baseline).
 
