@@ -64,15 +64,16 @@ impl Texture {
             (&texels.footprint_m[..n], &texels.textured[..n], &mut texels.value[..n]);
         for start in (0..n).step_by(CHUNK) {
             let chunk = start..n.min(start + CHUNK);
-            // The smallest footprint's bits; NaN and negative ones sort above every positive.
+            if !textured[chunk.clone()].contains(&true) {
+                continue;
+            }
+            // The bits of the smallest footprint textured; NaN and negative ones sort above
+            // every positive one.
             let finest = footprint_m[chunk.clone()]
                 .iter()
                 .zip(&textured[chunk.clone()])
                 .map(|(f, &textured)| if textured { f.to_bits() } else { u32::MAX })
                 .fold(u32::MAX, u32::min);
-            if finest == u32::MAX && !textured[chunk.clone()].contains(&true) {
-                continue;
-            }
             let hidden = self.shows_up_to_bits.iter().filter(|&&bits| finest > bits).count();
             self.sample_chunk(
                 &material[chunk.clone()],
