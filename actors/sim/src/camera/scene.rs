@@ -434,17 +434,27 @@ mod tests {
 
     proptest::proptest! {
         /// The branch-free hit from a prepared origin is the shape's own, bit for bit, over
-        /// random shapes, origins (outside and inside) and rays, axis-parallel ones included.
+        /// random shapes, origins (outside and inside) and rays, axis-parallel ones included,
+        /// most of them aimed at the shape.
         #[test]
         fn a_shape_seen_from_an_origin_is_hit_as_the_shape_is(
             shape in any_shape(),
             origin in [-40.0f32..40.0, -40.0..40.0, -20.0..1.0],
             dirs in proptest::collection::vec(any_dir(), 1..40),
         ) {
-            let origin = Vector3::from(origin);
-            let seen = shape.seen_from(&origin);
-            for dir in dirs {
-                let dir = Vector3::from(dir);
+            // A third of the rays from `origin` anywhere, a third from it aimed near the shape's
+            // centre, and a third from above the shape straight down near its centre, so that
+            // sides and tops are hit too.
+            let corners = shape.bounding_corners();
+            let centre = corners.iter().sum::<Vector3<f32>>() / 8.0;
+            for (i, offset) in dirs.into_iter().enumerate() {
+                let offset = Vector3::from(offset);
+                let (origin, dir) = match i % 3 {
+                    0 => (Vector3::from(origin), offset),
+                    1 => (Vector3::from(origin), centre + offset - Vector3::from(origin)),
+                    _ => (centre + Vector3::new(offset.x / 4.0, offset.y / 4.0, -30.0), Vector3::new(offset.z / 10.0, offset.y / 10.0, 1.0)),
+                };
+                let seen = shape.seen_from(&origin);
                 let fast = seen.hit(&dir);
                 match shape.hit(&origin, &dir) {
                     Some((t, face)) => proptest::prop_assert_eq!((fast.0.to_bits(), fast.1), (t.to_bits(), face)),
