@@ -8,10 +8,12 @@
 //!
 //! * **Capture**: the first sample at or after each due time (every `1/rate_hz` from the first
 //!   sample) is the frame's capture instant. Its pose, velocity and body rate (for motion blur)
-//!   are taken and the render (`cargo bench -p kestrel-sim --bench render` times it) is started on tokio's blocking pool; the handler returns at once, so the simulator
-//!   steps on while the pair renders on another core. The frame is stamped with the capture
-//!   instant. The frame rate is quantised to the ground truth's (50 Hz by default): 15 Hz comes
-//!   out as alternating 60 and 80 ms periods averaging 1/15 s.
+//!   are taken and the render (`cargo bench -p kestrel-sim --bench render` times it) is
+//!   started on tokio's blocking pool; the handler returns at once, so the simulator steps on
+//!   while the pair renders (the two cameras on two threads, on a host with more than one
+//!   CPU). The frame is stamped with the capture instant. The frame rate is quantised to the
+//!   ground truth's (50 Hz by default): 15 Hz comes out as alternating 60 and 80 ms periods
+//!   averaging 1/15 s.
 //! * **Delivery**: the frame is published while handling the first sample whose time is at or
 //!   after capture + `latency_s`, a real camera's exposure, readout and transfer delay. If the
 //!   render has not finished by then, that handler awaits it. Under the lockstep clock a

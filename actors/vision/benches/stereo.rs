@@ -19,8 +19,8 @@ use kestrel_vision::image::{crop, gray_bytes, load_gray};
 use kestrel_vision::texture::TextureFilter;
 use kestrel_vision::{
     BmParams, DepthMap, DisparityMap, Geometry, GroundTruth, Matcher, MatcherParams, PipelineParams,
-    Rectifier, StereoCalibration, StereoFrame, StereoGeometry, StereoPipeline, TextureParams, calibrate,
-    depth_grid, score,
+    Rectifier, SgbmMode, SgbmParams, StereoCalibration, StereoFrame, StereoGeometry, StereoPipeline,
+    TextureParams, calibrate, depth_grid, score,
 };
 use opencv::calib3d::{StereoSGBM, StereoSGBM_MODE_SGBM, StereoSGBM_MODE_SGBM_3WAY};
 use opencv::core::{Mat, Ptr};
@@ -171,7 +171,85 @@ fn stereo(c: &mut Criterion) {
             );
         }
     }
+    overhead(&inputs, runs);
     accuracy();
+}
+
+/// OpenCV's StereoSGBM with the pipeline's own matcher parameters (the defaults) at
+/// `num_disparities`: the bare matcher inside frame → grid.
+fn opencv_as_pipeline(num_disparities: i32) -> Ptr<StereoSGBM> {
+    let p = SgbmParams { num_disparities, ..SgbmParams::default() };
+    assert_eq!(p.mode, SgbmMode::ThreeWay, "the bench builds the pipeline's matcher in 3-way mode");
+    StereoSGBM::create(
+        p.min_disparity,
+        p.num_disparities,
+        p.block_size,
+        p.p1,
+        p.p2,
+        p.disp12_max_diff,
+        p.pre_filter_cap,
+        p.uniqueness_ratio,
+        p.speckle_window_size,
+        p.speckle_range,
+        StereoSGBM_MODE_SGBM_3WAY,
+    )
+    .unwrap()
+}
+
+/// The pipeline's own cost over the bare matcher at 64 disparities, run alternately so a load
+/// change on the shared machine hits all alike: frame → grid against OpenCV's StereoSGBM with
+/// the pipeline's parameters on the pair the pipeline matches (rectified), and against the
+/// 3-way reference on the raw pair; with the pipeline's stages (its own timings) to say where
+/// the rest goes.
+fn overhead(inputs: &Inputs, runs: usize) {
+    let n = 64;
+    let mut reference = opencv_reference(n, StereoSGBM_MODE_SGBM_3WAY);
+    let mut bare = opencv_as_pipeline(n);
+    let (mut rl, mut rr, mut raw) = (Mat::default(), Mat::default(), Mat::default());
+    Rectifier::new(&inputs.calibration)
+        .unwrap()
+        .rectify_into(&inputs.left, &inputs.right, &mut rl, &mut rr)
+        .unwrap();
+    let mut p = pipeline(&inputs.calibration, n, &PipelineParams::default());
+    let mut times = [const { Vec::new() }; 7];
+    for _ in 0..runs {
+        let start = Instant::now();
+        reference.compute(&inputs.left, &inputs.right, &mut raw).unwrap();
+        times[0].push(start.elapsed());
+        let start = Instant::now();
+        bare.compute(&rl, &rr, &mut raw).unwrap();
+        times[1].push(start.elapsed());
+        let start = Instant::now();
+        black_box(p.process(&inputs.frame).unwrap());
+        times[2].push(start.elapsed());
+        let t = p.times();
+        for (stage, time) in times[3..].iter_mut().zip([t.rectify, t.matching, t.depth, t.grid]) {
+            stage.push(time);
+        }
+    }
+    for t in &mut times {
+        t.sort();
+    }
+    let [reference, bare, ours, rectify, matching, depth, grid] =
+        times.map(|t| (percentile(&t, 0.5), percentile(&t, 0.95)));
+    let percent = |a: f64, b: f64| (a / b - 1.0) * 100.0;
+    println!(
+        "\npipeline overhead/{n}, alternating runs: frame_to_grid p50 {:.2} ms, p95 {:.2} ms; over OpenCV SGBM-3WAY with its parameters on the rectified pair (p50 {:.2}, p95 {:.2} ms): {:+.1} % p50, {:+.1} % p95; over the reference on the raw pair (p50 {:.2}, p95 {:.2} ms): {:+.1} % p50, {:+.1} % p95",
+        ours.0,
+        ours.1,
+        bare.0,
+        bare.1,
+        percent(ours.0, bare.0),
+        percent(ours.1, bare.1),
+        reference.0,
+        reference.1,
+        percent(ours.0, reference.0),
+        percent(ours.1, reference.1),
+    );
+    println!(
+        "  its stages, p50: rectify {:.2} ms, matching and texture check {:.2} ms, depth {:.2} ms, grid {:.2} ms",
+        rectify.0, matching.0, depth.0, grid.0
+    );
 }
 
 /// A Middlebury pair (optionally cropped) with its ground truth, scored at `num_disparities`.

@@ -7,12 +7,12 @@ use nalgebra::Vector3;
 
 use crate::camera::raycast::RowBuffers;
 use crate::camera::render::{
-    CapturePose, PLAIN_ALBEDO, PixelRect, RenderBuffers, SKY, StereoCamera, StereoRender, View, light,
-    radiance, texel_footprint_m, textured_albedo,
+    CapturePose, PLAIN_ALBEDO, PixelRect, RenderBuffers, SKY, StereoCamera, StereoRender, Threads, View,
+    light, radiance, texel_footprint_m, textured_albedo,
 };
 use crate::camera::scene::{Scene, Surface};
 
-/// [`StereoCamera::render_moving`] by the reference caster.
+/// [`StereoCamera::render_moving`] by the reference caster, on the calling thread alone.
 pub fn render_moving_reference(
     camera: &StereoCamera,
     scene: &Scene,
@@ -20,7 +20,7 @@ pub fn render_moving_reference(
     sequence: u64,
     buffers: &mut RenderBuffers,
 ) -> StereoRender {
-    camera.render_moving_by(cast_view_per_pixel, scene, pose, sequence, buffers)
+    camera.render_moving_by(cast_view_per_pixel, Threads::One, scene, pose, sequence, buffers)
 }
 
 /// Casts every pixel of one camera (the [`CastView`](crate::camera::render::CastView)
