@@ -71,15 +71,21 @@ fn fly_split(name: &str, world: &str, mission: &str, script: &str) -> Split {
     Split { report, flight_log, vision_log, stdout }
 }
 
-/// `topic p50 … p95 …` of each topic a bridge received, from its log's closing lines.
+/// `topic: N received, p50 … ms p95 … ms` of each topic a bridge received, from its log's
+/// closing lines (`bridge hop latency p50 … ms p95 … ms actor=… topic="…" received=N …`).
 fn hop_latencies(log: &str) -> Vec<String> {
+    let field = |line: &str, key: &str| {
+        line.split(key)
+            .nth(1)
+            .and_then(|v| v.split_whitespace().next())
+            .unwrap_or("?")
+            .trim_matches('"')
+            .to_owned()
+    };
     log.lines()
-        .filter(|l| l.contains("bridge hop latency"))
-        .map(|l| {
-            let topic = l.split("topic=").nth(1).and_then(|t| t.split_whitespace().next()).unwrap_or("?");
-            let figures =
-                l.split("bridge hop latency").nth(1).unwrap_or("").split(" actor=").next().unwrap_or("");
-            format!("{topic}{figures}")
+        .filter_map(|l| {
+            let figures = l.split("bridge hop latency ").nth(1)?.split(" actor=").next()?;
+            Some(format!("{}: {} received, {figures}", field(l, "topic="), field(l, "received=")))
         })
         .collect()
 }
