@@ -25,8 +25,17 @@ impl Registry {
     }
 
     /// The actors a vehicle flies with, on hardware or in a simulated flight: estimation,
-    /// perception, control, the link and the hardware drivers.
+    /// perception, control, the link, the hardware drivers and, in a build with the `zenoh`
+    /// feature, the bridge that joins graphs across machines.
     pub fn flight() -> Registry {
+        let registry = Registry::drivers_and_cores();
+        #[cfg(feature = "zenoh")]
+        let registry = registry.with::<kestrel_bridge::BridgeActor>("bridge");
+        registry
+    }
+
+    /// Estimation, perception, control, the link and the hardware drivers.
+    fn drivers_and_cores() -> Registry {
         Registry::new()
             .with::<kestrel_estimator::EstimatorActor>("estimator")
             .with::<kestrel_avoider::AvoiderActor>("avoider")
@@ -63,6 +72,18 @@ impl Registry {
     pub fn with<A: Actor>(mut self, name: &'static str) -> Registry {
         self.kinds.insert(name, Arc::new(KindOf::<A>::default()));
         self
+    }
+
+    /// Why an actor type Kestrel has is missing from this build, if it is one left out by a
+    /// cargo feature.
+    pub fn left_out(name: &str) -> Option<&'static str> {
+        match name {
+            #[cfg(not(feature = "zenoh"))]
+            "bridge" => {
+                Some("this kestrel was built without the Zenoh bridge (cargo build --features zenoh)")
+            }
+            _ => None,
+        }
     }
 
     /// The actor type called `name`.

@@ -94,12 +94,17 @@ fn prepare_actors(
         let Some(kind) = registry.get(decl.kind.get_ref()) else {
             errors.push(source.error_at(
                 decl.kind.span(),
-                format!(
-                    "unknown actor type '{}' for actor '{}'; known types: {}",
-                    decl.kind.get_ref(),
-                    name.get_ref(),
-                    registry.names().join(", ")
-                ),
+                match Registry::left_out(decl.kind.get_ref()) {
+                    Some(why) => {
+                        format!("actor '{}' of type '{}': {why}", name.get_ref(), decl.kind.get_ref())
+                    }
+                    None => format!(
+                        "unknown actor type '{}' for actor '{}'; known types: {}",
+                        decl.kind.get_ref(),
+                        name.get_ref(),
+                        registry.names().join(", ")
+                    ),
+                },
             ));
             continue;
         };

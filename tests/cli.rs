@@ -124,6 +124,28 @@ fn a_config_with_an_unknown_actor_fails_naming_it() {
     assert!(stderr.contains(&format!("{}:5: unknown actor type 'laser_eyes'", path.display())), "{stderr}");
 }
 
+/// A Zenoh bridge in a config: refused with its parameter named in a build with the bridge, and
+/// with the feature that brings it in a build without.
+#[test]
+fn a_bridge_is_refused_naming_its_bad_parameter_or_the_missing_feature() {
+    let path = temp_path("bridge.toml");
+    std::fs::write(
+        &path,
+        "[actors.sim]\ntype = \"sim\"\n\n[actors.bridge]\ntype = \"bridge\"\nparams = { vehicle = \"v\", listen = [\"tcp/127.0.0.1:0\"], publish = [\"imu\"] }\n",
+    )
+    .unwrap();
+    let out = kestrel().args(["run", "--duration", "1", "--config"]).arg(&path).output().unwrap();
+    let _ = std::fs::remove_file(&path);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{stderr}");
+    let expected = if cfg!(feature = "zenoh") {
+        "parameter 'publish': topic 'imu' is not bridged; bridged topics: nav_state, ground_truth"
+    } else {
+        "actor 'bridge' of type 'bridge': this kestrel was built without the Zenoh bridge (cargo build --features zenoh)"
+    };
+    assert!(stderr.contains(expected), "{stderr}");
+}
+
 #[test]
 fn bad_input_files_and_values_are_named_and_refused_without_a_panic() {
     let plan = temp_path("bad.plan");

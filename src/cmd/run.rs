@@ -100,12 +100,13 @@ fn apply_flight_flags(config: &mut LoadedConfig, args: &RunArgs) -> Result<(), S
     Ok(())
 }
 
-/// Hands `--instance N` to the graph's links (system id, ports) and simulators (spawn point,
-/// noise seed) as their `instance` parameter; each actor says what it means for it.
+/// Hands `--instance N` to the graph's links (system id, ports), simulators (spawn point,
+/// noise seed) and Zenoh bridges (vehicle name) as their `instance` parameter; each actor says
+/// what it means for it.
 fn apply_instance(config: &mut LoadedConfig, n: u8) -> Result<(), String> {
     let mut applied = 0;
     for decl in config.graph.actors.values_mut() {
-        if matches!(decl.kind.get_ref().as_str(), "link" | "sim") {
+        if matches!(decl.kind.get_ref().as_str(), "link" | "sim" | "bridge") {
             let params =
                 decl.params.get_or_insert_with(|| toml::Spanned::new(0..0, toml::Table::new())).get_mut();
             params.insert("instance".into(), toml::Value::Integer(i64::from(n)));
@@ -113,7 +114,10 @@ fn apply_instance(config: &mut LoadedConfig, n: u8) -> Result<(), String> {
         }
     }
     if applied == 0 {
-        return Err(format!("--instance needs a link or sim actor in {}", config.source.path.display()));
+        return Err(format!(
+            "--instance needs a link, sim or bridge actor in {}",
+            config.source.path.display()
+        ));
     }
     Ok(())
 }

@@ -1,0 +1,21 @@
+//! Kestrel's Zenoh bridge: one graph across machines (the thesis's split of flight control and
+//! vision onto two computers, a fleet seen from one ground station).
+//!
+//! * [`key_expr`]: `kestrel/<vehicle>/<topic>`, checked so a name never becomes a wildcard.
+//! * [`catalogue`]: the topics the bridge carries, each with its one message type.
+//! * [`payload`]: the recorder's JSON with its schema name, the capture time as the sample's
+//!   timestamp, and the mapping of times between two processes' graph clocks.
+//! * [`params`]: the actor's parameters, checked with errors that name the parameter.
+//! * [`BridgeActor`]: the actor shell around a Zenoh session.
+
+mod actor;
+pub mod catalogue;
+pub mod error;
+pub mod hop_latency;
+pub mod key_expr;
+pub mod params;
+pub mod payload;
+
+pub use actor::{BridgeActor, BridgeInput};
+pub use error::BridgeError;
+pub use params::{BridgeParams, Mode};

@@ -1,0 +1,214 @@
+//! The bridge's parameters (`[actors.NAME.params]`), checked before any session opens.
+
+use serde::Deserialize;
+
+use crate::catalogue::{Bridged, TOPICS, TopicVisitor, visit_topic};
+use crate::error::BridgeError;
+use crate::key_expr::{check_chunk, instance_vehicle};
+
+/// How the bridge joins a Zenoh network (Zenoh's own words).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Mode {
+    /// Talks to other peers directly (two computers on one vehicle, or one machine).
+    #[default]
+    Peer,
+    /// Talks through a Zenoh router (`connect` names it), as a ground station's fleet does.
+    Client,
+}
+
+impl Mode {
+    /// Zenoh's name of the mode.
+    pub fn zenoh_name(self) -> &'static str {
+        match self {
+            Mode::Peer => "peer",
+            Mode::Client => "client",
+        }
+    }
+}
+
+/// The transports this build of Zenoh has (`tcp/HOST:PORT`, `udp/HOST:PORT`).
+pub const PROTOCOLS: &[&str] = &["tcp", "udp"];
+
+/// The bridge's parameters.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BridgeParams {
+    /// This vehicle's name, the second chunk of its key expressions `kestrel/<vehicle>/<topic>`.
+    pub vehicle: String,
+    /// `kestrel run --instance N` (set by the runtime): the vehicle is then `<vehicle>-<N>`.
+    #[serde(default)]
+    pub instance: Option<u8>,
+    #[serde(default)]
+    pub mode: Mode,
+    /// Endpoints to connect to, e.g. `tcp/192.168.1.10:7447`; retried until they answer.
+    #[serde(default)]
+    pub connect: Vec<String>,
+    /// Endpoints to listen on, e.g. `tcp/127.0.0.1:7447`.
+    #[serde(default)]
+    pub listen: Vec<String>,
+    /// Multicast scouting (finding peers on the LAN by itself). Off by default: a vehicle
+    /// talks only to the endpoints it is given.
+    #[serde(default)]
+    pub scouting: bool,
+    /// Local topics sent to the network as `kestrel/<vehicle>/<topic>`; each is also an input
+    /// port of the bridge, which the config routes with the mailbox kind it wants.
+    #[serde(default)]
+    pub publish: Vec<String>,
+    /// Topics of this vehicle taken from the network and published into the local graph, as
+    /// an output of the bridge of the same name; local actors subscribe to them like any topic.
+    #[serde(default)]
+    pub subscribe: Vec<String>,
+}
+
+impl BridgeParams {
+    /// The vehicle name in key expressions.
+    pub fn vehicle_name(&self) -> String {
+        instance_vehicle(&self.vehicle, self.instance)
+    }
+
+    /// Checks every parameter; the first problem found, naming the parameter.
+    pub fn check(&self) -> Result<(), BridgeError> {
+        check_chunk("vehicle", &self.vehicle_name())?;
+        if self.mode == Mode::Client && self.connect.is_empty() {
+            return Err(BridgeError::Param {
+                param: "connect",
+                why: "a client needs a router to connect to (e.g. [\"tcp/127.0.0.1:7447\"])".into(),
+            });
+        }
+        if self.mode == Mode::Peer && self.connect.is_empty() && self.listen.is_empty() && !self.scouting {
+            return Err(BridgeError::Param {
+                param: "connect",
+                why: "a peer with no `connect`, no `listen` and no `scouting` can never meet another".into(),
+            });
+        }
+        for (param, endpoints) in [("connect", &self.connect), ("listen", &self.listen)] {
+            for endpoint in endpoints {
+                check_endpoint(endpoint).map_err(|why| BridgeError::Param { param, why })?;
+            }
+        }
+        if self.publish.is_empty() && self.subscribe.is_empty() {
+            return Err(BridgeError::Param {
+                param: "publish",
+                why: "nothing to publish or subscribe to".into(),
+            });
+        }
+        for (param, topics) in [("publish", &self.publish), ("subscribe", &self.subscribe)] {
+            for (i, topic) in topics.iter().enumerate() {
+                if !visit_topic(topic, &mut Nothing) {
+                    return Err(BridgeError::UnknownTopic {
+                        param,
+                        topic: topic.clone(),
+                        known: TOPICS.join(", "),
+                    });
+                }
+                if topics[..i].contains(topic) {
+                    return Err(BridgeError::Param {
+                        param,
+                        why: format!("topic '{topic}' is listed twice"),
+                    });
+                }
+            }
+        }
+        if let Some(both) = self.publish.iter().find(|t| self.subscribe.contains(t)) {
+            return Err(BridgeError::Param {
+                param: "subscribe",
+                why: format!("topic '{both}' is also published: the bridge would hear itself"),
+            });
+        }
+        Ok(())
+    }
+}
+
+struct Nothing;
+
+impl TopicVisitor for Nothing {
+    fn visit<T: Bridged>(&mut self, _topic: &'static str) {}
+}
+
+/// Checks a Zenoh endpoint `PROTOCOL/HOST:PORT` (no `#` link options: the bridge sets none).
+fn check_endpoint(endpoint: &str) -> Result<(), String> {
+    let Some((protocol, address)) = endpoint.split_once('/') else {
+        return Err(format!("endpoint {endpoint:?} is not PROTOCOL/HOST:PORT (e.g. tcp/127.0.0.1:7447)"));
+    };
+    if !PROTOCOLS.contains(&protocol) {
+        return Err(format!(
+            "endpoint {endpoint:?}: protocol '{protocol}' is not built in; only {}",
+            PROTOCOLS.join(", ")
+        ));
+    }
+    let port = address.rsplit_once(':').map(|(host, port)| (host, port.parse::<u16>()));
+    match port {
+        Some((host, Ok(_))) if !host.is_empty() && !address.contains(['#', '?', '/']) => Ok(()),
+        _ => Err(format!("endpoint {endpoint:?}: '{address}' is not HOST:PORT with a port 0..65535")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(toml_text: &str) -> BridgeParams {
+        toml::from_str(toml_text).unwrap()
+    }
+
+    const GOOD: &str = r#"
+        vehicle = "kestrel"
+        listen = ["tcp/127.0.0.1:7447"]
+        publish = ["nav_state", "ground_truth"]
+        subscribe = ["avoidance_command"]
+    "#;
+
+    #[test]
+    fn a_good_config_passes_and_names_its_vehicle() {
+        let p = params(GOOD);
+        p.check().unwrap();
+        assert_eq!((p.mode, p.scouting), (Mode::Peer, false), "peer, no scouting by default");
+        assert_eq!(p.vehicle_name(), "kestrel");
+        assert_eq!(BridgeParams { instance: Some(2), ..p }.vehicle_name(), "kestrel-2");
+    }
+
+    #[test]
+    fn each_bad_parameter_is_named_with_what_is_wrong() {
+        let cases: &[(&str, &str)] = &[
+            ("vehicle = \"a/b\"", "vehicle name \"a/b\" holds '/'"),
+            ("mode = \"client\"\nlisten = []", "parameter 'connect': a client needs a router"),
+            ("listen = []", "a peer with no `connect`, no `listen` and no `scouting`"),
+            (
+                "listen = [\"quic/1.2.3.4:7447\"]",
+                "parameter 'listen': endpoint \"quic/1.2.3.4:7447\": protocol 'quic' is not built in; only tcp, udp",
+            ),
+            (
+                "connect = [\"tcp/host\"]",
+                "parameter 'connect': endpoint \"tcp/host\": 'host' is not HOST:PORT",
+            ),
+            ("connect = [\"127.0.0.1:7447\"]", "is not PROTOCOL/HOST:PORT"),
+            ("listen = [\"tcp/127.0.0.1:99999\"]", "with a port 0..65535"),
+            (
+                "publish = [\"imu\"]",
+                "parameter 'publish': topic 'imu' is not bridged; bridged topics: nav_state, ground_truth",
+            ),
+            ("publish = [\"nav_state\", \"nav_state\"]", "topic 'nav_state' is listed twice"),
+            ("subscribe = [\"nav_state\"]", "topic 'nav_state' is also published"),
+            ("publish = []\nsubscribe = []", "nothing to publish or subscribe to"),
+        ];
+        for (change, expected) in cases {
+            let key = change.split(' ').next().unwrap();
+            let kept: String = GOOD
+                .lines()
+                .filter(|l| !l.trim_start().starts_with(&format!("{key} ")))
+                .collect::<Vec<_>>()
+                .join("\n");
+            let second = change.lines().nth(1).and_then(|l| l.split(' ').next());
+            let kept: String = kept
+                .lines()
+                .filter(|l| second.is_none_or(|k| !l.trim_start().starts_with(&format!("{k} "))))
+                .collect::<Vec<_>>()
+                .join("\n");
+            let e = params(&format!("{kept}\n{change}")).check().unwrap_err().to_string();
+            assert!(e.contains(expected), "{change}: {e}");
+        }
+        let unknown = toml::from_str::<BridgeParams>("vehicle = \"v\"\nendpoints = []").unwrap_err();
+        assert!(unknown.to_string().contains("unknown field `endpoints`"), "{unknown}");
+    }
+}

@@ -1,0 +1,184 @@
+//! The thesis's two-computer split flown as two `kestrel run` processes joined by Zenoh over
+//! loopback, on the wall clock: config/split-flight.toml (simulator, estimator, commander,
+//! controller, link) and config/split-vision.toml (simulated camera, stereo, avoider), in the
+//! worlds of tests/avoidance_flights.rs. Each pair runs in a network namespace of its own
+//! (`unshare --net`), so Zenoh's port 7447 and the link's ports are the test's alone.
+//!
+//! Each flight prints the bridge's hop latency per topic (from both processes' logs) as a
+//! `figure:` line.
+
+#[allow(dead_code, reason = "shared by the flight test binaries; this one flies two processes of its own")]
+mod flights;
+
+use std::path::Path;
+use std::process::Command;
+
+use flights::{clearance_m, collisions, repo, scratch};
+use serde_json::Value;
+
+/// `file`'s graph with its bases merged in, flying `world` (a path), with its relative paths made
+/// absolute so it runs from a scratch directory.
+fn graph(file: &str, world: &Path) -> String {
+    let config_dir = repo().join("config");
+    let text = kestrel::LoadedConfig::load(&config_dir.join(file)).unwrap().merged_toml().unwrap();
+    let text = text
+        .replace("worlds/obstacles.toml", &world.display().to_string())
+        .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()));
+    assert!(!text.contains("\"worlds/obstacles.toml"), "{file}: the world was swapped");
+    text
+}
+
+/// What one split flight left behind.
+struct Split {
+    report: Value,
+    flight_log: String,
+    vision_log: String,
+    /// The shell's own account: exit codes, and when it killed and restarted the vision side.
+    stdout: String,
+}
+
+/// Flies `mission` in `world` with the graph split in two; `script` is the shell's part after
+/// both processes have started (it waits for the flight and stops the vision side).
+fn fly_split(name: &str, world: &str, mission: &str, script: &str) -> Split {
+    let dir = scratch("split", name);
+    let world = repo().join("config/worlds").join(world);
+    std::fs::write(dir.join("flight.toml"), graph("split-flight.toml", &world)).unwrap();
+    std::fs::write(dir.join("vision.toml"), graph("split-vision.toml", &world)).unwrap();
+    let start = r#"
+        ip link set lo up || exit 90
+        "$KESTREL" run --config "$DIR/flight.toml" --mission "$PLAN" --auto --exit-on-land \
+            --duration 150 --report "$DIR/report.json" --quiet > "$DIR/flight.log" 2>&1 &
+        flight=$!
+        "$KESTREL" run --config "$DIR/vision.toml" --duration 200 --quiet > "$DIR/vision.log" 2>&1 &
+        vision=$!
+    "#;
+    let out = Command::new("unshare")
+        .args(["--net", "--map-root-user", "sh", "-c", &format!("{start}{script}")])
+        .env("KESTREL", env!("CARGO_BIN_EXE_kestrel"))
+        .env("PLAN", repo().join(mission))
+        .env("DIR", &dir)
+        .env_remove("RUST_LOG")
+        .current_dir(&dir)
+        .output()
+        .expect("unshare (util-linux) runs the split in a network namespace of its own");
+    let read = |file: &str| std::fs::read_to_string(dir.join(file)).unwrap_or_default();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let (flight_log, vision_log) = (read("flight.log"), read("vision.log"));
+    let report = serde_json::from_str(&read("report.json")).unwrap_or_else(|e| {
+        panic!("{name}: no report ({e}); {stdout}\nflight:\n{flight_log}\nvision:\n{vision_log}")
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    Split { report, flight_log, vision_log, stdout }
+}
+
+/// `topic: N received, p50 … ms p95 … ms` of each topic a bridge received, from its log's
+/// closing lines (`bridge hop latency p50 … ms p95 … ms actor=… topic="…" received=N …`).
+fn hop_latencies(log: &str) -> Vec<String> {
+    let field = |line: &str, key: &str| {
+        line.split(key)
+            .nth(1)
+            .and_then(|v| v.split_whitespace().next())
+            .unwrap_or("?")
+            .trim_matches('"')
+            .to_owned()
+    };
+    log.lines()
+        .filter_map(|l| {
+            let figures = l.split("bridge hop latency ").nth(1)?.split(" actor=").next()?;
+            Some(format!("{}: {} received, {figures}", field(l, "topic="), field(l, "received=")))
+        })
+        .collect()
+}
+
+const STOP_VISION_AFTER_FLIGHT: &str = r#"
+    wait $flight; f=$?
+    kill -INT $vision; wait $vision; v=$?
+    echo "EXIT flight=$f vision=$v"
+"#;
+
+fn fly_around(name: &str, world: &str) {
+    let split = fly_split(name, world, "config/missions/leg-40m.plan", STOP_VISION_AFTER_FLIGHT);
+    let Split { report, flight_log, vision_log, stdout } = &split;
+    let hops = [hop_latencies(flight_log), hop_latencies(vision_log)].concat();
+    println!(
+        "figure: split {name}: completed {}, collisions {}, min clearance {:.2} m, {:.1} s; bridge hop latency (wall clock): {}",
+        report["mission"]["completed"],
+        report["flight"]["collisions"],
+        report["flight"]["min_clearance_m"].as_f64().unwrap_or(f64::NAN),
+        report["flight"]["duration_s"].as_f64().unwrap_or(f64::NAN),
+        hops.join("; ")
+    );
+    assert!(stdout.trim_end().ends_with("EXIT flight=0 vision=0"), "{stdout}\nvision:\n{vision_log}");
+    assert_eq!(collisions(report), 0, "{report:#}");
+    assert!(clearance_m(report) > 0.5, "{report:#}");
+    assert_eq!(report["mission"]["completed"], true, "{report:#}");
+    assert!(flight_log.contains("zenoh bridge up") && vision_log.contains("zenoh bridge up"));
+    for topic in ["avoidance_command", "depth_grid"] {
+        assert!(hops.iter().any(|h| h.starts_with(topic)), "{topic} crossed: {hops:?}");
+    }
+}
+
+#[test]
+fn split_over_zenoh_a_large_tree_across_the_leg_is_flown_around() {
+    fly_around("tree", "tree.toml");
+}
+
+#[test]
+fn split_over_zenoh_a_textured_wall_across_the_leg_is_flown_around() {
+    fly_around("wall-textured", "wall-textured.toml");
+}
+
+/// Seconds since midnight (UTC) of a log line's RFC 3339 timestamp or of `date -u +%T.%N`.
+fn seconds_of_day(stamp: &str) -> Option<f64> {
+    let time = stamp.split('T').next_back()?.trim_end_matches('Z');
+    let mut parts = time.split(':');
+    let (h, m, s) = (parts.next()?.parse::<f64>().ok()?, parts.next()?.parse::<f64>().ok()?, parts.next()?);
+    Some(h * 3600.0 + m * 60.0 + s.get(..9.min(s.len()))?.parse::<f64>().ok()?)
+}
+
+/// When the first line of `log` holding `text` was written, after `after` (seconds of day).
+fn logged_at(log: &str, text: &str, after: f64) -> Option<f64> {
+    log.lines()
+        .filter(|l| l.contains(text))
+        .filter_map(|l| seconds_of_day(l.split_whitespace().next()?))
+        .find(|t| *t >= after)
+}
+
+#[test]
+fn split_over_zenoh_losing_the_vision_side_holds_and_its_restart_resumes_the_leg() {
+    // On the leg (AUTO), kill the vision process outright, as a crash or a cut cable would;
+    // start a new one 3 s later, well inside `failsafe.avoidance_lost_s` (10 s).
+    let script = r#"
+        until grep -q "to=Auto" "$DIR/flight.log"; do sleep 0.2; kill -0 $flight || break; done
+        sleep 2
+        echo "KILLED $(date -u +%T.%N)"
+        kill -KILL $vision; wait $vision
+        sleep 3
+        "$KESTREL" run --config "$DIR/vision.toml" --duration 200 --quiet > "$DIR/vision2.log" 2>&1 &
+        vision=$!
+        echo "RESTARTED $(date -u +%T.%N)"
+        wait $flight; f=$?
+        kill -INT $vision; wait $vision; v=$?
+        echo "EXIT flight=$f vision=$v"
+    "#;
+    let split = fly_split("vision-lost", "tree.toml", "config/missions/leg-40m.plan", script);
+    let Split { report, flight_log, stdout, .. } = &split;
+    let at =
+        |word: &str| stdout.lines().find_map(|l| l.strip_prefix(word)).and_then(|s| seconds_of_day(s.trim()));
+    let (killed, restarted) = (at("KILLED ").expect("killed"), at("RESTARTED ").expect("restarted"));
+    let held = logged_at(flight_log, "avoidance stale: slowing and holding position", killed)
+        .unwrap_or_else(|| panic!("the flight side never held after the loss:\n{flight_log}"));
+    let resumed = logged_at(flight_log, "avoidance hold over: flying the leg", restarted)
+        .unwrap_or_else(|| panic!("the leg never resumed after the restart:\n{flight_log}"));
+    println!(
+        "figure: split vision-lost: held {:.2} s after the vision process was killed, resumed {:.2} s after its restart; completed {}, collisions {}",
+        held - killed,
+        resumed - restarted,
+        report["mission"]["completed"],
+        report["flight"]["collisions"]
+    );
+    assert!(held - killed < 1.0, "held {:.2} s after the loss", held - killed);
+    assert!(stdout.trim_end().ends_with("EXIT flight=0 vision=0"), "{stdout}");
+    assert_eq!(collisions(report), 0, "{report:#}");
+    assert_eq!(report["mission"]["completed"], true, "{report:#}");
+}
