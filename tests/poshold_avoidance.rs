@@ -45,7 +45,9 @@ fn graph_config(dir: &Path, world: &str, avoider: bool) -> PathBuf {
     // of their topics.
     let perception = |header: &str, lines: &[&str]| {
         ["[actors.camera", "[actors.stereo", "[actors.avoider"].iter().any(|a| header.starts_with(a))
-            || lines.iter().any(|l| ["\"avoidance_command\"", "\"depth_grid\"", "\"sensor_health\""].iter().any(|t| l.contains(t)))
+            || lines.iter().any(|l| {
+                ["\"avoidance_command\"", "\"depth_grid\"", "\"sensor_health\""].iter().any(|t| l.contains(t))
+            })
     };
     let mut out = if avoider { text } else { without_sections(&text, perception) };
     assert_eq!(out.contains("[actors.avoider]"), avoider);
