@@ -25,6 +25,7 @@ pub mod keepsake;
 pub mod message;
 pub mod messages;
 pub mod param_def;
+pub mod percentiles;
 pub mod realtime;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;

@@ -34,13 +34,7 @@ impl HopLatency {
 
     /// `(p50, p95)` in milliseconds over the window, or `None` without samples.
     pub fn percentiles_ms(&self) -> Option<(f64, f64)> {
-        if self.samples_ms.is_empty() {
-            return None;
-        }
-        let mut sorted = self.samples_ms.clone();
-        sorted.sort_by(f64::total_cmp);
-        let at = |q: f64| sorted[((sorted.len() - 1) as f64 * q).round() as usize];
-        Some((at(0.5), at(0.95)))
+        kestrel_proto::percentiles::p50_p95(&self.samples_ms)
     }
 }
 

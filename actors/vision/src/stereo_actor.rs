@@ -51,9 +51,9 @@ pub enum StereoInput {
 /// Frame → depth grid; ports `stereo_frame`, `nav_state` (inputs), `depth_grid`, `health`
 /// (outputs).
 pub struct StereoActor {
-    /// The matcher and its buffers; lent to the blocking pool while a frame is processed.
-    pipeline: Option<StereoPipeline>,
-    check: FrameCheck,
+    /// The frame check, the matcher and their buffers; lent to the blocking pool while a frame
+    /// is processed (comparing and copying a VGA pair is CPU work too).
+    worker: Option<Worker>,
     out: Publisher<DepthGrid>,
     health_out: Publisher<SensorHealth>,
     /// The fault of the newest frame, to log each change once.
@@ -63,6 +63,12 @@ pub struct StereoActor {
     /// Grids published and frames refused since the last health report.
     window: (u64, u64),
     window_start: Time,
+}
+
+/// What runs on the blocking pool for each frame.
+struct Worker {
+    check: FrameCheck,
+    pipeline: StereoPipeline,
 }
 
 impl Actor for StereoActor {
@@ -79,8 +85,7 @@ impl Actor for StereoActor {
         });
         setup.timer("health_report", Duration::from_secs(1), StereoInput::Health);
         Ok(StereoActor {
-            pipeline: Some(pipeline),
-            check: FrameCheck::new(params.frame_check.clone()),
+            worker: Some(Worker { check: FrameCheck::new(params.frame_check.clone()), pipeline }),
             out: setup.output("depth_grid"),
             health_out: setup.output("health"),
             fault: None,
@@ -94,7 +99,9 @@ impl Actor for StereoActor {
         match input {
             StereoInput::Frame(frame) => self.on_frame(frame).await,
             StereoInput::Motion(velocity_m_s, rate_rad_s) => {
-                self.check.on_motion(velocity_m_s, rate_rad_s);
+                if let Some(worker) = &mut self.worker {
+                    worker.check.on_motion(velocity_m_s, rate_rad_s);
+                }
                 Ok(())
             }
             StereoInput::Health(now) => {
@@ -106,12 +113,23 @@ impl Actor for StereoActor {
 }
 
 impl StereoActor {
-    /// Runs the pipeline on tokio's blocking pool, so tens of milliseconds of matching never
+    /// Runs the frame check and the pipeline on tokio's blocking pool, so tens of milliseconds of matching never
     /// hold an async worker; awaiting it keeps one frame in flight, and the `latest` mailbox
     /// means the next frame is the newest. A panic in the matcher comes back as an error, and
     /// the supervisor restarts this actor with a fresh pipeline.
     async fn on_frame(&mut self, frame: StereoFrame) -> Result<(), ActorError> {
-        let fault = self.check.check(&frame);
+        let mut worker = self
+            .worker
+            .take()
+            .ok_or_else(|| ActorError::Failed("stereo pipeline lost by an earlier panic".into()))?;
+        let (worker, frame, fault, result) = tokio::task::spawn_blocking(move || {
+            let fault = worker.check.check(&frame);
+            let result = fault.is_none().then(|| worker.pipeline.process(&frame));
+            (worker, frame, fault, result)
+        })
+        .await
+        .map_err(|e| ActorError::Failed(format!("stereo worker failed: {e}")))?;
+        self.worker = Some(worker);
         if fault != self.fault {
             match fault {
                 Some(f) => {
@@ -121,22 +139,11 @@ impl StereoActor {
             }
             self.fault = fault;
         }
-        if fault.is_some() {
+        let Some(result) = result else {
             self.rejected += 1;
             self.window.1 += 1;
             return Ok(());
-        }
-        let mut pipeline = self
-            .pipeline
-            .take()
-            .ok_or_else(|| ActorError::Failed("stereo pipeline lost by an earlier panic".into()))?;
-        let (pipeline, frame, result) = tokio::task::spawn_blocking(move || {
-            let result = pipeline.process(&frame);
-            (pipeline, frame, result)
-        })
-        .await
-        .map_err(|e| ActorError::Failed(format!("stereo worker failed: {e}")))?;
-        self.pipeline = Some(pipeline);
+        };
         match result {
             Ok(grid) => {
                 self.out.publish(grid);
@@ -196,11 +203,12 @@ mod tests {
         .expect("params");
         let mut actor = StereoActor::build(&params, &mut setup).expect("build");
         let ctx = setup.context();
+        let runtime = tokio::runtime::Builder::new_current_thread().build().expect("runtime");
         for k in 0..10u64 {
             let black = vec![0u8; 640 * 480];
             let frame = StereoFrame::new(Time::from_micros(50_000 * k), k, 640, 480, black.clone(), black)
                 .expect("frame");
-            ready(actor.handle(&ctx, setup.input("stereo_frame", frame))).expect("frame handled");
+            runtime.block_on(actor.handle(&ctx, setup.input("stereo_frame", frame))).expect("frame handled");
         }
         ready(actor.handle(&ctx, setup.tick("health_report", Time::from_micros(1_000_000)))).expect("health");
         assert!(setup.published::<DepthGrid>("depth_grid").is_empty());
