@@ -214,6 +214,25 @@ fn losing_the_ground_station_in_flight_returns_and_lands() {
 }
 
 #[test]
+fn with_fs_gcs_enable_set_to_land_losing_the_ground_station_lands_where_it_is() {
+    let dir = temp_dir("link-loss-land");
+    let flight = fly(&dir, "link-loss-land", "gcs_link_loss.py", &["land"], |port| link_params(port, "", ""));
+    let causes = flight.failsafe_causes();
+    assert!(causes.contains(&"data_link_lost"), "{:#}", flight.report);
+    let actions: Vec<&str> = flight.report["failsafes"]
+        .as_array()
+        .into_iter()
+        .flatten()
+        .filter_map(|f| f["action"].as_str())
+        .collect();
+    assert_eq!(actions, ["land"], "{:#}", flight.report);
+    assert!(flight.landed(), "{:#}", flight.report);
+    let from_home = flight.report["flight"]["landing_distance_from_home_m"].as_f64().unwrap_or(f64::NAN);
+    println!("figure: FS_GCS_ENABLE=5 link loss: failsafes {actions:?}, landed {from_home:.2} m from home");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn a_parameter_set_over_mavlink_survives_a_restart() {
     let dir = temp_dir("params");
     let with_file = |port| link_params(port, "", "params.param_file = \"params.txt\"\n");

@@ -4,10 +4,14 @@
 //! follow ArduPilot's where one exists, with the unit spelled out (`RTL_ALT_M`, `FENCE_RADIUS_M`),
 //! so QGroundControl and MAVProxy users recognise them. Ranges are what a small multirotor can
 //! sensibly fly; the whole struct is validated again after each change (e.g. the critical
-//! battery share must stay below the low one), and a refused change keeps the old value.
+//! battery share must stay below the low one), and a refused change keeps the old value. The
+//! failsafe actions are enumerations in ArduCopter's (and for a motor PX4's) numbering
+//! (`failsafe_actions`): only their codes are taken.
 
+use kestrel_proto::messages::FailsafeAction;
 use kestrel_proto::param_def::{self, ParamChange, ParamDef, ParamRefused};
 
+use super::failsafe_actions::{self, ActionCodes};
 use super::params::CommanderParams;
 
 /// Every live commander parameter.
@@ -264,20 +268,105 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         get: |p| f64::from(p.failsafe.motor_failure.timeout_s),
         set: |p, v| p.failsafe.motor_failure.timeout_s = v as f32,
     },
+    ParamDef {
+        name: "FS_GCS_ENABLE",
+        unit: "",
+        min: 0.0,
+        max: 7.0,
+        description: "Ground station lost: 0 report, 1 RTL, 5 land, 7 brake and hold",
+        get: |p| action_code(&failsafe_actions::GCS, p.failsafe.link_action),
+        set: |p, v| set_action(&failsafe_actions::GCS, &mut p.failsafe.link_action, v),
+    },
+    ParamDef {
+        name: "FS_THR_ENABLE",
+        unit: "",
+        min: 0.0,
+        max: 7.0,
+        description: "Sticks lost: 0 report, 1 RTL, 3 land, 7 brake and hold",
+        get: |p| action_code(&failsafe_actions::STICKS, p.failsafe.manual_action),
+        set: |p, v| set_action(&failsafe_actions::STICKS, &mut p.failsafe.manual_action, v),
+    },
+    ParamDef {
+        name: "BATT_FS_LOW_ACT",
+        unit: "",
+        min: 0.0,
+        max: 7.0,
+        description: "Battery low: 0 report, 1 land, 2 RTL, 7 brake and hold",
+        get: |p| action_code(&failsafe_actions::BATTERY_LOW, p.failsafe.battery_low_action),
+        set: |p, v| set_action(&failsafe_actions::BATTERY_LOW, &mut p.failsafe.battery_low_action, v),
+    },
+    ParamDef {
+        name: "BATT_FS_CRT_ACT",
+        unit: "",
+        min: 0.0,
+        max: 7.0,
+        description: "Battery critical: 0 report, 1 land, 2 RTL, 7 brake and hold",
+        get: |p| action_code(&failsafe_actions::BATTERY_CRITICAL, p.failsafe.battery_critical_action),
+        set: |p, v| {
+            set_action(&failsafe_actions::BATTERY_CRITICAL, &mut p.failsafe.battery_critical_action, v)
+        },
+    },
+    ParamDef {
+        name: "FS_EKF_ACTION",
+        unit: "",
+        min: 1.0,
+        max: 2.0,
+        description: "Estimate lost: 1 land, 2 hold altitude",
+        get: |p| action_code(&failsafe_actions::ESTIMATOR, p.failsafe.estimator_action),
+        set: |p, v| set_action(&failsafe_actions::ESTIMATOR, &mut p.failsafe.estimator_action, v),
+    },
+    ParamDef {
+        name: "FENCE_ACTION",
+        unit: "",
+        min: 0.0,
+        max: 4.0,
+        description: "Geofence breach: 0 report, 1 RTL or land, 2 land, 4 brake and hold",
+        get: |p| action_code(&failsafe_actions::FENCE, p.failsafe.geofence_action),
+        set: |p, v| set_action(&failsafe_actions::FENCE, &mut p.failsafe.geofence_action, v),
+    },
+    ParamDef {
+        name: "COM_ACT_FAIL_ACT",
+        unit: "",
+        min: 0.0,
+        max: 3.0,
+        description: "Motor failed (quad): 0 warn, 1 hold, 2 land, 3 return",
+        get: |p| action_code(&failsafe_actions::MOTOR, p.failsafe.motor_failure_action),
+        set: |p, v| set_action(&failsafe_actions::MOTOR, &mut p.failsafe.motor_failure_action, v),
+    },
 ];
 
 /// The live parameters that are switches: exactly 0 (off) or 1 (on); a value between answers
 /// neither.
 const SWITCHES: [&str; 1] = ["FD_ACT_EN"];
 
+/// A failsafe action's code (NaN, which no declaration passes, if it has none: `validate`
+/// refuses such an action before it can be declared).
+fn action_code(codes: &ActionCodes, action: FailsafeAction) -> f64 {
+    codes.code(action).map_or(f64::NAN, f64::from)
+}
+
+/// Sets the action `value` codes for; `apply` has refused every value without one.
+fn set_action(codes: &ActionCodes, action: &mut FailsafeAction, value: f64) {
+    if let Some(coded) = codes.action(value) {
+        *action = coded;
+    }
+}
+
 /// Sets the live parameter `name` to `value` in `params`, keeping the old value when it is out
-/// of range, a switch is set to anything but 0 or 1, or the result would not validate.
+/// of range, a switch is set to anything but 0 or 1, an action to anything but one of its
+/// codes, or the result would not validate. A changed action applies from the next time its
+/// cause fires; one already fired keeps the action it fired with.
 pub fn apply(params: &mut CommanderParams, name: &str, value: f64) -> Result<ParamChange, ParamRefused> {
     if SWITCHES.contains(&name) && value != 0.0 && value != 1.0 {
         return Err(ParamRefused::Invalid {
             name: name.to_owned(),
             reason: format!("is a switch: 0 or 1, got {value}"),
         });
+    }
+    if let Some(codes) = failsafe_actions::named(name)
+        && codes.action(value).is_none()
+    {
+        return Err(ParamRefused::Invalid { name: name.to_owned(), reason: codes.why_not(value) });
     }
     param_def::apply(LIVE_PARAMS, params, name, value, CommanderParams::validate)
 }
@@ -342,5 +431,56 @@ mod tests {
             "a threshold of full throttle never judges"
         );
         assert!(apply(&mut params, "FD_ACT_MOT_TOUT", f64::NAN).is_err());
+    }
+
+    #[test]
+    fn failsafe_actions_take_exactly_their_codes_and_declare_their_range() {
+        for codes in failsafe_actions::ALL {
+            let def = LIVE_PARAMS.iter().find(|d| d.name == codes.name).expect("declared");
+            assert_eq!((def.min, def.max), codes.bounds(), "{}: declared range", codes.name);
+        }
+        let mut params = CommanderParams::default();
+        assert_eq!(params.failsafe.link_action, FailsafeAction::ReturnToLaunch);
+        assert_eq!(apply(&mut params, "FS_GCS_ENABLE", 5.0), Ok(ParamChange::Applied));
+        assert_eq!(params.failsafe.link_action, FailsafeAction::Land);
+        assert_eq!(apply(&mut params, "FENCE_ACTION", 4.0), Ok(ParamChange::Applied));
+        assert_eq!(params.failsafe.geofence_action, FailsafeAction::Hold);
+        let before = params.clone();
+        for (name, bad) in [
+            ("FS_GCS_ENABLE", 3.0),
+            ("FS_GCS_ENABLE", 5.5),
+            ("FS_GCS_ENABLE", f64::NAN),
+            ("BATT_FS_CRT_ACT", 5.0),
+            ("FS_EKF_ACTION", 0.0),
+            ("COM_ACT_FAIL_ACT", 4.0),
+        ] {
+            let refused = apply(&mut params, name, bad);
+            assert!(matches!(refused, Err(ParamRefused::Invalid { .. })), "{name}={bad}: {refused:?}");
+        }
+        let why = apply(&mut params, "BATT_FS_CRT_ACT", 5.0).expect_err("terminate").to_string();
+        assert!(why.contains("BATT_FS_CRT_ACT") && why.contains("Terminate"), "{why}");
+        assert_eq!(params, before, "a refused action keeps the old one");
+        let declared = param_def::declare(LIVE_PARAMS, &params, "commander", false, Time::ZERO);
+        declared.check().expect("valid declaration");
+        let value = |name: &str| declared.params.iter().find(|p| p.name == name).map(|p| p.value);
+        assert_eq!(value("FS_GCS_ENABLE"), Some(5.0));
+        assert_eq!(value("FENCE_ACTION"), Some(4.0));
+        assert_eq!(value("FS_EKF_ACTION"), Some(1.0));
+    }
+
+    #[test]
+    fn a_configured_action_without_a_code_or_one_that_disarms_is_refused() {
+        let mut params = CommanderParams::default();
+        params.failsafe.estimator_action = FailsafeAction::ReturnToLaunch;
+        let why = params.validate().expect_err("no FS_EKF_ACTION code").to_string();
+        assert!(why.contains("failsafe.estimator_action") && why.contains("FS_EKF_ACTION"), "{why}");
+        for disarm in [
+            |p: &mut CommanderParams| p.failsafe.battery_critical_action = FailsafeAction::Disarm,
+            |p: &mut CommanderParams| p.failsafe.avoidance_action = FailsafeAction::Disarm,
+        ] {
+            let mut params = CommanderParams::default();
+            disarm(&mut params);
+            assert!(params.validate().is_err(), "{:?}", params.failsafe);
+        }
     }
 }

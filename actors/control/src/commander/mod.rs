@@ -11,6 +11,7 @@
 mod arming;
 mod avoidance;
 mod failsafe;
+mod failsafe_actions;
 mod feasibility;
 mod home;
 mod land_detector;

@@ -4,6 +4,7 @@
 use kestrel_proto::messages::FailsafeAction;
 use serde::{Deserialize, Serialize};
 
+use super::failsafe_actions;
 use crate::error::{InvalidParam, positive, within};
 use crate::motor_failure::{MotorFailureDetector, MotorFailureParams};
 
@@ -179,6 +180,44 @@ impl Default for FailsafeParams {
     }
 }
 
+impl FailsafeParams {
+    /// Checks every action: each live one must have a code in its parameter's numbering
+    /// (`failsafe_actions`), so the file and the ground station agree, and none may disarm — a
+    /// failsafe ends in a controlled state, never with the motors stopped in the air.
+    fn validate_actions(&self) -> Result<(), InvalidParam> {
+        let live = [
+            ("failsafe.link_action", self.link_action, &failsafe_actions::GCS),
+            ("failsafe.manual_action", self.manual_action, &failsafe_actions::STICKS),
+            ("failsafe.battery_low_action", self.battery_low_action, &failsafe_actions::BATTERY_LOW),
+            (
+                "failsafe.battery_critical_action",
+                self.battery_critical_action,
+                &failsafe_actions::BATTERY_CRITICAL,
+            ),
+            ("failsafe.estimator_action", self.estimator_action, &failsafe_actions::ESTIMATOR),
+            ("failsafe.geofence_action", self.geofence_action, &failsafe_actions::FENCE),
+            ("failsafe.motor_failure_action", self.motor_failure_action, &failsafe_actions::MOTOR),
+        ];
+        for (name, action, codes) in live {
+            if codes.code(action).is_none() {
+                return Err(InvalidParam::new(name, codes.why_not_action(action)));
+            }
+        }
+        for (name, action) in [
+            ("failsafe.critical_actor_action", self.critical_actor_action),
+            ("failsafe.avoidance_action", self.avoidance_action),
+        ] {
+            if action == FailsafeAction::Disarm {
+                return Err(InvalidParam::new(
+                    name,
+                    "a failsafe may not disarm in the air: choose land or hold",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
 /// `[geofence]`: a cylinder around home and an optional inclusion polygon.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -278,6 +317,7 @@ impl CommanderParams {
             ));
         }
         within("failsafe.battery_volt_timer_s", self.failsafe.battery_volt_timer_s, 0.0, 120.0)?;
+        self.failsafe.validate_actions()?;
         MotorFailureDetector::new(self.failsafe.motor_failure)
             .map_err(|e| InvalidParam::new("failsafe.motor_failure", e.to_string()))?;
         let polygon = &self.geofence.polygon;

@@ -369,6 +369,32 @@ fn a_hold_failsafe_on_the_ground_does_not_disarm() {
     assert!(c.armed(), "a HOLD failsafe disarmed on the ground");
 }
 
+#[test]
+fn the_link_loss_action_set_live_is_the_one_flown() {
+    // (FS_GCS_ENABLE, the mode the link loss leaves the hovering vehicle in)
+    for (code, mode) in [
+        (1.0, FlightMode::ReturnToLaunch),
+        (5.0, FlightMode::Land),
+        (7.0, FlightMode::PosHold),
+        (0.0, FlightMode::Guided),
+    ] {
+        let mut c = ready(true);
+        cmd(&mut c, Command::Heartbeat).expect("heartbeat");
+        cmd(&mut c, Command::SetMode(FlightMode::Guided)).expect("guided");
+        cmd(&mut c, Command::Arm).expect("arm");
+        c.on_nav(&nav(Time(2000), -5.0, true));
+        c.update(Time(2000));
+        assert_eq!(c.on_param("FS_GCS_ENABLE", code), Ok(super::ParamChange::Applied));
+        assert!(c.on_param("FS_GCS_ENABLE", 3.0).is_err(), "SmartRTL is refused");
+        c.on_nav(&nav(Time(6_100_000), -5.0, true));
+        c.update(Time(6_100_000));
+        let failsafe = c.status(Time(6_100_000)).failsafe.expect("link loss reported");
+        assert_eq!(failsafe.cause, kestrel_proto::messages::FailsafeCause::DataLinkLost, "{code}");
+        assert_eq!(c.mode(), mode, "FS_GCS_ENABLE {code}");
+        assert!(c.armed(), "FS_GCS_ENABLE {code} disarmed in the air");
+    }
+}
+
 // The avoider in the loop (`avoidance` module).
 
 use kestrel_proto::messages::{AvoidanceCommand, AvoidanceHealth, TrajectorySetpoint};

@@ -119,6 +119,7 @@ impl Shape {
 
     /// The ray parameter where the ray enters the shape and which face it enters by, or `None`
     /// for a miss (or a ray starting inside).
+    #[cfg(any(test, feature = "render-reference"))]
     pub(crate) fn hit(&self, origin: &Vector3<f32>, dir: &Vector3<f32>) -> Option<(f32, u8)> {
         match *self {
             Shape::Cuboid { center, half, cos, sin, .. } => {
@@ -299,6 +300,7 @@ fn cuboid_local(o: Vector3<f32>, d: Vector3<f32>, cos: f32, sin: f32) -> (Vector
 
 /// Slab test against the axis-aligned box `[-half, half]`; the face is `2·axis` when entering
 /// through the negative side, `2·axis + 1` through the positive side.
+#[cfg(any(test, feature = "render-reference"))]
 fn slab_hit(o: &Vector3<f32>, d: &Vector3<f32>, half: &Vector3<f32>) -> Option<(f32, u8)> {
     let (mut near, mut far, mut face) = (f32::NEG_INFINITY, f32::INFINITY, 0u8);
     for axis in 0..3 {
@@ -321,6 +323,7 @@ fn slab_hit(o: &Vector3<f32>, d: &Vector3<f32>, half: &Vector3<f32>) -> Option<(
 }
 
 /// A vertical cylinder from down = 0 to down = −height: face 0 is the side, 1 the top.
+#[cfg(any(test, feature = "render-reference"))]
 fn cylinder_hit(
     origin: &Vector3<f32>,
     dir: &Vector3<f32>,
