@@ -463,7 +463,7 @@ impl Ekf {
             }
             self.baro_buffer.push(sample);
         } else if !self.is_aligned() {
-            self.alignment.push_baro(sample);
+            self.alignment.push_baro(sample, &self.params);
         }
         Ok(())
     }

@@ -54,8 +54,9 @@ pub struct Alignment {
     accel_norm_max_m_s2: f64,
     /// Body-frame field measured within the still window (gauss).
     mag_body_gauss: Mean<Vector3<f64>>,
-    /// Pressure altitudes measured within the still window (m).
+    /// Pressure altitudes measured within the still window (m), and their range.
     baro_altitude_m: Mean<f64>,
+    baro_min_max_m: Option<(f64, f64)>,
     /// The newest magnetometer sample, for a magnetometer slower than the window.
     latest_mag: Option<MagSample>,
     /// Samples measured before this are left out: they predate a sensor calibration
@@ -81,11 +82,28 @@ impl Alignment {
         self.latest_mag = Some(sample.clone());
     }
 
-    /// Adds a barometer sample measured within the still window to the height datum's mean.
-    pub fn push_baro(&mut self, sample: &BaroSample) {
-        if self.start.is_some_and(|start| sample.time >= start) {
-            self.baro_altitude_m.add(sample.altitude_m);
+    /// Adds a barometer sample measured within the still window to the height datum's mean; a
+    /// sample that spreads the window's altitudes past `align_max_baro_spread_m` starts the
+    /// window again at the next IMU sample (the sample is dropped, the next window judges anew).
+    pub fn push_baro(&mut self, sample: &BaroSample, params: &EkfParams) {
+        if !self.start.is_some_and(|start| sample.time >= start) {
+            return;
         }
+        let altitude = sample.altitude_m;
+        let (lo, hi) =
+            self.baro_min_max_m.map_or((altitude, altitude), |(lo, hi)| (lo.min(altitude), hi.max(altitude)));
+        if hi - lo > params.align_max_baro_spread_m {
+            tracing::warn!(
+                altitude_m = altitude,
+                window_m = ?self.baro_min_max_m,
+                "alignment: barometer altitudes spread over {:.1} m while still; starting the window again",
+                hi - lo
+            );
+            self.start = None;
+            return;
+        }
+        self.baro_min_max_m = Some((lo, hi));
+        self.baro_altitude_m.add(altitude);
     }
 
     /// Adds an IMU sample (finite, checked by the caller); returns the alignment once the vehicle
@@ -143,6 +161,7 @@ impl Alignment {
         self.accel_norm_max_m_s2 = norm;
         self.mag_body_gauss = Mean::default();
         self.baro_altitude_m = Mean::default();
+        self.baro_min_max_m = None;
     }
 }
 
@@ -178,7 +197,10 @@ mod tests {
         let params = EkfParams::default();
         let field = Vector3::new(0.4, 0.0, 0.1);
         let mut a = Alignment::default();
-        a.push_baro(&BaroSample { time: Time::ZERO, pressure_pa: 0.0, altitude_m: 99.0, temperature_c: 0.0 });
+        a.push_baro(
+            &BaroSample { time: Time::ZERO, pressure_pa: 0.0, altitude_m: 99.0, temperature_c: 0.0 },
+            &params,
+        );
         let mut aligned = None;
         for i in 0..1000u64 {
             let time = Time::from_micros(2500 * i);
@@ -195,7 +217,7 @@ mod tests {
                 let noisy = field + Vector3::new(0.0, 0.05 * sign, 0.0);
                 a.push_mag(&MagSample { time, field_gauss: noisy.into() });
                 let altitude_m = 20.0 + 2.0 * sign;
-                a.push_baro(&BaroSample { time, pressure_pa: 0.0, altitude_m, temperature_c: 0.0 });
+                a.push_baro(&BaroSample { time, pressure_pa: 0.0, altitude_m, temperature_c: 0.0 }, &params);
             }
             aligned = aligned.or(a.push_imu(&s, &params));
         }
@@ -203,6 +225,56 @@ mod tests {
         assert!((aligned.baro_altitude_m.unwrap() - 20.0).abs() < 1e-9, "{aligned:?}");
         assert!(aligned.attitude.angle_to(&UnitQuaternion::identity()) < 1e-9, "{aligned:?}");
         assert!((aligned.mag_earth_ned_gauss.unwrap() - field).norm() < 1e-9, "{aligned:?}");
+    }
+
+    /// A barometer sample 80 m off inside the still window (what a first MS5611 conversion
+    /// against a stale temperature gave in HIL) starts the window again: the datum is the clean
+    /// samples' mean, not pulled 8 m by one sample in ten.
+    #[test]
+    fn a_baro_outlier_in_the_window_restarts_it_and_stays_out_of_the_datum() {
+        let params = EkfParams::default();
+        let mut a = Alignment::default();
+        let mut aligned = None;
+        for i in 0..1000u64 {
+            let time = Time::from_micros(2500 * i);
+            if i % 40 == 1 {
+                let altitude_m = if i == 41 { 99.4 } else { 20.0 + if i % 80 == 1 { 0.2 } else { -0.2 } };
+                a.push_baro(&BaroSample { time, pressure_pa: 0.0, altitude_m, temperature_c: 0.0 }, &params);
+            }
+            let s = ImuSample {
+                time,
+                gyro_rad_s: [0.0; 3],
+                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
+                dt_s: 0.0025,
+                gyro_clipped: [false; 3],
+                accel_clipped: [false; 3],
+            };
+            aligned = aligned.or(a.push_imu(&s, &params));
+        }
+        let aligned = aligned.expect("aligned after the outlier's window");
+        let datum = aligned.baro_altitude_m.expect("a datum");
+        assert!((datum - 20.0).abs() <= 0.2, "datum {datum} m: the outlier leaked in");
+        let clean = EkfParams { align_max_baro_spread_m: 100.0, ..EkfParams::default() };
+        let mut b = Alignment::default();
+        let mut unguarded = None;
+        for i in 0..1000u64 {
+            let time = Time::from_micros(2500 * i);
+            if i % 40 == 1 {
+                let altitude_m = if i == 41 { 99.4 } else { 20.0 };
+                b.push_baro(&BaroSample { time, pressure_pa: 0.0, altitude_m, temperature_c: 0.0 }, &clean);
+            }
+            let s = ImuSample {
+                time,
+                gyro_rad_s: [0.0; 3],
+                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
+                dt_s: 0.0025,
+                gyro_clipped: [false; 3],
+                accel_clipped: [false; 3],
+            };
+            unguarded = unguarded.or(b.push_imu(&s, &clean));
+        }
+        let leaked = unguarded.and_then(|u| u.baro_altitude_m).expect("a datum");
+        assert!(leaked > 25.0, "without the spread check the outlier shows ({leaked} m): the test sees it");
     }
 
     #[test]

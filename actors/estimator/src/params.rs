@@ -107,6 +107,12 @@ pub struct EkfParams {
     pub align_max_rate_rad_s: f64,
     /// Largest spread of the specific force magnitude during alignment (m/s²).
     pub align_max_accel_spread_m_s2: f64,
+    /// Largest spread of the pressure altitudes during alignment (m): beyond any still
+    /// barometer's noise (an MS5611 reads about 0.25 m; the thesis's model, 2 m, spreads 10
+    /// samples over some 12 m), so only a gross error trips it (a first MS5611 conversion
+    /// against a stale temperature read 80 m high in HIL), which would put its share of the
+    /// error into the height datum: the window starts again without it.
+    pub align_max_baro_spread_m: f64,
     /// Time constant with which the output predictor tracks the delayed state (s).
     pub output_tau_s: f64,
 }
@@ -151,6 +157,7 @@ impl Default for EkfParams {
             align_duration_s: 1.0,
             align_max_rate_rad_s: 0.1,
             align_max_accel_spread_m_s2: 0.5,
+            align_max_baro_spread_m: 20.0,
             output_tau_s: 0.25,
         }
     }
@@ -188,6 +195,7 @@ impl EkfParams {
             ("align_duration_s", self.align_duration_s),
             ("align_max_rate_rad_s", self.align_max_rate_rad_s),
             ("align_max_accel_spread_m_s2", self.align_max_accel_spread_m_s2),
+            ("align_max_baro_spread_m", self.align_max_baro_spread_m),
             ("output_tau_s", self.output_tau_s),
         ];
         for (name, value) in positive {

@@ -83,13 +83,14 @@ impl Actor for HilSimActor {
         })?;
         let (sim, tick_us) = simulator(params, setup.config_dir(), setup.clock().now(), live_barometer)?;
         setup.timer("watch", Duration::from_secs(1), HilSimInput::Watch);
-        let world = World {
+        let mut world = World {
             sim,
             bench,
             ground_truth: setup.output("ground_truth"),
             sim_fault: setup.output("sim_fault"),
             board_temperature_c: 25.0,
         };
+        world.power_up()?;
         Ok(HilSimActor { world: Some(world), thread: None, period: Duration::from_micros(tick_us) })
     }
 
@@ -159,59 +160,111 @@ impl World {
     /// chip.
     fn step(&mut self, time: Time) -> Result<(), ActorError> {
         let bench = Arc::clone(&self.bench);
-        let io = |what: &str| {
-            let what = what.to_owned();
-            move |source| ActorError::Io { what, source }
-        };
         let escs = bench.pwm.read().map_err(io("the emulated PWM chip"))?;
         self.sim.set_actuators(&actuators(&escs, time));
         self.sim.advance_to(time);
-        let config = &bench.config;
         for output in self.sim.drain() {
+            if to_chip(&bench, &mut self.board_temperature_c, &output)? {
+                continue;
+            }
             match output {
-                SimOutput::Imu(m) => bench.imu.set_motion(
-                    chip_axes(m.accel_m_s2),
-                    chip_axes(m.gyro_rad_s),
-                    self.board_temperature_c,
-                ),
-                // The bench emulates the MPU-9250 only: there is no LSM9DS1 driver to read a second.
-                SimOutput::Imu2(_) => {}
-                // The Navio2 drives its ESCs by PWM, which reports nothing back.
-                SimOutput::Esc(_) => {}
-                SimOutput::Mag(m) => bench.imu.set_field(chip_axes(m.field_gauss), BENCH_ASA),
-                SimOutput::Baro(m) => {
-                    self.board_temperature_c = m.temperature_c;
-                    bench.baro.set_reading(m.pressure_pa, m.temperature_c);
-                }
-                SimOutput::Gps(fix) => {
-                    let mut line = bench.gps();
-                    let frame = line.receiver.solution(&fix);
-                    let rate = line.receiver.state().baud;
-                    if let (Some(frame), Some(pty)) = (frame, line.pty.as_mut())
-                        && pty.line_baud().map_err(io("the GPS pty"))? == rate
-                    {
-                        pty.write(&frame).map_err(io("the GPS pty"))?;
-                    }
-                }
-                SimOutput::Battery(b) => {
-                    let mv = |v: f64| (v * 1000.0).round().max(0.0) as u64;
-                    let rcio = &bench.rcio;
-                    rcio.set_adc_mv(config.voltage_channel, mv(b.voltage_v / config.voltage_divider))
-                        .and_then(|()| {
-                            rcio.set_adc_mv(config.current_channel, mv(b.current_a / config.amps_per_volt))
-                        })
-                        .map_err(io("the emulated RCIO ADC"))?;
-                }
                 SimOutput::GroundTruth(m) => self.ground_truth.publish(m),
                 SimOutput::Fault(m) => {
                     let what = if m.phase == SimFaultPhase::Started { "started" } else { "ended" };
                     tracing::info!(at = %m.time, kind = %m.kind, values = %m.values, "simulated fault {what}");
                     self.sim_fault.publish(m);
                 }
+                _ => {}
             }
         }
         serve_gps(&bench).map_err(io("the GPS pty"))
     }
+
+    /// Steps the physics, the vehicle at rest, until the barometer, the IMU, the compass and
+    /// the power module have each sensed once, and hands those samples to their chips. A chip
+    /// senses the world from power-on; without this the drivers, which start beside the world's
+    /// thread, could read the emulators' placeholders: a first MS5611 temperature of ISA sea
+    /// level's 15 °C, with the pressure of the next conversion, gave an altitude 80 m off, from
+    /// which the estimator took its height reference (a HIL flight then flew 3.9 m too high).
+    fn power_up(&mut self) -> Result<(), ActorError> {
+        let bench = Arc::clone(&self.bench);
+        let mut sensed = [false; 4];
+        for _ in 0..POWER_UP_MAX_TICKS {
+            self.sim.step();
+            for output in self.sim.drain() {
+                let which = match output {
+                    SimOutput::Baro(_) => 0,
+                    SimOutput::Imu(_) => 1,
+                    SimOutput::Mag(_) => 2,
+                    SimOutput::Battery(_) => 3,
+                    _ => continue,
+                };
+                sensed[which] = to_chip(&bench, &mut self.board_temperature_c, &output)?;
+            }
+            if sensed.iter().all(|s| *s) {
+                return Ok(());
+            }
+        }
+        Err(ActorError::Failed(format!(
+            "the simulated barometer, IMU, compass and power module did not all sense within \
+             {POWER_UP_MAX_TICKS} ticks (sensed {sensed:?}): check their rates in the vehicle file"
+        )))
+    }
+}
+
+/// Most physics ticks [`World::power_up`] waits for every chip's first sample: a second at the
+/// default 400 Hz, beyond any sensor's period.
+const POWER_UP_MAX_TICKS: usize = 400;
+
+/// An I/O error of the emulated board, naming what failed.
+fn io(what: &str) -> impl Fn(std::io::Error) -> ActorError {
+    let what = what.to_owned();
+    move |source| ActorError::Io { what: what.clone(), source }
+}
+
+/// Hands `output` to the emulated chip that senses it; false when no chip does (ground truth,
+/// faults, and the outputs of sensors the Navio2 does not carry are the caller's).
+fn to_chip(
+    bench: &Navio2Bench,
+    board_temperature_c: &mut f64,
+    output: &SimOutput,
+) -> Result<bool, ActorError> {
+    let config = &bench.config;
+    match output {
+        SimOutput::Imu(m) => {
+            bench.imu.set_motion(chip_axes(m.accel_m_s2), chip_axes(m.gyro_rad_s), *board_temperature_c)
+        }
+        // The bench emulates the MPU-9250 only: there is no LSM9DS1 driver to read a second.
+        SimOutput::Imu2(_) => {}
+        // The Navio2 drives its ESCs by PWM, which reports nothing back.
+        SimOutput::Esc(_) => {}
+        SimOutput::Mag(m) => bench.imu.set_field(chip_axes(m.field_gauss), BENCH_ASA),
+        SimOutput::Baro(m) => {
+            *board_temperature_c = m.temperature_c;
+            bench.baro.set_reading(m.pressure_pa, m.temperature_c);
+        }
+        SimOutput::Gps(fix) => {
+            let mut line = bench.gps();
+            let frame = line.receiver.solution(fix);
+            let rate = line.receiver.state().baud;
+            if let (Some(frame), Some(pty)) = (frame, line.pty.as_mut())
+                && pty.line_baud().map_err(io("the GPS pty"))? == rate
+            {
+                pty.write(&frame).map_err(io("the GPS pty"))?;
+            }
+        }
+        SimOutput::Battery(b) => {
+            let mv = |v: f64| (v * 1000.0).round().max(0.0) as u64;
+            let rcio = &bench.rcio;
+            rcio.set_adc_mv(config.voltage_channel, mv(b.voltage_v / config.voltage_divider))
+                .and_then(|()| {
+                    rcio.set_adc_mv(config.current_channel, mv(b.current_a / config.amps_per_volt))
+                })
+                .map_err(io("the emulated RCIO ADC"))?;
+        }
+        SimOutput::GroundTruth(_) | SimOutput::Fault(_) => return Ok(false),
+    }
+    Ok(true)
 }
 
 /// What the ESCs make of the pulses: the vehicle is armed while any ESC sees pulses; one
