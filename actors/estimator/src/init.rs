@@ -86,7 +86,7 @@ impl Alignment {
     /// sample that spreads the window's altitudes past `align_max_baro_spread_m` starts the
     /// window again at the next IMU sample (the sample is dropped, the next window judges anew).
     pub fn push_baro(&mut self, sample: &BaroSample, params: &EkfParams) {
-        if !self.start.is_some_and(|start| sample.time >= start) {
+        if self.start.is_none_or(|start| sample.time < start) {
             return;
         }
         let altitude = sample.altitude_m;
