@@ -10,7 +10,7 @@
 //! message and the report of a simulated flight is as repeatable as the flight itself. Each
 //! section is `null` when the part it scores did not run.
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -230,6 +230,16 @@ pub struct AvoidanceSection {
     /// (the perception simulation's real-time factor); `None` under two frames.
     #[serde(default)]
     pub realtime_factor: Option<f64>,
+    /// Simulated seconds the commander's forward speed cap held the vehicle below what the
+    /// leg or the sticks asked for (issue 20), in all and per reason (`ClearRangeReason`'s
+    /// names: what the range ahead was taken from).
+    #[serde(default)]
+    pub speed_capped_s: f64,
+    #[serde(default)]
+    pub speed_capped_s_by_reason: BTreeMap<String, f64>,
+    /// Lowest cap (m/s) while it held the vehicle back; `None` if it never did.
+    #[serde(default)]
+    pub lowest_speed_cap_m_s: Option<f64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -341,12 +351,33 @@ pub struct FlightReportActor {
     actor_events: Vec<ActorEventEntry>,
     notices: Vec<NoticeEntry>,
     frame_latency: FrameLatency,
+    speed_cap: SpeedCapTally,
     /// Graph time and host time of the first and the latest stereo frame.
     frames_span: Option<[(Time, Instant); 2]>,
     /// Horizontal true path while airborne (m) and its first and latest points (NED, m).
     path_length_m: f64,
     airborne_first: Option<[f64; 2]>,
     airborne_last: Option<[f64; 2]>,
+}
+
+/// The speed cap's account from the commander's statuses: a status whose cap limits counts
+/// until the next status.
+#[derive(Debug, Default)]
+struct SpeedCapTally {
+    by_reason: BTreeMap<String, f64>,
+    lowest_m_s: Option<f64>,
+}
+
+impl SpeedCapTally {
+    fn on_status(&mut self, previous: Option<&VehicleStatus>, status: &VehicleStatus) {
+        if let Some((p, cap)) = previous.and_then(|p| Some((p, p.speed_cap.filter(|c| c.limiting)?))) {
+            let dt_s = status.time.saturating_since(p.time).as_secs_f64();
+            *self.by_reason.entry(serde_name(&cap.reason)).or_default() += dt_s;
+        }
+        if let Some(cap) = status.speed_cap.filter(|c| c.limiting) {
+            self.lowest_m_s = Some(self.lowest_m_s.map_or(cap.cap_m_s, |l| l.min(cap.cap_m_s)));
+        }
+    }
 }
 
 /// Ground truth kept for pairing: 1 s at the simulator's 50 Hz default.
@@ -451,6 +482,7 @@ impl FlightReportActor {
             self.motor_failures
                 .push(MotorFailureEntry { t_s: status.time.as_secs_f64(), motor: u32::from(motor) + 1 });
         }
+        self.speed_cap.on_status(self.status.as_ref(), &status);
         self.status = Some(status);
     }
 
@@ -514,6 +546,9 @@ impl FlightReportActor {
                     let host_s = h1.duration_since(h0).as_secs_f64();
                     (host_s > 0.0).then(|| t1.saturating_since(t0).as_secs_f64() / host_s)
                 }),
+                speed_capped_s: self.speed_cap.by_reason.values().sum(),
+                speed_capped_s_by_reason: self.speed_cap.by_reason.clone(),
+                lowest_speed_cap_m_s: self.speed_cap.lowest_m_s,
             }),
             failsafes: self.failsafes.clone(),
             faults: self.faults.clone(),
@@ -561,6 +596,7 @@ impl Actor for FlightReportActor {
             notices: Vec::new(),
             frame_latency: FrameLatency::default(),
             frames_span: None,
+            speed_cap: SpeedCapTally::default(),
             path_length_m: 0.0,
             airborne_first: None,
             airborne_last: None,

@@ -6,7 +6,8 @@
 //!
 //! The graph is `config/sim-forest.toml` with the world swapped, the MAVLink link on an
 //! ephemeral local port and the pilot added. The control flights leave the camera, stereo and
-//! avoider out: the same pilot then hits the obstacle, so the avoided flights can fail.
+//! avoider out: the same pilot then hits the obstacle, so the avoided flights can fail; the
+//! plain (textureless) wall was hit with the avoider too before the speed cap (issue 20).
 
 mod flights;
 mod merged_config;
@@ -115,5 +116,28 @@ fn poshold_full_forward_at_a_textured_wall_stops_short_and_climbs_over_without_c
     assert_eq!(collisions(&report), 0, "{report:#}");
     assert!(clearance_m(&report) > 0.3, "{report:#}");
     assert!(distance_m(&report) > 25.0, "{report:#}");
+    assert!(no_failsafes(&report), "{report:#}");
+}
+
+#[test]
+fn poshold_full_forward_at_a_plain_wall_stops_short_without_collision() {
+    // The same wall without texture (thesis §4.2.3): no disparity on it, so the view ahead is
+    // only called unknown a few metres out (about 4.4 m at 5 m/s, issue 20). Without a speed
+    // cap that matches the sight distance the vehicle could not stop in time and hit it.
+    let report = fly("wall-plain.toml", true);
+    let avoidance = &report["avoidance"];
+    println!(
+        "figure: plain wall speed cap: held back {:.1} s ({}), lowest cap {} m/s",
+        avoidance["speed_capped_s"].as_f64().unwrap_or(f64::NAN),
+        avoidance["speed_capped_s_by_reason"],
+        avoidance["lowest_speed_cap_m_s"],
+    );
+    assert_eq!(collisions(&report), 0, "{report:#}");
+    assert!(clearance_m(&report) > 0.5, "{report:#}");
+    // The wall's face is 19.85 m north: the vehicle stopped and stayed short of it.
+    assert!(distance_m(&report) < 19.0, "{report:#}");
+    let by_reason = &avoidance["speed_capped_s_by_reason"];
+    assert!(by_reason["untextured"].as_f64().is_some_and(|s| s > 0.0), "{report:#}");
+    assert!(by_reason["unknown_ahead"].as_f64().is_some_and(|s| s > 0.0), "{report:#}");
     assert!(no_failsafes(&report), "{report:#}");
 }

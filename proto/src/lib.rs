@@ -27,6 +27,7 @@ pub mod messages;
 pub mod param_def;
 pub mod percentiles;
 pub mod realtime;
+pub mod speed_cap;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod time;

@@ -230,5 +230,6 @@ pub fn vehicle_status(
         home: None,
         geofence_enabled: true,
         failed_motor: None,
+        speed_cap: None,
     }
 }

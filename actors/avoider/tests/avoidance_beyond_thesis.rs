@@ -289,3 +289,36 @@ fn the_low_pass_step_response_follows_its_time_constant() {
     // One time constant after the step: 63.2% of the way.
     assert!((at_tau[0] / -5.0 - 0.632_12).abs() < 1e-3, "{at_tau:?}");
 }
+
+#[test]
+fn the_clear_range_is_what_the_view_vouches_for_ahead_and_why() {
+    use kestrel_proto::messages::{ClearRange, ClearRangeReason};
+    let range = |near: [[f32; 3]; 3], invalid: [[f32; 3]; 3]| -> ClearRange {
+        unfiltered(3.0).update(at(0.0), &grid(0.0, near, invalid)).expect("valid").clear_range
+    };
+    let reason = |r: ClearRange| (r.range_m, r.reason);
+    // Everything valid, nothing near: the far end of the grid's stereo range (20 m; the scene's
+    // centre depth is 20 m too, which is no nearer).
+    assert_eq!(reason(range([[0.0; 3]; 3], [[0.0; 3]; 3])), (20.0, ClearRangeReason::StereoRange));
+    // A depth 4.5 m ahead in the centre.
+    let mut near = [[0.0; 3]; 3];
+    near[1][1] = 0.1;
+    assert_eq!(reason(range(near, [[0.0; 3]; 3])), (4.5, ClearRangeReason::Obstacle));
+    // The sky case of the test above: the centre mostly invalid, the ground below it seen.
+    let mut invalid = [[0.05; 3]; 3];
+    invalid[0] = [0.99; 3];
+    invalid[1][1] = 0.9;
+    invalid[2][1] = 0.3;
+    assert_eq!(reason(range([[0.0; 3]; 3], invalid)), (4.0, ClearRangeReason::Untextured));
+    // ... with a depth nearer than the conservative 4 m in the centre: the depth.
+    near[1][1] = 0.6;
+    assert_eq!(reason(range(near, invalid)), (2.0, ClearRangeReason::Obstacle));
+    // The textureless wall: nothing is vouched for.
+    invalid[2][1] = 0.95;
+    assert_eq!(reason(range([[0.0; 3]; 3], invalid)), (0.0, ClearRangeReason::UnknownAhead));
+    // No grid within the age limit: nothing either.
+    let mut avoider = unfiltered(3.0);
+    avoider.update(at(0.0), &clear_grid(0.0, [[0.0; 3]; 3])).expect("valid");
+    let stale = avoider.check(at(1.0)).expect("stale");
+    assert_eq!(reason(stale.clear_range), (0.0, ClearRangeReason::Stale));
+}

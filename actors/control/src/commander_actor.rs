@@ -24,7 +24,7 @@ use std::time::Duration;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult,
     EscTelemetry, FlightMode, LandedState, ManualControl, Mission, NavState, ParamDecl, ParamSet, Setpoint,
-    SupervisorEvent, VehicleCommand, VehicleStatus,
+    SpeedCapStatus, SupervisorEvent, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -234,8 +234,14 @@ impl CommanderActor {
             self.last_setpoint = Some(sp);
         }
         let status = self.commander.status(now);
-        let status_changed =
-            self.last_status.as_ref().is_none_or(|l| VehicleStatus { time: now, ..l.clone() } != status);
+        // The speed cap's figures move with every depth grid: only its reason and whether it
+        // limits are a change (the figures go out at the status rate).
+        let steady = |s: &VehicleStatus| VehicleStatus {
+            time: now,
+            speed_cap: s.speed_cap.map(|c| SpeedCapStatus { cap_m_s: 0.0, range_m: 0.0, ..c }),
+            ..s.clone()
+        };
+        let status_changed = self.last_status.as_ref().is_none_or(|l| steady(l) != steady(&status));
         if status_changed || due(self.last_status.as_ref().map(|s| s.time), p.status_rate_hz) {
             self.status.publish(status.clone());
             self.last_status = Some(status);

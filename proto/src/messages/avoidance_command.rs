@@ -74,6 +74,50 @@ pub struct AvoidanceHealth {
     pub setpoints_rejected: u64,
 }
 
+/// What the distance ahead that the camera vouches for was taken from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ClearRangeReason {
+    /// No fresh depth grid (or none yet): the camera vouches for nothing, the range is 0.
+    #[default]
+    Stale,
+    /// The nearest depth in the centre region (the flight path).
+    Obstacle,
+    /// The centre region is mostly invalid but the ground below it is seen: open sky, or a
+    /// textureless wall not yet called unknown. The range is the avoider's conservative
+    /// `unknown_range_m`, the distance at which such a wall is reliably called unknown.
+    Untextured,
+    /// The view ahead is unknown (the centre and the region below it mostly invalid, thesis
+    /// §4.2.3): the range is 0.
+    UnknownAhead,
+    /// Nothing in the centre within the stereo range: the farthest depth the grid reports
+    /// (`DepthGrid::sectors.max_distance_cm`, the stereo pair's reliable range).
+    StereoRange,
+}
+
+impl ClearRangeReason {
+    /// Short name for a status text or log.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ClearRangeReason::Stale => "stale",
+            ClearRangeReason::Obstacle => "obstacle",
+            ClearRangeReason::Untextured => "untextured",
+            ClearRangeReason::UnknownAhead => "unknown ahead",
+            ClearRangeReason::StereoRange => "stereo range",
+        }
+    }
+}
+
+/// The distance straight ahead (along the body's forward axis, from the camera) that the
+/// view vouches for at the grid's capture time, and why: the commander caps the forward speed
+/// so that the vehicle can stop inside it (issue 20).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ClearRange {
+    /// Distance (m), finite and ≥ 0.
+    pub range_m: f64,
+    pub reason: ClearRangeReason,
+}
+
 /// The avoider's velocity correction, published for every accepted depth grid and, while the
 /// grids are stale, on the avoider's staleness timer.
 ///
@@ -105,6 +149,9 @@ pub struct AvoidanceCommand {
     /// The rule base's `V_in`: desired speed over the configured maximum, 0..1.
     pub speed_input: f64,
     pub health: AvoidanceHealth,
+    /// What the view vouches for ahead; range 0 (`Stale`) in older logs.
+    #[serde(default)]
+    pub clear_range: ClearRange,
 }
 crate::impl_message!(AvoidanceCommand);
 

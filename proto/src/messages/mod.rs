@@ -30,7 +30,9 @@ mod vehicle_command;
 mod vehicle_status;
 
 pub use actuators::{ActuatorOutputs, MAX_MOTORS};
-pub use avoidance_command::{AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, FuzzyVelocity};
+pub use avoidance_command::{
+    AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, ClearRange, ClearRangeReason, FuzzyVelocity,
+};
 pub use baro::BaroSample;
 pub use battery::BatteryStatus;
 pub use calibration::{
@@ -64,5 +66,6 @@ pub use stereo_frame::{FrameSizeError, StereoFrame};
 pub use supervisor::{SupervisorEvent, SupervisorEventKind};
 pub use vehicle_command::{Command, CommandResult, VehicleCommand};
 pub use vehicle_status::{
-    Failsafe, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState, MissionProgress, VehicleStatus,
+    Failsafe, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState, MissionProgress, SpeedCapStatus,
+    VehicleStatus,
 };

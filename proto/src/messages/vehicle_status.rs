@@ -3,6 +3,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::messages::ClearRangeReason;
 use crate::time::Time;
 
 /// Flight modes (ArduPilot's names; PX4's equivalents in the docs).
@@ -120,6 +121,19 @@ pub struct Home {
     pub revision: u32,
 }
 
+/// The forward speed cap the camera's view sets on a leg flown with the avoider (issue 20):
+/// the vehicle must be able to stop inside the distance ahead the view vouches for.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SpeedCapStatus {
+    /// Largest forward speed allowed (m/s).
+    pub cap_m_s: f64,
+    /// Distance ahead the view vouches for (m).
+    pub range_m: f64,
+    pub reason: ClearRangeReason,
+    /// The cap held the demand below what the leg or the sticks asked for.
+    pub limiting: bool,
+}
+
 /// Published by the commander at its status rate and on every change.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct VehicleStatus {
@@ -151,6 +165,11 @@ pub struct VehicleStatus {
     /// is healthy or nothing reports on them.
     #[serde(default)]
     pub failed_motor: Option<u8>,
+    /// The forward speed cap while a leg is flown with the avoider; `None` otherwise. Its
+    /// figures move with every depth grid, so only its reason and `limiting` count as a change
+    /// of status.
+    #[serde(default)]
+    pub speed_cap: Option<SpeedCapStatus>,
 }
 
 /// The geofence is on unless a ground station switched it off (older logs did not say).

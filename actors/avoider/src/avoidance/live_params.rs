@@ -85,6 +85,15 @@ pub const LIVE_PARAMS: &[ParamDef<AvoiderParams>] = &[
         set: |p, v| p.unknown_speed_share = v,
     },
     ParamDef {
+        name: "AVOID_UNK_RANGE",
+        unit: "m",
+        min: 0.0,
+        max: 20.0,
+        description: "Distance ahead vouched for while the centre is mostly invalid (speed cap)",
+        get: |p| p.unknown_range_m,
+        set: |p, v| p.unknown_range_m = v,
+    },
+    ParamDef {
         name: "AVOID_STOP_DIST",
         unit: "m",
         min: 0.0,

@@ -53,8 +53,10 @@ mod view;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, DepthGrid, FuzzyVelocity, NavState, Setpoint,
+    AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, ClearRange, ClearRangeReason, DepthGrid, FuzzyVelocity,
+    NavState, Setpoint,
 };
+use kestrel_proto::speed_cap::Braking;
 
 use crate::engine::{Engine, Workspace};
 
@@ -226,6 +228,7 @@ impl Avoider {
             desired_speed_m_s: self.desired_speed_m_s,
             speed_input: self.speed_input(),
             health: AvoidanceHealth { grid_age_s, stale: true, memory_limited, ..self.counters() },
+            clear_range: ClearRange::default(),
         })
     }
 
@@ -355,7 +358,33 @@ impl Avoider {
                 memory_limited,
                 ..self.counters()
             },
+            clear_range: self.clear_range(&view, nearest_ahead, grid),
         })
+    }
+
+    /// The distance ahead `view` vouches for (see [`ClearRangeReason`]): an unknown view ahead
+    /// vouches for nothing; otherwise the nearest depth in the centre, no farther than the
+    /// conservative `unknown_range_m` while the centre is mostly invalid, nor than the grid's
+    /// reliable stereo range.
+    fn clear_range(&self, view: &View, nearest_ahead: Option<f64>, grid: &DepthGrid) -> ClearRange {
+        if view.unknown_ahead() {
+            return ClearRange { range_m: 0.0, reason: ClearRangeReason::UnknownAhead };
+        }
+        let stereo = ClearRange {
+            range_m: f64::from(grid.sectors.max_distance_cm) / 100.0,
+            reason: ClearRangeReason::StereoRange,
+        };
+        let untextured = view.centre_unknown().then_some(ClearRange {
+            range_m: self.params.unknown_range_m,
+            reason: ClearRangeReason::Untextured,
+        });
+        let obstacle = nearest_ahead
+            .filter(|d| *d >= 0.0)
+            .map(|range_m| ClearRange { range_m, reason: ClearRangeReason::Obstacle });
+        [untextured, obstacle]
+            .into_iter()
+            .flatten()
+            .fold(stereo, |nearest, r| if r.range_m < nearest.range_m { r } else { nearest })
     }
 
     /// The memory's settings, `None` when it is off.
@@ -413,8 +442,10 @@ impl Avoider {
     /// `brake_decel_m_s2` after `reaction_time_s`.
     fn stopping_speed_m_s(&self, room_m: f64) -> f64 {
         let p = &self.params;
-        let a_tr = p.brake_decel_m_s2 * p.reaction_time_s;
-        (a_tr * a_tr + 2.0 * p.brake_decel_m_s2 * room_m.max(0.0)).sqrt() - a_tr
+        let braking = Braking { decel_m_s2: p.brake_decel_m_s2, latency_s: p.reaction_time_s, margin_m: 0.0 };
+        // The parameters are validated and `room_m` comes from finite depths, so a refusal
+        // cannot happen; were it to, no room is the safe answer.
+        braking.speed_cap_m_s(room_m.max(0.0)).unwrap_or(0.0)
     }
 
     /// `V_in`: the desired speed as a share of the maximum, 0..1.

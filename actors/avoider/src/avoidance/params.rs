@@ -45,6 +45,12 @@ pub struct AvoiderParams {
     ///
     /// [`View::unknown_ahead`]: crate::avoidance::View::unknown_ahead
     pub unknown_speed_share: f64,
+    /// The distance ahead the view vouches for while the centre region is mostly invalid but
+    /// the view ahead is not yet unknown (m): in level flight the centre is mostly sky, and a
+    /// textureless wall looks the same until it hides the ground below the path. The plain
+    /// wall of `config/worlds/wall-plain.toml` is first called unknown about 4.4 m out
+    /// (issue 20), so the commander's speed cap keeps the vehicle able to stop within less.
+    pub unknown_range_m: f64,
     /// The vehicle stops this far short of the nearest depth in the centre region (m). Beyond
     /// the thesis, which only slows through the rule base: like PX4's collision prevention
     /// (`CP_DIST`), the forward speed is capped so that the vehicle can still brake in time.
@@ -103,6 +109,7 @@ impl Default for AvoiderParams {
             climb_margin_m: 1.0,
             unknown_invalid_share: 0.7,
             unknown_speed_share: 0.0,
+            unknown_range_m: 4.0,
             stop_distance_m: 2.0,
             brake_decel_m_s2: 2.0,
             reaction_time_s: 0.3,
@@ -138,6 +145,7 @@ impl AvoiderParams {
         let non_negative = [
             ("filter_time_constant_s", self.filter_time_constant_s),
             ("stop_distance_m", self.stop_distance_m),
+            ("unknown_range_m", self.unknown_range_m),
             ("reaction_time_s", self.reaction_time_s),
             ("sidestep_distance_m", self.sidestep_distance_m),
             ("sidestep_speed_m_s", self.sidestep_speed_m_s),

@@ -45,13 +45,19 @@ impl View {
         self.near[CENTRE.0][CENTRE.1]
     }
 
+    /// Whether the centre region (the flight path) is mostly invalid: open sky, or a
+    /// textureless wall (see [`View::unknown_ahead`]).
+    pub fn centre_unknown(&self) -> bool {
+        self.unknown[CENTRE.0][CENTRE.1]
+    }
+
     /// Whether the view ahead is unknown: the centre region *and* the one below it are mostly
     /// invalid. The centre alone cannot tell: in level flight its upper half is sky, which has
     /// no texture (measured in the simulator at 6 m: 75–90 % invalid with nothing ahead). A
     /// textureless wall ahead also hides the textured ground below the path, which open sky
     /// does not (the region below the centre is then ~30 % invalid).
     pub fn unknown_ahead(&self) -> bool {
-        self.unknown[CENTRE.0][CENTRE.1] && self.unknown[BELOW_CENTRE.0][BELOW_CENTRE.1]
+        self.centre_unknown() && self.unknown[BELOW_CENTRE.0][BELOW_CENTRE.1]
     }
 
     /// The whole centre column (up, centre, down) is blocked: no way over or under in view.

@@ -14,6 +14,12 @@
 //!    ([`frd_to_ned`], the one conversion: level-flight approximation, as the thesis) and
 //!    added. While the avoider asks for a vertical correction (or climbs because every
 //!    region is blocked) the leg's own altitude demand is dropped, so the climb is honoured;
+//!    The forward part of the horizontal demand (along the heading: what the camera sees) is
+//!    then capped so that the vehicle can stop inside the distance ahead the avoider's view
+//!    vouches for (`AvoidanceCommand::clear_range`, issue 20), braking at `CAP_DECEL_M_S2`
+//!    after the grid's age plus `CAP_REACTION_S`, `CAP_MARGIN_M` short of it
+//!    ([`kestrel_proto::speed_cap`]); [`AvoidanceLoop::speed_cap`] says the cap, the range and
+//!    the reason for the status;
 //! 3. if the stream is stale the horizontal demand is zero (and the vertical one too, except
 //!    the pilot's throttle): the vehicle slows at `AVOID_ACCEL_M_S2` and holds where it
 //!    stopped, and says so in `VehicleStatus.last_refusal` (→ STATUSTEXT);
@@ -30,7 +36,10 @@
 //! demand, the speed at which the vehicle closes on what the forward camera sees.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{AvoidanceCommand, NavState, TrajectorySetpoint};
+use kestrel_proto::messages::{
+    AvoidanceCommand, ClearRangeReason, NavState, SpeedCapStatus, TrajectorySetpoint,
+};
+use kestrel_proto::speed_cap::Braking;
 use nalgebra::Vector3;
 
 /// The leg's desired speed falls off so as to stop at the target decelerating at this (m/s²),
@@ -42,6 +51,15 @@ const VERTICAL_GAIN: f64 = 1.0;
 const LEG_VERTICAL_SPEED_M_S: f64 = 2.0;
 /// Largest change of the velocity demand (m/s²): the slow-down of a stale hold.
 pub(crate) const AVOID_ACCEL_M_S2: f64 = 2.5;
+/// Deceleration the speed cap plans on (m/s²): below `AVOID_ACCEL_M_S2`, the demand's ramp,
+/// because the vehicle trails the ramp a little even with its acceleration fed forward.
+const CAP_DECEL_M_S2: f64 = 2.0;
+/// Time the speed cap allows, beyond the grid's age, before the vehicle brakes (s): the
+/// demand's low-pass in the avoider and the velocity loop's response.
+const CAP_REACTION_S: f64 = 0.3;
+/// Clearance the speed cap keeps from what lies ahead (m): the airframe's half-width and a
+/// margin, as PX4's `CP_DIST`.
+const CAP_MARGIN_M: f64 = 1.0;
 /// While the demand moves the vehicle, the (vertical) position setpoint stays within this of
 /// the vehicle (m): a setpoint left metres ahead while the demand drops to zero would keep
 /// pulling the vehicle on towards the obstacle it is braking for.
@@ -114,6 +132,8 @@ pub(crate) struct AvoidanceLoop {
     /// Stamp of the newest command that was not flagged stale (of the first command, until one
     /// is): how long the avoider has had nothing to say, for the `avoidance_lost` failsafe.
     pub last_fresh: Option<Time>,
+    /// The forward speed cap of the last step of a leg the avoider had a say in.
+    pub speed_cap: Option<SpeedCapStatus>,
 }
 
 /// The commander's settings for one step.
@@ -145,9 +165,11 @@ impl AvoidanceLoop {
         self.last_fresh.map(|t| now.saturating_since(t).as_secs_f64())
     }
 
-    /// Takes a command; a non-finite one is ignored.
+    /// Takes a command; one with a non-finite correction or a clear range that is not a
+    /// finite distance is ignored.
     pub fn on_command(&mut self, cmd: &AvoidanceCommand) -> bool {
-        if cmd.velocity_frd_m_s.iter().all(|v| v.is_finite()) {
+        let range_m = cmd.clear_range.range_m;
+        if cmd.velocity_frd_m_s.iter().all(|v| v.is_finite()) && range_m.is_finite() && range_m >= 0.0 {
             self.command = Some(*cmd);
             if !cmd.health.stale || self.last_fresh.is_none() {
                 self.last_fresh = Some(cmd.time);
@@ -162,6 +184,7 @@ impl AvoidanceLoop {
     pub fn reset(&mut self) {
         self.state = None;
         self.holding = false;
+        self.speed_cap = None;
     }
 
     /// The fresh correction at `now`, or `None` if the stream is stale.
@@ -205,6 +228,7 @@ impl AvoidanceLoop {
         let fresh = self.fresh(now, timeout_s).copied();
         let heading = super::heading(nav);
         let mut vertical_takeover = false;
+        self.speed_cap = None;
         match fresh {
             _ if !avoided => {}
             Some(cmd) => {
@@ -214,6 +238,7 @@ impl AvoidanceLoop {
                     vertical_takeover = true;
                 }
                 desired += correction;
+                self.speed_cap = Some(cap_forward(&mut desired, &cmd, now, heading));
             }
             // The pilot keeps the throttle: the camera never looked up or down, and climbing
             // is the pilot's way out.
@@ -221,6 +246,11 @@ impl AvoidanceLoop {
             None => desired = Vector3::zeros(),
         }
         let holding = avoided && fresh.is_none();
+        if holding {
+            let limiting = leg_horizontal.norm() > 0.0;
+            let reason = ClearRangeReason::Stale;
+            self.speed_cap = Some(SpeedCapStatus { cap_m_s: 0.0, range_m: 0.0, reason, limiting });
+        }
         let hold_changed = (holding != self.holding).then_some(holding);
         self.holding = holding;
         // Rate-limit the demand, then fly it as a velocity with the ramp fed forward.
@@ -276,6 +306,30 @@ impl AvoidanceLoop {
         };
         Blend { setpoint, hold_changed, vertical_takeover }
     }
+}
+
+/// Caps the forward part (along `heading_rad`) of the horizontal demand `desired` (NED, m/s)
+/// so that the vehicle can stop inside `cmd`'s clear range; lateral and vertical parts stay.
+fn cap_forward(
+    desired: &mut Vector3<f64>,
+    cmd: &AvoidanceCommand,
+    now: Time,
+    heading_rad: f64,
+) -> SpeedCapStatus {
+    let range = cmd.clear_range;
+    let age_s = cmd.grid_time.map_or(0.0, |t| now.saturating_since(t).as_secs_f64());
+    let braking =
+        Braking { decel_m_s2: CAP_DECEL_M_S2, latency_s: age_s + CAP_REACTION_S, margin_m: CAP_MARGIN_M };
+    // `on_command` admits only finite ranges ≥ 0 and the constants are valid; a refusal would
+    // still stop forward motion rather than lift the cap.
+    let cap_m_s = braking.speed_cap_m_s(range.range_m).unwrap_or(0.0);
+    let forward = Vector3::new(heading_rad.cos(), heading_rad.sin(), 0.0);
+    let along = desired.dot(&forward);
+    let limiting = along > cap_m_s;
+    if limiting {
+        *desired -= forward * (along - cap_m_s);
+    }
+    SpeedCapStatus { cap_m_s, range_m: range.range_m, reason: range.reason, limiting }
 }
 
 fn wrap_pi(a: f64) -> f64 {

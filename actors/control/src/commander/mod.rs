@@ -683,6 +683,7 @@ impl Commander {
                 .map(|h| Home { position_ned_m: [h.x, h.y, h.z], revision: self.home_revision }),
             geofence_enabled: self.geofence_enabled,
             failed_motor: self.failed_motor_u8(),
+            speed_cap: self.avoidance.speed_cap,
         }
     }
 

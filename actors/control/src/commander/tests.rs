@@ -397,13 +397,17 @@ fn the_link_loss_action_set_live_is_the_one_flown() {
 
 // The avoider in the loop (`avoidance` module).
 
-use kestrel_proto::messages::{AvoidanceCommand, AvoidanceHealth, TrajectorySetpoint};
+use kestrel_proto::messages::{
+    AvoidanceCommand, AvoidanceHealth, ClearRange, ClearRangeReason, SpeedCapStatus, TrajectorySetpoint,
+};
 
+/// A command whose view vouches for 100 m ahead: far enough that the speed cap never bites.
 fn avoidance(t: u64, frd: [f64; 3], stale: bool) -> AvoidanceCommand {
     AvoidanceCommand {
         time: Time(t),
         velocity_frd_m_s: frd,
         health: AvoidanceHealth { stale, ..AvoidanceHealth::default() },
+        clear_range: ClearRange { range_m: 100.0, reason: ClearRangeReason::StereoRange },
         ..AvoidanceCommand::default()
     }
 }
@@ -718,6 +722,83 @@ fn poshold_ramps_the_avoiders_brake_with_feed_forward_and_never_leads_the_vehicl
     assert!((sp.acceleration_ned_m_s2[0] + 2.5).abs() < 1e-6, "{:?}", sp.acceleration_ned_m_s2);
     let sp = fly_sticks(&mut c, &mut t, 1_600_000, 0.0, [0.0, 1.0, 0.0, 0.5], Some([-4.0, 0.0, 0.0]));
     assert!((velocity(&sp)[0] - 1.0).abs() < 1e-6, "{:?}", velocity(&sp));
+}
+
+/// Steps `c` as [`fly_sticks`] with no correction and a grid 0.1 s old at every step whose view
+/// vouches for `range_m` ahead; returns the last setpoint.
+fn fly_capped(
+    c: &mut Commander,
+    t: &mut u64,
+    duration_us: u64,
+    yaw_rad: f64,
+    manual: [f64; 4],
+    clear_range: ClearRange,
+) -> TrajectorySetpoint {
+    let [roll, pitch, yaw, throttle] = manual;
+    let mut sp = TrajectorySetpoint::default();
+    let until = *t + duration_us;
+    while *t < until {
+        *t += 2500;
+        c.on_nav(&nav_heading(*t, -5.0, yaw_rad));
+        c.on_manual(&sticks(*t, roll, pitch, yaw, throttle));
+        let grid_time = Some(Time(t.saturating_sub(100_000)));
+        c.on_avoidance(&AvoidanceCommand { grid_time, clear_range, ..avoidance(*t, [0.0; 3], false) });
+        sp = trajectory(c.update(Time(*t)).target);
+    }
+    sp
+}
+
+#[test]
+fn poshold_forward_speed_is_capped_to_stop_inside_the_clear_range_and_the_status_says_so() {
+    let east = std::f64::consts::FRAC_PI_2;
+    let mut c = poshold_facing(east);
+    let mut t = 2000;
+    let range = |range_m, reason| ClearRange { range_m, reason };
+    // Full forward (5 m/s east) and half right (2.5 m/s south) stick; the view vouches for 4 m
+    // ahead. By hand: a = 2 m/s², t = 0.1 s of grid age + 0.3 s, margin 1 m:
+    // v²/4 + 0.4·v = 3 → v = −0.8 + √(0.64 + 12) = 2.7553 m/s.
+    let cap = -0.8 + 12.64f64.sqrt();
+    let untextured = range(4.0, ClearRangeReason::Untextured);
+    let sp = fly_capped(&mut c, &mut t, 3_000_000, east, [0.5, 1.0, 0.0, 0.5], untextured);
+    let v = velocity(&sp);
+    assert!((v[1] - cap).abs() < 1e-6 && (v[0] + 2.5).abs() < 1e-6, "only the forward part is capped: {v:?}");
+    let status = c.status(Time(t)).speed_cap.expect("a speed cap while the avoider has a say");
+    assert!((status.cap_m_s - cap).abs() < 1e-9, "{status:?}");
+    assert_eq!((status.range_m, status.reason, status.limiting), (4.0, ClearRangeReason::Untextured, true));
+    // Room for more than the stick asks: the full stick, and the cap does not limit.
+    let sp = fly_capped(
+        &mut c,
+        &mut t,
+        2_000_000,
+        east,
+        [0.0, 1.0, 0.0, 0.5],
+        range(20.0, ClearRangeReason::StereoRange),
+    );
+    assert!((velocity(&sp)[1] - 5.0).abs() < 1e-6, "{:?}", velocity(&sp));
+    let status = c.status(Time(t)).speed_cap.expect("cap");
+    assert!(!status.limiting && status.cap_m_s > 5.0, "{status:?}");
+    // The view ahead unknown: no forward speed at all; the pilot can still slide sideways.
+    let unknown = range(0.0, ClearRangeReason::UnknownAhead);
+    let sp = fly_capped(&mut c, &mut t, 3_000_000, east, [0.5, 1.0, 0.0, 0.5], unknown);
+    let v = velocity(&sp);
+    assert!(v[1].abs() < 1e-6 && (v[0] + 2.5).abs() < 1e-6, "{v:?}");
+    assert_eq!(
+        c.status(Time(t)).speed_cap,
+        Some(SpeedCapStatus {
+            cap_m_s: 0.0,
+            range_m: 0.0,
+            reason: ClearRangeReason::UnknownAhead,
+            limiting: true
+        })
+    );
+    // A clear range that is no distance is ignored like a non-finite correction: the cap
+    // stays that of the last good command.
+    let bad = range(f64::NAN, ClearRangeReason::Obstacle);
+    let sp = fly_capped(&mut c, &mut t, 200_000, east, [0.0, 1.0, 0.0, 0.5], bad);
+    assert!(velocity(&sp)[1].abs() < 1e-6, "{:?}", velocity(&sp));
+    // Centred sticks hold: no leg, no cap.
+    fly_sticks(&mut c, &mut t, 100_000, east, [0.0, 0.0, 0.0, 0.5], Some([0.0; 3]));
+    assert_eq!(c.status(Time(t)).speed_cap, None);
 }
 
 #[test]

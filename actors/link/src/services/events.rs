@@ -1,7 +1,7 @@
 //! STATUSTEXT for what the commander does: arming, mode changes, the geofence switch,
 //! failsafes and refusals.
 
-use kestrel_proto::messages::{FailsafeCause, VehicleStatus};
+use kestrel_proto::messages::{FailsafeCause, SpeedCapStatus, VehicleStatus};
 use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity, STATUSTEXT_DATA};
 
 use crate::modes::mode_name;
@@ -64,12 +64,33 @@ pub fn status_changes(old: Option<&VehicleStatus>, new: &VehicleStatus) -> Vec<M
         (Some(_), None) => out.push(statustext(MavSeverity::MAV_SEVERITY_INFO, "Failsafe cleared")),
         _ => {}
     }
+    if let Some(text) = speed_cap_change(old.and_then(|o| o.speed_cap), new.speed_cap) {
+        out.push(statustext(MavSeverity::MAV_SEVERITY_INFO, &text));
+    }
     if let Some(refusal) = &new.last_refusal
         && old.is_none_or(|o| o.refusals != new.refusals || o.last_refusal.as_ref() != Some(refusal))
     {
         out.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, refusal));
     }
     out
+}
+
+/// What a ground station is told of the forward speed cap (issue 20): when it starts to hold
+/// the vehicle back or the reason changes while it does, the cap, the range and the reason;
+/// when it stops, that it has. Its figures alone moving is no news.
+fn speed_cap_change(old: Option<SpeedCapStatus>, new: Option<SpeedCapStatus>) -> Option<String> {
+    let limiting = |c: Option<SpeedCapStatus>| c.filter(|c| c.limiting);
+    match (limiting(old), limiting(new)) {
+        (Some(a), Some(b)) if a.reason == b.reason => None,
+        (_, Some(c)) => Some(format!(
+            "Speed capped at {:.1} m/s: {} {:.1} m ahead",
+            c.cap_m_s,
+            c.reason.as_str(),
+            c.range_m
+        )),
+        (Some(_), None) => Some("Speed cap lifted".to_owned()),
+        (None, None) => None,
+    }
 }
 
 #[cfg(test)]
@@ -123,5 +144,28 @@ mod tests {
     fn long_texts_are_cut_to_fifty_bytes() {
         let long = "x".repeat(80);
         assert_eq!(text(&statustext(MavSeverity::MAV_SEVERITY_INFO, &long)).len(), 50);
+    }
+
+    #[test]
+    fn the_speed_cap_is_announced_when_it_holds_back_changes_reason_and_lifts() {
+        use kestrel_proto::messages::ClearRangeReason;
+        let base = vehicle_status(Time::ZERO, true, FlightMode::PosHold, LandedState::InAir);
+        let cap = |cap_m_s, range_m, reason, limiting| VehicleStatus {
+            speed_cap: Some(SpeedCapStatus { cap_m_s, range_m, reason, limiting }),
+            ..base.clone()
+        };
+        let untextured = cap(2.75, 4.0, ClearRangeReason::Untextured, true);
+        let texts = |old: &VehicleStatus, new: &VehicleStatus| -> Vec<String> {
+            status_changes(Some(old), new).iter().map(text).collect()
+        };
+        assert_eq!(texts(&base, &untextured), ["Speed capped at 2.8 m/s: untextured 4.0 m ahead"]);
+        // The figures moving is no news; a cap that does not hold the vehicle back is none.
+        assert!(texts(&untextured, &cap(2.5, 3.5, ClearRangeReason::Untextured, true)).is_empty());
+        assert!(texts(&base, &cap(9.0, 20.0, ClearRangeReason::StereoRange, false)).is_empty());
+        assert_eq!(
+            texts(&untextured, &cap(0.0, 0.0, ClearRangeReason::UnknownAhead, true)),
+            ["Speed capped at 0.0 m/s: unknown ahead 0.0 m ahead"]
+        );
+        assert_eq!(texts(&untextured, &base), ["Speed cap lifted"]);
     }
 }
