@@ -299,7 +299,10 @@ impl Ekf {
         }
         self.newest_imu = Some(sample.time);
         self.newest_gyro_rad_s = Vector3::from(sample.gyro_rad_s);
-        let delta = ImuDelta::from_rates(sample.time, sample.gyro_rad_s, sample.accel_m_s2, sample.dt_s);
+        let delta = ImuDelta {
+            accel_clipped: sample.accel_clipped.contains(&true),
+            ..ImuDelta::from_rates(sample.time, sample.gyro_rad_s, sample.accel_m_s2, sample.dt_s)
+        };
         let Some(running) = self.running.as_mut() else {
             if let Some(aligned) = self.alignment.push_imu(sample, &self.params) {
                 let state = State::at_rest(aligned.time, aligned.attitude);
@@ -511,7 +514,9 @@ impl Ekf {
     }
 
     /// Counts a clipped sample, warning when clipping starts. The sample is still used: a
-    /// saturated reading is the best there is, and dropping it would lose the interval.
+    /// saturated reading is the best there is, and dropping it would lose the interval; the
+    /// prediction over it adds `accel_clip_velocity_noise_m_s` to the velocity's uncertainty
+    /// (`step_delayed`).
     fn count_clipping(&mut self, sample: &ImuSample) {
         let clipped = sample.is_clipped();
         if clipped {
@@ -549,6 +554,9 @@ impl Ekf {
         let Some(running) = self.running.as_mut() else { return };
         let filter = &mut running.filter;
         filter.predict(d, &self.noise);
+        if d.accel_clipped {
+            filter.add_velocity_variance(self.params.accel_clip_velocity_noise_m_s.powi(2));
+        }
         let t = filter.state.time;
         let params = &self.params;
         while let Some(fix) = self.gps_buffer.pop_oldest_if(|f| f.time <= t) {

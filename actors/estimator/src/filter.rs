@@ -179,6 +179,16 @@ impl Filter {
         reset_block(&mut self.cov, ACCEL_BIAS, 3, INERTIAL_RESET_ACCEL_BIAS_M_S2.powi(2));
     }
 
+    /// After a prediction over a clipped accelerometer sample: what the specific force did beyond
+    /// full scale is unknown, so `variance_m2_s2` is added to each velocity axis's variance, and
+    /// the aiding corrects the velocity within a few fixes instead of being outweighed by a
+    /// confident prediction that understated the interval (a touchdown's spike).
+    pub fn add_velocity_variance(&mut self, variance_m2_s2: f64) {
+        for i in 0..3 {
+            self.cov[(VEL + i, VEL + i)] += variance_m2_s2;
+        }
+    }
+
     /// After the prediction moved to another IMU: the bias states were the old IMU's, so they
     /// start again from zero with their initial uncertainty, uncorrelated.
     pub fn forget_imu_biases(&mut self) {

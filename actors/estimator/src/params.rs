@@ -115,6 +115,12 @@ pub struct EkfParams {
     pub align_max_baro_spread_m: f64,
     /// Time constant with which the output predictor tracks the delayed state (s).
     pub output_tau_s: f64,
+    /// Velocity uncertainty added per axis for each IMU sample with a clipped accelerometer
+    /// axis (m/s, one sigma): full scale again over the sample's interval (16 g × 2.5 ms). A
+    /// touchdown clipped at ±16 g in HIL left 0.3 m/s of descent in the estimate, which GPS and
+    /// baro, against a confident covariance, did not take out for seconds: the land detector
+    /// never saw the vehicle stop and the controller wound up on the ground.
+    pub accel_clip_velocity_noise_m_s: f64,
 }
 
 impl Default for EkfParams {
@@ -159,6 +165,7 @@ impl Default for EkfParams {
             align_max_accel_spread_m_s2: 0.5,
             align_max_baro_spread_m: 20.0,
             output_tau_s: 0.25,
+            accel_clip_velocity_noise_m_s: 0.4,
         }
     }
 }
@@ -197,6 +204,7 @@ impl EkfParams {
             ("align_max_accel_spread_m_s2", self.align_max_accel_spread_m_s2),
             ("align_max_baro_spread_m", self.align_max_baro_spread_m),
             ("output_tau_s", self.output_tau_s),
+            ("accel_clip_velocity_noise_m_s", self.accel_clip_velocity_noise_m_s),
         ];
         for (name, value) in positive {
             if !(value.is_finite() && value > 0.0) {

@@ -104,6 +104,8 @@ pub struct ImuDelta {
     pub delta_velocity_m_s: Vector3<f64>,
     /// Length of the interval (s).
     pub dt_s: f64,
+    /// An accelerometer axis read full scale: `delta_velocity_m_s` understates the interval.
+    pub accel_clipped: bool,
 }
 
 impl ImuDelta {
@@ -114,6 +116,7 @@ impl ImuDelta {
             delta_angle_rad: Vector3::from(gyro_rad_s) * dt_s,
             delta_velocity_m_s: Vector3::from(accel_m_s2) * dt_s,
             dt_s,
+            accel_clipped: false,
         }
     }
 }

@@ -238,3 +238,35 @@ fn a_margin_that_takes_the_horizon_past_the_delay_buffer_is_refused_by_name() {
         assert!(e.to_string().contains("arrival_margin_s"), "{margin_s}: {e}");
     }
 }
+
+/// Vertical velocity error (m/s, NED down) of the output a second after one clipped sample that
+/// understated a touchdown by 0.3 m/s, on a still vehicle with GPS and baro: with
+/// `accel_clip_velocity_noise_m_s` at `noise`.
+fn error_after_a_clipped_touchdown(noise: f64) -> f64 {
+    let mut bench = settled(EkfParams { accel_clip_velocity_noise_m_s: noise, ..EkfParams::default() });
+    bench.t_us += 2500;
+    let time = Time::from_micros(bench.t_us);
+    // The clipped reading misses 120 m/s² of the stop's deceleration: 0.3 m/s of descent left.
+    let clipped = ImuSample {
+        accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2 + 120.0],
+        accel_clipped: [false, false, true],
+        ..still_imu(time)
+    };
+    bench.ekf.push_imu(&clipped).unwrap();
+    bench.run(1.5);
+    bench.ekf.nav_state().expect("running").velocity_ned_m_s[2]
+}
+
+#[test]
+fn a_clipped_accelerometer_sample_makes_the_velocity_uncertain_so_the_aiding_takes_its_error_out() {
+    let inflated = error_after_a_clipped_touchdown(EkfParams::default().accel_clip_velocity_noise_m_s);
+    let confident = error_after_a_clipped_touchdown(1e-6);
+    println!(
+        "figure: vertical velocity error 1.5 s after a clipped 0.3 m/s: {inflated:.3} m/s inflated, {confident:.3} m/s without"
+    );
+    assert!(inflated.abs() < 0.05, "{inflated}");
+    assert!(
+        confident.abs() > 3.0 * inflated.abs(),
+        "the test sees the difference: {confident} vs {inflated}"
+    );
+}
