@@ -393,13 +393,13 @@ mod tests {
     #[test]
     fn zenoh_takes_the_config_built_from_the_parameters() {
         let params: BridgeParams = toml::from_str(
-            "vehicle = \"v\"\nmode = \"client\"\nconnect = [\"tcp/127.0.0.1:7447\", \"udp/[::1]:7448\"]\nlisten = [\"tcp/0.0.0.0:7449\"]\npublish = [\"nav_state\"]",
+            "vehicle = \"v\"\nmode = \"client\"\nconnect = [\"tcp/127.0.0.1:7447\", \"tcp/[::1]:7448\"]\nlisten = [\"tcp/0.0.0.0:7449\"]\npublish = [\"nav_state\"]",
         )
         .unwrap();
         let config = zenoh_config(&params).unwrap();
         let text = format!("{config}");
         for wanted in
-            ["\"client\"", "tcp/127.0.0.1:7447", "udp/[::1]:7448", "tcp/0.0.0.0:7449", "period_max_ms"]
+            ["\"client\"", "tcp/127.0.0.1:7447", "tcp/[::1]:7448", "tcp/0.0.0.0:7449", "period_max_ms"]
         {
             assert!(text.contains(wanted), "{wanted} in {text}");
         }

@@ -27,8 +27,9 @@ impl Mode {
     }
 }
 
-/// The transports this build of Zenoh has (`tcp/HOST:PORT`, `udp/HOST:PORT`).
-pub const PROTOCOLS: &[&str] = &["tcp", "udp"];
+/// The transports this build of Zenoh has (`tcp/HOST:PORT`): the crate builds Zenoh with its
+/// TCP link alone (Cargo.toml says why).
+pub const PROTOCOLS: &[&str] = &["tcp"];
 
 /// The bridge's parameters.
 #[derive(Clone, Debug, Deserialize)]
@@ -176,8 +177,9 @@ mod tests {
             ("listen = []", "a peer with no `connect`, no `listen` and no `scouting`"),
             (
                 "listen = [\"quic/1.2.3.4:7447\"]",
-                "parameter 'listen': endpoint \"quic/1.2.3.4:7447\": protocol 'quic' is not built in; only tcp, udp",
+                "parameter 'listen': endpoint \"quic/1.2.3.4:7447\": protocol 'quic' is not built in; only tcp",
             ),
+            ("connect = [\"udp/1.2.3.4:7447\"]", "protocol 'udp' is not built in; only tcp"),
             (
                 "connect = [\"tcp/host\"]",
                 "parameter 'connect': endpoint \"tcp/host\": 'host' is not HOST:PORT",
