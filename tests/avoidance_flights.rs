@@ -5,46 +5,15 @@
 //! The graph is `config/sim-forest.toml` with the world swapped and the MAVLink link on an
 //! ephemeral local port (tests run in parallel, and a flight needs no ground station).
 
+mod avoidance_flight;
 mod flights;
 mod qgc_plan;
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use flights::{clearance_m, collisions, repo, run_for_report, scratch, sim_forest_graph};
+use avoidance_flight::fly;
+use flights::{clearance_m, collisions, repo, scratch};
 use serde_json::Value;
-
-/// Flies `mission` in `world` for at most `duration_s` (ending early on landing) and returns
-/// the flight report.
-fn fly(name: &str, world: &Path, mission: &str, duration_s: u32) -> Value {
-    let dir = scratch("avoid", name);
-    let config = dir.join("graph.toml");
-    std::fs::write(&config, sim_forest_graph(world)).unwrap();
-    let duration = duration_s.to_string();
-    let value = run_for_report(
-        name,
-        &config,
-        &["--auto", "--exit-on-land", "--mission", mission, "--duration", &duration],
-    );
-    let _ = std::fs::remove_dir_all(&dir);
-    let (flight, avoidance) = (&value["flight"], &value["avoidance"]);
-    println!(
-        "figure: {name}: completed {}, collisions {}, min clearance {:.2} m, {:.1} s, path {:.1} m for {:.1} m straight, frame→setpoint p50 {:.1} ms p95 {:.1} ms (host wall clock), perception real-time factor {:.2}x",
-        value["mission"]["completed"],
-        flight["collisions"],
-        flight["min_clearance_m"].as_f64().unwrap_or(f64::NAN),
-        flight["duration_s"].as_f64().unwrap_or(f64::NAN),
-        flight["path_length_m"].as_f64().unwrap_or(f64::NAN),
-        flight["straight_line_m"].as_f64().unwrap_or(f64::NAN),
-        avoidance["frame_to_setpoint_p50_ms"].as_f64().unwrap_or(f64::NAN),
-        avoidance["frame_to_setpoint_p95_ms"].as_f64().unwrap_or(f64::NAN),
-        avoidance["realtime_factor"].as_f64().unwrap_or(f64::NAN),
-    );
-    assert!(
-        avoidance["realtime_factor"].as_f64().is_some_and(|r| r > 0.0),
-        "{name}: the report gives the perception real-time factor: {value:#}"
-    );
-    value
-}
 
 fn world(name: &str) -> PathBuf {
     repo().join("config/worlds").join(name)

@@ -23,6 +23,7 @@ use crate::hop_latency::HopLatency;
 use crate::key_expr::topic_key;
 use crate::params::BridgeParams;
 use crate::payload::{self, ClockOrigin, Outgoing, Received};
+use crate::rate_limit::RateLimit;
 
 /// Longest wait between two tries of a `connect` endpoint that does not answer (Zenoh's default
 /// backs off to 4 s): the other side of a split is back within a second of its restart.
@@ -66,6 +67,8 @@ pub struct BridgeActor {
     stats: BTreeMap<&'static str, Arc<Mutex<InboundStats>>>,
     network: Option<Network>,
     send_failures: u64,
+    /// The `max_rate_hz` topics, and how many messages each limit dropped.
+    limits: BTreeMap<&'static str, (RateLimit, u64)>,
 }
 
 /// The bridge's side of Zenoh: a runtime of its own with one task that owns the session.
@@ -299,7 +302,19 @@ impl Actor for BridgeActor {
                 stats.insert(name, topic_stats);
             }
         }
-        Ok(BridgeActor { params: params.clone(), vehicle, inbound, stats, network: None, send_failures: 0 })
+        let limits = TOPICS
+            .iter()
+            .filter_map(|&t| params.max_rate_hz.get(t).map(|&hz| (t, (RateLimit::new(hz), 0))))
+            .collect();
+        Ok(BridgeActor {
+            params: params.clone(),
+            vehicle,
+            inbound,
+            stats,
+            network: None,
+            send_failures: 0,
+            limits,
+        })
     }
 
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
@@ -341,6 +356,12 @@ impl Actor for BridgeActor {
                 return Ok(());
             }
         };
+        if let Some((limit, dropped)) = self.limits.get_mut(out.topic)
+            && !limit.admit(ctx.now())
+        {
+            *dropped += 1;
+            return Ok(());
+        }
         out.captured_unix_us = ClockOrigin::at(ctx.now(), unix_now_us()).to_unix_us(out.captured);
         match outgoing.try_send(out) {
             Ok(()) => Ok(()),
@@ -374,6 +395,14 @@ impl Actor for BridgeActor {
                 "bridge hop latency p50 {p50:.3} ms p95 {p95:.3} ms"
             );
         }
+        for (topic, (_, dropped)) in &self.limits {
+            tracing::info!(
+                actor = ctx.name(),
+                topic,
+                dropped,
+                "bridge max_rate_hz dropped {dropped} messages"
+            );
+        }
         if let Some(mut network) = self.network.take() {
             network.outgoing = None;
             if tokio::time::timeout(CLOSE_TIMEOUT, &mut network.task).await.is_err() {
@@ -393,13 +422,13 @@ mod tests {
     #[test]
     fn zenoh_takes_the_config_built_from_the_parameters() {
         let params: BridgeParams = toml::from_str(
-            "vehicle = \"v\"\nmode = \"client\"\nconnect = [\"tcp/127.0.0.1:7447\", \"udp/[::1]:7448\"]\nlisten = [\"tcp/0.0.0.0:7449\"]\npublish = [\"nav_state\"]",
+            "vehicle = \"v\"\nmode = \"client\"\nconnect = [\"tcp/127.0.0.1:7447\", \"tcp/[::1]:7448\"]\nlisten = [\"tcp/0.0.0.0:7449\"]\npublish = [\"nav_state\"]",
         )
         .unwrap();
         let config = zenoh_config(&params).unwrap();
         let text = format!("{config}");
         for wanted in
-            ["\"client\"", "tcp/127.0.0.1:7447", "udp/[::1]:7448", "tcp/0.0.0.0:7449", "period_max_ms"]
+            ["\"client\"", "tcp/127.0.0.1:7447", "tcp/[::1]:7448", "tcp/0.0.0.0:7449", "period_max_ms"]
         {
             assert!(text.contains(wanted), "{wanted} in {text}");
         }

@@ -6,6 +6,7 @@
 //! * [`payload`]: the recorder's JSON with its schema name, the capture time as the sample's
 //!   timestamp, and the mapping of times between two processes' graph clocks.
 //! * [`params`]: the actor's parameters, checked with errors that name the parameter.
+//! * [`rate_limit`]: a topic's `max_rate_hz`, for links that carry less than loopback.
 //! * [`BridgeActor`]: the actor shell around a Zenoh session.
 
 mod actor;
@@ -15,6 +16,7 @@ pub mod hop_latency;
 pub mod key_expr;
 pub mod params;
 pub mod payload;
+pub mod rate_limit;
 
 pub use actor::{BridgeActor, BridgeInput};
 pub use error::BridgeError;

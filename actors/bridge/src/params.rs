@@ -1,5 +1,7 @@
 //! The bridge's parameters (`[actors.NAME.params]`), checked before any session opens.
 
+use std::collections::BTreeMap;
+
 use serde::Deserialize;
 
 use crate::catalogue::{Bridged, TOPICS, TopicVisitor, visit_topic};
@@ -27,8 +29,9 @@ impl Mode {
     }
 }
 
-/// The transports this build of Zenoh has (`tcp/HOST:PORT`, `udp/HOST:PORT`).
-pub const PROTOCOLS: &[&str] = &["tcp", "udp"];
+/// The transports this build of Zenoh has (`tcp/HOST:PORT`): the crate builds Zenoh with its
+/// TCP link alone (Cargo.toml says why).
+pub const PROTOCOLS: &[&str] = &["tcp"];
 
 /// The bridge's parameters.
 #[derive(Clone, Debug, Deserialize)]
@@ -59,6 +62,11 @@ pub struct BridgeParams {
     /// an output of the bridge of the same name; local actors subscribe to them like any topic.
     #[serde(default)]
     pub subscribe: Vec<String>,
+    /// At most this many messages a second sent on a `publish` topic (Hz), e.g.
+    /// `{ nav_state = 20.0 }` for a radio link; the others are dropped. Commands
+    /// (`vehicle_command`, `command_result`) are never throttled: each one counts.
+    #[serde(default)]
+    pub max_rate_hz: BTreeMap<String, f64>,
 }
 
 impl BridgeParams {
@@ -110,6 +118,18 @@ impl BridgeParams {
                 }
             }
         }
+        for (topic, &rate_hz) in &self.max_rate_hz {
+            let why = if !self.publish.contains(topic) {
+                format!("topic '{topic}' is not published")
+            } else if UNTHROTTLED.contains(&topic.as_str()) {
+                format!("topic '{topic}' carries commands, each of which counts")
+            } else if !(rate_hz.is_finite() && rate_hz > 0.0) {
+                format!("{topic} = {rate_hz}: a rate must be finite and above 0 Hz")
+            } else {
+                continue;
+            };
+            return Err(BridgeError::Param { param: "max_rate_hz", why });
+        }
         if let Some(both) = self.publish.iter().find(|t| self.subscribe.contains(t)) {
             return Err(BridgeError::Param {
                 param: "subscribe",
@@ -119,6 +139,9 @@ impl BridgeParams {
         Ok(())
     }
 }
+
+/// Topics `max_rate_hz` may not throttle: a dropped command is a lost command.
+const UNTHROTTLED: &[&str] = &["vehicle_command", "command_result"];
 
 struct Nothing;
 
@@ -176,8 +199,9 @@ mod tests {
             ("listen = []", "a peer with no `connect`, no `listen` and no `scouting`"),
             (
                 "listen = [\"quic/1.2.3.4:7447\"]",
-                "parameter 'listen': endpoint \"quic/1.2.3.4:7447\": protocol 'quic' is not built in; only tcp, udp",
+                "parameter 'listen': endpoint \"quic/1.2.3.4:7447\": protocol 'quic' is not built in; only tcp",
             ),
+            ("connect = [\"udp/1.2.3.4:7447\"]", "protocol 'udp' is not built in; only tcp"),
             (
                 "connect = [\"tcp/host\"]",
                 "parameter 'connect': endpoint \"tcp/host\": 'host' is not HOST:PORT",
@@ -191,6 +215,14 @@ mod tests {
             ("publish = [\"nav_state\", \"nav_state\"]", "topic 'nav_state' is listed twice"),
             ("subscribe = [\"nav_state\"]", "topic 'nav_state' is also published"),
             ("publish = []\nsubscribe = []", "nothing to publish or subscribe to"),
+            (
+                "max_rate_hz = { depth_grid = 5.0 }",
+                "parameter 'max_rate_hz': topic 'depth_grid' is not published",
+            ),
+            ("max_rate_hz = { nav_state = 0.0 }", "nav_state = 0: a rate must be finite and above 0 Hz"),
+            ("max_rate_hz = { nav_state = -1.0 }", "a rate must be finite and above 0 Hz"),
+            ("max_rate_hz = { nav_state = inf }", "nav_state = inf: a rate must be finite"),
+            ("max_rate_hz = { nav_state = nan }", "a rate must be finite and above 0 Hz"),
         ];
         for (change, expected) in cases {
             let key = change.split(' ').next().unwrap();

@@ -70,3 +70,55 @@ async fn a_nav_state_crosses_two_bridges_onto_the_receivers_clock() {
     a.stop(&a_ctx).await;
     b.stop(&b_ctx).await;
 }
+
+#[tokio::test]
+async fn max_rate_hz_sends_one_nav_state_per_interval_of_the_graph_clock() {
+    let port = free_port();
+    let sender = params(&format!(
+        "vehicle = \"quad\"\nlisten = [\"tcp/127.0.0.1:{port}\"]\npublish = [\"nav_state\"]\nmax_rate_hz = {{ nav_state = 10.0 }}"
+    ));
+    let receiver = params(&format!(
+        "vehicle = \"quad\"\nconnect = [\"tcp/127.0.0.1:{port}\"]\nsubscribe = [\"nav_state\"]"
+    ));
+    let mut a_setup = TestSetup::<BridgeInput>::new("bridge_a", ".");
+    let mut b_setup = TestSetup::<BridgeInput>::new("bridge_b", ".");
+    let mut a = BridgeActor::build(&sender, &mut a_setup).expect("sender");
+    let mut b = BridgeActor::build(&receiver, &mut b_setup).expect("receiver");
+    let (a_ctx, b_ctx) = (a_setup.context(), b_setup.context());
+    a.start(&a_ctx).await.expect("sender session");
+    b.start(&b_ctx).await.expect("receiver session");
+    let clock = a_setup.manual_clock();
+    let mut now_ms = 0u64;
+    let nav_at = |ms: u64| {
+        NavState::exact(Time::from_micros(ms * 1000), [1.0, 0.0, 0.0, 0.0], [0.0; 3], [0.0; 3], [0.0; 3])
+    };
+    // Until the receiver hears, one message per 100 ms of graph time: each is due.
+    for _ in 0..200 {
+        now_ms += 100;
+        clock.set(Time::from_micros(now_ms * 1000));
+        a.handle(&a_ctx, a_setup.input("nav_state", nav_at(now_ms))).await.expect("send");
+        if b_setup.count("nav_state") > 0 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let heard = b_setup.count("nav_state");
+    assert!(heard > 0, "no NavState crossed in 10 s");
+    // A 100 Hz stream for 1 s of graph time, starting a full interval after the last one sent:
+    // 10 of the 100 messages are due (at 0, 100, … 900 ms).
+    for k in 0..100 {
+        clock.set(Time::from_micros((now_ms + 100 + 10 * k) * 1000));
+        a.handle(&a_ctx, a_setup.input("nav_state", nav_at(now_ms + 100 + 10 * k))).await.expect("send");
+    }
+    for _ in 0..100 {
+        if b_setup.count("nav_state") >= heard + 10 {
+            break;
+        }
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    // Time for any message beyond the ten to arrive as well, had the limit let it through.
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    assert_eq!(b_setup.count("nav_state") - heard, 10, "sent at 10 Hz of the graph clock");
+    a.stop(&a_ctx).await;
+    b.stop(&b_ctx).await;
+}

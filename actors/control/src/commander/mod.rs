@@ -306,8 +306,13 @@ impl Commander {
     /// the pilot's forward sticks in POSHOLD blend it in and hold when the stream goes stale
     /// (see `avoidance`). Non-finite ones are ignored.
     pub fn on_avoidance(&mut self, cmd: &AvoidanceCommand) {
+        let joining = !self.avoidance.active();
         if !self.avoidance.on_command(cmd) {
             tracing::warn!("non-finite avoidance command ignored");
+        } else if joining {
+            // Once per run: from here a stale stream holds the legs, so whoever tests or flies
+            // a loss of the vision side knows from when on it counts.
+            tracing::info!("avoider in the loop: its corrections steer the legs");
         }
     }
 
