@@ -227,19 +227,17 @@ mod tests {
         assert!((aligned.mag_earth_ned_gauss.unwrap() - field).norm() < 1e-9, "{aligned:?}");
     }
 
-    /// A barometer sample 80 m off inside the still window (what a first MS5611 conversion
-    /// against a stale temperature gave in HIL) starts the window again: the datum is the clean
-    /// samples' mean, not pulled 8 m by one sample in ten.
-    #[test]
-    fn a_baro_outlier_in_the_window_restarts_it_and_stays_out_of_the_datum() {
-        let params = EkfParams::default();
+    /// The datum a still, level vehicle aligns with under `params`, its barometer reading
+    /// `altitude_m(i)` every 40th IMU sample `i` (10 Hz).
+    fn datum_with_baro(params: &EkfParams, altitude_m: impl Fn(u64) -> f64) -> Option<f64> {
         let mut a = Alignment::default();
         let mut aligned = None;
         for i in 0..1000u64 {
             let time = Time::from_micros(2500 * i);
             if i % 40 == 1 {
-                let altitude_m = if i == 41 { 99.4 } else { 20.0 + if i % 80 == 1 { 0.2 } else { -0.2 } };
-                a.push_baro(&BaroSample { time, pressure_pa: 0.0, altitude_m, temperature_c: 0.0 }, &params);
+                let sample =
+                    BaroSample { time, pressure_pa: 0.0, altitude_m: altitude_m(i), temperature_c: 0.0 };
+                a.push_baro(&sample, params);
             }
             let s = ImuSample {
                 time,
@@ -249,31 +247,22 @@ mod tests {
                 gyro_clipped: [false; 3],
                 accel_clipped: [false; 3],
             };
-            aligned = aligned.or(a.push_imu(&s, &params));
+            aligned = aligned.or(a.push_imu(&s, params));
         }
-        let aligned = aligned.expect("aligned after the outlier's window");
-        let datum = aligned.baro_altitude_m.expect("a datum");
+        aligned.and_then(|a| a.baro_altitude_m)
+    }
+
+    /// A barometer sample 80 m off inside the still window (what a first MS5611 conversion
+    /// against a stale temperature gave in HIL) starts the window again: the datum is the clean
+    /// samples' mean, not pulled 8 m by one sample in ten.
+    #[test]
+    fn a_baro_outlier_in_the_window_restarts_it_and_stays_out_of_the_datum() {
+        let outlier_then_noise =
+            |i: u64| if i == 41 { 99.4 } else { 20.0 + if i % 80 == 1 { 0.2 } else { -0.2 } };
+        let datum = datum_with_baro(&EkfParams::default(), outlier_then_noise).expect("a datum");
         assert!((datum - 20.0).abs() <= 0.2, "datum {datum} m: the outlier leaked in");
-        let clean = EkfParams { align_max_baro_spread_m: 100.0, ..EkfParams::default() };
-        let mut b = Alignment::default();
-        let mut unguarded = None;
-        for i in 0..1000u64 {
-            let time = Time::from_micros(2500 * i);
-            if i % 40 == 1 {
-                let altitude_m = if i == 41 { 99.4 } else { 20.0 };
-                b.push_baro(&BaroSample { time, pressure_pa: 0.0, altitude_m, temperature_c: 0.0 }, &clean);
-            }
-            let s = ImuSample {
-                time,
-                gyro_rad_s: [0.0; 3],
-                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
-                dt_s: 0.0025,
-                gyro_clipped: [false; 3],
-                accel_clipped: [false; 3],
-            };
-            unguarded = unguarded.or(b.push_imu(&s, &clean));
-        }
-        let leaked = unguarded.and_then(|u| u.baro_altitude_m).expect("a datum");
+        let unguarded = EkfParams { align_max_baro_spread_m: 100.0, ..EkfParams::default() };
+        let leaked = datum_with_baro(&unguarded, |i| if i == 41 { 99.4 } else { 20.0 }).expect("a datum");
         assert!(leaked > 25.0, "without the spread check the outlier shows ({leaked} m): the test sees it");
     }
 
