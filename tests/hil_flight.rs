@@ -32,6 +32,7 @@
 //!   saw the stop, the controller wound up on the ground and tipped the vehicle, and the estimate
 //!   drifted 5.8 m after landing (1.7 to 2.2 m horizontal RMS in 3 of 7 flights). A clipped
 //!   sample now makes the velocity uncertain (`accel_clip_velocity_noise_m_s`).
+//!
 //! With both mended, three flights in a row passed: 0.321/0.334/0.320 m horizontal and
 //! 0.127/0.124/0.110 m height RMS against the seeds' worst 0.307 and 0.207 m
 //! (`cargo nextest run --features zenoh -E 'binary(hil_flight)' --no-capture`).
