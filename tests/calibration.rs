@@ -11,6 +11,7 @@
 //! and arming is accepted. The square is also flown in-process, error-free, uncalibrated and
 //! calibrated from the parameter file, for the figure without calibration.
 
+#[allow(dead_code, reason = "shared by the test binaries that run `kestrel run`; this one uses part of it")]
 mod sim_vehicle;
 
 use std::path::Path;

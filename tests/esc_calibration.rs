@@ -11,6 +11,7 @@
 //! spread of the four motors' mean commands in the air (what the controller spends on making
 //! unequal ESCs push alike) is measured for each.
 
+#[allow(dead_code, reason = "shared by the test binaries that run `kestrel run`; this one uses part of it")]
 mod sim_vehicle;
 
 use std::path::Path;

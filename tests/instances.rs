@@ -9,8 +9,6 @@
 #[allow(dead_code, reason = "shared by the test binaries that run `kestrel run`; this one uses part of it")]
 mod sim_vehicle;
 
-use std::process::Command;
-
 use sim_vehicle::{root, tail, temp_dir};
 
 #[test]
@@ -32,19 +30,15 @@ fn two_instances_fly_missions_at_once_and_one_ground_station_sees_both() {
         wait $gcs; g=$?
         echo "EXIT gcs=$g kestrel0=$k0 kestrel1=$k1"
     "#;
-    let out = Command::new("unshare")
-        .args(["--net", "--map-root-user", "sh", "-c", script])
-        .env("KESTREL", env!("CARGO_BIN_EXE_kestrel"))
-        .env("PYTHON", sim_vehicle::python())
-        .env("CLIENT", root().join("tests/python/gcs_fleet.py"))
-        .env("PLAN0", root().join("config/missions/square.plan"))
-        .env("PLAN1", root().join("config/missions/leg-40m.plan"))
-        .env("DIR", &dir)
-        .env("PYTHONUNBUFFERED", "1")
-        .env_remove("RUST_LOG")
-        .current_dir(&dir)
-        .output()
-        .expect("unshare (util-linux) runs the fleet in a network namespace of its own");
+    let out = sim_vehicle::fleet_in_own_network(
+        script,
+        &dir,
+        &[
+            ("CLIENT", root().join("tests/python/gcs_fleet.py")),
+            ("PLAN0", root().join("config/missions/square.plan")),
+            ("PLAN1", root().join("config/missions/leg-40m.plan")),
+        ],
+    );
     let stdout = String::from_utf8_lossy(&out.stdout);
     let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_default();
     let gcs = read("gcs.out");

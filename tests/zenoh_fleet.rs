@@ -12,8 +12,6 @@
 #[allow(dead_code, reason = "shared by the test binaries that run `kestrel run`; this one uses part of it")]
 mod sim_vehicle;
 
-use std::process::Command;
-
 use serde_json::Value;
 use sim_vehicle::{root, tail, temp_dir};
 
@@ -39,18 +37,14 @@ fn one_zenoh_subscriber_sees_two_instances_and_commands_one_as_a_ground_station_
         wait $vehicle1; k1=$?
         echo "EXIT client=$c kestrel0=$k0 kestrel1=$k1"
     "#;
-    let out = Command::new("unshare")
-        .args(["--net", "--map-root-user", "sh", "-c", script])
-        .env("KESTREL", env!("CARGO_BIN_EXE_kestrel"))
-        .env("PYTHON", sim_vehicle::python())
-        .env("CLIENT", root().join("tests/python/zenoh_fleet.py"))
-        .env("CONFIG", root().join("config/fleet-sim.toml"))
-        .env("DIR", &dir)
-        .env("PYTHONUNBUFFERED", "1")
-        .env_remove("RUST_LOG")
-        .current_dir(&dir)
-        .output()
-        .expect("unshare (util-linux) runs the fleet in a network namespace of its own");
+    let out = sim_vehicle::fleet_in_own_network(
+        script,
+        &dir,
+        &[
+            ("CLIENT", root().join("tests/python/zenoh_fleet.py")),
+            ("CONFIG", root().join("config/fleet-sim.toml")),
+        ],
+    );
     let stdout = String::from_utf8_lossy(&out.stdout);
     let read = |name: &str| std::fs::read_to_string(dir.join(name)).unwrap_or_default();
     let client = read("client.out");

@@ -6,7 +6,7 @@
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::process::{Child, Command, ExitStatus, Output, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -229,6 +229,23 @@ impl Drop for Proc {
 }
 
 /// The last `lines` lines of `text`.
+/// Runs the shell `script` in a network namespace of its own (so its vehicles' fixed ports are
+/// the test's alone) from `dir`, with `KESTREL`, `PYTHON`, `DIR` and the test's `env` set: a
+/// fleet of `kestrel run`s and the client that watches them.
+pub fn fleet_in_own_network(script: &str, dir: &Path, env: &[(&str, PathBuf)]) -> Output {
+    Command::new("unshare")
+        .args(["--net", "--map-root-user", "sh", "-c", script])
+        .env("KESTREL", env!("CARGO_BIN_EXE_kestrel"))
+        .env("PYTHON", python())
+        .env("DIR", dir)
+        .envs(env.iter().map(|(k, v)| (*k, v)))
+        .env("PYTHONUNBUFFERED", "1")
+        .env_remove("RUST_LOG")
+        .current_dir(dir)
+        .output()
+        .expect("unshare (util-linux) runs the fleet in a network namespace of its own")
+}
+
 pub fn tail(text: &str, lines: usize) -> String {
     let all: Vec<&str> = text.lines().collect();
     all[all.len().saturating_sub(lines)..].join("\n")

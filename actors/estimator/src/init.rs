@@ -190,6 +190,18 @@ mod tests {
         panic!("never aligned");
     }
 
+    /// A 400 Hz sample of a still, level vehicle.
+    fn level_still(time: Time) -> ImuSample {
+        ImuSample {
+            time,
+            gyro_rad_s: [0.0; 3],
+            accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
+            dt_s: 0.0025,
+            gyro_clipped: [false; 3],
+            accel_clipped: [false; 3],
+        }
+    }
+
     /// Alternating noise on the magnetometer and barometer: the references are the window's
     /// means, exactly; samples from before the window are left out.
     #[test]
@@ -204,14 +216,7 @@ mod tests {
         let mut aligned = None;
         for i in 0..1000u64 {
             let time = Time::from_micros(2500 * i);
-            let s = ImuSample {
-                time,
-                gyro_rad_s: [0.0; 3],
-                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
-                dt_s: 0.0025,
-                gyro_clipped: [false; 3],
-                accel_clipped: [false; 3],
-            };
+            let s = level_still(time);
             if i % 4 == 1 {
                 let sign = if i % 8 == 1 { 1.0 } else { -1.0 };
                 let noisy = field + Vector3::new(0.0, 0.05 * sign, 0.0);
@@ -239,14 +244,7 @@ mod tests {
                     BaroSample { time, pressure_pa: 0.0, altitude_m: altitude_m(i), temperature_c: 0.0 };
                 a.push_baro(&sample, params);
             }
-            let s = ImuSample {
-                time,
-                gyro_rad_s: [0.0; 3],
-                accel_m_s2: [0.0, 0.0, -GRAVITY_M_S2],
-                dt_s: 0.0025,
-                gyro_clipped: [false; 3],
-                accel_clipped: [false; 3],
-            };
+            let s = level_still(time);
             aligned = aligned.or(a.push_imu(&s, params));
         }
         aligned.and_then(|a| a.baro_altitude_m)
