@@ -121,7 +121,11 @@ async fn max_rate_hz_sends_one_nav_state_per_interval_of_the_graph_clock() {
     }
     // Time for any message beyond the ten to arrive as well, had the limit let it through.
     tokio::time::sleep(Duration::from_millis(300)).await;
-    assert_eq!(b_setup.count("nav_state") - heard, 10, "sent at 10 Hz of the graph clock");
+    // At most the ten due: Zenoh drops a put it cannot deliver under congestion (its default
+    // for data), and on a loaded host it dropped 8 of the 10 once; without the limit some 100
+    // arrive. Exactly which are admitted is the unit test's (`rate_limit.rs`).
+    let got = b_setup.count("nav_state") - heard;
+    assert!((1..=10).contains(&got), "sent at 10 Hz of the graph clock: {got} of 100 arrived");
     a.stop(&a_ctx).await;
     b.stop(&b_ctx).await;
 }
