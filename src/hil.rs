@@ -34,10 +34,11 @@ pub struct HilOptions {
 }
 
 impl HilOptions {
-    /// The default vehicle in the empty world, the bench in a directory of this process's own.
+    /// The default vehicle in the empty world, the bench in a directory of this process's own
+    /// on a memory filesystem ([`bench_dir`]).
     pub fn new() -> HilOptions {
         HilOptions {
-            dir: std::env::temp_dir().join(format!("kestrel-hil-{}", std::process::id())),
+            dir: bench_dir(),
             vehicle: PathBuf::from("vehicles/quad_x.toml"),
             world: PathBuf::from("worlds/empty.toml"),
             imu_who_am_i: kestrel_sim::hil::mpu9250::MPU9250_WHO_AM_I,
@@ -49,6 +50,21 @@ impl Default for HilOptions {
     fn default() -> HilOptions {
         HilOptions::new()
     }
+}
+
+/// Where a bench lives: `kestrel-hil-<pid>` in `/dev/shm` (a tmpfs on every Linux), else in
+/// the temporary directory.
+///
+/// A Navio2's sysfs files are kernel memory; emulated on a disk filesystem they put the disk
+/// under the real-time threads that read and write them. Replacing a value by a rename frees the
+/// old file, and freeing waits for its writeback and discard: beside a large write to the same
+/// disk, the world thread stalled 574 ms in `rename` (`/proc/<tid>/stack`: `folio_wait_writeback`
+/// under `do_renameat2`), the IMU the drivers read froze for 1.3 s and a HIL flight flipped on
+/// its landing descent.
+pub fn bench_dir() -> PathBuf {
+    let shm = Path::new("/dev/shm");
+    let parent = if shm.is_dir() { shm.to_path_buf() } else { std::env::temp_dir() };
+    parent.join(format!("kestrel-hil-{}", std::process::id()))
 }
 
 /// The one actor of type `kind` in `config` (its name and declaration), or an error naming

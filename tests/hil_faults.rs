@@ -11,12 +11,11 @@ use kestrel::{LoadedConfig, Registry, RunError, RunOptions};
 fn an_imu_answering_a_wrong_who_am_i_stops_the_start_naming_the_device() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut config = LoadedConfig::load(&root.join("config/navio2.toml")).expect("navio2.toml loads");
-    let dir = std::env::temp_dir().join(format!("kestrel-hil-faults-{}", std::process::id()));
     // 0x68 is an MPU-6050/6000: a real InvenSense part, not the one the graph drives.
-    let options = HilOptions { dir: dir.clone(), imu_who_am_i: 0x68, ..HilOptions::new() };
+    let options = HilOptions { imu_who_am_i: 0x68, ..HilOptions::new() };
     let _bench = apply_hil(&mut config, &options).expect("the bench builds");
     let run = kestrel::run(&config, &Registry::standard(), RunOptions::default());
-    std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(&options.dir).ok();
     let Err(RunError::Config(errors)) = run else { panic!("the run started on a wrong IMU: {run:?}") };
     let text: Vec<String> = errors.iter().map(ToString::to_string).collect();
     let imu = text.iter().find(|e| e.contains("WHO_AM_I")).unwrap_or_else(|| panic!("{text:#?}"));

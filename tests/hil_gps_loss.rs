@@ -23,7 +23,7 @@ const UNPLUGGED: Duration = Duration::from_secs(10);
 #[test]
 fn the_gps_line_gone_for_10_s_in_flight_is_dead_reckoned_reported_and_taken_up_again() {
     let dir = std::env::temp_dir().join(format!("kestrel-hil-gps-{}", std::process::id()));
-    let (config, bench) = hil_square::square_on_the_bench(&dir);
+    let (config, bench) = hil_square::square_on_the_bench();
     // The line goes, then comes back as a receiver that lost power (at its factory rate).
     let injector = hil_square::when_airborne(&bench, |bench| {
         bench.gps().pty = None;
@@ -74,4 +74,5 @@ fn the_gps_line_gone_for_10_s_in_flight_is_dead_reckoned_reported_and_taken_up_a
         "the GPS driver took its line up again without failing: {gps_failures:?}"
     );
     std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(&bench.config.dir).ok();
 }

@@ -17,7 +17,7 @@ const FAULT: std::time::Duration = std::time::Duration::from_millis(50);
 #[test]
 fn pwm_writes_failing_with_eio_for_50_ms_in_flight_are_retried_counted_and_the_flight_goes_on() {
     let dir = std::env::temp_dir().join(format!("kestrel-hil-pwm-{}", std::process::id()));
-    let (config, bench) = hil_square::square_on_the_bench(&dir);
+    let (config, bench) = hil_square::square_on_the_bench();
     let injector = hil_square::when_airborne(&bench, |bench| {
         bench.fail_pwm_writes(true);
         std::thread::sleep(FAULT);
@@ -54,4 +54,5 @@ fn pwm_writes_failing_with_eio_for_50_ms_in_flight_are_retried_counted_and_the_f
     // margin) of retries can make.
     assert!(errors <= 4 * 40, "{errors} failed writes for a 50 ms fault");
     std::fs::remove_dir_all(&dir).ok();
+    std::fs::remove_dir_all(&bench.config.dir).ok();
 }

@@ -13,8 +13,9 @@ use kestrel_sim::hil::Navio2Bench;
 use kestrel_sim::hil::navio2_sysfs::EscInput;
 
 /// `config/navio2.toml` set to fly `config/missions/square.plan` by itself and stop once
-/// landed, on an emulated board in `dir`.
-pub fn square_on_the_bench(dir: &Path) -> (LoadedConfig, Arc<Navio2Bench>) {
+/// landed, on an emulated board in its default directory (`kestrel::hil::bench_dir`, in
+/// memory: `bench.config.dir`, for the test to remove).
+pub fn square_on_the_bench() -> (LoadedConfig, Arc<Navio2Bench>) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut config = LoadedConfig::load(&root.join("config/navio2.toml")).expect("navio2.toml loads");
     for actor in config.graph.actors.values_mut() {
@@ -27,8 +28,7 @@ pub fn square_on_the_bench(dir: &Path) -> (LoadedConfig, Arc<Navio2Bench>) {
             params.insert("exit_on_land".into(), true.into());
         }
     }
-    let options = HilOptions { dir: dir.join("bench"), ..HilOptions::new() };
-    let bench = apply_hil(&mut config, &options).expect("the bench builds");
+    let bench = apply_hil(&mut config, &HilOptions::new()).expect("the bench builds");
     (config, bench)
 }
 
