@@ -23,7 +23,7 @@ pub fn fly(name: &str, world: &Path, mission: &str, duration_s: u32) -> Value {
     let _ = std::fs::remove_dir_all(&dir);
     let (flight, avoidance) = (&value["flight"], &value["avoidance"]);
     println!(
-        "figure: {name}: completed {}, collisions {}, min clearance {:.2} m, {:.1} s, path {:.1} m for {:.1} m straight, {} (host wall clock), perception real-time factor {:.2}x",
+        "figure: {name}: completed {}, collisions {}, min clearance {:.2} m, {:.1} s, path {:.1} m for {:.1} m straight, {} (host wall clock), perception real-time factor {:.2}x, speed capped {:.1} s (lowest cap {:.2} m/s)",
         value["mission"]["completed"],
         flight["collisions"],
         flight["min_clearance_m"].as_f64().unwrap_or(f64::NAN),
@@ -32,6 +32,8 @@ pub fn fly(name: &str, world: &Path, mission: &str, duration_s: u32) -> Value {
         flight["straight_line_m"].as_f64().unwrap_or(f64::NAN),
         frame_to_setpoint(&value),
         avoidance["realtime_factor"].as_f64().unwrap_or(f64::NAN),
+        avoidance["speed_capped_s"].as_f64().unwrap_or(f64::NAN),
+        avoidance["lowest_speed_cap_m_s"].as_f64().unwrap_or(f64::NAN),
     );
     assert!(
         avoidance["realtime_factor"].as_f64().is_some_and(|r| r > 0.0),
