@@ -351,8 +351,8 @@ struct Upright {
 
 /// Rows held to [`Upright`] bounds. Row 13: a quad that lost a motor spins on the three left
 /// ([`kestrel_control::SpinDescent`]); until the spin builds up the roll the loss started runs
-/// on (55–73° in the closed-loop tests of actors/control/tests/motor_failure.rs), then it
-/// descends upright at LAND's 1.5 m/s.
+/// on (55–73° in the closed-loop tests of actors/control/tests/motor_failure.rs, 76.7° in this
+/// row), then it descends upright at LAND's 1.5 m/s (0.6 m/s near the ground).
 const UPRIGHT: [(u32, Upright); 1] =
     [(13, Upright { max_tilt_deg: 80.0, touchdown_m_s: 2.0, touchdown_tilt_deg: 10.0 })];
 
