@@ -166,6 +166,20 @@ pub struct FlightSection {
     /// Horizontal straight-line distance from where the vehicle left the ground to where it
     /// ended (m): with `path_length_m`, how far avoiding obstacles made it go round.
     pub straight_line_m: f64,
+    /// Largest true angle of the thrust axis from vertical while airborne (degrees).
+    #[serde(default)]
+    pub max_tilt_deg: f64,
+    /// The last touchdown: true downward speed (m/s) and tilt (degrees) of the last airborne
+    /// ground-truth sample before it; `None` without one.
+    #[serde(default)]
+    pub touchdown: Option<Touchdown>,
+}
+
+/// How the vehicle met the ground, from the ground truth just before.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Touchdown {
+    pub speed_down_m_s: f64,
+    pub tilt_deg: f64,
 }
 
 /// Root-mean-square estimation errors against ground truth, over the samples where the
@@ -358,6 +372,16 @@ pub struct FlightReportActor {
     path_length_m: f64,
     airborne_first: Option<[f64; 2]>,
     airborne_last: Option<[f64; 2]>,
+    max_tilt_deg: f64,
+    /// The latest airborne sample's downward speed and tilt, and the last touchdown.
+    airborne_touchdown: Option<Touchdown>,
+    touchdown: Option<Touchdown>,
+}
+
+/// Angle of the body's down axis from NED down (degrees) for the attitude `[w, x, y, z]`.
+fn tilt_deg(q: [f64; 4]) -> f64 {
+    let [_, x, y, _] = q;
+    (1.0 - 2.0 * (x * x + y * y)).clamp(-1.0, 1.0).acos().to_degrees()
 }
 
 /// The speed cap's account from the commander's statuses: a status whose cap limits counts
@@ -398,7 +422,13 @@ impl FlightReportActor {
         if let Some(c) = truth.clearance_m {
             self.min_clearance_m = Some(self.min_clearance_m.map_or(c, |m: f64| m.min(c)));
         }
-        if !truth.landed {
+        if truth.landed {
+            self.touchdown = self.airborne_touchdown.take().or(self.touchdown);
+        } else {
+            let tilt = tilt_deg(truth.attitude);
+            self.max_tilt_deg = self.max_tilt_deg.max(tilt);
+            self.airborne_touchdown =
+                Some(Touchdown { speed_down_m_s: truth.velocity_ned_m_s[2], tilt_deg: tilt });
             let here = [truth.position_ned_m[0], truth.position_ned_m[1]];
             if let Some(last) = self.airborne_last {
                 self.path_length_m += (here[0] - last[0]).hypot(here[1] - last[1]);
@@ -503,6 +533,8 @@ impl FlightReportActor {
                 (Some(a), Some(b)) => (b[0] - a[0]).hypot(b[1] - a[1]),
                 _ => 0.0,
             },
+            max_tilt_deg: self.max_tilt_deg,
+            touchdown: self.touchdown,
         });
         let e = &self.errors;
         let rms = |sum: f64| (sum / e.samples as f64).sqrt();
@@ -600,6 +632,9 @@ impl Actor for FlightReportActor {
             path_length_m: 0.0,
             airborne_first: None,
             airborne_last: None,
+            max_tilt_deg: 0.0,
+            airborne_touchdown: None,
+            touchdown: None,
         })
     }
 
@@ -663,5 +698,25 @@ impl Actor for FlightReportActor {
             Ok(()) => tracing::info!(path = %self.out.display(), "flight report written"),
             Err(e) => tracing::error!(path = %self.out.display(), "cannot write the flight report: {e}"),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tilt_is_the_angle_of_body_down_from_ned_down() {
+        let (roll, pitch, yaw) = (0.3f64, -0.5f64, 2.0f64);
+        let ((sx, cx), (sy, cy), (sz, cz)) =
+            ((roll / 2.0).sin_cos(), (pitch / 2.0).sin_cos(), (yaw / 2.0).sin_cos());
+        // Yaw then roll (q_z · q_x): the tilt is the roll; pitch then roll (q_y · q_x): body down
+        // is (.., .., cos θ · cos φ) in NED.
+        let yawed_roll = [cz * cx, cz * sx, sz * sx, sz * cx];
+        let pitched_roll = [cy * cx, cy * sx, sy * cx, -sy * sx];
+        assert!((tilt_deg(yawed_roll) - roll.to_degrees()).abs() < 1e-9);
+        assert!((tilt_deg(pitched_roll) - (pitch.cos() * roll.cos()).acos().to_degrees()).abs() < 1e-9);
+        assert!(tilt_deg([sz, 0.0, 0.0, cz]) < 1e-9);
+        assert!((tilt_deg([0.0, 1.0, 0.0, 0.0]) - 180.0).abs() < 1e-9);
     }
 }

@@ -2,6 +2,9 @@
 //! version of the same cascade: Euler-angle attitude error and a mixer that builds and
 //! pseudo-inverts the effectiveness matrix on the heap every step.
 //!
+//! The same iteration on a quad that lost motor 1, which flies the spinning descent
+//! (`SpinDescent`) instead of the attitude, rate and mixer stages: beside the healthy step.
+//!
 //! Also the mixer's slowest path: around a failed hexa motor, with a demand so large that roll
 //! and pitch must be scaled (each scale tried searches the yaw torque that fits best).
 //!
@@ -78,6 +81,15 @@ fn bench(c: &mut Criterion) {
             let sp = Setpoint { time: Time::from_micros(i * 2500), ..sp };
             let _ = ctl.set_setpoint(&sp);
             black_box(ctl.update(black_box(&nav(i))))
+        })
+    });
+    let mut lost = FlightController::new(ControlParams::default()).expect("valid");
+    c.bench_function("flight_controller_step_quad_motor_lost", |b| {
+        b.iter(|| {
+            i += 1;
+            let sp = Setpoint { time: Time::from_micros(i * 2500), failed_motor: Some(0), ..sp };
+            let _ = lost.set_setpoint(&sp);
+            black_box(lost.update(black_box(&nav(i))))
         })
     });
     let mut mixer = Mixer::new(&AirframeParams { frame: FrameLayout::HexaX, ..AirframeParams::default() });

@@ -6,10 +6,16 @@
 //! all flies *blind* (zero torque, thrust a little below hover: level-ish and descending), and a
 //! lost setpoint brakes to a stop and descends. It is pure: the lockstep actor calls it once
 //! per NavState, the real-time thread once per period.
+//!
+//! A quad that lost a motor (the setpoint names it) cannot hold a heading, nor its attitude on
+//! the cascade: from then on the outer loops' thrust axis and collective go to
+//! [`SpinDescent`], which lets it spin and steers the axis with the three motors left.
 
 use kestrel_proto::Time;
 use kestrel_proto::attitude::unit_quaternion;
-use kestrel_proto::messages::{ActuatorOutputs, NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
+use kestrel_proto::messages::{
+    ActuatorOutputs, MAX_MOTORS, NavState, Setpoint, SetpointTarget, TrajectorySetpoint,
+};
 use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::attitude::AttitudeController;
@@ -19,6 +25,7 @@ use crate::mixer::{Mixer, Saturation};
 use crate::params::ControlParams;
 use crate::position::{PositionController, yaw_of};
 use crate::rate::RateController;
+use crate::spin_descent::SpinDescent;
 
 /// Largest step the integrators accept (s): a longer gap (a paused simulation, a stall) is
 /// treated as this long.
@@ -71,6 +78,8 @@ pub struct FlightController {
     params: ControlParams,
     hover_thrust: f64,
     mixer: Mixer,
+    /// The spinning flight for each motor a quad may lose (`None` on other frames).
+    spin: [Option<SpinDescent>; MAX_MOTORS],
     attitude: AttitudeController,
     rate: RateController,
     position: PositionController,
@@ -88,6 +97,7 @@ impl FlightController {
         let hover_thrust = params.hover_thrust();
         Ok(FlightController {
             mixer: Mixer::new(&params.airframe),
+            spin: std::array::from_fn(|lost| SpinDescent::new(&params.airframe, lost)),
             attitude: AttitudeController::new(params.attitude),
             rate: RateController::new(params.rate, params.airframe.inertia_frd_kg_m2),
             position: PositionController::new(params.position, hover_thrust),
@@ -189,15 +199,19 @@ impl FlightController {
             sp.target
         };
         let full = self.mixer.full_thrust_n();
-        let (rates, thrust_n, attitude_sp) = match target {
+        // Each target's rate setpoint, collective and attitude for the cascade, and the thrust
+        // axis (body down, NED) and the collective along it (N) for a spinning quad.
+        let (rates, thrust_n, attitude_sp, wanted) = match target {
             SetpointTarget::MotorsOff => return self.idle(now, true),
             SetpointTarget::Rates { rates_frd_rad_s, thrust } => {
-                (Vector3::from(rates_frd_rad_s), thrust * full, None)
+                // Spinning, rates cannot be flown: upright, on the thrust asked for.
+                (Vector3::from(rates_frd_rad_s), thrust * full, None, (Vector3::z(), thrust * full))
             }
             SetpointTarget::Attitude { attitude, yaw_rate_rad_s, thrust } => {
                 // `set_setpoint` took only attitudes that are rotations.
                 let Ok(q_d) = unit_quaternion(attitude) else { return self.fly_blind(now) };
-                (self.attitude.rate_setpoint(&q, &q_d, yaw_rate_rad_s), thrust * full, Some(q_d))
+                let rates = self.attitude.rate_setpoint(&q, &q_d, yaw_rate_rad_s);
+                (rates, thrust * full, Some(q_d), (q_d * Vector3::z(), thrust * full))
             }
             SetpointTarget::Trajectory(traj) => {
                 let traj = self.usable(traj, nav, &q, dt);
@@ -211,9 +225,23 @@ impl FlightController {
                 let axis_wanted = out.attitude * Vector3::z();
                 let projected = out.thrust * axis_now.dot(&axis_wanted);
                 let floor = self.params.position.min_thrust;
-                (rates, projected.max(floor) * full, Some(out.attitude))
+                let wanted = (axis_wanted, out.thrust.max(floor) * full);
+                (rates, projected.max(floor) * full, Some(out.attitude), wanted)
             }
         };
+        if let Some(spin) = self.mixer.failed_motor().and_then(|lost| self.spin[lost]) {
+            // The measured state passed the checks above, the axis and collective are the outer
+            // loops' own: a refusal here cannot happen, and would fly blind.
+            let Ok(out) = spin.update(&q, &omega, &wanted.0, wanted.1) else { return self.fly_blind(now) };
+            self.demand = Demand {
+                attitude: attitude_sp,
+                rates_rad_s: out.rates_rad_s,
+                torque_n_m: out.torque_n_m,
+                thrust_n: out.thrust_n,
+                saturation: Saturation { yaw: true, ..Saturation::default() },
+            };
+            return ActuatorOutputs { time: now, armed: true, motors: out.motors };
+        }
         let torque = self.rate.torque(&rates, &omega, dt, self.demand.saturation);
         let mixed = self.mixer.mix(&torque, thrust_n);
         self.demand = Demand {

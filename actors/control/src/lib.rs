@@ -38,6 +38,7 @@ pub mod plan;
 pub mod position;
 pub mod rate;
 pub mod rt;
+pub mod spin_descent;
 pub mod truth_nav;
 
 pub use airframe::AirframeParams;
@@ -55,4 +56,5 @@ pub use pilot_script::{PilotScriptActor, PilotScriptInput, PilotScriptParams, Pi
 pub use plan::{load_plan, parse_plan};
 pub use position::{AttitudeThrust, PositionController, PositionGains};
 pub use rate::{RateController, RateGains};
+pub use spin_descent::{SpinDescent, SpinInputError, SpinOutput};
 pub use truth_nav::{TruthNavActor, TruthNavInput, TruthNavParams};

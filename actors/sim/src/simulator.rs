@@ -386,7 +386,7 @@ impl Simulator {
                 force_ned_n: s.attitude * thrust_frd_n
                     + weight_ned_n
                     + drag.force_ned_n(&(s.velocity_ned_m_s - air_ned_m_s)),
-                torque_frd_n_m,
+                torque_frd_n_m: torque_frd_n_m + drag.torque_frd_n_m(&s.angular_velocity_frd_rad_s),
             });
             self.ground.resolve(&self.vehicle.contact, &mut self.state);
         }

@@ -60,7 +60,7 @@ fn a_little_more_than_hover_throttle_climbs() {
 #[test]
 fn free_fall_matches_gravity() {
     let vehicle = VehicleParams {
-        drag: DragParams { linear_n_per_m_s: 0.0, quadratic_n_per_m2_s2: 0.0 },
+        drag: DragParams { linear_n_per_m_s: 0.0, quadratic_n_per_m2_s2: 0.0, yaw_n_m_per_rad_s: 0.0 },
         ..VehicleParams::default()
     };
     let mut s = sim(vehicle, World::default(), at([0.0, 0.0, -100.0]), ActuatorOutputs::default());
@@ -214,7 +214,7 @@ fn flying_through_a_box_counts_one_collision() {
         ..World::default()
     };
     let vehicle = VehicleParams {
-        drag: DragParams { linear_n_per_m_s: 0.0, quadratic_n_per_m2_s2: 0.0 },
+        drag: DragParams { linear_n_per_m_s: 0.0, quadratic_n_per_m2_s2: 0.0, yaw_n_m_per_rad_s: 0.0 },
         ..VehicleParams::default()
     };
     let hover = hover_throttle(&vehicle);
