@@ -14,7 +14,7 @@ use std::collections::{BTreeMap, VecDeque};
 use std::path::PathBuf;
 use std::time::Instant;
 
-use kestrel_proto::attitude::{angle_difference_rad, euler_rad};
+use kestrel_proto::attitude::{angle_difference_rad, euler_rad, tilt_rad, unit_quaternion};
 use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{
     AvoidanceCommand, ControlLoopStats, EstimatorStatus, GroundTruth, NavState, Setpoint, SetpointTarget,
@@ -378,10 +378,10 @@ pub struct FlightReportActor {
     touchdown: Option<Touchdown>,
 }
 
-/// Angle of the body's down axis from NED down (degrees) for the attitude `[w, x, y, z]`.
+/// Angle of the body's down axis from NED down (degrees) for the attitude `[w, x, y, z]`; NaN
+/// for one that is no rotation (the simulator's truth always is; `f64::max` passes NaN over).
 fn tilt_deg(q: [f64; 4]) -> f64 {
-    let [_, x, y, _] = q;
-    (1.0 - 2.0 * (x * x + y * y)).clamp(-1.0, 1.0).acos().to_degrees()
+    unit_quaternion(q).map_or(f64::NAN, |q| tilt_rad(&q).to_degrees())
 }
 
 /// The speed cap's account from the commander's statuses: a status whose cap limits counts

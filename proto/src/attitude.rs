@@ -35,6 +35,13 @@ pub fn wxyz(q: &UnitQuaternion<f64>) -> [f64; 4] {
     [q.w, q.i, q.j, q.k]
 }
 
+/// Angle (rad, 0..π) of the body's down axis from NED down for the attitude `q` (body FRD →
+/// NED): 1 − 2(x² + y²) is that angle's cosine, exact at level (0, where the angle between two
+/// rotated vectors would round to about 1e-8 rad).
+pub fn tilt_rad(q: &UnitQuaternion<f64>) -> f64 {
+    (1.0 - 2.0 * (q.i * q.i + q.j * q.j)).clamp(-1.0, 1.0).acos()
+}
+
 /// Roll, pitch, yaw (rad) of the attitude quaternion `[w, x, y, z]` (body FRD → NED), in the
 /// aerospace Z-Y-X convention: yaw about down, then pitch about the new right axis, then roll
 /// about forward. Pitch is clamped to ±90° at the singularity.
@@ -93,6 +100,15 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn tilt_is_the_angle_of_body_down_from_ned_down(roll in -3.1f64..3.1, pitch in -1.5f64..1.5, yaw in -3.1f64..3.1) {
+            let q = unit_quaternion(quaternion_from_euler(roll, pitch, yaw)).expect("a rotation");
+            let down = nalgebra::Vector3::z();
+            // Body down in NED is (.., .., cos θ · cos φ): the tilt's cosine, whatever the yaw.
+            prop_assert!((tilt_rad(&q) - (q * down).angle(&down)).abs() < 1e-6);
+            prop_assert!((tilt_rad(&q).cos() - pitch.cos() * roll.cos()).abs() < 1e-9);
+        }
+
         #[test]
         fn euler_round_trip(roll in -3.1f64..3.1, pitch in -1.5f64..1.5, yaw in -3.1f64..3.1) {
             let [r, p, y] = euler_rad(quaternion_from_euler(roll, pitch, yaw));

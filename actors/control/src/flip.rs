@@ -10,7 +10,7 @@
 //! short into recovery.
 
 use kestrel_proto::Time;
-use kestrel_proto::attitude::wxyz;
+use kestrel_proto::attitude::{tilt_rad, wxyz};
 use kestrel_proto::messages::{NavState, SetpointTarget};
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -105,7 +105,7 @@ impl Flip {
                 SetpointTarget::Rates { rates_frd_rad_s: [ROLL_RATE_RAD_S, 0.0, 0.0], thrust }
             }
             Phase::Recover { since } => {
-                let tilt = (q * Vector3::z()).angle(&Vector3::z());
+                let tilt = tilt_rad(&q);
                 let timed_out = nav.time.saturating_since(since).as_secs_f64() > RECOVER_TIMEOUT_S;
                 if (tilt < LEVEL_TILT_RAD && omega.norm() < LEVEL_RATE_RAD_S) || timed_out {
                     self.phase = Phase::Done;

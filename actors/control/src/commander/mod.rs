@@ -23,7 +23,7 @@ mod motor_check;
 mod params;
 
 use kestrel_proto::Time;
-use kestrel_proto::attitude::unit_quaternion;
+use kestrel_proto::attitude::{tilt_rad, unit_quaternion};
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, EscTelemetry,
@@ -630,7 +630,7 @@ impl Commander {
     }
 
     fn tilt_rad(&self, nav: &NavState) -> f64 {
-        (attitude(nav) * Vector3::z()).angle(&Vector3::z())
+        tilt_rad(&attitude(nav))
     }
 
     fn home_or(&self, nav: &NavState) -> Vector3<f64> {
