@@ -76,6 +76,11 @@ def on_sample(sample):
             log(f"{vehicle} answered command {msg['id']}: {msg['refusal'] or 'accepted'}")
 
 
+# Tries of a command that gets no answer, and how long each waits for one (s).
+COMMAND_TRIES = 3
+COMMAND_WAIT_S = 3.0
+
+
 def wait_for(condition, what, limit_s):
     deadline = time.monotonic() + limit_s
     while time.monotonic() < deadline:
@@ -122,13 +127,19 @@ with zenoh.open(config) as session:
     key = f"kestrel/{args.command}/vehicle_command"
     encoding = zenoh.Encoding("application/json;kestrel.VehicleCommand")
     for (command_id, command) in commands if ready else []:
-        # No timestamp: the bridge takes a client's command as given on arrival.
-        session.put(key, json.dumps({"id": command_id, "time": 0, "command": command}), encoding=encoding)
-        log(f"sent command {command_id}: {json.dumps(command)}")
-        if command_id >= FIRST_ID:
-            wait_for(lambda: command_id in results, f"the answer to {command_id}", 10.0)
-        else:
-            time.sleep(1.0)
+        # Zenoh drops a put that reaches no subscriber yet (the vehicle's declaration may still
+        # be on its way), so an unanswered command is sent again with the same id, as a ground
+        # station retries a COMMAND_LONG (MAVSDK: three tries); one in the link's own id range is
+        # sent once, and must never be answered.
+        tries = COMMAND_TRIES if command_id >= FIRST_ID else 1
+        for attempt in range(1, tries + 1):
+            # No timestamp: the bridge takes a client's command as given on arrival.
+            session.put(key, json.dumps({"id": command_id, "time": 0, "command": command}), encoding=encoding)
+            log(f"sent command {command_id} (try {attempt}): {json.dumps(command)}")
+            if command_id < FIRST_ID:
+                time.sleep(1.0)
+            elif wait_for(lambda: command_id in results, f"the answer to {command_id}", COMMAND_WAIT_S):
+                break
     wait_for(lambda: figures(args.command)["armed_seen"], f"{args.command} armed", 5.0 if ready else 0.0)
     with lock:
         first = vehicles.get(args.vehicles[0])
