@@ -240,6 +240,47 @@ fn a_trunk_passed_out_of_view_closes_its_side_to_the_sidestep_and_limits_the_sli
 }
 
 #[test]
+fn a_sidestep_boxed_in_between_two_closing_sides_climbs_until_the_path_clears() {
+    // A pole straight ahead with the sides tied: sidestep right, by convention.
+    let mut avoider = unfiltered(3.0);
+    let pole = |t: f64, left_m: Option<f32>, right_m: Option<f32>| {
+        let mut grid = clear_grid(t, blocked(&[(1, 1)]));
+        grid.regions[1][0].nearest_m = left_m;
+        grid.regions[1][2].nearest_m = right_m;
+        grid
+    };
+    let first = avoider.update(at(0.0), &pole(0.0, None, None)).expect("valid");
+    assert_eq!(first.health.sidestep_m_s, 1.0, "{:?}", first.health);
+    // Something 3 m off on the right closes it: turn left (one turn).
+    let left = avoider.update(at(0.1), &pole(0.1, None, Some(3.0))).expect("valid");
+    assert_eq!(left.health.sidestep_m_s, -1.0, "{:?}", left.health);
+    assert!(!left.health.climbing);
+    // Then the left closes and the right is open again: turning back is being boxed in.
+    let back = avoider.update(at(0.2), &pole(0.2, Some(3.0), None)).expect("valid");
+    assert_eq!(back.health.sidestep_m_s, 1.0, "{:?}", back.health);
+    // From the next grid on it climbs, with no sidestep, while the path stays blocked.
+    for t in [0.3, 0.4, 1.0] {
+        let climb = avoider.update(at(t), &pole(t, None, Some(3.0))).expect("valid");
+        assert!(climb.health.climbing, "at {t} s: {:?}", climb.health);
+        assert_eq!(climb.velocity_frd_m_s, [-3.0, 0.0, -1.5], "at {t} s");
+    }
+    // The path clears (the pole is below): the climb goes on for its 1 m margin (0.67 s).
+    let clear = |t: f64| clear_grid(t, [[0.0; 3]; 3]);
+    assert!(avoider.update(at(1.1), &clear(1.1)).expect("valid").health.climbing);
+    assert!(avoider.update(at(1.7), &clear(1.7)).expect("valid").health.climbing);
+    let over = avoider.update(at(1.8), &clear(1.8)).expect("valid");
+    assert!(!over.health.climbing && over.health.sidestep_m_s == 0.0, "{:?}", over.health);
+
+    // One turn alone is no box: a new sidestep after the path cleared starts its count afresh.
+    let again = avoider.update(at(2.0), &pole(2.0, None, None)).expect("valid");
+    assert_eq!(again.health.sidestep_m_s, 1.0, "{:?}", again.health);
+    let turned = avoider.update(at(2.1), &pole(2.1, None, Some(3.0))).expect("valid");
+    assert_eq!(turned.health.sidestep_m_s, -1.0);
+    let on = avoider.update(at(2.2), &pole(2.2, None, Some(3.0))).expect("valid");
+    assert!(!on.health.climbing && on.health.sidestep_m_s == -1.0, "{:?}", on.health);
+}
+
+#[test]
 fn a_whole_blocked_centre_column_sidesteps_instead_of_climbing_or_diving() {
     // A tall trunk straight ahead fills up, centre and down: the rule base's vertical answer
     // (rows 5 and 6 of table 3.1 fire against each other) is no way over or under.

@@ -13,9 +13,11 @@
 //! replaces what it sees: a remembered point in a sector the frame measures (with both its
 //! neighbours), nearer than their range plus [`CARVE_TOLERANCE_M`], is either seen again or
 //! proven gone, and is dropped; points behind the measured range (occluded) and outside the view stay. Points are
-//! forgotten after `memory_time_s`, beyond `memory_range_m`, and are ignored while the vehicle
-//! flies more than `memory_height_m` above or below the height it saw them from (after a climb
-//! over a wall, the wall is below).
+//! forgotten `memory_time_s` after they were last seen or last within `keep_within_m` of the
+//! vehicle (a trunk the vehicle hovers beside is not forgotten while it hovers: forest seed 8
+//! dithered 19 s beside one, forgot it after 30 s and slid into it), beyond `memory_range_m`,
+//! and are ignored while the vehicle flies more than `memory_height_m` above or below the
+//! height it saw them from (after a climb over a wall, the wall is below).
 //!
 //! The memory then limits the vehicle's horizontal velocity: towards every remembered point,
 //! the velocity component may not exceed the speed from which the vehicle can still stop
@@ -67,6 +69,9 @@ pub struct MemorySettings {
     pub range_m: f64,
     /// Points seen from a height more than this above or below the vehicle's are ignored (m).
     pub height_m: f64,
+    /// Points within this horizontal distance of the vehicle do not age (m): what is near
+    /// enough to close a side to the sidestep stays known however long the vehicle stays by it.
+    pub keep_within_m: f64,
 }
 
 /// One remembered obstacle point.
@@ -77,7 +82,9 @@ struct Point {
     /// The vehicle's down position when the point was seen (m): the sectors are measured at
     /// the vehicle's level.
     seen_down_m: f64,
-    seen: Time,
+    /// When the point was last seen or last within `keep_within_m` of the vehicle: its age
+    /// counts from then.
+    kept: Time,
 }
 
 /// The remembered obstacle points (see the module docs).
@@ -143,9 +150,12 @@ impl ObstacleMemory {
                 .map(|&step| measured((sector + step) % count))
                 .try_fold(f64::INFINITY, |nearest, m| m.map(|m| nearest.min(m)))
         };
-        self.points.retain(|p| {
+        self.points.retain_mut(|p| {
             let (bearing, range) = pose.bearing_range(p.north_m, p.east_m);
-            let fresh = pose.time.saturating_since(p.seen).as_secs_f64() <= settings.time_s;
+            if range <= settings.keep_within_m {
+                p.kept = p.kept.max(pose.time);
+            }
+            let fresh = pose.time.saturating_since(p.kept).as_secs_f64() <= settings.time_s;
             let seen_again = covering(sector_of(bearing)).is_some_and(|m| range < m + CARVE_TOLERANCE_M);
             fresh && range <= settings.range_m && !seen_again
         });
@@ -166,7 +176,7 @@ impl ObstacleMemory {
                 north_m: pose.ned_m[0] + range * cos,
                 east_m: pose.ned_m[1] + range * sin,
                 seen_down_m: pose.ned_m[2],
-                seen: pose.time,
+                kept: pose.time,
             });
         }
     }
@@ -261,7 +271,8 @@ mod tests {
 
     use super::*;
 
-    const SETTINGS: MemorySettings = MemorySettings { time_s: 10.0, range_m: 6.0, height_m: 1.5 };
+    const SETTINGS: MemorySettings =
+        MemorySettings { time_s: 10.0, range_m: 6.0, height_m: 1.5, keep_within_m: 2.0 };
 
     fn pose(seconds: f64, north_m: f64, east_m: f64, yaw_deg: f64) -> Pose {
         Pose {
@@ -344,12 +355,12 @@ mod tests {
     fn points_are_forgotten_with_time_and_distance_and_ignored_at_another_height() {
         let mut memory = ObstacleMemory::new();
         memory.observe(&view(&[(0, 3.0)]), &pose(0.0, 0.0, 0.0, 0.0), &SETTINGS);
-        let behind = pose(5.0, 4.0, 0.0, 0.0);
+        let behind = pose(5.0, 5.5, 0.0, 0.0);
         memory.observe(&view(&[]), &behind, &SETTINGS);
-        assert_eq!(memory.len(), 1, "1 m behind, out of view, 5 s old");
-        let climbed = Pose { ned_m: [4.0, 0.0, -7.0], ..behind };
+        assert_eq!(memory.len(), 1, "2.5 m behind, out of view, 5 s old");
+        let climbed = Pose { ned_m: [5.5, 0.0, -7.0], ..behind };
         assert_eq!(points(&memory, &climbed).len(), 0, "2 m above where it was seen from");
-        memory.observe(&view(&[]), &pose(10.5, 4.0, 0.0, 0.0), &SETTINGS);
+        memory.observe(&view(&[]), &pose(10.5, 5.5, 0.0, 0.0), &SETTINGS);
         assert!(memory.is_empty(), "10.5 s old");
 
         memory.observe(&view(&[(0, 3.0)]), &pose(20.0, 0.0, 0.0, 0.0), &SETTINGS);
@@ -357,6 +368,23 @@ mod tests {
         assert!(memory.is_empty(), "7 m away");
         memory.observe(&view(&[(0, 6.5)]), &pose(30.0, 0.0, 0.0, 0.0), &SETTINGS);
         assert!(memory.is_empty(), "beyond the 6 m range when seen");
+    }
+
+    #[test]
+    fn a_point_beside_a_hovering_vehicle_does_not_age_until_the_vehicle_leaves_it() {
+        // Seen 3 m ahead, then passed and hovered beside for 25 s (2.5 × `time_s`) 1.5 m from it.
+        let mut memory = ObstacleMemory::new();
+        memory.observe(&view(&[(0, 3.0)]), &pose(0.0, 0.0, 0.0, 0.0), &SETTINGS);
+        for tenth in 1..=250 {
+            memory.observe(&view(&[]), &pose(f64::from(tenth) / 10.0, 3.0, -1.5, 0.0), &SETTINGS);
+        }
+        let beside = pose(25.0, 3.0, -1.5, 0.0);
+        assert_eq!(points(&memory, &beside).len(), 1, "kept while within 2 m");
+        // 3 m away from then on: it ages from 25 s and is gone after 10 s more.
+        memory.observe(&view(&[]), &pose(34.9, 3.0, -3.0, 0.0), &SETTINGS);
+        assert_eq!(memory.len(), 1, "9.9 s since the vehicle was near");
+        memory.observe(&view(&[]), &pose(35.1, 3.0, -3.0, 0.0), &SETTINGS);
+        assert!(memory.is_empty(), "10.1 s since the vehicle was near");
     }
 
     #[test]

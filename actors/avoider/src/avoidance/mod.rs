@@ -16,6 +16,10 @@
 //!      path clears (below `climb_exit_share`) so that the vehicle does not dither between
 //!      sides; the path also counts as blocked when the centre's nearest depth is within
 //!      `sidestep_distance_m` (a thin trunk fills little of the region);
+//!    * boxed in: a sidestep that has turned back to a side it gave up (each side closed in
+//!      turn, by what is in view or remembered) climbs as if every region were blocked, until
+//!      the path clears — sliding on between the two would dither in front of the obstacle
+//!      until the memory forgot one side (forest seed 8 turned 12 times in 19 s);
 //!    * view ahead unknown (the textureless wall of §4.2.3, [`View::unknown_ahead`]): the
 //!      vehicle keeps at most `unknown_speed_share` of its desired speed (0 by default: stop);
 //!    * every region blocked: forward progress stops and the vehicle climbs at
@@ -64,6 +68,8 @@ use crate::engine::{Engine, Workspace};
 /// the obstacle: a lateral one picks the sidestep's side, a vertical one (over or under) is
 /// flown without a sidestep.
 const WAY_M_S: f64 = 0.3;
+/// A sidestep that turns this many times has come back to a side it gave up: boxed in.
+const BOXED_IN_TURNS: u32 = 2;
 pub use desired_speed::desired_speed_m_s;
 use error::{AvoiderError, GridError, ParamsError, SetpointError};
 pub use low_pass::LowPass;
@@ -72,6 +78,22 @@ use params::AvoiderParams;
 use pose_history::PoseHistory;
 use region_inputs::InputMap;
 pub use view::View;
+
+/// The sidestep under way, kept until the path clears.
+#[derive(Debug, Clone, Copy, Default)]
+struct Sidestep {
+    /// Its side (+1 right, −1 left); `None` while there is none.
+    side: Option<f64>,
+    /// Times it turned to the other side.
+    turns: u32,
+}
+
+impl Sidestep {
+    /// No sidestep under way any more: the next one chooses its side afresh.
+    fn end(&mut self) {
+        *self = Sidestep::default();
+    }
+}
 
 /// The obstacle avoider's state between depth grids.
 #[derive(Debug, Clone)]
@@ -89,8 +111,9 @@ pub struct Avoider {
     climb_latched: bool,
     /// The climb goes on until then: the centre cleared, `climb_margin_m` more.
     climb_margin_until: Option<Time>,
-    /// Side of the sidestep under way (+1 right, −1 left), kept until the path clears.
-    sidestep: Option<f64>,
+    sidestep: Sidestep,
+    /// Boxed in: climbing until the path clears (see the module docs).
+    boxed_in: bool,
     /// What the camera saw, in NED (empty without poses).
     memory: ObstacleMemory,
     /// The estimator's recent poses; empty while none has arrived or the position is invalid.
@@ -123,7 +146,8 @@ impl Avoider {
             last_grid: None,
             climb_latched: false,
             climb_margin_until: None,
-            sidestep: None,
+            sidestep: Sidestep::default(),
+            boxed_in: false,
             memory: ObstacleMemory::new(),
             poses: PoseHistory::default(),
             grids_rejected: 0,
@@ -213,7 +237,8 @@ impl Avoider {
         }
         self.climb_latched = false;
         self.climb_margin_until = None;
-        self.sidestep = None;
+        self.boxed_in = false;
+        self.sidestep.end();
         let brake = [-self.desired_speed_m_s, 0.0, 0.0];
         let braking = self.filter.update(now, brake);
         let (velocity_frd_m_s, memory_limited) = self.limit_by_memory(braking);
@@ -266,29 +291,31 @@ impl Avoider {
             grid.regions[row][col].nearest_m.map(f64::from).filter(|d| d.is_finite())
         };
         let nearest_ahead = region_nearest(1, 1);
+        let near_ahead = nearest_ahead.is_some_and(|d| d < p.sidestep_distance_m);
         let latched = if self.climb_latched {
             view.centre_near() >= p.climb_exit_share
         } else {
             view.all_blocked(p.blocked_share)
         };
-        if self.climb_latched && !latched {
+        let boxed_in = self.boxed_in && (view.centre_near() >= p.climb_exit_share || near_ahead);
+        if (self.climb_latched && !latched) || (self.boxed_in && !boxed_in) {
             // The centre band clears with the obstacle's top still a few decimetres below the
             // camera, and the airframe reaches below it (forest seed 4 clipped a trunk's top).
             let margin_us = (p.climb_margin_m / p.climb_speed_m_s * 1e6).round() as u64;
             self.climb_margin_until = Some(Time(grid.time.0.saturating_add(margin_us)));
         }
         self.climb_latched = latched;
-        let climbing = latched || self.climb_margin_until.is_some_and(|until| grid.time < until);
+        self.boxed_in = boxed_in;
+        let climbing = latched || boxed_in || self.climb_margin_until.is_some_and(|until| grid.time < until);
         // Once a side is taken the path stays blocked down to the climb's exit share: a trunk
         // filling about half the centre must not flip it between blocked and clear, re-choosing
         // a side each time (the vehicle dithered in front of two trunks for 100 s).
-        let blocked_share = if self.sidestep.is_some() { p.climb_exit_share } else { p.blocked_share };
-        let centre_blocked =
-            view.centre_near() >= blocked_share || nearest_ahead.is_some_and(|d| d < p.sidestep_distance_m);
+        let blocked_share = if self.sidestep.side.is_some() { p.climb_exit_share } else { p.blocked_share };
+        let centre_blocked = view.centre_near() >= blocked_share || near_ahead;
         let unknown_ahead = view.unknown_ahead();
         let desired = self.desired_speed_m_s;
         let target = if climbing {
-            self.sidestep = None;
+            self.sidestep.end();
             [-desired, 0.0, -p.climb_speed_m_s]
         } else {
             let mut target = fuzzy.to_frd().map(|v| v * p.max_speed_m_s);
@@ -297,12 +324,12 @@ impl Avoider {
                 let column_blocked = view.centre_column_blocked(p.blocked_share);
                 let lateral_way = target[1].abs() >= WAY_M_S;
                 let vertical_way = target[2].abs() >= WAY_M_S && !column_blocked;
-                let sidestepping = self.sidestep.is_some() || !vertical_way || lateral_way;
+                let sidestepping = self.sidestep.side.is_some() || !vertical_way || lateral_way;
                 if p.sidestep_speed_m_s > 0.0 && sidestepping {
                     // A side is kept until the path clears: the rule base's own way if it
                     // gives one, else the freer side.
                     let sides_nearest = [region_nearest(1, 0), region_nearest(1, 2)];
-                    let mut side = *self.sidestep.get_or_insert_with(|| {
+                    let mut side = *self.sidestep.side.get_or_insert_with(|| {
                         if lateral_way { target[1].signum() } else { view.freer_side(sides_nearest) }
                     });
                     // Never slide into something close on the side under way, in view or
@@ -313,7 +340,9 @@ impl Avoider {
                     let (ahead, other) = if side > 0.0 { (right, left) } else { (left, right) };
                     if ahead && !other {
                         side = -side;
-                        self.sidestep = Some(side);
+                        self.sidestep.side = Some(side);
+                        self.sidestep.turns += 1;
+                        self.boxed_in = self.sidestep.turns >= BOXED_IN_TURNS;
                     }
                     // The rule base's lateral answer stands when it goes the same way faster.
                     if target[1] * side < p.sidestep_speed_m_s {
@@ -324,7 +353,7 @@ impl Avoider {
                     }
                 }
             } else {
-                self.sidestep = None;
+                self.sidestep.end();
             }
             if unknown_ahead {
                 target[0] = target[0].min(-(1.0 - p.unknown_speed_share) * desired);
@@ -352,7 +381,7 @@ impl Avoider {
                 unknown_regions: view.unknown,
                 unknown_centre_slowdown: unknown_ahead,
                 centre_blocked,
-                sidestep_m_s: self.sidestep.map_or(0.0, |side| side * p.sidestep_speed_m_s),
+                sidestep_m_s: self.sidestep.side.map_or(0.0, |side| side * p.sidestep_speed_m_s),
                 forward_cap_m_s,
                 climbing,
                 memory_limited,
@@ -394,6 +423,7 @@ impl Avoider {
             time_s: p.memory_time_s,
             range_m: p.memory_range_m,
             height_m: p.memory_height_m,
+            keep_within_m: p.sidestep_distance_m,
         })
     }
 
