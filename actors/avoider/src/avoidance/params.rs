@@ -72,10 +72,13 @@ pub struct AvoiderParams {
     /// A depth nearer than this in the centre region (m) blocks the path even when its near
     /// share is small (a thin trunk), so the vehicle sidesteps rather than waits in front of it.
     pub sidestep_distance_m: f64,
-    /// Obstacle points are remembered this long (s); 0 turns the memory off. Long enough to
-    /// outlast a hover in front of a trunk while the sidestep finds a way (with 10 s a trunk
-    /// abeam was forgotten during one and hit on the next sidestep, forest seed 6); what the
-    /// camera sees again replaces it sooner, and `memory_range_m` drops what is left behind.
+    /// Obstacle points are remembered this long (s) after they were last seen or last within
+    /// `sidestep_distance_m` of the vehicle; 0 turns the memory off. What the vehicle stays
+    /// beside is kept however long it stays (forest seed 8 hovered 19 s beside a trunk and
+    /// forgot it after 30 s from its last sight); what it left behind goes after this long
+    /// (with 10 s a trunk abeam was forgotten during a hover a little farther off and hit on
+    /// the next sidestep, forest seed 6); what the camera sees again replaces it sooner, and
+    /// `memory_range_m` drops what is left behind.
     pub memory_time_s: f64,
     /// Sector ranges up to this are remembered, and points farther from the vehicle are
     /// forgotten (m). A trunk 3 m beside the path leaves the 110° view about 6 m away, so 6 m

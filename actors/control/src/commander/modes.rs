@@ -126,7 +126,7 @@ impl Commander {
             FlightMode::ReturnToLaunch => self.rtl(now, dt_s, &nav),
             FlightMode::Land => {
                 let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
-                self.land_at(&nav, Some([p.x, p.y]))
+                self.land_at(now, dt_s, &nav, Some([p.x, p.y]))
             }
         }
     }
@@ -309,7 +309,7 @@ impl Commander {
         let pos = Vector3::from(nav.position_ned_m);
         let home = self.home_ned.unwrap_or(pos);
         let step = runner.update(now, &pos, &frame, &home);
-        if !matches!(step, MissionStep::Fly(_)) {
+        if !matches!(step, MissionStep::Fly(_) | MissionStep::Land { .. }) {
             self.avoidance.reset();
         }
         match step {
@@ -324,7 +324,7 @@ impl Commander {
                 sp.yaw_rad = Some(*self.hold.yaw_rad.get_or_insert(heading(nav)));
                 SetpointTarget::Trajectory(sp)
             }
-            MissionStep::Land { north_m, east_m } => self.land_at(nav, Some([north_m, east_m])),
+            MissionStep::Land { north_m, east_m } => self.land_at(now, dt_s, nav, Some([north_m, east_m])),
             MissionStep::ReturnToLaunch => {
                 self.last_progress = runner.progress();
                 self.enter(FlightMode::ReturnToLaunch);
@@ -372,7 +372,7 @@ impl Commander {
     /// retraced path is no clearer once the wind or a moved obstacle has changed it. The climb
     /// and the descent are vertical, where the forward camera sees nothing to avoid.
     fn rtl(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
-        let Some(home) = self.home_ned else { return self.land_at(nav, None) };
+        let Some(home) = self.home_ned else { return self.land_at(now, dt_s, nav, None) };
         let pos = Vector3::from(nav.position_ned_m);
         let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
         match self.rtl {
@@ -414,13 +414,22 @@ impl Commander {
                     ..TrajectorySetpoint::default()
                 })
             }
-            RtlPhase::Land => self.land_at(nav, Some([home.x, home.y])),
+            RtlPhase::Land => self.land_at(now, dt_s, nav, Some([home.x, home.y])),
         }
     }
 
     /// Descends onto `xy` (NED north/east, m), flying there first if it is far; without a
-    /// horizontal position it levels and descends.
-    pub(super) fn land_at(&mut self, nav: &NavState, xy: Option<[f64; 2]>) -> SetpointTarget {
+    /// horizontal position it levels and descends. The approach is level, so with the avoider
+    /// in the loop it is flown as a leg ([`Leg::To`], at the GUIDED speed): a landing item a
+    /// few metres beside where a sidestep left the vehicle is no reason to fly blind. The
+    /// descent is vertical, where the forward camera sees nothing.
+    pub(super) fn land_at(
+        &mut self,
+        now: Time,
+        dt_s: f64,
+        nav: &NavState,
+        xy: Option<[f64; 2]>,
+    ) -> SetpointTarget {
         let rate = if self.height_m(nav) > self.params.land_slow_height_m {
             self.params.land_fast_m_s
         } else {
@@ -433,13 +442,22 @@ impl Commander {
                     (nav.position_ned_m[0] - n).hypot(nav.position_ned_m[1] - e) > LAND_APPROACH_RADIUS_M;
                 if far && !self.hold.landing {
                     let down = *self.hold.down_m.get_or_insert(nav.position_ned_m[2]);
+                    if self.avoidance.active() {
+                        let leg = Leg::To {
+                            target: Vector3::new(n, e, down),
+                            speed_m_s: self.params.guided_speed_m_s,
+                        };
+                        return SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint);
+                    }
                     return traj([Some(n), Some(e), Some(down)], [None; 3], yaw);
                 }
                 self.hold.landing = true;
+                self.avoidance.reset();
                 traj([Some(n), Some(e), None], [None, None, Some(rate)], yaw)
             }
             None => {
                 self.hold.landing = true;
+                self.avoidance.reset();
                 let v = nav.valid.horizontal_velocity.then_some(0.0);
                 traj([None; 3], [v, v, Some(rate)], yaw)
             }

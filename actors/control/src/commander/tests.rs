@@ -530,6 +530,45 @@ fn auto_leg_flies_at_cruise_towards_the_waypoint_with_a_zero_correction() {
 }
 
 #[test]
+fn a_landing_item_away_from_the_vehicle_is_approached_with_the_avoider_in_the_loop() {
+    // AUTO at 10 m over home, the mission's LAND item about 11 m north: the level approach is
+    // a leg the avoider steers (1 m/s to the right, east while facing north), at the GUIDED
+    // speed; without the avoider it is a plain position setpoint.
+    for with_avoider in [true, false] {
+        let mut c = ready(true);
+        let home = MissionPoint {
+            lat_deg: 6.79710,
+            lon_deg: 79.90170,
+            alt_m: 10.0,
+            frame: AltitudeFrame::RelativeHome,
+        };
+        let north = MissionPoint { lat_deg: 6.79720, ..home };
+        let items = vec![MissionItem::Takeoff { point: home }, MissionItem::Land { point: north }];
+        c.on_mission(Mission { time: Time::ZERO, items, cruise_speed_m_s: 4.0 }).expect("mission");
+        cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect("auto");
+        cmd(&mut c, Command::Arm).expect("arm");
+        let (mut t, mut sp) = (1000, TrajectorySetpoint::default());
+        while t < 3_000_000 {
+            t += 2500;
+            c.on_nav(&nav_heading(t, -10.0, 0.0));
+            if with_avoider {
+                c.on_avoidance(&avoidance(t, [0.0, 1.0, 0.0], false));
+            }
+            sp = trajectory(c.update(Time(t)).target);
+        }
+        if with_avoider {
+            let v = velocity(&sp);
+            let guided = CommanderParams::default().guided_speed_m_s;
+            assert!((v[0] - guided).abs() < 1e-2 && (v[1] - 1.0).abs() < 1e-2, "{v:?}");
+        } else {
+            assert_eq!(sp.velocity_ned_m_s, [None; 3], "{sp:?}");
+            let p = sp.position_ned_m.map(|p| p.expect("position"));
+            assert!((p[0] - 11.1).abs() < 0.2 && p[1].abs() < 1e-6 && (p[2] + 10.0).abs() < 1e-6, "{p:?}");
+        }
+    }
+}
+
+#[test]
 fn a_stale_avoidance_stream_in_auto_slows_holds_and_says_why() {
     for stale_by_flag in [true, false] {
         let (mut c, mut t) = auto_leg();
