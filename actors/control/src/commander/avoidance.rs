@@ -27,12 +27,15 @@
 //!    and flown as a velocity: while it is non-zero the horizontal position setpoint follows
 //!    the vehicle, and where it reaches zero the setpoint stays and the vehicle holds
 //!    ([`LEASH_M`], [`HOLD_LEASH_M`]); the trajectory setpoint carries that position with the
-//!    velocity as feed-forward. On AUTO and GUIDED legs the nose turns towards the leg's
+//!    velocity as feed-forward. On AUTO, GUIDED and RTL legs the nose turns towards the leg's
 //!    direction (at the yaw stick rate) so that the forward camera looks where the vehicle
-//!    goes; in POSHOLD the pilot keeps the heading.
+//!    goes, and while the leg is more than [`LEG_IN_VIEW_RAD`] off the nose its horizontal
+//!    demand is zero: the vehicle stops and turns first, as PX4's collision prevention moves
+//!    only where its sensor has data (`CP_GO_NO_DATA` = 0); in POSHOLD the pilot keeps the
+//!    heading.
 //!
 //! The desired speed handed to the avoider (`TrajectorySetpoint::desired_speed_m_s`, its
-//! `V_in`) is the leg's horizontal speed; for the sticks it is the forward part of the pilot's
+//! `V_in`) is the leg's horizontal speed (0 while turning first); for the sticks it is the forward part of the pilot's
 //! demand, the speed at which the vehicle closes on what the forward camera sees.
 
 use kestrel_proto::Time;
@@ -76,6 +79,11 @@ const TURN_MIN_SPEED_M_S: f64 = 0.5;
 /// few decimetres of drift from a take-off or landing spot are no direction to look in (the
 /// nose swung 29° on a take-off item).
 const TURN_MIN_DISTANCE_M: f64 = 2.0;
+/// An AUTO, GUIDED or RTL leg is flown only while the nose points within this of it (rad);
+/// farther off the vehicle stops and turns first, so that the forward camera (±55°) looks
+/// where it goes. Flying while turning, an RTL started facing away from home reached 3.8 m/s
+/// backwards into trees before the camera faced them (forest round trip, seed 10).
+const LEG_IN_VIEW_RAD: f64 = 30.0 * std::f64::consts::PI / 180.0;
 
 /// What the leg wants, before the avoider.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -227,6 +235,14 @@ impl AvoidanceLoop {
         let avoided = leg.avoided();
         let fresh = self.fresh(now, timeout_s).copied();
         let heading = super::heading(nav);
+        // Nose along an AUTO or GUIDED leg, at the yaw rate; the leg waits while it is out of view.
+        let turns = match leg {
+            Leg::To { target, .. } => (target - pos).xy().norm() >= TURN_MIN_DISTANCE_M,
+            Leg::Velocity(_) => true,
+            Leg::Sticks { .. } => false,
+        } && leg_horizontal.norm() >= TURN_MIN_SPEED_M_S;
+        let bearing = leg_horizontal.y.atan2(leg_horizontal.x);
+        let turning_first = turns && wrap_pi(bearing - heading).abs() > LEG_IN_VIEW_RAD;
         let mut vertical_takeover = false;
         self.speed_cap = None;
         match fresh {
@@ -244,6 +260,9 @@ impl AvoidanceLoop {
             // is the pilot's way out.
             None if matches!(leg, Leg::Sticks { .. }) => (desired.x, desired.y) = (0.0, 0.0),
             None => desired = Vector3::zeros(),
+        }
+        if turning_first {
+            (desired.x, desired.y) = (0.0, 0.0);
         }
         let holding = avoided && fresh.is_none();
         if holding {
@@ -278,14 +297,7 @@ impl AvoidanceLoop {
             p_sp = pos + lead * (leash / lead.norm());
         }
         self.state = Some((p_sp, v_cmd));
-        // Nose along an AUTO or GUIDED leg, at the yaw rate.
-        let turns = match leg {
-            Leg::To { target, .. } => (target - pos).xy().norm() >= TURN_MIN_DISTANCE_M,
-            Leg::Velocity(_) => true,
-            Leg::Sticks { .. } => false,
-        };
-        if turns && !holding && leg_horizontal.norm() >= TURN_MIN_SPEED_M_S {
-            let bearing = leg_horizontal.y.atan2(leg_horizontal.x);
+        if turns && !holding {
             let error = wrap_pi(bearing - *yaw_rad);
             let max_turn = yaw_rate_rad_s * dt_s;
             *yaw_rad = wrap_pi(*yaw_rad + error.clamp(-max_turn, max_turn));
@@ -293,6 +305,8 @@ impl AvoidanceLoop {
         let horizontal_speed = v_cmd.x.hypot(v_cmd.y);
         let desired_speed = match leg {
             Leg::Sticks { forward_m_s, .. } => forward_m_s.max(0.0),
+            // Turning on the spot, the avoider has no forward speed to correct.
+            Leg::To { .. } | Leg::Velocity(_) if turning_first => 0.0,
             Leg::To { .. } | Leg::Velocity(_) => leg_horizontal.norm(),
         };
         let setpoint = TrajectorySetpoint {

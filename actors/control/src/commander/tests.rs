@@ -444,8 +444,9 @@ fn guided_velocity_blends_the_rotated_correction_and_honours_the_climb() {
     let mut c = hovering();
     at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
     at(&mut c, 2000, Command::VelocityNed { velocity_ned_m_s: [3.0, 0.0, 0.0] }).expect("velocity");
-    // Facing east; the avoider asks for 1 m/s to the right (south) and 0.5 m/s up.
-    let east = std::f64::consts::FRAC_PI_2;
+    // Facing east at first; the avoider asks for 1 m/s to the right and 0.5 m/s up. The nose
+    // turns north (the vehicle's heading follows the commanded one) before the vehicle flies.
+    let mut yaw = std::f64::consts::FRAC_PI_2;
     let mut t = 2000;
     let mut sp = TrajectorySetpoint::default();
     while t < 4_000_000 {
@@ -454,23 +455,25 @@ fn guided_velocity_blends_the_rotated_correction_and_honours_the_climb() {
             // Repeated at 2 Hz, as a ground station streams it (GUIDED_TIMEOUT is 3 s).
             at(&mut c, t, Command::VelocityNed { velocity_ned_m_s: [3.0, 0.0, 0.0] }).expect("velocity");
         }
-        c.on_nav(&nav_heading(t, -5.0, east));
+        c.on_nav(&nav_heading(t, -5.0, yaw));
         c.on_avoidance(&avoidance(t, [0.0, 1.0, -0.5], false));
         let before = sp;
         sp = trajectory(c.update(Time(t)).target);
+        yaw = sp.yaw_rad.expect("yaw");
         // The demand changes at most at the acceleration limit.
         if t > 4500 {
             let dv = nalgebra::Vector3::from(velocity(&sp)) - nalgebra::Vector3::from(velocity(&before));
             assert!(dv.norm() <= 2.5 * 0.0025 + 1e-9, "{dv:?}");
         }
     }
+    // Facing north, right is east.
     let v = velocity(&sp);
-    assert!((v[0] - 2.0).abs() < 1e-6 && v[1].abs() < 1e-6 && (v[2] + 0.5).abs() < 1e-6, "{v:?}");
+    assert!((v[0] - 3.0).abs() < 1e-6 && (v[1] - 1.0).abs() < 1e-6 && (v[2] + 0.5).abs() < 1e-6, "{v:?}");
     // A moving demand is flown as a velocity: the horizontal position setpoint is the
     // vehicle's (still at the origin here) plus one step of the demand, with no lead to catch
     // up on; the vertical one climbs ahead, within the 0.3 m leash.
     let p = sp.position_ned_m.map(|p| p.expect("position"));
-    assert!((p[0] - 2.0 * 0.0025).abs() < 1e-4 && p[1].abs() < 1e-9, "{p:?}");
+    assert!((p[0] - 3.0 * 0.0025).abs() < 1e-4 && (p[1] - 0.0025).abs() < 1e-4, "{p:?}");
     assert!(p[2] + 5.0 < 0.0 && p[2] + 5.0 >= -0.3 - 1e-9, "{p:?}");
     // The nose turned towards the demanded direction (north).
     assert!(sp.yaw_rad.expect("yaw").abs() < 1e-6, "{:?}", sp.yaw_rad);
@@ -1430,6 +1433,40 @@ fn rtl_flies_home_with_the_avoider_in_the_loop_facing_the_way_home() {
     let v = velocity(&sp);
     assert!((v[0] + speed).abs() < 1e-2 && (v[1] + 1.0).abs() < 1e-2 && v[2].abs() < 1e-6, "{v:?}");
     assert_eq!(c.status(Time(t)).last_refusal, None);
+}
+
+#[test]
+fn rtl_started_facing_away_from_home_turns_before_it_flies_the_way_home() {
+    // 20 m north of home facing north: home is behind. Until the nose is within 30° of south
+    // the demand is a turn on the spot, with no horizontal velocity; then it flies home.
+    let mut c = hovering();
+    let rtl_down = -CommanderParams::default().rtl_altitude_m;
+    let at_north = |t: u64, yaw: f64| NavState {
+        position_ned_m: [20.0, 0.0, rtl_down],
+        ..nav_heading(t, rtl_down, yaw)
+    };
+    c.on_nav(&at_north(2500, 0.0));
+    at(&mut c, 2500, Command::ReturnToLaunch).expect("rtl");
+    let (mut t, mut yaw) = (2500, 0.0);
+    let mut flew_while_off = 0.0f64;
+    let mut sp = TrajectorySetpoint::default();
+    while t < 10_000_000 {
+        t += 2500;
+        c.on_nav(&at_north(t, yaw));
+        c.on_avoidance(&avoidance(t, [0.0; 3], false));
+        sp = trajectory(c.update(Time(t)).target);
+        let off_home = (std::f64::consts::PI - yaw.abs()).abs();
+        if off_home > 31f64.to_radians() {
+            // The climb's setpoint is a position alone: no velocity demand at all.
+            let [n, e, _] = sp.velocity_ned_m_s.map(|v| v.unwrap_or(0.0));
+            flew_while_off = flew_while_off.max(n.hypot(e));
+        }
+        yaw = sp.yaw_rad.expect("yaw");
+    }
+    assert!(flew_while_off < 1e-9, "{flew_while_off} m/s with home out of view");
+    let v = velocity(&sp);
+    let speed = CommanderParams::default().rtl_speed_m_s;
+    assert!((v[0] + speed).abs() < 1e-2 && v[1].abs() < 1e-2, "then home at the RTL speed: {v:?}");
 }
 
 #[test]
