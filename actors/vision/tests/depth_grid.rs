@@ -277,7 +277,8 @@ fn the_one_pass_grid_is_the_grid_of_the_depth_map() {
     let (left, right) = (render(0.0, flat), render(0.12, flat));
     for params in pipelines() {
         let mut pipeline =
-            StereoPipeline::new(&Geometry::Rectified(geometry()), &params, std::path::Path::new(".")).unwrap();
+            StereoPipeline::new(&Geometry::Rectified(geometry()), &params, std::path::Path::new("."))
+                .unwrap();
         let (l, r) = (
             kestrel_vision::image::gray_mat(&left, W as u32, H as u32).unwrap(),
             kestrel_vision::image::gray_mat(&right, W as u32, H as u32).unwrap(),
