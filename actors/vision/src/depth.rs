@@ -122,3 +122,68 @@ impl DepthMap {
         (!z.is_nan()).then_some(z)
     }
 }
+
+/// The depth (m) of every fixed-point disparity (1/16 px) a matcher searching
+/// `min_disparity .. min_disparity + num_disparities` gives, looked up instead of divided: the
+/// pipeline's one pass from the matcher's output to depth. Each value is
+/// [`StereoGeometry::depth_m`] of [`DisparityMap::from_fixed_point`]'s disparity, so the depth
+/// is bit for bit [`DepthMap::from_disparity`]'s.
+pub struct FixedPointDepth {
+    geometry: StereoGeometry,
+    /// The raw value of `depths[0]`: `min_disparity · 16`; anything below it is invalid.
+    first: i32,
+    depths: Vec<f32>,
+}
+
+impl FixedPointDepth {
+    pub fn new(geometry: &StereoGeometry, min_disparity: i32, num_disparities: i32) -> FixedPointDepth {
+        let first = min_disparity * 16;
+        let depths = (first..=first + num_disparities.max(0) * 16)
+            .map(|raw| geometry.depth_m(raw as f32 / 16.0).unwrap_or(f32::NAN))
+            .collect();
+        FixedPointDepth { geometry: *geometry, first, depths }
+    }
+
+    /// Depth of raw disparity `raw` (m), `NaN` where invalid or at or beyond infinity.
+    #[inline]
+    fn depth_m(&self, raw: i16) -> f32 {
+        let offset = i32::from(raw) - self.first;
+        match usize::try_from(offset) {
+            Err(_) => f32::NAN,
+            Ok(i) => match self.depths.get(i) {
+                Some(&z) => z,
+                // Beyond the search range (a matcher never gives it): divided, as the table was.
+                None => self.geometry.depth_m(f32::from(raw) / 16.0).unwrap_or(f32::NAN),
+            },
+        }
+    }
+
+    /// Fills `out` with the `width`×`height` depth of the matcher's raw output, `NaN` also
+    /// where `textureless` (one byte per pixel, non-zero = no texture) says so.
+    pub fn convert(
+        &self,
+        raw: &[i16],
+        textureless: Option<&[u8]>,
+        width: usize,
+        height: usize,
+        out: &mut DepthMap,
+    ) -> Result<(), VisionError> {
+        if raw.len() != width * height || textureless.is_some_and(|t| t.len() != raw.len()) {
+            return Err(VisionError::Input(format!(
+                "{} raw disparities and {:?} texture flags for a {width}×{height} depth map",
+                raw.len(),
+                textureless.map(<[u8]>::len)
+            )));
+        }
+        out.width = width;
+        out.height = height;
+        out.values.clear();
+        match textureless {
+            Some(flags) => out.values.extend(
+                raw.iter().zip(flags).map(|(&v, &t)| if t != 0 { f32::NAN } else { self.depth_m(v) }),
+            ),
+            None => out.values.extend(raw.iter().map(|&v| self.depth_m(v))),
+        }
+        Ok(())
+    }
+}

@@ -254,9 +254,22 @@ impl Matcher {
         self.num_disparities
     }
 
+    /// The smallest disparity searched (px).
+    pub fn min_disparity(&self) -> i32 {
+        self.min_disparity
+    }
+
     /// Matches rectified 8-bit grey images of equal size; the disparity is the left image's
     /// (px, positive when the right view sees a point further left).
     pub fn compute(&mut self, left: &Mat, right: &Mat) -> Result<DisparityMap, VisionError> {
+        let min_disparity = self.min_disparity;
+        DisparityMap::from_fixed_point(self.compute_raw(left, right)?, min_disparity)
+    }
+
+    /// As [`Matcher::compute`], but OpenCV's own output: continuous `CV_16S` in 1/16 px, below
+    /// `min_disparity · 16` where invalid (see [`DisparityMap::from_fixed_point`]), in the
+    /// matcher's buffer until the next call. For a caller that converts it in one pass.
+    pub fn compute_raw(&mut self, left: &Mat, right: &Mat) -> Result<&Mat, VisionError> {
         let (ls, rs) = (left.size().cv("left size")?, right.size().cv("right size")?);
         if ls != rs {
             return Err(VisionError::Input(format!(
@@ -281,9 +294,13 @@ impl Matcher {
             Engine::Sgbm(m) => m.compute(left, right, &mut self.raw).cv("StereoSGBM::compute")?,
             Engine::Bm(m) => m.compute(left, right, &mut self.raw).cv("StereoBM::compute")?,
         }
-        if self.raw.typ() != CV_16S {
-            return Err(VisionError::Input(format!("matcher returned OpenCV type {}", self.raw.typ())));
+        if self.raw.typ() != CV_16S || !self.raw.is_continuous() {
+            return Err(VisionError::Input(format!(
+                "matcher returned OpenCV type {} (continuous: {})",
+                self.raw.typ(),
+                self.raw.is_continuous()
+            )));
         }
-        DisparityMap::from_fixed_point(&self.raw, self.min_disparity)
+        Ok(&self.raw)
     }
 }

@@ -9,12 +9,12 @@ use std::time::{Duration, Instant};
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{DepthGrid, StereoFrame};
-use opencv::core::{Mat, MatTraitConst, Size};
+use opencv::core::{Mat, MatTraitConst, MatTraitConstManual, Size};
 use opencv::imgproc;
 use serde::{Deserialize, Serialize};
 
 use crate::calibration::StereoCalibration;
-use crate::depth::{DepthMap, StereoGeometry};
+use crate::depth::{DepthMap, FixedPointDepth, StereoGeometry};
 use crate::disparity_map::DisparityMap;
 use crate::error::{CvContext, VisionError};
 use crate::grid::{DepthGridder, GridParams};
@@ -87,6 +87,10 @@ pub struct StereoPipeline {
     matcher: Matcher,
     texture: Option<TextureFilter>,
     gridder: DepthGridder,
+    /// The matcher's raw output → depth, for [`StereoPipeline::grid`].
+    fixed_point_depth: FixedPointDepth,
+    /// [`StereoPipeline::grid`]'s depth map, kept so a frame allocates none.
+    depth: DepthMap,
     times: StageTimes,
     rectified: (Mat, Mat),
     small: (Mat, Mat),
@@ -145,9 +149,15 @@ impl StereoPipeline {
             geometry,
             downscale: params.downscale,
             row_downscale: params.row_downscale,
+            fixed_point_depth: FixedPointDepth::new(
+                &geometry,
+                matcher.min_disparity(),
+                matcher.num_disparities(),
+            ),
             matcher,
             texture: TextureFilter::new(&params.texture)?,
             gridder: DepthGridder::new(&params.grid, &geometry),
+            depth: DepthMap { width: 0, height: 0, values: Vec::new() },
             times: StageTimes::default(),
             rectified: (Mat::default(), Mat::default()),
             small: (Mat::default(), Mat::default()),
@@ -178,6 +188,8 @@ impl StereoPipeline {
     }
 
     /// The depth grid of a raw grey pair captured at `time`, frame `sequence` at its source.
+    /// The same grid as [`StereoPipeline::depth`]'s map would give, in one pass from the
+    /// matcher's output to depth, into a buffer kept across frames.
     pub fn grid(
         &mut self,
         left: &Mat,
@@ -185,9 +197,30 @@ impl StereoPipeline {
         time: Time,
         sequence: u64,
     ) -> Result<DepthGrid, VisionError> {
-        let depth = self.depth(left, right)?;
         let start = Instant::now();
-        let grid = self.gridder.grid(&depth, time, sequence);
+        let (left, right) = prepared(
+            self.rectifier.as_ref(),
+            self.shrink(),
+            &mut self.rectified,
+            &mut self.small,
+            left,
+            right,
+        )?;
+        let matching = Instant::now();
+        self.times.rectify = matching - start;
+        let raw = self.matcher.compute_raw(left, right)?;
+        let textureless = match &mut self.texture {
+            Some(texture) => Some(texture.textureless(left)?),
+            None => None,
+        };
+        self.times.matching = matching.elapsed();
+        let start = Instant::now();
+        let values = raw.data_typed::<i16>().cv("disparity pixels")?;
+        let (width, height) = (raw.cols() as usize, raw.rows() as usize);
+        self.fixed_point_depth.convert(values, textureless, width, height, &mut self.depth)?;
+        self.times.depth = start.elapsed();
+        let start = Instant::now();
+        let grid = self.gridder.grid(&self.depth, time, sequence);
         self.times.grid = start.elapsed();
         Ok(grid)
     }
@@ -213,22 +246,14 @@ impl StereoPipeline {
     /// Disparity of a raw grey pair (px, at the downscaled size).
     pub fn disparity(&mut self, left: &Mat, right: &Mat) -> Result<DisparityMap, VisionError> {
         let start = Instant::now();
-        let (mut left, mut right) = (left, right);
-        if let Some(rectifier) = &self.rectifier {
-            let (l, r) = &mut self.rectified;
-            rectifier.rectify_into(left, right, l, r)?;
-            (left, right) = (&self.rectified.0, &self.rectified.1);
-        }
-        if self.downscale > 1 || self.row_downscale > 1 {
-            let fx = 1.0 / f64::from(self.downscale);
-            let fy = fx / f64::from(self.row_downscale);
-            let (l, r) = &mut self.small;
-            imgproc::resize(left, l, Size::default(), fx, fy, imgproc::INTER_AREA)
-                .cv("shrinking the left image")?;
-            imgproc::resize(right, r, Size::default(), fx, fy, imgproc::INTER_AREA)
-                .cv("shrinking the right image")?;
-            (left, right) = (&self.small.0, &self.small.1);
-        }
+        let (left, right) = prepared(
+            self.rectifier.as_ref(),
+            self.shrink(),
+            &mut self.rectified,
+            &mut self.small,
+            left,
+            right,
+        )?;
         let matching = Instant::now();
         self.times.rectify = matching - start;
         let mut disparity = self.matcher.compute(left, right)?;
@@ -238,4 +263,36 @@ impl StereoPipeline {
         self.times.matching = matching.elapsed();
         Ok(disparity)
     }
+
+    /// The column and row shrink factors, `None` at full size.
+    fn shrink(&self) -> Option<(f64, f64)> {
+        (self.downscale > 1 || self.row_downscale > 1).then(|| {
+            let fx = 1.0 / f64::from(self.downscale);
+            (fx, fx / f64::from(self.row_downscale))
+        })
+    }
+}
+
+/// The pair the matcher sees: rectified into `rectified` if there is a `rectifier`, then
+/// shrunk by `shrink` (column and row factors) into `small`.
+fn prepared<'a>(
+    rectifier: Option<&Rectifier>,
+    shrink: Option<(f64, f64)>,
+    rectified: &'a mut (Mat, Mat),
+    small: &'a mut (Mat, Mat),
+    mut left: &'a Mat,
+    mut right: &'a Mat,
+) -> Result<(&'a Mat, &'a Mat), VisionError> {
+    if let Some(rectifier) = rectifier {
+        rectifier.rectify_into(left, right, &mut rectified.0, &mut rectified.1)?;
+        (left, right) = (&rectified.0, &rectified.1);
+    }
+    if let Some((fx, fy)) = shrink {
+        imgproc::resize(left, &mut small.0, Size::default(), fx, fy, imgproc::INTER_AREA)
+            .cv("shrinking the left image")?;
+        imgproc::resize(right, &mut small.1, Size::default(), fx, fy, imgproc::INTER_AREA)
+            .cv("shrinking the right image")?;
+        (left, right) = (&small.0, &small.1);
+    }
+    Ok((left, right))
 }

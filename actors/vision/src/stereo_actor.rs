@@ -2,9 +2,22 @@
 //! `latest` mailbox so stale frames are skipped, never queued) and publishes its
 //! [`DepthGrid`] on `depth_grid`.
 //!
-//! The pipeline (~20–30 ms per VGA frame) runs on tokio's blocking pool, one frame in flight;
-//! under lockstep the frame's work token is held until the grid is published, so runs stay
-//! deterministic.
+//! The pipeline (~20–30 ms per VGA frame) runs on tokio's blocking pool, one frame in flight.
+//! When the grid is published depends on `latency_s`:
+//!
+//! * **Unset** (a companion computer on hardware): as soon as the pipeline is done. Under
+//!   lockstep the frame's work token is held until then, so simulated time stands still while
+//!   the matcher runs: deterministic, but the simulator, the renderer and the matcher never
+//!   overlap.
+//! * **Set** (the simulated vehicle): the companion computer's processing time is a fixed
+//!   latency on the graph clock, as the camera's `latency_s` is. A frame handled at `t` starts
+//!   at once on the blocking pool and its handler returns, so the graph (simulator, camera
+//!   render, estimator, controller) runs on while the matcher works; the grid is published on
+//!   the first `deliver` tick (every [`DELIVERY_TICK`]) at or after `t + latency_s`, and only
+//!   that tick awaits a pipeline that is still running, keeping its token so simulated time
+//!   cannot pass it. The same grids come out at the same simulated times however fast the
+//!   host is. A frame that arrives while one is in flight waits (the newest replaces an older
+//!   waiting one, as the `latest` mailbox would) and starts when the grid before it is out.
 //!
 //! Each frame is first checked for a camera that delivers on time but no longer sees
 //! ([`FrameCheck`]: black, or frozen while the vehicle moves, which it learns from the optional
@@ -18,11 +31,20 @@ use std::time::Duration;
 use kestrel_proto::messages::{DepthGrid, NavState, SensorHealth, StereoFrame};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
+use tokio::task::JoinHandle;
 
 use crate::camera_actor::actor_error;
 use crate::error::VisionError;
 use crate::frame_check::{FrameCheck, FrameCheckParams, FrameFault};
 use crate::pipeline::{Geometry, PipelineParams, StereoPipeline};
+
+/// Period of the `deliver` timer that publishes grids under a configured `latency_s`: the
+/// latency is rounded up to a multiple of it (the simulator's IMU runs at 400 Hz, so these
+/// instants are already steps of the lockstep clock).
+pub const DELIVERY_TICK: Duration = Duration::from_millis(5);
+
+/// Longest processing latency accepted (s).
+const MAX_LATENCY_S: f64 = 1.0;
 
 /// Parameters of [`StereoActor`].
 #[derive(Clone, Debug, Deserialize)]
@@ -35,6 +57,11 @@ pub struct StereoParams {
     pub pipeline: PipelineParams,
     #[serde(default)]
     pub frame_check: FrameCheckParams,
+    /// The companion computer's frame → grid time on the graph clock (s), in (0, 1]: a frame
+    /// handled at `t` gives its grid at the first `deliver` tick at or after `t + latency_s`.
+    /// Unset, the grid is published when the pipeline is done (see the module doc).
+    #[serde(default)]
+    pub latency_s: Option<f64>,
 }
 
 /// What the stereo actor handles.
@@ -46,6 +73,8 @@ pub enum StereoInput {
     Motion([f64; 3], [f64; 3]),
     /// Timer `health_report`, every second.
     Health(Time),
+    /// Timer `deliver`, every [`DELIVERY_TICK`] (only with `latency_s`).
+    Deliver(Time),
 }
 
 /// Frame → depth grid; ports `stereo_frame`, `nav_state` (inputs), `depth_grid`, `health`
@@ -54,6 +83,14 @@ pub struct StereoActor {
     /// The frame check, the matcher and their buffers; lent to the blocking pool while a frame
     /// is processed (comparing and copying a VGA pair is CPU work too).
     worker: Option<Worker>,
+    /// `latency_s` in µs, if set.
+    latency_us: Option<u64>,
+    /// The frame on the blocking pool and when its grid is due (with `latency_s`).
+    in_flight: Option<InFlight>,
+    /// The newest frame that came while another was in flight (with `latency_s`).
+    waiting: Option<StereoFrame>,
+    /// The newest motion heard, handed to the frame check with the next frame.
+    motion: Option<([f64; 3], [f64; 3])>,
     out: Publisher<DepthGrid>,
     health_out: Publisher<SensorHealth>,
     /// The fault of the newest frame, to log each change once.
@@ -71,6 +108,17 @@ struct Worker {
     pipeline: StereoPipeline,
 }
 
+/// What a job on the blocking pool gives back: the worker, the frame, its fault and, for a
+/// frame without one, the pipeline's result.
+type Done = (Worker, StereoFrame, Option<FrameFault>, Option<Result<DepthGrid, VisionError>>);
+
+/// A frame being processed under `latency_s`.
+struct InFlight {
+    /// Publish at the first `deliver` tick at or after this time.
+    due: Time,
+    job: JoinHandle<Done>,
+}
+
 impl Actor for StereoActor {
     type Params = StereoParams;
     type Input = StereoInput;
@@ -79,13 +127,27 @@ impl Actor for StereoActor {
         let pipeline = StereoPipeline::new(&params.geometry, &params.pipeline, setup.config_dir())
             .map_err(actor_error)?;
         params.frame_check.validate().map_err(actor_error)?;
+        if let Some(latency) = params.latency_s
+            && !(latency.is_finite() && latency > 0.0 && latency <= MAX_LATENCY_S)
+        {
+            return Err(ActorError::Params(format!(
+                "latency_s must be in (0, {MAX_LATENCY_S}] s, got {latency}"
+            )));
+        }
         setup.input("stereo_frame", StereoInput::Frame);
         setup.input("nav_state", |n: NavState| {
             StereoInput::Motion(n.velocity_ned_m_s, n.angular_velocity_rad_s)
         });
         setup.timer("health_report", Duration::from_secs(1), StereoInput::Health);
+        if params.latency_s.is_some() {
+            setup.timer("deliver", DELIVERY_TICK, StereoInput::Deliver);
+        }
         Ok(StereoActor {
             worker: Some(Worker { check: FrameCheck::new(params.frame_check.clone()), pipeline }),
+            latency_us: params.latency_s.map(|s| (s * 1e6).round() as u64),
+            in_flight: None,
+            waiting: None,
+            motion: None,
             out: setup.output("depth_grid"),
             health_out: setup.output("health"),
             fault: None,
@@ -97,38 +159,75 @@ impl Actor for StereoActor {
 
     async fn handle(&mut self, ctx: &Context, input: StereoInput) -> Result<(), ActorError> {
         match input {
-            StereoInput::Frame(frame) => self.on_frame(frame).await,
-            StereoInput::Motion(velocity_m_s, rate_rad_s) => {
-                if let Some(worker) = &mut self.worker {
-                    worker.check.on_motion(velocity_m_s, rate_rad_s);
+            StereoInput::Frame(frame) => match self.latency_us {
+                None => {
+                    let job = self.start(frame)?;
+                    self.finish(job).await
                 }
+                Some(latency_us) if self.in_flight.is_none() => {
+                    let job = self.start(frame)?;
+                    self.in_flight =
+                        Some(InFlight { due: Time(ctx.now().0.saturating_add(latency_us)), job });
+                    Ok(())
+                }
+                Some(_) => {
+                    self.waiting = Some(frame);
+                    Ok(())
+                }
+            },
+            StereoInput::Motion(velocity_m_s, rate_rad_s) => {
+                self.motion = Some((velocity_m_s, rate_rad_s));
                 Ok(())
             }
             StereoInput::Health(now) => {
                 self.report(ctx, now);
                 Ok(())
             }
+            StereoInput::Deliver(now) => self.deliver(now).await,
         }
     }
 }
 
 impl StereoActor {
-    /// Runs the frame check and the pipeline on tokio's blocking pool, so tens of milliseconds of matching never
-    /// hold an async worker; awaiting it keeps one frame in flight, and the `latest` mailbox
-    /// means the next frame is the newest. A panic in the matcher comes back as an error, and
-    /// the supervisor restarts this actor with a fresh pipeline.
-    async fn on_frame(&mut self, frame: StereoFrame) -> Result<(), ActorError> {
+    /// Lends the worker to tokio's blocking pool for `frame` (the frame check, then the
+    /// pipeline), so tens of milliseconds of matching never hold an async worker. A panic in
+    /// the matcher comes back as an error when the job is awaited, and the supervisor restarts
+    /// this actor with a fresh pipeline.
+    fn start(&mut self, frame: StereoFrame) -> Result<JoinHandle<Done>, ActorError> {
         let mut worker = self
             .worker
             .take()
             .ok_or_else(|| ActorError::Failed("stereo pipeline lost by an earlier panic".into()))?;
-        let (worker, frame, fault, result) = tokio::task::spawn_blocking(move || {
+        let motion = self.motion;
+        Ok(tokio::task::spawn_blocking(move || {
+            if let Some((velocity_m_s, rate_rad_s)) = motion {
+                worker.check.on_motion(velocity_m_s, rate_rad_s);
+            }
             let fault = worker.check.check(&frame);
             let result = fault.is_none().then(|| worker.pipeline.process(&frame));
             (worker, frame, fault, result)
-        })
-        .await
-        .map_err(|e| ActorError::Failed(format!("stereo worker failed: {e}")))?;
+        }))
+    }
+
+    /// With `latency_s`: publishes the frame in flight once its grid is due by `now` (awaiting
+    /// the pipeline if it is still running), then starts the frame waiting, if any.
+    async fn deliver(&mut self, now: Time) -> Result<(), ActorError> {
+        let Some(flight) = self.in_flight.take_if(|f| f.due <= now) else {
+            return Ok(());
+        };
+        self.finish(flight.job).await?;
+        if let (Some(frame), Some(latency_us)) = (self.waiting.take(), self.latency_us) {
+            let job = self.start(frame)?;
+            self.in_flight = Some(InFlight { due: Time(now.0.saturating_add(latency_us)), job });
+        }
+        Ok(())
+    }
+
+    /// Awaits `job`, takes the worker back and publishes the grid, or counts and logs why there
+    /// is none.
+    async fn finish(&mut self, job: JoinHandle<Done>) -> Result<(), ActorError> {
+        let (worker, frame, fault, result) =
+            job.await.map_err(|e| ActorError::Failed(format!("stereo worker failed: {e}")))?;
         self.worker = Some(worker);
         if fault != self.fault {
             match fault {
@@ -216,5 +315,54 @@ mod tests {
         assert_eq!(health.len(), 1);
         assert_eq!((health[0].errors, health[0].rate_hz), (10, 0.0));
         assert_eq!(health[0].device, "stereo camera: frames black");
+    }
+
+    /// The simulated companion computer: with `latency_s`, a frame handled at `t` gives its
+    /// grid on the first `deliver` tick at or after `t + latency_s`, not before, stamped with
+    /// the frame's capture time; the frame that came meanwhile follows a latency later.
+    #[test]
+    fn with_a_latency_the_grid_comes_out_on_the_first_tick_after_it() {
+        let mut setup = TestSetup::new("stereo", ".");
+        let params: StereoParams = serde_json::from_str(
+            r#"{"geometry": {"rectified": {"focal_px": 224.07, "cx_px": 319.5, "cy_px": 239.5, "baseline_m": 0.12}}, "latency_s": 0.03}"#,
+        )
+        .expect("params");
+        let mut actor = StereoActor::build(&params, &mut setup).expect("build");
+        assert!(setup.timers().contains(&("deliver", DELIVERY_TICK)), "{:?}", setup.timers());
+        let ctx = setup.context();
+        let runtime = tokio::runtime::Builder::new_current_thread().build().expect("runtime");
+        let mut seed = 7u32;
+        let noise: Vec<u8> = (0..640 * 480)
+            .map(|_| {
+                seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+                (seed >> 24) as u8
+            })
+            .collect();
+        let frame = |k: u64| {
+            StereoFrame::new(
+                Time::from_micros(60_000 + 50_000 * k),
+                k,
+                640,
+                480,
+                noise.clone(),
+                noise.clone(),
+            )
+            .expect("frame")
+        };
+        let mut at = |t_us: u64, input: StereoInput| {
+            setup.manual_clock().set(Time::from_micros(t_us));
+            runtime.block_on(actor.handle(&ctx, input)).expect("handled");
+            setup.published::<DepthGrid>("depth_grid").iter().map(|g| g.time.0).collect::<Vec<_>>()
+        };
+        assert!(at(100_000, setup.input("stereo_frame", frame(0))).is_empty());
+        assert!(at(110_000, setup.input("stereo_frame", frame(1))).is_empty(), "frame 1 waits");
+        assert!(at(125_000, setup.tick("deliver", Time::from_micros(125_000))).is_empty(), "not due yet");
+        assert_eq!(at(130_000, setup.tick("deliver", Time::from_micros(130_000))), [60_000]);
+        assert_eq!(
+            at(155_000, setup.tick("deliver", Time::from_micros(155_000))),
+            [60_000],
+            "frame 1 started at 130 ms"
+        );
+        assert_eq!(at(160_000, setup.tick("deliver", Time::from_micros(160_000))), [60_000, 110_000]);
     }
 }

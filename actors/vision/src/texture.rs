@@ -5,7 +5,9 @@
 //! seen from the other side). A pixel whose neighbourhood has a mean horizontal gradient below
 //! a threshold gets no disparity, so the grid reports the patch as invalid, not as free.
 
-use opencv::core::{BORDER_REPLICATE, CV_16S, CV_32F, Mat, MatTraitConst, MatTraitConstManual, Point, Size};
+use opencv::core::{
+    BORDER_REPLICATE, CMP_LT, CV_16S, CV_32F, Mat, MatTraitConst, MatTraitConstManual, Point, Scalar, Size,
+};
 use opencv::imgproc;
 use serde::{Deserialize, Serialize};
 
@@ -39,6 +41,8 @@ pub struct TextureFilter {
     gradient: Mat,
     magnitude: Mat,
     mean: Mat,
+    /// 255 where textureless, else 0.
+    mask: Mat,
 }
 
 impl TextureFilter {
@@ -61,6 +65,7 @@ impl TextureFilter {
             gradient: Mat::default(),
             magnitude: Mat::default(),
             mean: Mat::default(),
+            mask: Mat::default(),
         }))
     }
 
@@ -70,6 +75,17 @@ impl TextureFilter {
         if (image.cols() as usize, image.rows() as usize) != (disparity.width, disparity.height) {
             return Err(VisionError::Input("texture image and disparity differ in size".into()));
         }
+        for (d, &textureless) in disparity.values.iter_mut().zip(self.textureless(image)?) {
+            if textureless != 0 {
+                *d = f32::NAN;
+            }
+        }
+        Ok(())
+    }
+
+    /// Per pixel of `image` (row-major, continuous): non-zero where its neighbourhood is
+    /// textureless. Valid until the next call.
+    pub fn textureless(&mut self, image: &Mat) -> Result<&[u8], VisionError> {
         // Central difference I(x+1) − I(x−1), halved to grey levels per pixel.
         imgproc::sobel(image, &mut self.gradient, CV_16S, 1, 0, 1, 0.5, 0.0, BORDER_REPLICATE)
             .cv("texture gradient")?;
@@ -86,12 +102,13 @@ impl TextureFilter {
             BORDER_REPLICATE,
         )
         .cv("texture mean")?;
-        let mean = self.mean.data_typed::<f32>().cv("texture pixels")?;
-        for (d, &m) in disparity.values.iter_mut().zip(mean) {
-            if m < self.params.min_gradient {
-                *d = f32::NAN;
-            }
-        }
-        Ok(())
+        opencv::core::compare(
+            &self.mean,
+            &Scalar::all(f64::from(self.params.min_gradient)),
+            &mut self.mask,
+            CMP_LT,
+        )
+        .cv("texture threshold")?;
+        self.mask.data_bytes().cv("texture mask")
     }
 }

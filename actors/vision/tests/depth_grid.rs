@@ -266,3 +266,27 @@ proptest::proptest! {
         }
     }
 }
+
+/// The frame → grid path converts the matcher's fixed-point output to depth in one pass
+/// (a table, the texture check folded in); its grid is exactly the grid of the pipeline's
+/// depth map (disparity, texture check, then division), for both pipelines and with a
+/// textureless wall in view.
+#[test]
+fn the_one_pass_grid_is_the_grid_of_the_depth_map() {
+    let flat = Some([2 * W / 3 - 20, W, 0, H / 3 + 20]);
+    let (left, right) = (render(0.0, flat), render(0.12, flat));
+    for params in pipelines() {
+        let mut pipeline =
+            StereoPipeline::new(&Geometry::Rectified(geometry()), &params, std::path::Path::new("."))
+                .unwrap();
+        let (l, r) = (
+            kestrel_vision::image::gray_mat(&left, W as u32, H as u32).unwrap(),
+            kestrel_vision::image::gray_mat(&right, W as u32, H as u32).unwrap(),
+        );
+        let one_pass = pipeline.grid(&l, &r, Time(5), 3).unwrap();
+        let depth = pipeline.depth(&l, &r).unwrap();
+        let geometry = *pipeline.geometry();
+        assert!(depth.values.iter().any(|z| z.is_nan()) && depth.values.iter().any(|z| !z.is_nan()));
+        assert_eq!(one_pass, depth_grid(&depth, &geometry, &params.grid, Time(5), 3));
+    }
+}
