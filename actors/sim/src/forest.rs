@@ -109,7 +109,10 @@ impl Forest {
             let radius = uniform(&mut rng, self.radius_m);
             let distance = |p: [f64; 2]| (at[0] - p[0]).hypot(at[1] - p[1]);
             let crowded = trunks.iter().any(|&(p, r)| distance(p) - r - radius < self.min_gap_m)
-                || self.keep_clear_m.iter().any(|&p| distance(self.to_ne(p)) - radius < self.keep_clear_radius_m);
+                || self
+                    .keep_clear_m
+                    .iter()
+                    .any(|&p| distance(self.to_ne(p)) - radius < self.keep_clear_radius_m);
             if !crowded {
                 trunks.push((at, radius));
             }
