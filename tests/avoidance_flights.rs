@@ -7,12 +7,14 @@
 
 mod avoidance_flight;
 mod flights;
+mod forest_seeds;
 mod qgc_plan;
 
 use std::path::PathBuf;
 
 use avoidance_flight::fly;
 use flights::{clearance_m, collisions, repo, scratch};
+use forest_seeds::{Flight, HOME_LANDING_M, fly_seeds, set, template};
 use serde_json::Value;
 
 fn world(name: &str) -> PathBuf {
@@ -21,20 +23,6 @@ fn world(name: &str) -> PathBuf {
 
 fn completed(report: &Value) -> bool {
     report["mission"]["completed"].as_bool().expect("mission.completed")
-}
-
-/// A straight leg `metres` north of home at `alt_m`, flown at 5 m/s cruise (issue 20: the
-/// avoider's `max_speed_m_s`), written into `dir`: take off, one waypoint, land there.
-fn leg_at_5_m_s(dir: &std::path::Path, metres: f64, alt_m: f64) -> PathBuf {
-    qgc_plan::write(
-        dir,
-        &format!("leg-{metres}m-5ms.plan"),
-        &[
-            qgc_plan::Item::north(qgc_plan::TAKEOFF, 0.0, alt_m),
-            qgc_plan::Item::north(qgc_plan::WAYPOINT, metres, alt_m),
-            qgc_plan::Item::north(qgc_plan::LAND, metres, 0.0),
-        ],
-    )
 }
 
 #[test]
@@ -70,7 +58,7 @@ fn rtl_flies_around_a_tree_taller_than_its_altitude() {
     assert!(clearance_m(&report) > 0.3, "{report:#}");
     assert_eq!(report["flight"]["landed"], Value::Bool(true), "{report:#}");
     let from_home = report["flight"]["landing_distance_from_home_m"].as_f64().expect("landing distance");
-    assert!(from_home < 2.0, "landed {from_home} m from home: {report:#}");
+    assert!(from_home < HOME_LANDING_M, "landed {from_home} m from home: {report:#}");
 }
 
 #[test]
@@ -94,7 +82,7 @@ fn thesis_test_2_a_textureless_wall_stops_the_vehicle_short_where_the_thesis_cra
 #[test]
 fn a_textured_wall_across_the_leg_at_5_m_s_is_flown_around() {
     let dir = scratch("avoid", "wall-textured-5ms-plan");
-    let plan = leg_at_5_m_s(&dir, 40.0, 6.0);
+    let plan = qgc_plan::leg(&dir, 0.0, 40.0, 6.0);
     let report = fly("wall-textured-5ms", &world("wall-textured.toml"), &plan.display().to_string(), 90);
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(collisions(&report), 0, "{report:#}");
@@ -105,7 +93,7 @@ fn a_textured_wall_across_the_leg_at_5_m_s_is_flown_around() {
 #[test]
 fn a_textureless_wall_at_5_m_s_stops_the_vehicle_short() {
     let dir = scratch("avoid", "wall-plain-5ms-plan");
-    let plan = leg_at_5_m_s(&dir, 40.0, 6.0);
+    let plan = qgc_plan::leg(&dir, 0.0, 40.0, 6.0);
     let report = fly("wall-plain-5ms", &world("wall-plain.toml"), &plan.display().to_string(), 40);
     let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(collisions(&report), 0, "{report:#}");
@@ -113,51 +101,19 @@ fn a_textureless_wall_at_5_m_s_stops_the_vehicle_short() {
     assert!(!completed(&report), "{report:#}");
 }
 
-/// Flies the forest of config/worlds/forest.toml with each of `seeds`, two flights at a time
-/// (the machine has 2 cores), on a 100 m leg at 5 m/s cruise; prints a `figure:` line per
-/// seed and returns (seed, completed, collisions, least clearance m) per seed.
-fn fly_forest(seeds: &[u64]) -> Vec<(u64, bool, u64, f64)> {
-    let template = std::fs::read_to_string(world("forest.toml")).unwrap();
-    assert!(template.contains("\nseed = 1\n"), "the forest world sets its seed on one line");
-    let dir = scratch("avoid", "forest-worlds");
-    let plan = leg_at_5_m_s(&dir, 100.0, 5.0).display().to_string();
-    let outcomes: Vec<(u64, bool, u64, f64, f64)> = seeds
-        .chunks(2)
-        .flat_map(|pair| {
-            std::thread::scope(|scope| {
-                let flights: Vec<_> = pair
-                    .iter()
-                    .map(|&seed| {
-                        let path = dir.join(format!("forest-{seed}.toml"));
-                        std::fs::write(
-                            &path,
-                            template.replace("\nseed = 1\n", &format!("\nseed = {seed}\n")),
-                        )
-                        .unwrap();
-                        let plan = &plan;
-                        scope.spawn(move || {
-                            let report = fly(&format!("forest-{seed}-5ms"), &path, plan, 150);
-                            let time_s = report["flight"]["duration_s"].as_f64().unwrap_or(f64::NAN);
-                            (seed, completed(&report), collisions(&report), clearance_m(&report), time_s)
-                        })
-                    })
-                    .collect();
-                flights.into_iter().map(|f| f.join().expect("flight thread")).collect::<Vec<_>>()
-            })
-        })
-        .collect();
-    let _ = std::fs::remove_dir_all(&dir);
-    for (seed, done, hits, clearance, time_s) in &outcomes {
-        println!(
-            "figure: forest seed {seed} at 5 m/s: completed {done}, collisions {hits}, min clearance {clearance:.2} m, {time_s:.1} s"
-        );
-    }
-    outcomes.into_iter().map(|(seed, done, hits, clearance, _)| (seed, done, hits, clearance)).collect()
-}
-
 #[test]
 fn a_forest_of_24_trees_on_a_100_m_leg_at_5_m_s_is_flown_through_without_collision_for_nine_of_ten_seeds() {
-    let outcomes = fly_forest(&(1..=10).collect::<Vec<u64>>());
-    let good = outcomes.iter().filter(|(_, done, hits, _)| *done && *hits == 0).count();
+    let world = template("forest.toml");
+    let outcomes = fly_seeds("forest", &(1..=10).collect::<Vec<u64>>(), 150, |dir, seed| {
+        let path = dir.join(format!("forest-{seed}.toml"));
+        std::fs::write(&path, set(&world, "seed", &seed.to_string())).unwrap();
+        Flight {
+            label: String::new(),
+            world: path,
+            plan: qgc_plan::leg(dir, 0.0, 100.0, 5.0),
+            lands_home: false,
+        }
+    });
+    let good = outcomes.iter().filter(|o| o.clean).count();
     assert!(good >= 9, "{good} of 10 seeds completed without a collision: {outcomes:?}");
 }

@@ -446,12 +446,12 @@ fn prepare(case: &Case) -> (PathBuf, PathBuf) {
 /// [`forest_leg_plan`]'s, 40 m north: no tree stands on it.
 fn forest_world(config_dir: &Path) -> String {
     let forest = std::fs::read_to_string(config_dir.join("worlds/forest.toml")).unwrap();
-    let clear = "keep_clear_ne_m = [[0.0, 0.0], [100.0, 0.0]]";
+    let clear = "keep_clear_m = [[0.0, 0.0], [100.0, 0.0]]";
     assert!(
         forest.contains(clear) && forest.contains("\nseed = 1\n"),
         "the forest world as the test knows it"
     );
-    forest.replace(clear, "keep_clear_ne_m = [[0.0, 0.0], [40.0, 0.0]]")
+    forest.replace(clear, "keep_clear_m = [[0.0, 0.0], [40.0, 0.0]]")
 }
 
 /// A QGroundControl plan: take off to 5 m, 40 m north into the forest, land there.

@@ -10,6 +10,11 @@ pub const HOME_DEG: (f64, f64) = (6.7971, 79.9017);
 /// Degrees of latitude per metre north, near enough for test legs of tens of metres.
 pub const DEG_PER_M_NORTH: f64 = 1.0 / 111_000.0;
 
+/// Degrees of longitude per metre east at home's latitude, as near as [`DEG_PER_M_NORTH`].
+pub fn deg_per_m_east() -> f64 {
+    DEG_PER_M_NORTH / HOME_DEG.0.to_radians().cos()
+}
+
 /// MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_RETURN_TO_LAUNCH, MAV_CMD_NAV_LAND, MAV_CMD_NAV_TAKEOFF.
 pub const WAYPOINT: u32 = 16;
 pub const RETURN_TO_LAUNCH: u32 = 20;
@@ -36,6 +41,34 @@ impl Item {
             alt_m,
         }
     }
+
+    /// `command` `metres` from home along the bearing `heading_deg` (clockwise from north),
+    /// `alt_m` above it.
+    pub fn along(command: u32, heading_deg: f64, metres: f64, alt_m: f64) -> Item {
+        let (sin, cos) = heading_deg.to_radians().sin_cos();
+        Item {
+            command,
+            hold_s: 0.0,
+            lat_deg: HOME_DEG.0 + metres * cos * DEG_PER_M_NORTH,
+            lon_deg: HOME_DEG.1 + metres * sin * deg_per_m_east(),
+            alt_m,
+        }
+    }
+}
+
+/// A straight leg of `metres` along the bearing `heading_deg` at `alt_m`, written into `dir`:
+/// take off, one waypoint, land there, at `write`'s 5 m/s cruise (issue 20: the avoider's
+/// `max_speed_m_s`).
+pub fn leg(dir: &Path, heading_deg: f64, metres: f64, alt_m: f64) -> PathBuf {
+    write(
+        dir,
+        &format!("leg-{heading_deg}deg-{metres}m-5ms.plan"),
+        &[
+            Item::along(TAKEOFF, heading_deg, 0.0, alt_m),
+            Item::along(WAYPOINT, heading_deg, metres, alt_m),
+            Item::along(LAND, heading_deg, metres, 0.0),
+        ],
+    )
 }
 
 /// Writes `items` as `dir/name` and returns its path.
