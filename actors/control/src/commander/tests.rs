@@ -274,6 +274,27 @@ fn at(c: &mut Commander, t: u64, command: Command) -> Result<(), String> {
 }
 
 #[test]
+fn a_slow_descent_demand_in_the_air_is_not_ground_contact_and_a_firm_one_against_the_ground_is() {
+    // Hovering still 5 m up in GUIDED: a demand to sink at 0.15 m/s (an avoider's "under") that
+    // the vehicle follows too slowly to see is no ground; 1 m/s down while standing still is.
+    for (down_m_s, disarms) in [(0.15, false), (1.0, true)] {
+        let mut c = hovering();
+        at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
+        let mut t = 2000;
+        while t < 8_000_000 && c.armed() {
+            t += 2500;
+            if (t - 2000) % 500_000 == 0 {
+                at(&mut c, t, Command::VelocityNed { velocity_ned_m_s: [0.0, 0.0, down_m_s] })
+                    .expect("velocity");
+            }
+            c.on_nav(&nav(Time(t), -5.0, true));
+            c.update(Time(t));
+        }
+        assert_eq!(!c.armed(), disarms, "{down_m_s} m/s down demanded: armed {}", c.armed());
+    }
+}
+
+#[test]
 fn a_stale_nav_state_never_lets_the_land_detector_disarm_in_the_air() {
     let mut c = hovering();
     // NavStates stop: the stale-nav failsafe lands, and the frozen (zero) velocity of the last
