@@ -418,7 +418,17 @@ fn an_actor_with_a_priority_gets_its_own_thread_on_the_realtime_clock_only() {
         assert!(report.supervisor_events.is_empty(), "{clock}: {:?}", report.supervisor_events);
         let (placed, handled) = (published(&report, "placed"), published(&report, "handled"));
         assert!(placed >= 10, "{clock}: {placed} ticks in 0.3 s");
-        assert_eq!(handled, placed, "{clock}: the counter on the shared workers heard every one");
+        if clock == "lockstep" {
+            assert_eq!(handled, placed, "{clock}: the counter on the shared workers heard every one");
+        } else {
+            // On the wall clock the two threads end concurrently: the counter drains what has
+            // arrived when the run ends and stops, while the pinned thread may still be
+            // handling the ticks it had been delivered by then (CI once heard 29 of 30).
+            assert!(
+                handled <= placed && placed - handled <= 2,
+                "{clock}: the counter on the shared workers heard {handled} of {placed}, all but the last ones in flight at the end"
+            );
+        }
     }
 }
 
