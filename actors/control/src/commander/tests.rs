@@ -1419,18 +1419,25 @@ fn bad_or_stale_telemetry_is_never_judged_and_a_new_flight_starts_healthy() {
     assert_eq!(c.failed_motor(), None);
 }
 
+/// The vehicle 20 m north of home at the RTL altitude, heading `yaw` (rad), at `t` µs.
+fn at_north(t: u64, yaw: f64) -> NavState {
+    let rtl_down = -CommanderParams::default().rtl_altitude_m;
+    NavState { position_ned_m: [20.0, 0.0, rtl_down], ..nav_heading(t, rtl_down, yaw) }
+}
+
+/// A hovering commander 20 m north of home, facing north, told to return at 2.5 ms.
+fn rtl_from_the_north() -> Commander {
+    let mut c = hovering();
+    c.on_nav(&at_north(2500, 0.0));
+    at(&mut c, 2500, Command::ReturnToLaunch).expect("rtl");
+    c
+}
+
 /// In RTL's return leg, 20 m north of home at the RTL altitude, with the avoider streaming
 /// `frd` (stale when `stale`) from `stale_from` on; the nav heading follows the commanded yaw.
 /// Returns the commander, the last setpoint and the time.
 fn rtl_return(frd: [f64; 3], stale_from: Option<u64>, until: u64) -> (Commander, TrajectorySetpoint, u64) {
-    let mut c = hovering();
-    let rtl_down = -CommanderParams::default().rtl_altitude_m;
-    let at_north = |t: u64, yaw: f64| NavState {
-        position_ned_m: [20.0, 0.0, rtl_down],
-        ..nav_heading(t, rtl_down, yaw)
-    };
-    c.on_nav(&at_north(2500, 0.0));
-    at(&mut c, 2500, Command::ReturnToLaunch).expect("rtl");
+    let mut c = rtl_from_the_north();
     let (mut t, mut yaw, mut sp) = (2500, 0.0, TrajectorySetpoint::default());
     while t < until {
         t += 2500;
@@ -1460,14 +1467,7 @@ fn rtl_flies_home_with_the_avoider_in_the_loop_facing_the_way_home() {
 fn rtl_started_facing_away_from_home_turns_before_it_flies_the_way_home() {
     // 20 m north of home facing north: home is behind. Until the nose is within 30° of south
     // the demand is a turn on the spot, with no horizontal velocity; then it flies home.
-    let mut c = hovering();
-    let rtl_down = -CommanderParams::default().rtl_altitude_m;
-    let at_north = |t: u64, yaw: f64| NavState {
-        position_ned_m: [20.0, 0.0, rtl_down],
-        ..nav_heading(t, rtl_down, yaw)
-    };
-    c.on_nav(&at_north(2500, 0.0));
-    at(&mut c, 2500, Command::ReturnToLaunch).expect("rtl");
+    let mut c = rtl_from_the_north();
     let (mut t, mut yaw) = (2500, 0.0);
     let mut flew_while_off = 0.0f64;
     let mut sp = TrajectorySetpoint::default();
