@@ -363,3 +363,38 @@ fn the_clear_range_is_what_the_view_vouches_for_ahead_and_why() {
     let stale = avoider.check(at(1.0)).expect("stale");
     assert_eq!(reason(stale.clear_range), (0.0, ClearRangeReason::Stale));
 }
+
+#[test]
+fn above_the_ground_match_height_an_invalid_view_ahead_is_no_wall_but_vouches_only_for_the_unknown_range() {
+    use kestrel_proto::messages::{ClearRangeReason, NavState};
+    let speed = 4.0;
+    // Every region mostly invalid: a textureless wall filling the view, or sky and ground too
+    // far for a disparity.
+    let invalid = [[0.95; 3]; 3];
+    let at_height = |height_m: f64| {
+        let mut avoider = unfiltered(speed);
+        let pose = NavState::exact(at(0.0), [1.0, 0.0, 0.0, 0.0], [0.0; 3], [0.0; 3], [0.0, 0.0, -height_m]);
+        avoider.set_pose(&pose);
+        avoider.update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid")
+    };
+    let limit = AvoiderParams::default().ground_match_height_m;
+    // At or below the height the ground below the path would be matched: the wall, stop.
+    for height_m in [5.0, limit] {
+        let low = at_height(height_m);
+        assert!(low.health.unknown_centre_slowdown, "{height_m} m: {:?}", low.health);
+        assert!((low.velocity_frd_m_s[0] + speed).abs() < 1e-9, "{height_m} m: {:?}", low.velocity_frd_m_s);
+        assert_eq!((low.clear_range.range_m, low.clear_range.reason), (0.0, ClearRangeReason::UnknownAhead));
+    }
+    // Above it: no slow-down from the avoider, and the conservative range for the commander's cap.
+    let high = at_height(limit + 0.5);
+    assert!(!high.health.unknown_centre_slowdown, "{:?}", high.health);
+    assert!(high.velocity_frd_m_s.iter().all(|v| v.abs() < 5e-3), "{:?}", high.velocity_frd_m_s);
+    let unknown_range_m = AvoiderParams::default().unknown_range_m;
+    assert_eq!(
+        (high.clear_range.range_m, high.clear_range.reason),
+        (unknown_range_m, ClearRangeReason::GroundOutOfReach)
+    );
+    // Without a pose the height is unknown: the wall rule stands.
+    let blind = unfiltered(speed).update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid");
+    assert!(blind.health.unknown_centre_slowdown);
+}

@@ -90,6 +90,11 @@ pub enum ClearRangeReason {
     /// The view ahead is unknown (the centre and the region below it mostly invalid, thesis
     /// §4.2.3): the range is 0.
     UnknownAhead,
+    /// The centre and the region below it are mostly invalid, but the vehicle is higher than
+    /// the avoider's `ground_match_height_m`, where the ground below the path is too far for
+    /// a disparity: open sky and far ground look so, and the view says nothing either way. The
+    /// range is `unknown_range_m`, as for [`ClearRangeReason::Untextured`].
+    GroundOutOfReach,
     /// Nothing in the centre within the stereo range: the farthest depth the grid reports
     /// (`DepthGrid::sectors.max_distance_cm`, the stereo pair's reliable range).
     StereoRange,
@@ -103,6 +108,7 @@ impl ClearRangeReason {
             ClearRangeReason::Obstacle => "obstacle",
             ClearRangeReason::Untextured => "untextured",
             ClearRangeReason::UnknownAhead => "unknown ahead",
+            ClearRangeReason::GroundOutOfReach => "ground out of reach",
             ClearRangeReason::StereoRange => "stereo range",
         }
     }

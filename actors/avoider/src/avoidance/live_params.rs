@@ -94,6 +94,15 @@ pub const LIVE_PARAMS: &[ParamDef<AvoiderParams>] = &[
         set: |p, v| p.unknown_range_m = v,
     },
     ParamDef {
+        name: "AVOID_GND_HGT",
+        unit: "m",
+        min: 1.0,
+        max: 100.0,
+        description: "Height above which the stereo cannot match the ground below the path",
+        get: |p| p.ground_match_height_m,
+        set: |p, v| p.ground_match_height_m = v,
+    },
+    ParamDef {
         name: "AVOID_STOP_DIST",
         unit: "m",
         min: 0.0,

@@ -72,7 +72,20 @@ pub struct MemorySettings {
     /// Points within this horizontal distance of the vehicle do not age (m): what is near
     /// enough to close a side to the sidestep stays known however long the vehicle stays by it.
     pub keep_within_m: f64,
+    /// How far (m) a sector straight ahead (within [`AHEAD_HALF_WIDTH_RAD`]) that the frame
+    /// could not measure still vouches for free space; 0: an unmeasured sector says nothing.
+    /// Set while the ground is out of the stereo pair's reach, where an invalid view counts as
+    /// clear up to the avoider's `unknown_range_m`: a point the frame cannot confirm ahead is
+    /// then dropped as if seen through, as the speed cap already trusts that range. Without
+    /// it, the rim of a 25 m tree top seen 2 m below, placed at the vehicle's level 1 m ahead,
+    /// held the vehicle above the tree for good, where no later frame could see it again.
+    pub unmeasured_clear_m: f64,
 }
+
+/// Half the width of the directions straight ahead that every forward camera sees (rad): the
+/// only ones where an unmeasured sector may vouch for free space (`unmeasured_clear_m`).
+/// Sectors outside the view are unmeasured too, and must keep what is beside the vehicle.
+pub const AHEAD_HALF_WIDTH_RAD: f64 = 15.0 * std::f64::consts::PI / 180.0;
 
 /// One remembered obstacle point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -144,10 +157,15 @@ impl ObstacleMemory {
         // view is measured only in part (the matcher finds no disparity in the left image's
         // first columns), so a point that has slid out of the measured part must not be taken
         // as seen through (a trunk was forgotten that way and hit, forest seed 8).
+        let vouched = |index: usize| -> Option<f64> {
+            let ahead = angle_between(offset + index as f64 * increment, 0.0) <= AHEAD_HALF_WIDTH_RAD;
+            measured(index)
+                .or((ahead && settings.unmeasured_clear_m > 0.0).then_some(settings.unmeasured_clear_m))
+        };
         let covering = |sector: usize| -> Option<f64> {
             [count - 1, 0, 1]
                 .iter()
-                .map(|&step| measured((sector + step) % count))
+                .map(|&step| vouched((sector + step) % count))
                 .try_fold(f64::INFINITY, |nearest, m| m.map(|m| nearest.min(m)))
         };
         self.points.retain_mut(|p| {
@@ -271,8 +289,13 @@ mod tests {
 
     use super::*;
 
-    const SETTINGS: MemorySettings =
-        MemorySettings { time_s: 10.0, range_m: 6.0, height_m: 1.5, keep_within_m: 2.0 };
+    const SETTINGS: MemorySettings = MemorySettings {
+        time_s: 10.0,
+        range_m: 6.0,
+        height_m: 1.5,
+        keep_within_m: 2.0,
+        unmeasured_clear_m: 0.0,
+    };
 
     fn pose(seconds: f64, north_m: f64, east_m: f64, yaw_deg: f64) -> Pose {
         Pose {
@@ -349,6 +372,35 @@ mod tests {
         // Inside the view, with measured neighbours, a free reading drops it.
         memory.observe(&view(&[]), &pose(0.2, 0.0, 0.0, 0.0), &SETTINGS);
         assert!(memory.is_empty());
+    }
+
+    #[test]
+    fn an_unmeasured_view_ahead_drops_points_straight_ahead_within_what_it_vouches_for_only() {
+        // Seen 3 m ahead and 3 m ahead-right (45°); then nothing measured at all.
+        let seen = pose(0.0, 0.0, 0.0, 0.0);
+        let blank = ObstacleSectors { distances_cm: vec![SECTOR_UNKNOWN; OBSTACLE_SECTORS], ..view(&[]) };
+        let remembered = || {
+            let mut memory = ObstacleMemory::new();
+            memory.observe(&view(&[(0, 3.0), (9, 3.0)]), &seen, &SETTINGS);
+            memory
+        };
+        // An unmeasured sector says nothing by default: both stay.
+        let mut memory = remembered();
+        memory.observe(&blank, &pose(0.1, 0.0, 0.0, 0.0), &SETTINGS);
+        assert_eq!(memory.len(), 2);
+        // Vouching for 4 m: the point straight ahead goes, the one 45° off (out of the ±15°
+        // every forward camera sees, as sectors outside the view are unmeasured too) stays.
+        let vouching = MemorySettings { unmeasured_clear_m: 4.0, ..SETTINGS };
+        let mut memory = remembered();
+        memory.observe(&blank, &pose(0.1, 0.0, 0.0, 0.0), &vouching);
+        let left = points(&memory, &seen);
+        assert_eq!(left.len(), 1, "{left:?}");
+        assert!((left[0].0 - 45.0).abs() < 1e-9, "{left:?}");
+        // ... and only within what it vouches for: a point 5 m ahead stays.
+        let mut memory = ObstacleMemory::new();
+        memory.observe(&view(&[(0, 5.0)]), &seen, &SETTINGS);
+        memory.observe(&blank, &pose(0.1, 0.0, 0.0, 0.0), &vouching);
+        assert_eq!(memory.len(), 1);
     }
 
     #[test]

@@ -22,6 +22,8 @@
 //!      until the memory forgot one side (forest seed 8 turned 12 times in 19 s);
 //!    * view ahead unknown (the textureless wall of §4.2.3, [`View::unknown_ahead`]): the
 //!      vehicle keeps at most `unknown_speed_share` of its desired speed (0 by default: stop);
+//!      not above `ground_match_height_m`, where the ground below the path is out of the
+//!      stereo pair's reach and an invalid view is what open sky and far ground look like;
 //!    * every region blocked: forward progress stops and the vehicle climbs at
 //!      `climb_speed_m_s` until the centre's near share falls below `climb_exit_share` (§6),
 //!      and `climb_margin_m` more;
@@ -280,7 +282,13 @@ impl Avoider {
             *slot = degree as f32;
         }
         self.last_grid = Some((grid.time, grid.frame_sequence));
-        let settings = self.memory_settings();
+        // High up, the ground below the path is out of the stereo pair's reach: an invalid
+        // view ahead is then no sign of a wall (see `ground_match_height_m`), and vouches for
+        // `unknown_range_m` in the memory as for the speed cap.
+        let ground_out_of_reach =
+            self.poses.newest().is_some_and(|pose| -pose.ned_m[2] > self.params.ground_match_height_m);
+        let unmeasured_clear_m = if ground_out_of_reach { self.params.unknown_range_m } else { 0.0 };
+        let settings = self.memory_settings().map(|s| MemorySettings { unmeasured_clear_m, ..s });
         match (settings, self.poses.at(grid.time)) {
             (Some(settings), Some(capture)) => self.memory.observe(&grid.sectors, &capture, &settings),
             _ => self.memory.clear(),
@@ -312,7 +320,7 @@ impl Avoider {
         // a side each time (the vehicle dithered in front of two trunks for 100 s).
         let blocked_share = if self.sidestep.side.is_some() { p.climb_exit_share } else { p.blocked_share };
         let centre_blocked = view.centre_near() >= blocked_share || near_ahead;
-        let unknown_ahead = view.unknown_ahead();
+        let unknown_ahead = view.unknown_ahead() && !ground_out_of_reach;
         let desired = self.desired_speed_m_s;
         let target = if climbing {
             self.sidestep.end();
@@ -387,26 +395,34 @@ impl Avoider {
                 memory_limited,
                 ..self.counters()
             },
-            clear_range: self.clear_range(&view, nearest_ahead, grid),
+            clear_range: self.clear_range(&view, ground_out_of_reach, nearest_ahead, grid),
         })
     }
 
     /// The distance ahead `view` vouches for (see [`ClearRangeReason`]): an unknown view ahead
-    /// vouches for nothing; otherwise the nearest depth in the centre, no farther than the
-    /// conservative `unknown_range_m` while the centre is mostly invalid, nor than the grid's
-    /// reliable stereo range.
-    fn clear_range(&self, view: &View, nearest_ahead: Option<f64>, grid: &DepthGrid) -> ClearRange {
-        if view.unknown_ahead() {
-            return ClearRange { range_m: 0.0, reason: ClearRangeReason::UnknownAhead };
-        }
+    /// vouches for nothing, unless the ground below the path is out of the stereo pair's reach;
+    /// otherwise the nearest depth in the centre, no farther than the conservative
+    /// `unknown_range_m` while the centre is mostly invalid, nor than the grid's reliable
+    /// stereo range.
+    fn clear_range(
+        &self,
+        view: &View,
+        ground_out_of_reach: bool,
+        nearest_ahead: Option<f64>,
+        grid: &DepthGrid,
+    ) -> ClearRange {
+        let unknown_reason = match (view.unknown_ahead(), ground_out_of_reach) {
+            (true, false) => return ClearRange { range_m: 0.0, reason: ClearRangeReason::UnknownAhead },
+            (true, true) => ClearRangeReason::GroundOutOfReach,
+            (false, _) => ClearRangeReason::Untextured,
+        };
         let stereo = ClearRange {
             range_m: f64::from(grid.sectors.max_distance_cm) / 100.0,
             reason: ClearRangeReason::StereoRange,
         };
-        let untextured = view.centre_unknown().then_some(ClearRange {
-            range_m: self.params.unknown_range_m,
-            reason: ClearRangeReason::Untextured,
-        });
+        let untextured = view
+            .centre_unknown()
+            .then_some(ClearRange { range_m: self.params.unknown_range_m, reason: unknown_reason });
         let obstacle = nearest_ahead
             .filter(|d| *d >= 0.0)
             .map(|range_m| ClearRange { range_m, reason: ClearRangeReason::Obstacle });
@@ -424,6 +440,7 @@ impl Avoider {
             range_m: p.memory_range_m,
             height_m: p.memory_height_m,
             keep_within_m: p.sidestep_distance_m,
+            unmeasured_clear_m: 0.0,
         })
     }
 

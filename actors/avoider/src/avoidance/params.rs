@@ -51,6 +51,20 @@ pub struct AvoiderParams {
     /// wall of `config/worlds/wall-plain.toml` is first called unknown about 4.4 m out
     /// (issue 20), so the commander's speed cap keeps the vehicle able to stop within less.
     pub unknown_range_m: f64,
+    /// Height above the estimator's origin (the take-off ground; m) up to which the stereo pair
+    /// matches the ground below the flight path. Above it that ground is too far for a
+    /// disparity, so an invalid region below the centre says nothing about a textureless wall
+    /// and the view ahead is not called unknown: the range vouched for is `unknown_range_m`
+    /// ([`ClearRangeReason::GroundOutOfReach`]), as for a mostly invalid centre. The default
+    /// is what a 320 × 240 rig with a 110° view and a 12 cm baseline matches, measured
+    /// hovering over open ground in the simulator: the region below the centre was 36–58 %
+    /// invalid from 10 to 12.5 m and 74–85 % (unknown) from 14.5 m; from 28 m every region was
+    /// invalid, and a vehicle that climbed over a 25 m tree stopped above it for good. The VGA
+    /// rig of `config/base/perception.toml` matches up to about 26 m and says so there. Flat
+    /// ground at the origin's height is assumed: the vehicle has no terrain data.
+    ///
+    /// [`ClearRangeReason::GroundOutOfReach`]: kestrel_proto::messages::ClearRangeReason::GroundOutOfReach
+    pub ground_match_height_m: f64,
     /// The vehicle stops this far short of the nearest depth in the centre region (m). Beyond
     /// the thesis, which only slows through the rule base: like PX4's collision prevention
     /// (`CP_DIST`), the forward speed is capped so that the vehicle can still brake in time.
@@ -113,6 +127,7 @@ impl Default for AvoiderParams {
             unknown_invalid_share: 0.7,
             unknown_speed_share: 0.0,
             unknown_range_m: 4.0,
+            ground_match_height_m: 12.0,
             stop_distance_m: 2.0,
             brake_decel_m_s2: 2.0,
             reaction_time_s: 0.3,
@@ -139,6 +154,7 @@ impl AvoiderParams {
             ("check_period_s", self.check_period_s),
             ("memory_range_m", self.memory_range_m),
             ("memory_height_m", self.memory_height_m),
+            ("ground_match_height_m", self.ground_match_height_m),
         ];
         for (field, value) in positive {
             if !(value.is_finite() && value > 0.0) {

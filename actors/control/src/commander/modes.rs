@@ -362,8 +362,8 @@ impl Commander {
         traj(at(&p), [None; 3], Some(yaw))
     }
 
-    /// RTL: climb where it is to the RTL altitude (or stay higher), fly home at that altitude,
-    /// loiter, land. With the avoider in the loop the way home is flown as an AUTO leg is
+    /// RTL: climb where it is to the RTL altitude (or stay higher), fly home at that altitude
+    /// (or at the higher one an avoider climb on the way reached), loiter, land. With the avoider in the loop the way home is flown as an AUTO leg is
     /// ([`Leg::To`]): the nose turns homewards so that the forward camera looks along it, and
     /// what stands in the way (a tree above the RTL altitude) is sidestepped or climbed over as
     /// the avoider says, as ArduCopter's object avoidance acts in RTL (`OA_TYPE`); a stale stream
@@ -405,7 +405,15 @@ impl Commander {
                         target: Vector3::new(home.x, home.y, down_m),
                         speed_m_s: self.params.rtl_speed_m_s,
                     };
-                    return SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint);
+                    let blend = self.avoiding(now, dt_s, nav, leg);
+                    if blend.vertical_takeover && pos.z < down_m {
+                        // Climbed over what stood in the way: home is flown at this altitude,
+                        // not back down at the RTL altitude onto what was climbed over (the
+                        // forward camera cannot see below), as PX4 (`RTL_RETURN_ALT`) and
+                        // ArduPilot (`RTL_ALT`) return at the current altitude when above theirs.
+                        self.rtl = RtlPhase::Return { down_m: pos.z };
+                    }
+                    return SetpointTarget::Trajectory(blend.setpoint);
                 }
                 SetpointTarget::Trajectory(TrajectorySetpoint {
                     position_ned_m: [Some(home.x), Some(home.y), Some(down_m)],

@@ -1498,3 +1498,41 @@ fn rtl_with_a_stale_avoider_slows_and_holds_and_says_why() {
     let why = c.status(Time(t)).last_refusal.expect("says why");
     assert!(why.contains("avoidance stale"), "{why}");
 }
+
+#[test]
+fn rtl_flies_home_at_the_height_an_avoider_climb_reached_not_back_down_onto_what_it_climbed_over() {
+    // On the way home the avoider climbs 10 m over a tree taller than the RTL altitude (every
+    // region blocked), then the climb ends with the vehicle above the tree's top. The forward
+    // camera cannot see the top below: going back down to the RTL altitude would land on it.
+    let mut c = rtl_from_the_north();
+    let rtl_down = -CommanderParams::default().rtl_altitude_m;
+    let top_down = rtl_down - 10.0;
+    let (mut t, mut yaw, mut down) = (2500, 0.0, rtl_down);
+    let mut sp = TrajectorySetpoint::default();
+    while t < 17_000_000 {
+        t += 2500;
+        // Facing home from 4 s on; climbing at 1.5 m/s until 10 m up.
+        let climbing = t > 4_000_000 && down > top_down;
+        if climbing {
+            down = (down - 1.5 * 0.0025).max(top_down);
+        }
+        c.on_nav(&NavState { position_ned_m: [20.0, 0.0, down], ..nav_heading(t, down, yaw) });
+        let command = if climbing {
+            let health = AvoidanceHealth { climbing: true, ..AvoidanceHealth::default() };
+            AvoidanceCommand { health, ..avoidance(t, [0.0, 0.0, -1.5], false) }
+        } else {
+            avoidance(t, [0.0; 3], false)
+        };
+        c.on_avoidance(&command);
+        sp = trajectory(c.update(Time(t)).target);
+        yaw = sp.yaw_rad.expect("yaw");
+    }
+    assert!((down - top_down).abs() < 1e-9, "the climb reached the top: {down}");
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
+    // Seconds after the climb ended: home at the reached height, not down at 2 m/s.
+    let v = velocity(&sp);
+    assert!(v[2].abs() < 0.05, "no descent on the way home: {v:?}");
+    let sp_down = sp.position_ned_m[2].expect("down");
+    assert!((sp_down - top_down).abs() < 0.35, "held {sp_down} m against {top_down} m");
+    assert!(v[0] < -1.0, "and flying home: {v:?}");
+}
