@@ -62,6 +62,19 @@ fn rtl_flies_around_a_tree_taller_than_its_altitude() {
 }
 
 #[test]
+fn the_same_lockstep_flight_flown_twice_is_the_same_flight() {
+    // The stereo pipeline runs on the blocking pool while the simulation goes on, and how fast
+    // it finishes depends on the host; in lockstep that must not change the flight. Before the
+    // stereo actor blocked for a late pipeline, three idle runs of one RTL flight ended 83.4,
+    // 82.0 and 150 s in. Everything in the report's flight and mission sections is simulated.
+    let first = fly("tree-again-1", &world("tree.toml"), "config/missions/leg-40m.plan", 60);
+    let second = fly("tree-again-2", &world("tree.toml"), "config/missions/leg-40m.plan", 60);
+    for section in ["flight", "mission"] {
+        assert_eq!(first[section], second[section], "{section}: {first:#} against {second:#}");
+    }
+}
+
+#[test]
 fn thesis_test_2_a_textured_wall_across_the_leg_is_avoided() {
     let report = fly("wall-textured", &world("wall-textured.toml"), "config/missions/leg-40m.plan", 90);
     assert_eq!(collisions(&report), 0, "{report:#}");

@@ -112,11 +112,18 @@ struct Worker {
 /// frame without one, the pipeline's result.
 type Done = (Worker, StereoFrame, Option<FrameFault>, Option<Result<DepthGrid, VisionError>>);
 
+/// A frame on the blocking pool: its result comes back on `done` (the job's panic drops the
+/// sender), and `handle` says when it has (for the awaiting path).
+struct Job {
+    done: std::sync::mpsc::Receiver<Done>,
+    handle: JoinHandle<()>,
+}
+
 /// A frame being processed under `latency_s`.
 struct InFlight {
     /// Publish at the first `deliver` tick at or after this time.
     due: Time,
-    job: JoinHandle<Done>,
+    job: Job,
 }
 
 impl Actor for StereoActor {
@@ -183,7 +190,7 @@ impl Actor for StereoActor {
                 self.report(ctx, now);
                 Ok(())
             }
-            StereoInput::Deliver(now) => self.deliver(now).await,
+            StereoInput::Deliver(now) => self.deliver(now),
         }
     }
 }
@@ -193,29 +200,45 @@ impl StereoActor {
     /// pipeline), so tens of milliseconds of matching never hold an async worker. A panic in
     /// the matcher comes back as an error when the job is awaited, and the supervisor restarts
     /// this actor with a fresh pipeline.
-    fn start(&mut self, frame: StereoFrame) -> Result<JoinHandle<Done>, ActorError> {
+    fn start(&mut self, frame: StereoFrame) -> Result<Job, ActorError> {
         let mut worker = self
             .worker
             .take()
             .ok_or_else(|| ActorError::Failed("stereo pipeline lost by an earlier panic".into()))?;
         let motion = self.motion;
-        Ok(tokio::task::spawn_blocking(move || {
+        let (sender, done) = std::sync::mpsc::sync_channel(1);
+        let handle = tokio::task::spawn_blocking(move || {
             if let Some((velocity_m_s, rate_rad_s)) = motion {
                 worker.check.on_motion(velocity_m_s, rate_rad_s);
             }
             let fault = worker.check.check(&frame);
             let result = fault.is_none().then(|| worker.pipeline.process(&frame));
-            (worker, frame, fault, result)
-        }))
+            // The receiver is gone only if the actor is: nobody wants the grid then.
+            let _ = sender.send((worker, frame, fault, result));
+        });
+        Ok(Job { done, handle })
     }
 
-    /// With `latency_s`: publishes the frame in flight once its grid is due by `now` (awaiting
-    /// the pipeline if it is still running), then starts the frame waiting, if any.
-    async fn deliver(&mut self, now: Time) -> Result<(), ActorError> {
+    /// With `latency_s`: publishes the frame in flight once its grid is due by `now`, then
+    /// starts the frame waiting, if any.
+    ///
+    /// A pipeline still running at the due tick is waited for by blocking this thread, not by
+    /// awaiting: an await would let the other actors' work at the same simulated instant run
+    /// first, so whether the avoider took the grid before or after, say, the commander's new
+    /// setpoint would depend on how fast the host matched, and no two lockstep flights were
+    /// alike (three idle runs of the same RTL flight ended 83.4, 82.0 and 150 s in). Blocking
+    /// keeps the order the one of a pipeline that was done in time. Simulated time cannot pass
+    /// the tick meanwhile either way; only the other work of that one instant waits.
+    fn deliver(&mut self, now: Time) -> Result<(), ActorError> {
         let Some(flight) = self.in_flight.take_if(|f| f.due <= now) else {
             return Ok(());
         };
-        self.finish(flight.job).await?;
+        let done = flight
+            .job
+            .done
+            .recv()
+            .map_err(|_| ActorError::Failed("stereo worker failed: it panicked".into()))?;
+        self.publish(done)?;
         if let (Some(frame), Some(latency_us)) = (self.waiting.take(), self.latency_us) {
             let job = self.start(frame)?;
             self.in_flight = Some(InFlight { due: Time(now.0.saturating_add(latency_us)), job });
@@ -223,11 +246,18 @@ impl StereoActor {
         Ok(())
     }
 
-    /// Awaits `job`, takes the worker back and publishes the grid, or counts and logs why there
-    /// is none.
-    async fn finish(&mut self, job: JoinHandle<Done>) -> Result<(), ActorError> {
-        let (worker, frame, fault, result) =
-            job.await.map_err(|e| ActorError::Failed(format!("stereo worker failed: {e}")))?;
+    /// Awaits `job`, then publishes what it gave ([`StereoActor::publish`]).
+    async fn finish(&mut self, job: Job) -> Result<(), ActorError> {
+        job.handle.await.map_err(|e| ActorError::Failed(format!("stereo worker failed: {e}")))?;
+        let done = job
+            .done
+            .try_recv()
+            .map_err(|_| ActorError::Failed("stereo worker ended without a result".into()))?;
+        self.publish(done)
+    }
+
+    /// Takes the worker back and publishes the grid, or counts and logs why there is none.
+    fn publish(&mut self, (worker, frame, fault, result): Done) -> Result<(), ActorError> {
         self.worker = Some(worker);
         if fault != self.fault {
             match fault {
