@@ -7,15 +7,17 @@
 //!
 //! * **Unset** (a companion computer on hardware): as soon as the pipeline is done. Under
 //!   lockstep the frame's work token is held until then, so simulated time stands still while
-//!   the matcher runs: deterministic, but the simulator, the renderer and the matcher never
-//!   overlap.
+//!   the matcher runs, and the simulator, the renderer and the matcher never overlap. The
+//!   handler awaits, so other work of the same instant may run first: simulated lockstep
+//!   flights set `latency_s`.
 //! * **Set** (the simulated vehicle): the companion computer's processing time is a fixed
 //!   latency on the graph clock, as the camera's `latency_s` is. A frame handled at `t` starts
 //!   at once on the blocking pool and its handler returns, so the graph (simulator, camera
 //!   render, estimator, controller) runs on while the matcher works; the grid is published on
 //!   the first `deliver` tick (every [`DELIVERY_TICK`]) at or after `t + latency_s`, and only
-//!   that tick awaits a pipeline that is still running, keeping its token so simulated time
-//!   cannot pass it. The same grids come out at the same simulated times however fast the
+//!   that tick waits for a pipeline that is still running, blocking the thread so that neither
+//!   simulated time nor that instant's other work can pass it. The same grids come out at the
+//!   same simulated times, in the same order among that instant's messages, however fast the
 //!   host is. A frame that arrives while one is in flight waits (the newest replaces an older
 //!   waiting one, as the `latest` mailbox would) and starts when the grid before it is out.
 //!
