@@ -200,8 +200,9 @@ impl Actor for StereoActor {
 impl StereoActor {
     /// Lends the worker to tokio's blocking pool for `frame` (the frame check, then the
     /// pipeline), so tens of milliseconds of matching never hold an async worker. A panic in
-    /// the matcher comes back as an error when the job is awaited, and the supervisor restarts
-    /// this actor with a fresh pipeline.
+    /// the matcher comes back as an error when the job is awaited or its result waited for
+    /// (the panic drops the result's sender), and the supervisor restarts this actor with a
+    /// fresh pipeline.
     fn start(&mut self, frame: StereoFrame) -> Result<Job, ActorError> {
         let mut worker = self
             .worker

@@ -362,15 +362,16 @@ impl Commander {
         traj(at(&p), [None; 3], Some(yaw))
     }
 
-    /// RTL: climb where it is to the RTL altitude (or stay higher), fly home at that altitude
-    /// (or at the higher one an avoider climb on the way reached), loiter, land. With the avoider in the loop the way home is flown as an AUTO leg is
-    /// ([`Leg::To`]): the nose turns homewards so that the forward camera looks along it, and
-    /// what stands in the way (a tree above the RTL altitude) is sidestepped or climbed over as
-    /// the avoider says, as ArduCopter's object avoidance acts in RTL (`OA_TYPE`); a stale stream
-    /// slows and holds there, as in AUTO, until it is fresh again or a failsafe lands. The straight
-    /// line is kept rather than the flown path retraced: the avoider corrects any leg, and a
-    /// retraced path is no clearer once the wind or a moved obstacle has changed it. The climb
-    /// and the descent are vertical, where the forward camera sees nothing to avoid.
+    /// RTL: climb where it is to the RTL altitude (or stay higher), fly home at that altitude (or
+    /// at the higher one an avoider climb on the way reached), loiter, land. With the avoider in
+    /// the loop the way home is flown as an AUTO leg is ([`Leg::To`]): the nose turns homewards so
+    /// that the forward camera looks along it, and what stands in the way (a tree above the RTL
+    /// altitude) is sidestepped or climbed over as the avoider says, as ArduCopter's object
+    /// avoidance acts in RTL (`OA_TYPE`); a stale stream slows and holds there, as in AUTO, until
+    /// it is fresh again or a failsafe lands. The straight line is kept rather than the flown path
+    /// retraced: the avoider corrects any leg, and a retraced path is no clearer once the wind or a
+    /// moved obstacle has changed it. The climb and the descent are vertical, where the forward
+    /// camera sees nothing to avoid.
     fn rtl(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
         let Some(home) = self.home_ned else { return self.land_at(now, dt_s, nav, None) };
         let pos = Vector3::from(nav.position_ned_m);
