@@ -199,6 +199,19 @@ fn a_ground_station_flies_the_square_mission_through_telemetry_alone() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// ArduPilot SITL's way of checking a wind estimate: SIM_WIND_SPD/DIR set over MAVLink, WIND read
+/// back in a hover (the estimator learns it from drag, `config/sim.toml`'s model).
+#[test]
+fn a_ground_station_reads_back_the_wind_it_set_in_the_simulator() {
+    let dir = temp_dir("wind");
+    let flight = fly(&dir, "wind", "gcs_wind.py", &[], |port| link_params(port, "", ""));
+    let result = flight.transcript.last().expect("result");
+    println!("figure: WIND in a 3 m/s wind from 225 deg: {result}");
+    assert!(result.contains("\"wind\""), "{result}");
+    assert!(flight.landed(), "{:#}", flight.report);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn losing_the_ground_station_in_flight_returns_and_lands() {
     let dir = temp_dir("link-loss");

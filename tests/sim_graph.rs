@@ -60,3 +60,30 @@ fn lockstep_flight_records_bit_identical_logs_twice() {
     assert!(bytes_a.len() > 1_000_000, "a whole mission is logged ({} bytes)", bytes_a.len());
     assert!(bytes_a == bytes_b, "two lockstep flights differ ({} vs {} bytes)", bytes_a.len(), bytes_b.len());
 }
+
+/// The estimator's drag model in config/sim.toml is the simulated vehicle's `[drag]` per unit
+/// mass: the two live in different files (the estimator knows no vehicle file), so this ties
+/// them. A change to one alone would make drag fusion read a wrong airspeed after a GPS loss.
+#[test]
+fn the_sim_graphs_estimator_drag_model_is_its_vehicles_drag_per_unit_mass() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("config/sim.toml");
+    let config = LoadedConfig::load(&path).expect("config/sim.toml loads");
+    let actors = &config.merged["actors"];
+    let estimator: kestrel_estimator::EkfParams =
+        actors["estimator"]["params"].clone().try_into().expect("estimator params");
+    let vehicle_file = actors["sim"]["params"]["vehicle"].as_str().expect("the sim names its vehicle file");
+    let vehicle = kestrel_sim::VehicleParams::load(&path.parent().expect("config dir").join(vehicle_file))
+        .expect("the vehicle file loads");
+    let linear = vehicle.drag.linear_n_per_m_s / vehicle.mass_kg;
+    let quadratic = vehicle.drag.quadratic_n_per_m2_s2 / vehicle.mass_kg;
+    assert!(
+        (estimator.drag_linear_per_s - linear).abs() < 1e-12,
+        "{} vs {linear}",
+        estimator.drag_linear_per_s
+    );
+    assert!(
+        (estimator.drag_quadratic_per_m - quadratic).abs() < 1e-12,
+        "{} vs {quadratic}",
+        estimator.drag_quadratic_per_m
+    );
+}

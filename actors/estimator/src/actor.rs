@@ -50,7 +50,7 @@ pub enum EstimatorInput {
     Mag(MagSample),
     /// A parameter change from the link (applied when it names one of our noises or gates).
     Param(ParamSet),
-    /// The commander's status: whether the vehicle is armed.
+    /// The commander's status: whether the vehicle is armed, and in the air.
     Status(VehicleStatus),
 }
 
@@ -112,6 +112,7 @@ impl EstimatorActor {
                 Ok(())
             }
             EstimatorInput::Status(status) => {
+                self.ekf.set_landed_state(status.landed);
                 if let Some(after) = self.realign.on_status(status.armed, status.time) {
                     self.ekf.realign(after);
                 }

@@ -10,12 +10,14 @@
 use kestrel_proto::Time;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    BaroSample, EstimatorHealth, EstimatorStatus, GpsFix, ImuSample, MagSample, NavState, NavValidity,
+    BaroSample, EstimatorHealth, EstimatorStatus, GpsFix, ImuSample, LandedState, MagSample, NavState,
+    NavValidity,
 };
 use nalgebra::Vector3;
 
 use crate::aiding::baro::{ClimbRate, ClimbRateFit};
 use crate::aiding::baro_control::BaroControl;
+use crate::aiding::drag_control::DragControl;
 use crate::aiding::gps_control::GpsControl;
 use crate::aiding::mag_control::MagControl;
 use crate::aiding::recent;
@@ -78,6 +80,10 @@ pub struct Ekf {
     gps: GpsControl,
     baro: BaroControl,
     mag: MagControl,
+    drag: DragControl,
+    /// The commander's landed state (PX4 passes its land detector's to EKF2,
+    /// `set_in_air_status`): drag is measured only in the air.
+    landed: LandedState,
     frame: Option<LocalFrame>,
     newest_imu: Option<Time>,
     newest_gyro_rad_s: Vector3<f64>,
@@ -147,6 +153,8 @@ impl Clone for Ekf {
             gps,
             baro,
             mag,
+            drag,
+            landed,
             frame,
             newest_imu,
             newest_gyro_rad_s,
@@ -173,6 +181,8 @@ impl Clone for Ekf {
         self.gps.clone_from(gps);
         self.baro.clone_from(baro);
         self.mag.clone_from(mag);
+        self.drag.clone_from(drag);
+        self.landed = *landed;
         self.frame.clone_from(frame);
         self.newest_imu = *newest_imu;
         self.newest_gyro_rad_s = *newest_gyro_rad_s;
@@ -219,6 +229,8 @@ impl Ekf {
             gps: GpsControl::default(),
             baro: BaroControl::default(),
             mag: MagControl::default(),
+            drag: DragControl::default(),
+            landed: LandedState::OnGround,
             frame: None,
             newest_imu: None,
             newest_gyro_rad_s: Vector3::zeros(),
@@ -247,6 +259,11 @@ impl Ekf {
         self.noise = process_noise(&params);
         self.params = params;
         Ok(())
+    }
+
+    /// The commander's landed state, for drag fusion.
+    pub fn set_landed_state(&mut self, landed: LandedState) {
+        self.landed = landed;
     }
 
     /// The parameters in use.
@@ -577,6 +594,8 @@ impl Ekf {
         while let Some(sample) = self.mag_buffer.pop_oldest_if(|s| s.time <= t) {
             self.mag.fuse(filter, &sample, params);
         }
+        let gps_velocity = self.gps.velocity_aiding(t, params);
+        self.drag.step(filter, d, params, gps_velocity, self.landed);
         // Without horizontal aiding (no GPS yet, or GPS lost past the position timeout), a
         // synthetic "still here" position is fused, as EKF2's fake position: the origin before
         // the first fix, the position where aiding was lost after it. It keeps velocity and the
@@ -618,6 +637,7 @@ impl Ekf {
         let params = &self.params;
         let t = f.time;
         let gps_velocity = self.gps.velocity_aiding(t, params);
+        let horizontal_velocity = gps_velocity || self.drag.velocity_aiding(t, params);
         let height =
             self.baro.height_aiding(t, params) || (self.baro.faulty() && self.gps.position_aiding(t, params));
         Some(NavState {
@@ -632,7 +652,7 @@ impl Ekf {
             origin: self.frame.map(|frame| frame.home()),
             valid: NavValidity {
                 attitude: true,
-                horizontal_velocity: gps_velocity,
+                horizontal_velocity,
                 horizontal_position: self
                     .gps
                     .horizontal_aiding_within(t, params.horizontal_position_timeout_s),
@@ -654,9 +674,12 @@ impl Ekf {
             baro_height: self.baro.height,
             baro_climb_rate: self.baro.climb_rate,
             mag_field: self.mag.field,
+            drag_air_velocity: self.drag.air_velocity,
             gps: self.gps.counters,
             baro: self.baro.counters,
             mag: self.mag.counters,
+            drag: self.drag.counters,
+            wind_ne_m_s: self.drag.wind_ne_m_s(),
             health: EstimatorHealth {
                 tilt_aligned: aligned,
                 yaw_aligned: aligned && self.mag.fusing(t, params),
@@ -664,6 +687,7 @@ impl Ekf {
                 gps_fusing: self.gps.horizontal_aiding_within(t, params.gps_timeout_s),
                 baro_fusing: self.baro.height_aiding(t, params),
                 mag_fusing: self.mag.fusing(t, params),
+                drag_fusing: self.drag.velocity_aiding(t, params),
                 dead_reckoning: aligned && !self.gps.position_aiding(t, params),
                 // Refused fusions plus covariance resets (each also logged as it happens).
                 numerical_faults: self

@@ -121,6 +121,24 @@ pub struct EkfParams {
     /// baro, against a confident covariance, did not take out for seconds: the land detector
     /// never saw the vehicle stop and the controller wound up on the ground.
     pub accel_clip_velocity_noise_m_s: f64,
+    /// Drag per unit mass per unit airspeed, k₁ (1/s): the linear (rotor) part of the specific
+    /// force the air puts on the body's x and y axes, −(k₁ + k₂·|v_air|)·v_air. With k₂ it
+    /// lets the accelerometer measure the air-relative velocity, and so, with the wind learnt
+    /// while GPS velocity is fused, the velocity once GPS is lost ([`crate::aiding::drag`]).
+    /// PX4 EKF2_MCOEF (with EKF2_DRAG_CTRL), ArduPilot EK3_DRAG_MCOEF. 0 with k₂ 0: off, as
+    /// both default: the coefficients belong to one airframe (the simulator's quad sets them
+    /// from its vehicle file, config/sim.toml).
+    pub drag_linear_per_s: f64,
+    /// Drag per unit mass per unit airspeed squared, k₂ (1/m): the body's form drag, ½ρ·C_D·A/m
+    /// (PX4's EKF2_BCOEF_X/Y and ArduPilot's EK3_DRAG_BCOEF_X/Y are ballistic coefficients
+    /// m/(C_D·A) in kg/m², k₂ = ½ρ/BCOEF).
+    pub drag_quadratic_per_m: f64,
+    /// Noise of the air-relative velocity measured from drag, per body axis (m/s): the averaged
+    /// accelerometer noise divided by the drag slope (0.08 m/s in the simulator), plus what the
+    /// wind, held at its last estimate, leaves in it: gusts, which the drag cannot tell from
+    /// the vehicle's own motion (0.3–0.8 m/s per axis in the simulated worlds), and the
+    /// estimate's own error.
+    pub drag_velocity_noise_m_s: f64,
 }
 
 impl Default for EkfParams {
@@ -166,6 +184,9 @@ impl Default for EkfParams {
             align_max_baro_spread_m: 20.0,
             output_tau_s: 0.25,
             accel_clip_velocity_noise_m_s: 0.4,
+            drag_linear_per_s: 0.0,
+            drag_quadratic_per_m: 0.0,
+            drag_velocity_noise_m_s: 1.0,
         }
     }
 }
@@ -205,6 +226,7 @@ impl EkfParams {
             ("align_max_baro_spread_m", self.align_max_baro_spread_m),
             ("output_tau_s", self.output_tau_s),
             ("accel_clip_velocity_noise_m_s", self.accel_clip_velocity_noise_m_s),
+            ("drag_velocity_noise_m_s", self.drag_velocity_noise_m_s),
         ];
         for (name, value) in positive {
             if !(value.is_finite() && value > 0.0) {
@@ -230,6 +252,14 @@ impl EkfParams {
                     self.arrival_margin_s
                 ),
             ));
+        }
+        for (name, value) in [
+            ("drag_linear_per_s", self.drag_linear_per_s),
+            ("drag_quadratic_per_m", self.drag_quadratic_per_m),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(ParamError::new(name, format!("must be finite and at least 0, got {value}")));
+            }
         }
         if !(self.mag_declination_deg.is_finite() && self.mag_declination_deg.abs() <= 180.0) {
             return Err(ParamError::new("mag_declination_deg", "must be within ±180°"));

@@ -118,6 +118,54 @@ fn gps_jump_is_rejected_then_loss_is_flagged_and_recovered() {
     assert!(recovered_after.is_some_and(|t| t < 5.0), "{recovered_after:?}");
 }
 
+/// The same 30 s GPS loss flown with the vehicle's drag model: the wind learnt before the loss
+/// and the drag the accelerometer reads keep the velocity measured (reported valid, and closer
+/// to the truth) and the position drifting far less than on the IMU alone (the same flight
+/// without the model).
+#[test]
+fn with_drag_a_gps_loss_keeps_the_velocity_measured_and_the_drift_small() {
+    let faults = Faults { gps_loss: Some((60.0, 90.0)), ..Faults::default() };
+    let with = fly(common::params_with_drag(), 92.0, faults, 2);
+    let without = fly(params(), 92.0, faults, 2);
+    let horizontal_error =
+        |s: &common::Sample| (s.est_pos_home_m - nalgebra::Vector3::from(s.truth.position_ned_m)).xy().norm();
+    fn at(log: &common::FlightLog, tau: f64) -> &common::Sample {
+        log.samples.iter().find(|s| s.tau >= tau).expect("flight long enough")
+    }
+    let status = with.ekf.status();
+    let wind = status.wind_ne_m_s.expect("wind learnt before the loss");
+    println!("wind learnt {wind:?} (steady 2.0, 1.5 with 0.8 m/s gusts); drag {:?}", status.drag);
+    let velocity_error = |s: &common::Sample| {
+        (nalgebra::Vector3::from(s.nav.velocity_ned_m_s) - nalgebra::Vector3::from(s.truth.velocity_ned_m_s))
+            .xy()
+            .norm()
+    };
+    let during = |log: &common::FlightLog| -> Vec<common::Sample> {
+        log.samples.iter().filter(|s| s.tau >= 61.0 && s.tau < 90.0).cloned().collect()
+    };
+    let rms = |samples: &[common::Sample]| {
+        (samples.iter().map(|s| velocity_error(s).powi(2)).sum::<f64>() / samples.len() as f64).sqrt()
+    };
+    let (lost, lost_alone) = (during(&with), during(&without));
+    let (rms, rms_alone) = (rms(&lost), rms(&lost_alone));
+    let (drift, drift_alone) = (horizontal_error(at(&with, 89.0)), horizontal_error(at(&without, 89.0)));
+    println!(
+        "GPS lost 30 s with drag: velocity error RMS {rms:.2} m/s, drift {drift:.1} m; IMU alone: {rms_alone:.2} \
+         m/s, {drift_alone:.1} m"
+    );
+    assert!(
+        lost.iter().all(|s| s.nav.valid.horizontal_velocity),
+        "velocity reported invalid during the loss"
+    );
+    assert!(!at(&with, 70.0).nav.valid.horizontal_position, "position is still not measured");
+    assert!(!at(&without, 70.0).nav.valid.horizontal_velocity, "without drag the velocity is not measured");
+    assert!(status.drag.fused > 250, "{:?}", status.drag);
+    // The gusts (0.8 m/s per axis) are air the drag cannot tell from the vehicle's own motion:
+    // most of what is left is them.
+    assert!(rms < 0.5 * rms_alone, "velocity error RMS {rms} m/s, IMU alone {rms_alone} m/s");
+    assert!(drift < 0.5 * drift_alone, "drift {drift} m, IMU alone {drift_alone} m");
+}
+
 #[test]
 fn magnetometer_disturbance_does_not_flip_yaw() {
     let faults = Faults { mag_disturbance: Some((30.0, 45.0)), ..Faults::default() };

@@ -40,6 +40,10 @@ pub struct EstimatorHealth {
     pub baro_fusing: bool,
     /// Magnetometer fused within the timeout.
     pub mag_fusing: bool,
+    /// Drag is fused in GPS's place: the velocity is measured from the accelerometer against
+    /// the wind learnt before GPS was lost (PX4 EKF2's `fuse_drag`).
+    #[serde(default)]
+    pub drag_fusing: bool,
     /// No horizontal aiding for longer than the timeout: position is dead reckoned.
     pub dead_reckoning: bool,
     /// Fusions skipped because they would have made a variance negative.
@@ -85,9 +89,18 @@ pub struct EstimatorStatus {
     pub baro_climb_rate: Innovation,
     /// Magnetometer body forward, right, down field (gauss).
     pub mag_field: [Innovation; 3],
+    /// Body forward and right air velocity measured from drag (m/s).
+    #[serde(default)]
+    pub drag_air_velocity: [Innovation; 2],
     pub gps: AidingCounters,
     pub baro: AidingCounters,
     pub mag: AidingCounters,
+    #[serde(default)]
+    pub drag: AidingCounters,
+    /// The wind (m/s, north and east: the air's velocity over the ground) learnt from drag
+    /// while GPS velocity was fused; `None` before it is learnt or without a drag model.
+    #[serde(default)]
+    pub wind_ne_m_s: Option<[f64; 2]>,
     pub health: EstimatorHealth,
     /// Age of the delayed fusion horizon behind the newest IMU sample (s).
     pub fusion_horizon_s: f64,

@@ -4,6 +4,8 @@
 
 pub mod baro;
 pub mod baro_control;
+pub mod drag;
+pub mod drag_control;
 pub mod gps;
 pub mod gps_control;
 pub mod mag;

@@ -6,7 +6,7 @@ use kestrel_estimator::{Ekf, EkfParams, InputError};
 use kestrel_proto::Time;
 use kestrel_proto::frame_layout::FrameLayout;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
-use kestrel_proto::messages::{ActuatorOutputs, GpsFix, GroundTruth, MagSample, NavState};
+use kestrel_proto::messages::{ActuatorOutputs, GpsFix, GroundTruth, LandedState, MagSample, NavState};
 use kestrel_proto::units::GRAVITY_M_S2;
 use kestrel_sim::sensors::SensorParams;
 use kestrel_sim::{RigidBodyState, SimOptions, SimOutput, Simulator, VehicleParams, WindParams, World};
@@ -114,6 +114,8 @@ pub struct Faults {
 
 /// Height above home (m) below which [`Faults::ground_mag_disturbance`] acts.
 pub const GROUND_DISTURBANCE_HEIGHT_M: f64 = 1.0;
+/// Height above home from which the vehicle counts as in the air (m).
+const IN_AIR_HEIGHT_M: f64 = 0.2;
 
 /// One scored instant.
 #[derive(Clone, Debug)]
@@ -166,6 +168,16 @@ pub fn params() -> EkfParams {
     EkfParams { mag_declination_deg: world().magnetic_field.declination_deg, ..EkfParams::default() }
 }
 
+/// [`params`] with the simulated vehicle's drag per unit mass as the drag model.
+pub fn params_with_drag() -> EkfParams {
+    let vehicle = VehicleParams::default();
+    EkfParams {
+        drag_linear_per_s: vehicle.drag.linear_n_per_m_s / vehicle.mass_kg,
+        drag_quadratic_per_m: vehicle.drag.quadratic_n_per_m2_s2 / vehicle.mass_kg,
+        ..params()
+    }
+}
+
 fn flight_time(t: Time) -> f64 {
     t.as_secs_f64() - GROUND_S
 }
@@ -205,6 +217,12 @@ pub fn fly_with_sensors(
         if tau >= 0.0 {
             sim.set_actuators(&controller.outputs(sim.state(), tau));
         }
+        // The commander's land detector, for drag fusion: off the ground.
+        ekf.set_landed_state(if -sim.state().position_ned_m.z > IN_AIR_HEIGHT_M {
+            LandedState::InAir
+        } else {
+            LandedState::OnGround
+        });
         sim.step();
         let outputs: Vec<SimOutput> = sim.drain().collect();
         for out in outputs {

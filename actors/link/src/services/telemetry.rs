@@ -23,7 +23,7 @@ use mavlink::dialects::ardupilotmega::{
     EkfStatusFlags, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType as MavFix, HOME_POSITION_DATA,
     LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavBatteryFunction, MavBatteryType, MavDataStream,
     MavDistanceSensor, MavFrame, MavLandedState, MavMessage, MavResult, MavSysStatusSensor, MavVtolState,
-    MissionState, OBSTACLE_DISTANCE_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA,
+    MissionState, OBSTACLE_DISTANCE_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA, WIND_DATA,
 };
 
 /// The graph's latest state, as telemetry needs it.
@@ -71,6 +71,8 @@ fn default_streams() -> Vec<Stream> {
         (HOME_POSITION_DATA::ID, hz(0.5)),
         (EXTENDED_SYS_STATE_DATA::ID, hz(1.0)),
         (EKF_STATUS_REPORT_DATA::ID, hz(1.0)),
+        // Once the estimator has learnt the wind (a drag model is configured).
+        (WIND_DATA::ID, hz(1.0)),
         (MISSION_CURRENT_DATA::ID, hz(1.0)),
         (OBSTACLE_DISTANCE_DATA::ID, hz(5.0)),
         (DEBUG_VECT_DATA::ID, hz(5.0)),
@@ -104,6 +106,18 @@ fn simstate(truth: &GroundTruth) -> Option<SIMSTATE_DATA> {
         lat: deg_e7(truth.lat_deg),
         lng: deg_e7(truth.lon_deg),
     })
+}
+
+/// ArduPilot's WIND from the estimator's wind (m/s, north and east: the air's velocity over the
+/// ground): the direction it blows *from* (degrees clockwise from north, 0..360) and its speed;
+/// no vertical wind is estimated.
+fn wind(wind_ne_m_s: [f64; 2]) -> WIND_DATA {
+    let [north, east] = wind_ne_m_s;
+    WIND_DATA {
+        direction: (-east).atan2(-north).to_degrees().rem_euclid(360.0) as f32,
+        speed: north.hypot(east) as f32,
+        speed_z: 0.0,
+    }
 }
 
 /// The telemetry scheduler and message builder.
@@ -168,7 +182,9 @@ impl Telemetry {
             }
             MavDataStream::MAV_DATA_STREAM_EXTRA1 => &[ATTITUDE_DATA::ID, SIMSTATE_DATA::ID],
             MavDataStream::MAV_DATA_STREAM_EXTRA2 => &[VFR_HUD_DATA::ID],
-            MavDataStream::MAV_DATA_STREAM_EXTRA3 => &[BATTERY_STATUS_DATA::ID, EXTENDED_SYS_STATE_DATA::ID],
+            MavDataStream::MAV_DATA_STREAM_EXTRA3 => {
+                &[BATTERY_STATUS_DATA::ID, EXTENDED_SYS_STATE_DATA::ID, WIND_DATA::ID]
+            }
             _ => &[],
         };
         let interval = (start && rate_hz > 0).then(|| hz(f64::from(rate_hz.min(50)))).flatten();
@@ -219,6 +235,7 @@ impl Telemetry {
                 })
             }
             SIMSTATE_DATA::ID => MavMessage::SIMSTATE(simstate(snap.truth.as_ref()?)?),
+            WIND_DATA::ID => MavMessage::WIND(wind(snap.estimator.as_ref()?.wind_ne_m_s?)),
             LOCAL_POSITION_NED_DATA::ID => {
                 let nav = snap.nav.as_ref()?;
                 let [x, y, z] = nav.position_ned_m.map(|v| v as f32);
@@ -646,6 +663,23 @@ mod tests {
         let Some(MavMessage::ATTITUDE(a)) = t.build(ATTITUDE_DATA::ID, Time::ZERO) else { panic!() };
         assert!((f64::from(a.yaw) - std::f64::consts::FRAC_PI_2).abs() < 1e-6);
         assert!(t.build(GPS_RAW_INT_DATA::ID, Time::ZERO).is_none(), "no fix yet, nothing to send");
+    }
+
+    #[test]
+    fn wind_says_where_the_learnt_wind_blows_from_once_there_is_one() {
+        let mut t = Telemetry::new();
+        t.snapshot.estimator = Some(EstimatorStatus::default());
+        assert!(t.build(WIND_DATA::ID, Time::ZERO).is_none(), "no wind learnt, no WIND");
+        for (ne, from_deg) in
+            [([0.0, 1.0], 270.0), ([-2.0, 0.0], 0.0), ([1.0, 1.0], 225.0), ([0.0, -3.0], 90.0)]
+        {
+            t.snapshot.estimator =
+                Some(EstimatorStatus { wind_ne_m_s: Some(ne), ..EstimatorStatus::default() });
+            let Some(MavMessage::WIND(w)) = t.build(WIND_DATA::ID, Time::ZERO) else { panic!() };
+            assert!((f64::from(w.direction) - from_deg).abs() < 1e-4, "{ne:?}: {w:?}");
+            assert!((f64::from(w.speed) - ne[0].hypot(ne[1])).abs() < 1e-6, "{ne:?}: {w:?}");
+        }
+        assert_eq!(t.interval(WIND_DATA::ID), Some(Duration::from_secs(1)));
     }
 
     #[test]
