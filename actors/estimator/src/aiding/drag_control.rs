@@ -3,7 +3,8 @@
 //!
 //! * The accelerometer's specific force, less the filter's bias, is averaged over
 //!   [`DRAG_INTERVAL_S`] (the noise of one 400 Hz sample is several times the drag of a
-//!   hover in a breeze) and turned into a body x and y air velocity.
+//!   hover in a breeze) and turned into a body x and y air velocity; an interval with a
+//!   clipped sample is dropped.
 //! * Only in the air: on the ground the contact forces, not drag, hold the vehicle, and drag
 //!   fused there would read the wind as the vehicle's own velocity (PX4 fuses drag only while its
 //!   land detector says in air). The commander's landed state tells, except at the end of a
@@ -64,6 +65,8 @@ pub struct DragControl {
     /// Specific force summed over the current interval (m/s, body FRD) and its length (s).
     sum_delta_velocity_m_s: Vector3<f64>,
     sum_dt_s: f64,
+    /// An accelerometer axis clipped in the current interval: its average understates the force.
+    clipped: bool,
     /// The wind (m/s, north and east) and the in-air time it has been learnt over (s).
     wind_ne_m_s: [f64; 2],
     learnt_s: f64,
@@ -103,15 +106,17 @@ impl DragControl {
         }
         self.sum_delta_velocity_m_s += delta.delta_velocity_m_s;
         self.sum_dt_s += delta.dt_s;
+        self.clipped |= delta.accel_clipped;
         if self.sum_dt_s < DRAG_INTERVAL_S {
             return;
         }
         let interval_s = self.sum_dt_s;
         let force = self.sum_delta_velocity_m_s / interval_s - filter.state.accel_bias_m_s2;
+        let clipped = std::mem::take(&mut self.clipped);
         self.sum_delta_velocity_m_s = Vector3::zeros();
         self.sum_dt_s = 0.0;
         let state = &filter.state;
-        if !flying(landed, state.vel_ned_m_s.z, state.pos_ned_m.z) || delta.accel_clipped {
+        if !flying(landed, state.vel_ned_m_s.z, state.pos_ned_m.z) || clipped {
             return;
         }
         let down = drag::predicted_air_velocity(filter, self.wind_ne_m_s).z;
@@ -204,6 +209,21 @@ mod tests {
         filter.state.vel_ned_m_s.z = 0.05;
         interval(&mut drag, &mut filter, force, false, LandedState::Landing);
         assert_eq!(drag.counters.fused, 3, "touched down: the contact, not drag, holds it");
+    }
+
+    #[test]
+    fn an_interval_with_a_clipped_sample_teaches_nothing() {
+        let mut filter = Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true);
+        let mut drag = DragControl::default();
+        let samples = (DRAG_INTERVAL_S * 400.0).round() as usize;
+        for i in 0..samples * 40 {
+            let delta = ImuDelta {
+                accel_clipped: i % samples == 7,
+                ..ImuDelta::from_rates(filter.state.time, [0.0; 3], [0.2, 0.0, -9.81], 1.0 / 400.0)
+            };
+            drag.step(&mut filter, &delta, &params(), true, LandedState::InAir);
+        }
+        assert_eq!(drag.wind_ne_m_s(), None, "every interval held a clipped sample");
     }
 
     #[test]
