@@ -135,13 +135,7 @@ fn nav(time: Time, down_m: f64) -> NavState {
         accel_bias_m_s2: [0.0; 3],
         covariance_diagonal: [0.0; 16],
         origin: Some(kestrel_proto::geo::Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
-        valid: NavValidity {
-            attitude: true,
-            horizontal_velocity: true,
-            horizontal_position: true,
-            vertical_velocity: true,
-            vertical_position: true,
-        },
+        valid: NavValidity::ALL,
     }
 }
 

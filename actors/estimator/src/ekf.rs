@@ -637,7 +637,7 @@ impl Ekf {
         let params = &self.params;
         let t = f.time;
         let gps_velocity = self.gps.velocity_aiding(t, params);
-        let horizontal_velocity = gps_velocity || self.drag.velocity_aiding(t, params);
+        let from_drag = !gps_velocity && self.drag.velocity_aiding(t, params);
         let height =
             self.baro.height_aiding(t, params) || (self.baro.faulty() && self.gps.position_aiding(t, params));
         Some(NavState {
@@ -652,7 +652,8 @@ impl Ekf {
             origin: self.frame.map(|frame| frame.home()),
             valid: NavValidity {
                 attitude: true,
-                horizontal_velocity,
+                horizontal_velocity: gps_velocity || from_drag,
+                horizontal_velocity_from_drag: from_drag,
                 horizontal_position: self
                     .gps
                     .horizontal_aiding_within(t, params.horizontal_position_timeout_s),
@@ -687,7 +688,7 @@ impl Ekf {
                 gps_fusing: self.gps.horizontal_aiding_within(t, params.gps_timeout_s),
                 baro_fusing: self.baro.height_aiding(t, params),
                 mag_fusing: self.mag.fusing(t, params),
-                drag_fusing: self.drag.velocity_aiding(t, params),
+                drag_fusing: self.drag.fusing(t, params),
                 dead_reckoning: aligned && !self.gps.position_aiding(t, params),
                 // Refused fusions plus covariance resets (each also logged as it happens).
                 numerical_faults: self

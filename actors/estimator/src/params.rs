@@ -137,7 +137,8 @@ pub struct EkfParams {
     /// accelerometer noise divided by the drag slope (0.08 m/s in the simulator), plus what the
     /// wind, held at its last estimate, leaves in it: gusts, which the drag cannot tell from
     /// the vehicle's own motion (0.3–0.8 m/s per axis in the simulated worlds), and the
-    /// estimate's own error.
+    /// estimate's own error. An accelerometer bias the filter has not learnt reads as drag too:
+    /// b m/s² is b/k₁ m/s of airspeed (10·b for the simulated quad).
     pub drag_velocity_noise_m_s: f64,
 }
 

@@ -9,8 +9,14 @@ use crate::time::Time;
 pub struct NavValidity {
     /// Roll, pitch and yaw have converged (tilt from the accelerometer, yaw from the compass).
     pub attitude: bool,
-    /// North/east velocity is observed (GPS fused recently).
+    /// North/east velocity is observed (GPS, or drag against the learnt wind, fused recently).
     pub horizontal_velocity: bool,
+    /// The north/east velocity is drag's against the wind learnt before GPS was lost: good to
+    /// hold still against the wind, not to tell standing from drifting on the ground, where the
+    /// contact, not drag, holds the vehicle and drag would read the wind as its motion (so the
+    /// land detectors leave it out).
+    #[serde(default)]
+    pub horizontal_velocity_from_drag: bool,
     /// North/east position is observed; false after GPS has been lost past its timeout.
     pub horizontal_position: bool,
     /// Down velocity is observed.
@@ -24,10 +30,18 @@ impl NavValidity {
     pub const ALL: NavValidity = NavValidity {
         attitude: true,
         horizontal_velocity: true,
+        horizontal_velocity_from_drag: false,
         horizontal_position: true,
         vertical_velocity: true,
         vertical_position: true,
     };
+
+    /// Whether the north/east velocity says how fast the vehicle moves over the ground however
+    /// it is held: observed, and not drag's (see `horizontal_velocity_from_drag`). The land
+    /// detectors test the horizontal speed only then.
+    pub fn ground_speed_observed(&self) -> bool {
+        self.horizontal_velocity && !self.horizontal_velocity_from_drag
+    }
 }
 
 /// The estimator's best knowledge of the vehicle, published at IMU rate for the controllers.

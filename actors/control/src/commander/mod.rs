@@ -815,7 +815,7 @@ impl Commander {
             LandedState::InAir if !landing_mode => {
                 let touching = self.descent_demanded
                     && fresh.as_ref().is_some_and(|n| {
-                        let (valid, down) = (n.valid.horizontal_velocity, n.position_ned_m[2]);
+                        let (valid, down) = (n.valid.ground_speed_observed(), n.position_ned_m[2]);
                         self.ground_contact.update(
                             now,
                             &n.velocity_ned_m_s,
@@ -844,7 +844,7 @@ impl Commander {
             LandedState::OnGround | LandedState::Landing
                 if landing_mode
                     && fresh.as_ref().is_some_and(|n| {
-                        let (valid, down) = (n.valid.horizontal_velocity, n.position_ned_m[2]);
+                        let (valid, down) = (n.valid.ground_speed_observed(), n.position_ned_m[2]);
                         self.land_detector.update(
                             now,
                             &n.velocity_ned_m_s,

@@ -37,6 +37,7 @@ fn nav(t: Time, down_m: f64, position: bool) -> NavState {
         valid: NavValidity {
             attitude: true,
             horizontal_velocity: position,
+            horizontal_velocity_from_drag: false,
             horizontal_position: position,
             vertical_velocity: true,
             vertical_position: true,
@@ -316,6 +317,29 @@ fn a_stale_nav_state_never_lets_the_land_detector_disarm_in_the_air() {
     }
     assert!(!c.armed(), "fresh NavStates on the ground should disarm");
     assert!(t - resumed >= 1_000_000, "detected {} µs after NavStates resumed", t - resumed);
+}
+
+/// After a GPS loss the estimator measures the velocity from drag against the learnt wind; on
+/// the ground that reads the wind as motion (1.5 m/s here). The land detector must leave it out
+/// and end the landing on the vertical alone, or a windy touchdown would never disarm; a
+/// GPS velocity that fast still keeps it from detecting.
+#[test]
+fn a_drag_measured_velocity_does_not_keep_the_land_detector_from_disarming() {
+    for (from_drag, disarms) in [(true, true), (false, false)] {
+        let mut c = hovering();
+        at(&mut c, 2000, Command::SetMode(FlightMode::Land)).expect("land");
+        let mut t = 2000;
+        while c.armed() && t < 5_000_000 {
+            t += 2500;
+            let mut n = nav(Time(t), 0.0, false);
+            n.velocity_ned_m_s = [0.0, 1.5, 0.0];
+            n.valid.horizontal_velocity = true;
+            n.valid.horizontal_velocity_from_drag = from_drag;
+            c.on_nav(&n);
+            c.update(Time(t));
+        }
+        assert_eq!(!c.armed(), disarms, "from drag {from_drag}: armed {}", c.armed());
+    }
 }
 
 #[test]

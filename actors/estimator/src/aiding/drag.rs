@@ -170,6 +170,17 @@ mod tests {
         }
     }
 
+    /// The signs, by hand: flying forward at 3 m/s through still air, drag pushes back with
+    /// (0.1 + 0.03·3)·3 = 0.57 m/s²; a 2 m/s wind from the right pushes left.
+    #[test]
+    fn drag_pushes_against_the_air_velocity() {
+        let [x, y] = QUAD.specific_force_xy(&Vector3::new(3.0, 0.0, 0.0));
+        assert!((x + 0.57).abs() < 1e-12 && y == 0.0, "{x} {y}");
+        // Wind from the right (blowing towards body left, −y): the body moves +2 m/s through it.
+        let [x, y] = QUAD.specific_force_xy(&Vector3::new(0.0, 2.0, 0.0));
+        assert!(x == 0.0 && (y + (0.1 + 0.06) * 2.0).abs() < 1e-12, "{x} {y}");
+    }
+
     #[test]
     fn no_force_is_no_airspeed_and_no_model_measures_nothing() {
         assert_eq!(QUAD.air_velocity_xy([0.0, 0.0], 3.0), [0.0, 0.0]);

@@ -70,14 +70,25 @@ pub struct DragControl {
     /// The wind (m/s, north and east) and the in-air time it has been learnt over (s).
     wind_ne_m_s: [f64; 2],
     learnt_s: f64,
+    /// When drag was last measured in flight with the wind learnt (fused, or learnt from while
+    /// GPS velocity was still fused), and when last fused.
+    last_measured: Option<Time>,
     last_fused: Option<Time>,
     pub counters: AidingCounters,
     pub air_velocity: [Innovation; 2],
 }
 
 impl DragControl {
-    /// Whether drag was fused within `gps_timeout_s` of `now` (the velocity is aided by it).
+    /// Whether drag measures the velocity at `now`: measured in flight with the wind learnt
+    /// within `gps_timeout_s`. Measured, not only fused, so that the velocity stays valid across
+    /// the handover from GPS (GPS velocity counts until its own timeout, the first drag fusion
+    /// comes up to one averaging interval later).
     pub fn velocity_aiding(&self, now: Time, params: &EkfParams) -> bool {
+        recent(self.last_measured, now, params.gps_timeout_s)
+    }
+
+    /// Whether drag was fused into the filter within `gps_timeout_s` of `now`.
+    pub fn fusing(&self, now: Time, params: &EkfParams) -> bool {
         recent(self.last_fused, now, params.gps_timeout_s)
     }
 
@@ -115,6 +126,11 @@ impl DragControl {
         let clipped = std::mem::take(&mut self.clipped);
         self.sum_delta_velocity_m_s = Vector3::zeros();
         self.sum_dt_s = 0.0;
+        if landed == LandedState::OnGround {
+            // A new flight learns its wind afresh: the last one's may be hours old.
+            self.learnt_s = 0.0;
+            self.last_measured = None;
+        }
         let state = &filter.state;
         if !flying(landed, state.vel_ned_m_s.z, state.pos_ned_m.z) || clipped {
             return;
@@ -128,6 +144,9 @@ impl DragControl {
             for (wind, seen) in self.wind_ne_m_s.iter_mut().zip(observed) {
                 *wind += gain * (seen - *wind);
             }
+            if self.learnt_s >= WIND_LEARN_S {
+                self.last_measured = Some(filter.state.time);
+            }
             return;
         }
         let Some(wind) = self.wind_ne_m_s() else { return };
@@ -140,6 +159,7 @@ impl DragControl {
         if drag::fuse_air_velocity(filter, measured, wind, variance) {
             self.counters.fused += 1;
             self.last_fused = Some(filter.state.time);
+            self.last_measured = self.last_fused;
         }
     }
 }
@@ -209,6 +229,22 @@ mod tests {
         filter.state.vel_ned_m_s.z = 0.05;
         interval(&mut drag, &mut filter, force, false, LandedState::Landing);
         assert_eq!(drag.counters.fused, 3, "touched down: the contact, not drag, holds it");
+    }
+
+    #[test]
+    fn on_the_ground_the_wind_is_forgotten_for_the_next_flight_to_learn() {
+        let mut filter = Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true);
+        let mut drag = DragControl::default();
+        let force = params_model().specific_force_xy(&nalgebra::Vector3::new(0.0, -2.0, 0.0));
+        for _ in 0..40 {
+            interval(&mut drag, &mut filter, force, true, LandedState::InAir);
+        }
+        assert!(drag.wind_ne_m_s().is_some() && drag.velocity_aiding(filter.state.time, &params()));
+        interval(&mut drag, &mut filter, [0.0, 0.0], true, LandedState::OnGround);
+        assert_eq!(drag.wind_ne_m_s(), None);
+        assert!(!drag.velocity_aiding(filter.state.time, &params()));
+        interval(&mut drag, &mut filter, force, false, LandedState::InAir);
+        assert_eq!(drag.counters.fused, 0, "nothing fused against a forgotten wind");
     }
 
     #[test]

@@ -783,13 +783,7 @@ mod tests {
     #[test]
     fn ekf_status_report_flags_what_the_estimate_is_good_for_and_roots_the_test_ratios() {
         let mut good = nav();
-        good.valid = NavValidity {
-            attitude: true,
-            horizontal_velocity: true,
-            vertical_velocity: true,
-            horizontal_position: true,
-            vertical_position: true,
-        };
+        good.valid = NavValidity::ALL;
         let report = ekf_status(&good, None);
         assert!(report.flags.contains(
             EkfStatusFlags::EKF_ATTITUDE
