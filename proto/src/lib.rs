@@ -33,6 +33,7 @@ pub mod testing;
 pub mod time;
 pub mod timing;
 pub mod units;
+pub mod wind;
 
 pub use actor::{Actor, ActorError, Context, Publisher, Setup, Sink};
 pub use clock::Clock;

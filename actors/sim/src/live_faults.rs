@@ -274,11 +274,8 @@ impl LiveFaultParams {
             (motor, thrust) => Some(FaultKind::MotorWeak { motor, thrust }),
         };
         let wind = (self.wind_speed_m_s > 0.0 || self.wind_gust_m_s > 0.0).then(|| {
-            let towards = (self.wind_from_deg + 180.0).to_radians();
-            FaultKind::Wind {
-                ned_m_s: [self.wind_speed_m_s * towards.cos(), self.wind_speed_m_s * towards.sin(), 0.0],
-                gust_m_s: self.wind_gust_m_s,
-            }
+            let [north, east] = kestrel_proto::wind::from_direction(self.wind_speed_m_s, self.wind_from_deg);
+            FaultKind::Wind { ned_m_s: [north, east, 0.0], gust_m_s: self.wind_gust_m_s }
         });
         [
             on(self.gps_disable).then_some(FaultKind::GpsOff),

@@ -176,6 +176,14 @@ mod tests {
         EkfParams { drag_linear_per_s: 0.1, drag_quadratic_per_m: 0.03, ..EkfParams::default() }
     }
 
+    /// No drag learnt yet, and a level filter at rest.
+    fn fresh() -> (DragControl, Filter) {
+        (
+            DragControl::default(),
+            Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true),
+        )
+    }
+
     /// One averaging interval of a level, still vehicle reading `force_xy` (m/s², body x and y).
     fn interval(
         drag: &mut DragControl,
@@ -198,8 +206,7 @@ mod tests {
 
     #[test]
     fn the_wind_is_learnt_in_the_air_with_gps_then_drag_is_fused_without_it() {
-        let mut filter = Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true);
-        let mut drag = DragControl::default();
+        let (mut drag, mut filter) = fresh();
         // Still over the ground in a 2 m/s wind towards the east: the air flows past at 2 m/s
         // towards the east, the body moves −2 m/s through it, drag pushes it east.
         let force = params_model().specific_force_xy(&nalgebra::Vector3::new(0.0, -2.0, 0.0));
@@ -233,8 +240,7 @@ mod tests {
 
     #[test]
     fn on_the_ground_the_wind_is_forgotten_for_the_next_flight_to_learn() {
-        let mut filter = Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true);
-        let mut drag = DragControl::default();
+        let (mut drag, mut filter) = fresh();
         let force = params_model().specific_force_xy(&nalgebra::Vector3::new(0.0, -2.0, 0.0));
         for _ in 0..40 {
             interval(&mut drag, &mut filter, force, true, LandedState::InAir);
@@ -249,8 +255,7 @@ mod tests {
 
     #[test]
     fn an_interval_with_a_clipped_sample_teaches_nothing() {
-        let mut filter = Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true);
-        let mut drag = DragControl::default();
+        let (mut drag, mut filter) = fresh();
         let samples = (DRAG_INTERVAL_S * 400.0).round() as usize;
         for i in 0..samples * 40 {
             let delta = ImuDelta {
@@ -264,8 +269,7 @@ mod tests {
 
     #[test]
     fn without_a_model_nothing_is_learnt_or_fused() {
-        let mut filter = Filter::aligned(State::at_rest(Time::ZERO, UnitQuaternion::identity()), true);
-        let mut drag = DragControl::default();
+        let (mut drag, mut filter) = fresh();
         let off = EkfParams::default();
         for _ in 0..200 {
             let delta = ImuDelta::from_rates(filter.state.time, [0.0; 3], [0.2, 0.0, -9.81], 1.0 / 400.0);

@@ -112,12 +112,8 @@ fn simstate(truth: &GroundTruth) -> Option<SIMSTATE_DATA> {
 /// ground): the direction it blows *from* (degrees clockwise from north, 0..360) and its speed;
 /// no vertical wind is estimated.
 fn wind(wind_ne_m_s: [f64; 2]) -> WIND_DATA {
-    let [north, east] = wind_ne_m_s;
-    WIND_DATA {
-        direction: (-east).atan2(-north).to_degrees().rem_euclid(360.0) as f32,
-        speed: north.hypot(east) as f32,
-        speed_z: 0.0,
-    }
+    let (from_deg, speed_m_s) = kestrel_proto::wind::direction(wind_ne_m_s);
+    WIND_DATA { direction: from_deg as f32, speed: speed_m_s as f32, speed_z: 0.0 }
 }
 
 /// The telemetry scheduler and message builder.
