@@ -124,13 +124,16 @@ impl DepthMap {
 }
 
 /// The depth (m) of every fixed-point disparity (1/16 px) a matcher searching
-/// `min_disparity .. min_disparity + num_disparities` gives, looked up instead of divided: the
-/// pipeline's one pass from the matcher's output to depth. Each value is
-/// [`StereoGeometry::depth_m`] of [`DisparityMap::from_fixed_point`]'s disparity, so the depth
-/// is bit for bit [`DepthMap::from_disparity`]'s.
+/// `min_disparity .. min_disparity + num_disparities` gives, looked up instead of divided, for
+/// [`crate::DepthGridder::grid_fixed_point`]. Each value is [`StereoGeometry::depth_m`] of
+/// [`DisparityMap::from_fixed_point`]'s disparity, so the depth is bit for bit
+/// [`DepthMap::from_disparity`]'s.
+///
+/// A pixel's *code* indexes the table: 0 for no disparity (the matcher's invalid marker,
+/// anything below the range, or no texture), `1 + raw − min_disparity·16` within the range,
+/// and one past the table for a value beyond it (which no matcher gives).
 pub struct FixedPointDepth {
-    geometry: StereoGeometry,
-    /// The raw value of `depths[0]`: `min_disparity · 16`; anything below it is invalid.
+    /// The raw value of code 1: `min_disparity · 16`.
     first: i32,
     depths: Vec<f32>,
 }
@@ -141,49 +144,26 @@ impl FixedPointDepth {
         let depths = (first..=first + num_disparities.max(0) * 16)
             .map(|raw| geometry.depth_m(raw as f32 / 16.0).unwrap_or(f32::NAN))
             .collect();
-        FixedPointDepth { geometry: *geometry, first, depths }
+        FixedPointDepth { first, depths }
     }
 
-    /// Depth of raw disparity `raw` (m), `NaN` where invalid or at or beyond infinity.
-    #[inline]
-    fn depth_m(&self, raw: i16) -> f32 {
+    /// How many codes there are (no disparity, the range, beyond it).
+    pub fn codes(&self) -> usize {
+        self.depths.len() + 2
+    }
+
+    /// The code of raw disparity `raw` at a pixel whose texture flag is `textureless`.
+    #[inline(always)]
+    pub fn code(&self, raw: i16, textureless: u8) -> usize {
         let offset = i32::from(raw) - self.first;
-        match usize::try_from(offset) {
-            Err(_) => f32::NAN,
-            Ok(i) => match self.depths.get(i) {
-                Some(&z) => z,
-                // Beyond the search range (a matcher never gives it): divided, as the table was.
-                None => self.geometry.depth_m(f32::from(raw) / 16.0).unwrap_or(f32::NAN),
-            },
-        }
+        if textureless != 0 || offset < 0 { 0 } else { (offset as usize + 1).min(self.depths.len() + 1) }
     }
 
-    /// Fills `out` with the `width`×`height` depth of the matcher's raw output, `NaN` also
-    /// where `textureless` (one byte per pixel, non-zero = no texture) says so.
-    pub fn convert(
-        &self,
-        raw: &[i16],
-        textureless: Option<&[u8]>,
-        width: usize,
-        height: usize,
-        out: &mut DepthMap,
-    ) -> Result<(), VisionError> {
-        if raw.len() != width * height || textureless.is_some_and(|t| t.len() != raw.len()) {
-            return Err(VisionError::Input(format!(
-                "{} raw disparities and {:?} texture flags for a {width}×{height} depth map",
-                raw.len(),
-                textureless.map(<[u8]>::len)
-            )));
+    /// The depth of `code` (m, `NaN` for none or at or beyond infinity); `None` beyond the table.
+    pub fn depth_of_code(&self, code: usize) -> Option<f32> {
+        match code {
+            0 => Some(f32::NAN),
+            c => self.depths.get(c - 1).copied(),
         }
-        out.width = width;
-        out.height = height;
-        out.values.clear();
-        match textureless {
-            Some(flags) => out.values.extend(
-                raw.iter().zip(flags).map(|(&v, &t)| if t != 0 { f32::NAN } else { self.depth_m(v) }),
-            ),
-            None => out.values.extend(raw.iter().map(|&v| self.depth_m(v))),
-        }
-        Ok(())
     }
 }

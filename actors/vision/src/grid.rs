@@ -10,7 +10,7 @@ use kestrel_proto::Time;
 use kestrel_proto::messages::{DepthGrid, GridRegion, OBSTACLE_SECTORS, ObstacleSectors, SECTOR_UNKNOWN};
 use serde::{Deserialize, Serialize};
 
-use crate::depth::{DepthMap, StereoGeometry};
+use crate::depth::{DepthMap, FixedPointDepth, StereoGeometry};
 use crate::error::VisionError;
 
 /// Width of one `OBSTACLE_DISTANCE` sector (deg): 72 sectors cover the full circle.
@@ -123,6 +123,8 @@ pub struct DepthGridder {
     size: (usize, usize),
     /// Column band (0 left, 1 centre, 2 right) of each image column.
     column_band: Vec<u8>,
+    /// The image columns of each column band.
+    column_ranges: [std::ops::Range<usize>; 3],
     /// Row band (0 up, 1 centre, 2 down) of each image row.
     row_band: Vec<u8>,
     /// Per image column: its sector and the factor turning depth Z into horizontal range.
@@ -131,6 +133,13 @@ pub struct DepthGridder {
     /// Nine histograms of valid depths (region-major, `bins` each), counts per centimetre.
     histograms: Vec<u32>,
     bins: usize,
+    /// [`DepthGridder::grid_fixed_point`]'s nine pairs of histograms over the matcher's codes
+    /// (region-major, two of [`FixedPointDepth::codes`] bins each: see [`count_codes`]).
+    code_histograms: Vec<u32>,
+    /// Per image column, the largest code seen in the centre row band (the nearest depth).
+    column_codes: Vec<u32>,
+    /// No texture flags: one row of zeros.
+    textured_row: Vec<u8>,
 }
 
 impl DepthGridder {
@@ -148,6 +157,10 @@ impl DepthGridder {
             in_view: [false; OBSTACLE_SECTORS],
             histograms: vec![0; 9 * bins],
             bins,
+            column_ranges: [0..0, 0..0, 0..0],
+            code_histograms: Vec::new(),
+            column_codes: Vec::new(),
+            textured_row: Vec::new(),
         }
     }
 
@@ -156,6 +169,10 @@ impl DepthGridder {
             return;
         }
         bands(width, self.params.column_edges, &mut self.column_band);
+        let cut = |band: u8| self.column_band.iter().position(|&b| b >= band).unwrap_or(width);
+        let (a, b) = (cut(1), cut(2));
+        self.column_ranges = [0..a, a..b, b..width];
+        self.textured_row = vec![0; width];
         bands(height, self.params.row_edges, &mut self.row_band);
         let g = &self.geometry;
         self.columns.clear();
@@ -185,21 +202,9 @@ impl DepthGridder {
             let band = usize::from(self.row_band[y]);
             for (x, &z) in row.iter().enumerate() {
                 let column = usize::from(self.column_band[x]);
-                let cell = &mut counts[band][column];
-                cell.total += 1;
-                if z.is_nan() {
-                    cell.invalid += 1;
-                    continue;
-                }
-                cell.near += u32::from(z < threshold_m);
-                let cm = round(z * 100.0);
-                if cm < bins as f32 {
-                    self.histograms[(band * 3 + column) * bins + cm.max(0.0) as usize] += 1;
-                } else {
-                    cell.beyond += 1;
-                    cell.nearest_beyond = cell.nearest_beyond.min(z);
-                }
-                if band == 1 {
+                let histogram = &mut self.histograms[(band * 3 + column) * bins..][..bins];
+                counts[band][column].add(histogram, z, 1, threshold_m);
+                if band == 1 && !z.is_nan() {
                     let (sector, range_factor) = self.columns[x];
                     seen[sector] = true;
                     nearest_range[sector] = nearest_range[sector].min(z * range_factor);
@@ -207,6 +212,97 @@ impl DepthGridder {
             }
         }
 
+        self.finish(&counts, &seen, &nearest_range, time, frame_sequence)
+    }
+
+    /// The grid of the matcher's fixed-point output `raw` (`width`×`height`, row-major) with
+    /// its `textureless` flags (non-zero: no disparity), captured at `time`, frame
+    /// `frame_sequence`: exactly [`DepthGridder::grid`] of the depth map that `depths` would
+    /// convert it to, without one. Depth falls as the code rises, so each region counts its
+    /// codes and converts the counts, and each column keeps its largest code in the centre
+    /// band for the sectors: two table lookups per code instead of one per pixel, and the
+    /// per-pixel work is one increment (the frame → grid path of issue 20's overhead budget).
+    #[allow(clippy::too_many_arguments)]
+    pub fn grid_fixed_point(
+        &mut self,
+        raw: &[i16],
+        textureless: Option<&[u8]>,
+        width: usize,
+        height: usize,
+        depths: &FixedPointDepth,
+        time: Time,
+        frame_sequence: u64,
+    ) -> Result<DepthGrid, VisionError> {
+        if raw.len() != width * height || textureless.is_some_and(|t| t.len() != raw.len()) {
+            return Err(VisionError::Input(format!(
+                "{} raw disparities and {:?} texture flags for a {width}×{height} grid",
+                raw.len(),
+                textureless.map(<[u8]>::len)
+            )));
+        }
+        self.layout(width, height);
+        let codes = depths.codes();
+        self.code_histograms.clear();
+        self.code_histograms.resize(2 * 9 * codes, 0);
+        self.column_codes.clear();
+        self.column_codes.resize(width, 0);
+        for y in 0..height {
+            let band = usize::from(self.row_band[y]);
+            let row = &raw[y * width..][..width];
+            let flags = textureless.map_or(&self.textured_row[..], |t| &t[y * width..][..width]);
+            for (column, range) in self.column_ranges.iter().enumerate() {
+                let pair = &mut self.code_histograms[2 * (band * 3 + column) * codes..][..2 * codes];
+                let (row, flags) = (&row[range.clone()], &flags[range.clone()]);
+                if band == 1 {
+                    let nearest = &mut self.column_codes[range.clone()];
+                    for ((&v, &t), nearest) in row.iter().zip(flags).zip(nearest) {
+                        let code = depths.code(v, t);
+                        pair[code] += 1;
+                        *nearest = (*nearest).max(code as u32);
+                    }
+                } else {
+                    count_codes(pair, row, flags, depths);
+                }
+            }
+        }
+        self.histograms.fill(0);
+        let (bins, threshold_m) = (self.bins, self.params.threshold_m);
+        let mut counts = [[RegionCount::default(); 3]; 3];
+        for (region, pair) in self.code_histograms.chunks_exact(2 * codes).enumerate() {
+            let histogram = &mut self.histograms[region * bins..][..bins];
+            let (even, odd) = pair.split_at(codes);
+            let codes_seen = even.iter().zip(odd).map(|(a, b)| a + b);
+            for (code, n) in codes_seen.enumerate().filter(|&(_, n)| n > 0) {
+                let z = depths.depth_of_code(code).ok_or_else(|| beyond_the_search(depths, code))?;
+                counts[region / 3][region % 3].add(histogram, z, n, threshold_m);
+            }
+        }
+        let mut seen = [false; OBSTACLE_SECTORS];
+        let mut nearest_range = [f32::INFINITY; OBSTACLE_SECTORS];
+        for (&code, &(sector, range_factor)) in self.column_codes.iter().zip(&self.columns) {
+            let z = depths
+                .depth_of_code(code as usize)
+                .ok_or_else(|| beyond_the_search(depths, code as usize))?;
+            if !z.is_nan() {
+                seen[sector] = true;
+                nearest_range[sector] = nearest_range[sector].min(z * range_factor);
+            }
+        }
+        Ok(self.finish(&counts, &seen, &nearest_range, time, frame_sequence))
+    }
+
+    /// The grid from the regions' counts (their histograms in `self.histograms`) and the
+    /// sectors' nearest horizontal ranges.
+    fn finish(
+        &self,
+        counts: &[[RegionCount; 3]; 3],
+        seen: &[bool; OBSTACLE_SECTORS],
+        nearest_range: &[f32; OBSTACLE_SECTORS],
+        time: Time,
+        frame_sequence: u64,
+    ) -> DepthGrid {
+        let bins = self.bins;
+        let threshold_m = self.params.threshold_m;
         let mut regions = [[GridRegion::default(); 3]; 3];
         for (band, row) in regions.iter_mut().enumerate() {
             for (column, region) in row.iter_mut().enumerate() {
@@ -258,6 +354,24 @@ impl Default for RegionCount {
 }
 
 impl RegionCount {
+    /// Counts `n` pixels of depth `z` (m, `NaN`: none), the region's `histogram` beside it.
+    #[inline(always)]
+    fn add(&mut self, histogram: &mut [u32], z: f32, n: u32, threshold_m: f32) {
+        self.total += n;
+        if z.is_nan() {
+            self.invalid += n;
+            return;
+        }
+        self.near += if z < threshold_m { n } else { 0 };
+        let cm = round(z * 100.0);
+        if cm < histogram.len() as f32 {
+            histogram[cm.max(0.0) as usize] += n;
+        } else {
+            self.beyond += n;
+            self.nearest_beyond = self.nearest_beyond.min(z);
+        }
+    }
+
     /// The region, its nearest depth being the `percentile` (%) of its valid depths:
     /// the k-th smallest with k = max(1, ⌈percentile/100 · valid⌉).
     fn region(self, histogram: &[u32], percentile: f32) -> GridRegion {
@@ -278,6 +392,33 @@ impl RegionCount {
             nearest_m,
         }
     }
+}
+
+/// Counts the codes of `raw` with its texture `flags` into `pair`, two histograms of
+/// [`FixedPointDepth::codes`] bins each: even pixels into the first, odd into the second.
+/// Neighbouring pixels mostly share a code, and one histogram would make each increment wait
+/// for the last one's store; two let pairs of them overlap.
+#[inline(always)]
+fn count_codes(pair: &mut [u32], raw: &[i16], flags: &[u8], depths: &FixedPointDepth) {
+    let (even, odd) = pair.split_at_mut(depths.codes());
+    let (raw_pairs, flag_pairs) = (raw.chunks_exact(2), flags.chunks_exact(2));
+    let (raw_rest, flag_rest) = (raw_pairs.remainder(), flag_pairs.remainder());
+    for (v, t) in raw_pairs.zip(flag_pairs) {
+        even[depths.code(v[0], t[0])] += 1;
+        odd[depths.code(v[1], t[1])] += 1;
+    }
+    for (&v, &t) in raw_rest.iter().zip(flag_rest) {
+        even[depths.code(v, t)] += 1;
+    }
+}
+
+/// A code beyond the matcher's search range: a matcher never gives one, and the table that
+/// would give its depth ends there.
+fn beyond_the_search(depths: &FixedPointDepth, code: usize) -> VisionError {
+    VisionError::Input(format!(
+        "disparity code {code} is beyond the matcher's {} codes: not a matcher's output",
+        depths.codes()
+    ))
 }
 
 /// `x.round()` (half away from zero) without the library call it compiles to on x86-64

@@ -18,7 +18,7 @@ use crate::depth::{DepthMap, FixedPointDepth, StereoGeometry};
 use crate::disparity_map::DisparityMap;
 use crate::error::{CvContext, VisionError};
 use crate::grid::{DepthGridder, GridParams};
-use crate::image::gray_mat;
+use crate::image::copy_gray_into;
 use crate::matcher::{Matcher, MatcherParams};
 use crate::rectify::Rectifier;
 use crate::texture::{TextureFilter, TextureParams};
@@ -71,9 +71,10 @@ pub struct StageTimes {
     pub rectify: Duration,
     /// Disparity search and the texture check.
     pub matching: Duration,
-    /// Disparity → depth.
+    /// Disparity → depth; zero on the frame → grid path ([`StereoPipeline::grid`]), whose grid
+    /// stage reads the matcher's output directly.
     pub depth: Duration,
-    /// Depth → grid regions and sectors.
+    /// Depth (or, frame → grid, the matcher's output) → grid regions and sectors.
     pub grid: Duration,
 }
 
@@ -87,11 +88,11 @@ pub struct StereoPipeline {
     matcher: Matcher,
     texture: Option<TextureFilter>,
     gridder: DepthGridder,
-    /// The matcher's raw output → depth, for [`StereoPipeline::grid`].
+    /// The depth of each of the matcher's raw values, for [`StereoPipeline::grid`].
     fixed_point_depth: FixedPointDepth,
-    /// [`StereoPipeline::grid`]'s depth map, kept so a frame allocates none.
-    depth: DepthMap,
     times: StageTimes,
+    /// [`StereoPipeline::process`]'s copy of the frame, kept so a frame allocates none.
+    input: (Mat, Mat),
     rectified: (Mat, Mat),
     small: (Mat, Mat),
 }
@@ -157,8 +158,8 @@ impl StereoPipeline {
             matcher,
             texture: TextureFilter::new(&params.texture)?,
             gridder: DepthGridder::new(&params.grid, &geometry),
-            depth: DepthMap { width: 0, height: 0, values: Vec::new() },
             times: StageTimes::default(),
+            input: (Mat::default(), Mat::default()),
             rectified: (Mat::default(), Mat::default()),
             small: (Mat::default(), Mat::default()),
         })
@@ -182,14 +183,17 @@ impl StereoPipeline {
                 frame.sequence
             )));
         }
-        let left = gray_mat(frame.left(), frame.width, frame.height)?;
-        let right = gray_mat(frame.right(), frame.width, frame.height)?;
-        self.grid(&left, &right, frame.time, frame.sequence)
+        let (mut left, mut right) = std::mem::take(&mut self.input);
+        let grid = copy_gray_into(frame.left(), frame.width, frame.height, &mut left)
+            .and_then(|()| copy_gray_into(frame.right(), frame.width, frame.height, &mut right))
+            .and_then(|()| self.grid(&left, &right, frame.time, frame.sequence));
+        self.input = (left, right);
+        grid
     }
 
     /// The depth grid of a raw grey pair captured at `time`, frame `sequence` at its source.
-    /// The same grid as [`StereoPipeline::depth`]'s map would give, in one pass from the
-    /// matcher's output to depth, into a buffer kept across frames.
+    /// The same grid as [`StereoPipeline::depth`]'s map would give, summarised straight from
+    /// the matcher's output without a depth map ([`DepthGridder::grid_fixed_point`]).
     pub fn grid(
         &mut self,
         left: &Mat,
@@ -217,10 +221,16 @@ impl StereoPipeline {
         let start = Instant::now();
         let values = raw.data_typed::<i16>().cv("disparity pixels")?;
         let (width, height) = (raw.cols() as usize, raw.rows() as usize);
-        self.fixed_point_depth.convert(values, textureless, width, height, &mut self.depth)?;
-        self.times.depth = start.elapsed();
-        let start = Instant::now();
-        let grid = self.gridder.grid(&self.depth, time, sequence);
+        let grid = self.gridder.grid_fixed_point(
+            values,
+            textureless,
+            width,
+            height,
+            &self.fixed_point_depth,
+            time,
+            sequence,
+        )?;
+        self.times.depth = Duration::ZERO;
         self.times.grid = start.elapsed();
         Ok(grid)
     }

@@ -4,11 +4,14 @@
 //! borders; a plain wall then reads as whatever surrounds it (the thesis's failure, §4.2.3,
 //! seen from the other side). A pixel whose neighbourhood has a mean horizontal gradient below
 //! a threshold gets no disparity, so the grid reports the patch as invalid, not as free.
+//!
+//! The check is OpenCV's `Sobel` (1×3 central difference, scale ½, rounded to `CV_16S`),
+//! `convertScaleAbs`, a normalised `boxFilter` to `CV_32F` and `compare(CMP_LT)`, all with
+//! replicated borders, done here in integers in one pass over the image: that chain cost as much
+//! as a third of the whole pipeline's overhead over the bare matcher (issue 20). The OpenCV
+//! chain stays as the reference the tests hold this one to, pixel for pixel.
 
-use opencv::core::{
-    BORDER_REPLICATE, CMP_LT, CV_16S, CV_32F, Mat, MatTraitConst, MatTraitConstManual, Point, Scalar, Size,
-};
-use opencv::imgproc;
+use opencv::core::{CV_8UC1, Mat, MatTraitConst, MatTraitConstManual};
 use serde::{Deserialize, Serialize};
 
 use crate::disparity_map::DisparityMap;
@@ -38,11 +41,18 @@ impl Default for TextureParams {
 /// Applies [`TextureParams`] to disparity maps; keeps its buffers across frames.
 pub struct TextureFilter {
     params: TextureParams,
-    gradient: Mat,
-    magnitude: Mat,
-    mean: Mat,
-    /// 255 where textureless, else 0.
-    mask: Mat,
+    /// A window's gradient sum (grey levels/px, summed over window_px² pixels) is textureless
+    /// below this: the smallest sum whose mean OpenCV's `boxFilter` would not call below
+    /// `min_gradient`.
+    textured_sum: u32,
+    /// |∂I/∂x| per pixel (grey levels per px, rounded as OpenCV's `Sobel` rounds).
+    gradient: Vec<u8>,
+    /// Per column: the gradient summed over the window's rows.
+    column_sums: Vec<u32>,
+    /// One row of column sums with the window's half-width replicated at each end.
+    padded: Vec<u32>,
+    /// 1 where textureless, else 0.
+    mask: Vec<u8>,
 }
 
 impl TextureFilter {
@@ -62,10 +72,11 @@ impl TextureFilter {
         }
         Ok((params.min_gradient > 0.0).then(|| TextureFilter {
             params: params.clone(),
-            gradient: Mat::default(),
-            magnitude: Mat::default(),
-            mean: Mat::default(),
-            mask: Mat::default(),
+            textured_sum: textured_sum(params.min_gradient, params.window_px),
+            gradient: Vec::new(),
+            column_sums: Vec::new(),
+            padded: Vec::new(),
+            mask: Vec::new(),
         }))
     }
 
@@ -83,32 +94,190 @@ impl TextureFilter {
         Ok(())
     }
 
-    /// Per pixel of `image` (row-major, continuous): non-zero where its neighbourhood is
+    /// Per pixel of `image` (8-bit grey, row-major): non-zero where its neighbourhood is
     /// textureless. Valid until the next call.
     pub fn textureless(&mut self, image: &Mat) -> Result<&[u8], VisionError> {
-        // Central difference I(x+1) − I(x−1), halved to grey levels per pixel.
-        imgproc::sobel(image, &mut self.gradient, CV_16S, 1, 0, 1, 0.5, 0.0, BORDER_REPLICATE)
-            .cv("texture gradient")?;
-        opencv::core::convert_scale_abs(&self.gradient, &mut self.magnitude, 1.0, 0.0)
-            .cv("texture magnitude")?;
-        let w = self.params.window_px as i32;
+        if image.typ() != CV_8UC1 {
+            return Err(VisionError::Input(format!(
+                "the texture check needs an 8-bit grey image, not OpenCV type {}",
+                image.typ()
+            )));
+        }
+        let (width, height) = (image.cols() as usize, image.rows() as usize);
+        let pixels = image.data_bytes().cv("texture image pixels")?;
+        if width == 0 || height == 0 {
+            self.mask.clear();
+            return Ok(&self.mask);
+        }
+        self.gradients(pixels, width, height);
+        self.threshold(width, height);
+        Ok(&self.mask)
+    }
+
+    /// |I(x+1) − I(x−1)| / 2 per pixel, borders replicated, with OpenCV's rounding: `Sobel`'s
+    /// float result goes to `CV_16S` rounded half to even, so an odd difference 2k+1 becomes
+    /// the even one of k and k+1.
+    fn gradients(&mut self, pixels: &[u8], width: usize, height: usize) {
+        self.gradient.resize(width * height, 0);
+        let half = |a: u8, b: u8| {
+            let d = a.abs_diff(b);
+            (d >> 1) + (d & (d >> 1) & 1)
+        };
+        for (row, out) in pixels.chunks_exact(width).zip(self.gradient.chunks_exact_mut(width)) {
+            if width == 1 {
+                out[0] = 0;
+                continue;
+            }
+            out[0] = half(row[1], row[0]);
+            for ((o, &a), &b) in out[1..width - 1].iter_mut().zip(&row[2..]).zip(&row[..width - 2]) {
+                *o = half(a, b);
+            }
+            out[width - 1] = half(row[width - 1], row[width - 2]);
+        }
+    }
+
+    /// The mask: each pixel's window sum of gradients (rows, then columns, borders
+    /// replicated) against [`TextureFilter::textured_sum`].
+    fn threshold(&mut self, width: usize, height: usize) {
+        let TextureFilter { params, textured_sum, gradient, column_sums, padded, mask } = self;
+        let radius = (params.window_px / 2) as usize;
+        let row = |y: isize| -> &[u8] {
+            let y = y.clamp(0, height as isize - 1) as usize;
+            &gradient[y * width..][..width]
+        };
+        column_sums.clear();
+        column_sums.resize(width, 0);
+        for dy in -(radius as isize)..=radius as isize {
+            for (sum, &g) in column_sums.iter_mut().zip(row(dy)) {
+                *sum += u32::from(g);
+            }
+        }
+        mask.resize(width * height, 0);
+        // One more than the window needs at the right end, so the sum slides past the last
+        // pixel (unused) without a branch.
+        padded.resize(width + 2 * radius + 1, 0);
+        let window = 2 * radius + 1;
+        for (y, out) in mask.chunks_exact_mut(width).enumerate() {
+            padded[..radius].fill(column_sums[0]);
+            padded[radius..radius + width].copy_from_slice(column_sums);
+            padded[radius + width..].fill(column_sums[width - 1]);
+            let mut sum: u32 = padded[..window].iter().sum();
+            for ((flag, &entering), &leaving) in out.iter_mut().zip(&padded[window..]).zip(&padded[..]) {
+                *flag = u8::from(sum < *textured_sum);
+                sum = sum + entering - leaving;
+            }
+            let (leaving, entering) = (row(y as isize - radius as isize), row((y + radius + 1) as isize));
+            for ((sum, &out), &inn) in column_sums.iter_mut().zip(leaving).zip(entering) {
+                *sum = *sum + u32::from(inn) - u32::from(out);
+            }
+        }
+    }
+}
+
+/// The smallest window sum of gradients that OpenCV's normalised `boxFilter` (the sum times
+/// 1/window², to `f32`) and `compare(CMP_LT)` against `min_gradient` would keep as textured.
+/// The mean is monotone in the sum, so a search over the sums finds it once per parameter set.
+fn textured_sum(min_gradient: f32, window_px: u32) -> u32 {
+    let scale = 1.0 / f64::from(window_px * window_px);
+    let textured = |sum: u32| (f64::from(sum) * scale) as f32 >= min_gradient;
+    let (mut low, mut high) = (0, 128 * window_px * window_px + 1);
+    while low < high {
+        let middle = (low + high) / 2;
+        if textured(middle) { high = middle } else { low = middle + 1 }
+    }
+    low
+}
+
+#[cfg(test)]
+mod tests {
+    use opencv::core::{
+        BORDER_REPLICATE, CMP_LT, CV_16S, CV_32F, Mat, MatTraitConst, MatTraitConstManual, Point, Scalar,
+        Size,
+    };
+    use opencv::imgproc;
+
+    use super::{TextureFilter, TextureParams};
+    use crate::image::gray_mat;
+
+    /// OpenCV's chain, as the filter ran before it was done in integers: non-zero where
+    /// textureless.
+    fn opencv_mask(image: &Mat, params: &TextureParams) -> Vec<u8> {
+        let (mut gradient, mut magnitude, mut mean, mut mask) =
+            (Mat::default(), Mat::default(), Mat::default(), Mat::default());
+        imgproc::sobel(image, &mut gradient, CV_16S, 1, 0, 1, 0.5, 0.0, BORDER_REPLICATE).unwrap();
+        opencv::core::convert_scale_abs(&gradient, &mut magnitude, 1.0, 0.0).unwrap();
+        let w = params.window_px as i32;
         imgproc::box_filter(
-            &self.magnitude,
-            &mut self.mean,
+            &magnitude,
+            &mut mean,
             CV_32F,
             Size::new(w, w),
             Point::new(-1, -1),
             true,
             BORDER_REPLICATE,
         )
-        .cv("texture mean")?;
-        opencv::core::compare(
-            &self.mean,
-            &Scalar::all(f64::from(self.params.min_gradient)),
-            &mut self.mask,
-            CMP_LT,
-        )
-        .cv("texture threshold")?;
-        self.mask.data_bytes().cv("texture mask")
+        .unwrap();
+        opencv::core::compare(&mean, &Scalar::all(f64::from(params.min_gradient)), &mut mask, CMP_LT)
+            .unwrap();
+        mask.data_bytes().unwrap().to_vec()
+    }
+
+    fn agree(pixels: &[u8], width: usize, height: usize, params: &TextureParams) {
+        let image = gray_mat(pixels, width as u32, height as u32).unwrap();
+        let mut filter = TextureFilter::new(params).unwrap().unwrap();
+        let ours: Vec<bool> = filter.textureless(&image).unwrap().iter().map(|&f| f != 0).collect();
+        let reference: Vec<bool> = opencv_mask(&image, params).iter().map(|&f| f != 0).collect();
+        assert_eq!(ours, reference, "{width}×{height} {params:?}");
+    }
+
+    proptest::proptest! {
+        /// Small images of faint texture (differences of a few grey levels, so the rounding of
+        /// odd differences and thresholds near the sums decide) and of any contrast.
+        #[test]
+        fn the_integer_check_is_opencvs_chain(
+            width in 1usize..40,
+            height in 1usize..30,
+            contrast in proptest::sample::select(vec![1u8, 3, 7, 255]),
+            seed in proptest::num::u64::ANY,
+            window in proptest::sample::select(vec![3u32, 5, 7, 15, 31]),
+            min_gradient in proptest::sample::select(vec![0.1f32, 0.25, 0.5, 1.0, 1.0 / 3.0, 2.7]),
+        ) {
+            let mut state = seed | 1;
+            let pixels: Vec<u8> = (0..width * height)
+                .map(|_| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    100u8.saturating_add((state % (u64::from(contrast) + 1)) as u8)
+                })
+                .collect();
+            agree(&pixels, width, height, &TextureParams { min_gradient, window_px: window });
+        }
+    }
+
+    /// A VGA frame with flat patches beside textured ones, on the defaults.
+    #[test]
+    fn a_frame_with_flat_patches_is_masked_as_opencv_masks_it() {
+        let (width, height) = (640, 480);
+        let pixels: Vec<u8> = (0..width * height)
+            .map(|i| {
+                let (x, y) = (i % width, i / width);
+                if (x / 80 + y / 60) % 2 == 0 { 128 } else { ((x * 7 + y * 13) % 5) as u8 * 3 + 90 }
+            })
+            .collect();
+        agree(&pixels, width, height, &TextureParams::default());
+    }
+
+    /// A real photograph (Middlebury teddy), on the defaults and on the perception rig's window.
+    #[test]
+    fn a_photograph_is_masked_as_opencv_masks_it() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/middlebury2003_teddy/im2.png");
+        let image = crate::image::load_gray(&path).unwrap();
+        let (width, height) = (image.cols() as usize, image.rows() as usize);
+        let pixels = image.data_bytes().unwrap().to_vec();
+        for params in [TextureParams::default(), TextureParams { min_gradient: 1.0, window_px: 7 }] {
+            agree(&pixels, width, height, &params);
+        }
     }
 }

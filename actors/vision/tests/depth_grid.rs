@@ -3,9 +3,12 @@
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{DepthGrid, SECTOR_UNKNOWN};
+use kestrel_vision::depth::FixedPointDepth;
 use kestrel_vision::{
-    DepthMap, Geometry, GridParams, PipelineParams, StereoFrame, StereoGeometry, StereoPipeline, depth_grid,
+    DepthGridder, DepthMap, DisparityMap, Geometry, GridParams, PipelineParams, StereoFrame, StereoGeometry,
+    StereoPipeline, depth_grid,
 };
+use opencv::core::MatTraitConst;
 
 const W: usize = 640;
 const H: usize = 480;
@@ -289,4 +292,80 @@ fn the_one_pass_grid_is_the_grid_of_the_depth_map() {
         assert!(depth.values.iter().any(|z| z.is_nan()) && depth.values.iter().any(|z| !z.is_nan()));
         assert_eq!(one_pass, depth_grid(&depth, &geometry, &params.grid, Time(5), 3));
     }
+}
+
+/// The matcher's fixed-point output (`width`×`height`) as an OpenCV `CV_16S` image.
+fn raw_mat(raw: &[i16], width: usize, height: usize) -> opencv::core::Mat {
+    opencv::core::Mat::new_rows_cols_with_data(height as i32, width as i32, raw).unwrap().try_clone().unwrap()
+}
+
+proptest::proptest! {
+    /// Straight from the matcher's output (codes, one increment a pixel) the grid is exactly
+    /// the grid of the depth map the long way gives: disparity, texture flags to `NaN`, then
+    /// division. Any size, any band edges, a negative `doffs` (disparities at or beyond
+    /// infinity: no depth), a histogram shorter than some depths, codes below the range.
+    #[test]
+    fn the_grid_from_the_matchers_codes_is_the_grid_of_its_depth_map(
+        width in 1usize..48,
+        height in 1usize..36,
+        min_disparity in -2i32..3,
+        wide in proptest::bool::ANY,
+        doffs_px in proptest::sample::select(vec![0.0f64, -3.5, 2.0]),
+        max_distance_cm in proptest::sample::select(vec![300u16, 2000]),
+        edges in (0.05f32..0.45, 0.55f32..0.95),
+        percentile in 0.0f32..50.0,
+        seed in proptest::num::u64::ANY,
+    ) {
+        let num_disparities = if wide { 32 } else { 16 };
+        let mut state = seed | 1;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let first = min_disparity * 16;
+        let raw: Vec<i16> = (0..width * height)
+            .map(|_| match next() % 8 {
+                0 => (first - 16) as i16,
+                1 => (first - 1 - (next() % 40) as i32) as i16,
+                _ => (first + (next() % (num_disparities as u64 * 16 + 1)) as i32) as i16,
+            })
+            .collect();
+        let flags: Vec<u8> = (0..width * height).map(|_| u8::from(next() % 5 == 0)).collect();
+        let geometry = StereoGeometry { focal_px: 40.0, cx_px: width as f64 / 2.0, cy_px: height as f64 / 2.0, doffs_px, ..geometry() };
+        let params = GridParams {
+            column_edges: [edges.0, edges.1],
+            row_edges: [edges.1 - 0.5, edges.0 + 0.5],
+            max_distance_cm,
+            nearest_percentile: percentile,
+            ..GridParams::default()
+        };
+        params.check().unwrap();
+        let depths = FixedPointDepth::new(&geometry, min_disparity, num_disparities);
+        let mut gridder = DepthGridder::new(&params, &geometry);
+        for textureless in [None, Some(&flags[..])] {
+            let fast = gridder.grid_fixed_point(&raw, textureless, width, height, &depths, Time(9), 4).unwrap();
+            let mut disparity = DisparityMap::from_fixed_point(&raw_mat(&raw, width, height), min_disparity).unwrap();
+            for (d, &t) in disparity.values.iter_mut().zip(textureless.unwrap_or(&[])) {
+                if t != 0 {
+                    *d = f32::NAN;
+                }
+            }
+            let depth = DepthMap::from_disparity(&disparity, &geometry);
+            proptest::prop_assert_eq!(fast, depth_grid(&depth, &geometry, &params, Time(9), 4));
+        }
+    }
+}
+
+/// A raw value past the matcher's range (no matcher gives one) is an error naming it, not a
+/// guess, and a size that does not match the buffer is refused.
+#[test]
+fn codes_beyond_the_search_and_mismatched_sizes_are_refused() {
+    let depths = FixedPointDepth::new(&geometry(), 0, 16);
+    let mut gridder = DepthGridder::new(&GridParams::default(), &geometry());
+    let err = gridder.grid_fixed_point(&[0, 16 * 16 + 1], None, 2, 1, &depths, Time(0), 0).unwrap_err();
+    assert!(err.to_string().contains("beyond the matcher's"), "{err}");
+    let err = gridder.grid_fixed_point(&[0, 1, 2], None, 2, 1, &depths, Time(0), 0).unwrap_err();
+    assert!(err.to_string().contains("2×1"), "{err}");
 }
