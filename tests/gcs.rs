@@ -212,6 +212,30 @@ fn a_ground_station_reads_back_the_wind_it_set_in_the_simulator() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The upward and downward rangefinders as a ground station reads them (DISTANCE_SENSOR,
+/// orientations 24 and 25) on a take-off under a slab 6 m up, and the STATUSTEXT that says the
+/// climb is held 2 m below it (issue 20).
+#[test]
+fn a_ground_station_sees_a_takeoff_held_under_a_slab_and_both_rangefinders() {
+    let dir = temp_dir("rangefinder");
+    let world = dir.join("slab.toml");
+    let empty = std::fs::read_to_string(root().join("config/worlds/empty.toml")).expect("empty world");
+    let slab = "[[obstacles]]\nkind = \"box\"\ncenter_ned_m = [0.0, 0.0, -7.0]\nsize_m = [8.0, 8.0, 2.0]\n";
+    std::fs::write(&world, format!("{empty}\n{slab}")).expect("world");
+    let empty_path = format!("\"{}\"", root().join("config/worlds/empty.toml").display());
+    let flight = fly_with_env(&dir, "rangefinder", "gcs_rangefinder.py", &[], &[], |port| {
+        let graph = sim_config(&link_params(port, "", ""));
+        assert!(graph.contains(&empty_path), "config/sim.toml flies worlds/empty.toml");
+        graph.replace(&empty_path, &format!("\"{}\"", world.display()))
+    });
+    let result = flight.transcript.last().expect("result");
+    println!("figure: take-off to 10 m under a slab 6 m up: {result}");
+    assert!(result.contains("\"rangefinder\""), "{result}");
+    assert_eq!(flight.report["flight"]["collisions"], 0, "{:#}", flight.report);
+    assert!(flight.landed(), "{:#}", flight.report);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn losing_the_ground_station_in_flight_returns_and_lands() {
     let dir = temp_dir("link-loss");

@@ -231,5 +231,6 @@ pub fn vehicle_status(
         geofence_enabled: true,
         failed_motor: None,
         speed_cap: None,
+        vertical_limit: None,
     }
 }

@@ -23,8 +23,9 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult,
-    EscTelemetry, FlightMode, LandedState, ManualControl, Mission, NavState, ParamDecl, ParamSet, Setpoint,
-    SpeedCapStatus, SupervisorEvent, VehicleCommand, VehicleStatus,
+    EscTelemetry, FlightMode, LandedState, ManualControl, Mission, NavState, ParamDecl, ParamSet,
+    RangefinderSample, Setpoint, SpeedCapStatus, SupervisorEvent, VehicleCommand, VehicleStatus,
+    VerticalLimitStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
@@ -84,6 +85,8 @@ pub enum CommanderInput {
     Actuators(ActuatorOutputs),
     /// What the motors produce (port `esc_telemetry`; optional).
     Esc(EscTelemetry),
+    /// The up- or downward rangefinder (ports `rangefinder_up`, `rangefinder_down`; optional).
+    Rangefinder(RangefinderSample),
     Tick(Time),
 }
 
@@ -138,6 +141,8 @@ impl Actor for CommanderActor {
         setup.input("calibration", CommanderInput::Calibration);
         setup.input("actuators", CommanderInput::Actuators);
         setup.input("esc_telemetry", CommanderInput::Esc);
+        setup.input("rangefinder_up", CommanderInput::Rangefinder);
+        setup.input("rangefinder_down", CommanderInput::Rangefinder);
         setup.timer("tick", tick_period, CommanderInput::Tick);
         Ok(CommanderActor {
             commander,
@@ -188,6 +193,7 @@ impl Actor for CommanderActor {
             CommanderInput::Manual(m) => self.commander.on_manual(&m),
             CommanderInput::Supervisor(e) => self.commander.on_supervisor(&e),
             CommanderInput::Avoidance(cmd) => self.commander.on_avoidance(&cmd),
+            CommanderInput::Rangefinder(sample) => self.commander.on_rangefinder(&sample),
             CommanderInput::Param(p) => {
                 // The link already checked the range; a value the commander still refuses is
                 // reported and the old one kept, never applied half-way.
@@ -239,6 +245,7 @@ impl CommanderActor {
         let steady = |s: &VehicleStatus| VehicleStatus {
             time: now,
             speed_cap: s.speed_cap.map(|c| SpeedCapStatus { cap_m_s: 0.0, range_m: 0.0, ..c }),
+            vertical_limit: s.vertical_limit.map(|v| VerticalLimitStatus { distance_m: 0.0, ..v }),
             ..s.clone()
         };
         let status_changed = self.last_status.as_ref().is_none_or(|l| steady(l) != steady(&status));

@@ -35,6 +35,7 @@ fn declares_its_ports_and_publishes_nav_state_per_imu_sample_and_status_at_10_hz
                 SimOutput::Baro(b) => EstimatorInput::Baro(b),
                 SimOutput::Mag(m) => EstimatorInput::Mag(m),
                 SimOutput::GroundTruth(_)
+                | SimOutput::Rangefinder(_)
                 | SimOutput::Battery(_)
                 | SimOutput::Esc(_)
                 | SimOutput::Fault(_) => continue,

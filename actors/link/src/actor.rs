@@ -9,7 +9,7 @@ use std::time::Duration;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationCommand, CalibrationEvent, CommandResult, DepthGrid,
     EstimatorStatus, FailureInjection, FailureInjectionResult, GpsFix, GroundTruth, ManualControl, Mission,
-    NavState, ParamDecl, ParamSet, SensorHealth, VehicleCommand, VehicleStatus,
+    NavState, ParamDecl, ParamSet, RangefinderSample, SensorHealth, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -37,6 +37,9 @@ pub enum LinkInput {
     /// ratios in EKF_STATUS_REPORT.
     Estimator(Box<EstimatorStatus>),
     Depth(DepthGrid),
+    /// A rangefinder's sample (ports `rangefinder_up`, `rangefinder_down`; optional), sent as
+    /// DISTANCE_SENSOR; the sample's own orientation says which sensor it is.
+    Rangefinder(RangefinderSample),
     /// The obstacle avoider's newest correction (port `avoidance`), sent as DEBUG_VECT.
     Avoidance(AvoidanceCommand),
     /// A driver's health report (port `sensor_health`; hardware graphs): errors become a
@@ -160,6 +163,8 @@ impl Actor for LinkActor {
         setup.input("estimator_status", |s| LinkInput::Estimator(Box::new(s)));
         setup.input("depth_grid", LinkInput::Depth);
         setup.input("avoidance", LinkInput::Avoidance);
+        setup.input("rangefinder_up", LinkInput::Rangefinder);
+        setup.input("rangefinder_down", LinkInput::Rangefinder);
         setup.input("ground_truth", |t| LinkInput::Truth(Box::new(t)));
         setup.input("sensor_health", LinkInput::SensorHealth);
         setup.input("param_decl", LinkInput::ParamDecl);
@@ -241,6 +246,10 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Avoidance(a) => {
                     hub.vehicle().on_avoidance(a);
+                    Vec::new()
+                }
+                LinkInput::Rangefinder(r) => {
+                    hub.vehicle().on_rangefinder(r);
                     Vec::new()
                 }
                 LinkInput::SensorHealth(h) => {

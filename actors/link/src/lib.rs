@@ -16,7 +16,8 @@
 //! Custom modes follow ArduCopter's numbering ([`modes`]), so ground stations show our modes.
 //!
 //! Graph ports of [`LinkActor`]: inputs `nav_state` (NavState), `gps` (GpsFix), `battery`
-//! (BatteryStatus), `vehicle_status` (VehicleStatus), `depth_grid` (DepthGrid); outputs
+//! (BatteryStatus), `vehicle_status` (VehicleStatus), `depth_grid` (DepthGrid), `rangefinder_up`
+//! and `rangefinder_down` (RangefinderSample, sent as DISTANCE_SENSOR); outputs
 //! `vehicle_command` (VehicleCommand, including `Command::Heartbeat` for every ground-station
 //! heartbeat), `mission` (Mission), `manual_control` (ManualControl), `param_set` (ParamSet);
 //! timers `heartbeat` (1 Hz) and `tick` (50 Hz, telemetry and timeouts).

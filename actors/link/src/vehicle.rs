@@ -11,7 +11,7 @@ use kestrel_proto::Time;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
     EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, GpsFix, GroundTruth, NavState,
-    ParamDecl, SensorHealth, VehicleStatus,
+    ParamDecl, RangefinderSample, SensorHealth, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -329,6 +329,11 @@ impl Vehicle {
     /// The simulator's latest ground truth (for SIMSTATE).
     pub fn on_truth(&mut self, truth: GroundTruth) {
         self.telemetry.snapshot.truth = Some(truth);
+    }
+
+    /// A rangefinder's newest sample (for DISTANCE_SENSOR); an unusable one is dropped.
+    pub fn on_rangefinder(&mut self, sample: RangefinderSample) {
+        self.telemetry.on_rangefinder(sample);
     }
 
     /// The avoider's latest correction (for DEBUG_VECT "AVOID").

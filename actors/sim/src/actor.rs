@@ -9,7 +9,7 @@ use kestrel_proto::esc::{DirectPulses, EscRanges, esc_range_params};
 use kestrel_proto::messages::{
     ActuatorOutputs, BaroSample, BatteryStatus, CalibrationMotion, EscPulses, EscTelemetry, FailureInjection,
     FailureInjectionResult, GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap, ParamDecl, ParamSet,
-    SimFault, SimFaultPhase,
+    RangefinderOrientation, RangefinderSample, SimFault, SimFaultPhase,
 };
 use kestrel_proto::param_def::{ParamChange, ParamRefused, answer, apply, declare};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
@@ -89,8 +89,9 @@ pub enum SimInput {
     Pulses(EscPulses),
 }
 
-/// The simulator actor. Outputs: `imu`, `imu2` (the second IMU, when the vehicle has one), `gps`, `baro`, `mag`, `ground_truth`, `battery`,
-/// `esc_telemetry` (what each motor produces, every tick),
+/// The simulator actor. Outputs: `imu`, `imu2` (the second IMU, when the vehicle has one), `gps`, `baro`, `mag`,
+/// `rangefinder_up` and `rangefinder_down` (RangefinderSample, when the vehicle file fits them),
+/// `ground_truth`, `battery`, `esc_telemetry` (what each motor produces, every tick),
 /// `sim_fault` (each start and end of a world-file fault, also logged at INFO), and
 /// `obstacle_map` once, on the first step. Like the motor driver it owns the outputs' pulse
 /// ranges (`SERVOn_MIN`/`SERVOn_MAX`, applied to the commands as they are set) and takes direct
@@ -107,6 +108,8 @@ pub struct SimActor {
     gps: Publisher<GpsFix>,
     baro: Publisher<BaroSample>,
     mag: Publisher<MagSample>,
+    rangefinder_up: Publisher<RangefinderSample>,
+    rangefinder_down: Publisher<RangefinderSample>,
     ground_truth: Publisher<GroundTruth>,
     battery: Publisher<BatteryStatus>,
     esc_telemetry: Publisher<EscTelemetry>,
@@ -157,6 +160,8 @@ impl Actor for SimActor {
             gps: setup.output("gps"),
             baro: setup.output("baro"),
             mag: setup.output("mag"),
+            rangefinder_up: setup.output("rangefinder_up"),
+            rangefinder_down: setup.output("rangefinder_down"),
             ground_truth: setup.output("ground_truth"),
             battery: setup.output("battery"),
             esc_telemetry: setup.output("esc_telemetry"),
@@ -242,6 +247,10 @@ impl Actor for SimActor {
                         SimOutput::Gps(m) => self.gps.publish(m),
                         SimOutput::Baro(m) => self.baro.publish(m),
                         SimOutput::Mag(m) => self.mag.publish(m),
+                        SimOutput::Rangefinder(m) => match m.orientation {
+                            RangefinderOrientation::Up => self.rangefinder_up.publish(m),
+                            RangefinderOrientation::Down => self.rangefinder_down.publish(m),
+                        },
                         SimOutput::GroundTruth(m) => self.ground_truth.publish(m),
                         SimOutput::Battery(m) => self.battery.publish(m),
                         SimOutput::Esc(m) => self.esc_telemetry.publish(m),

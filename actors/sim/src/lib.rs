@@ -3,9 +3,9 @@
 //! A pure, synchronous, deterministic core ([`Simulator`]) integrates a 6-DOF rigid body driven
 //! by first-order-lag motors, wind, drag and ground contact, checks collisions against the
 //! world's obstacles and produces the sensor streams a real airframe would (IMU, GPS,
-//! barometer, magnetometer, battery) plus ground truth, each stamped with its *measurement*
-//! time and released after its configured lag. [`SimActor`] is the thin actor shell that feeds
-//! it actuator outputs and publishes what it releases. [`camera`] renders a stereo pair from
+//! barometer, magnetometer, rangefinders, battery) plus ground truth, each stamped with its
+//! *measurement* time and released after its configured lag. [`SimActor`] is the thin actor
+//! shell that feeds it actuator outputs and publishes what it releases. [`camera`] renders a stereo pair from
 //! the true pose by ray casting, and [`CameraSimActor`] publishes it as `stereo_frame`.
 //!
 //! Frames follow `kestrel-proto`: NED earth frame around home, FRD body frame, quaternions

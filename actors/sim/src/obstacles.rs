@@ -3,6 +3,8 @@
 //! Boxes, vertical cylinders ("trees") and walls, each standing on or above the flat ground.
 //! Distances are exact signed distances (negative inside), which gives both the collision test
 //! (distance below the vehicle's collision radius) and the clearance the flight report scores.
+//! Rays are intersected exactly (slabs and a quadratic, in double precision) for the
+//! rangefinders, which need the first surface along a beam however closely it grazes another.
 
 use nalgebra::{Vector2, Vector3};
 
@@ -17,6 +19,10 @@ pub trait ObstacleGeometry {
     fn validate(&self) -> Result<(), InvalidParam>;
     /// Signed distance from `p_ned_m` to the obstacle's surface (m), negative inside.
     fn signed_distance_m(&self, p_ned_m: &Vector3<f64>) -> f64;
+    /// Distance along the ray from `origin_ned_m` in the unit direction `dir_ned` to where it
+    /// first meets the obstacle (m): 0 when the origin is inside or on it, `None` when the ray
+    /// misses it or leaves it behind.
+    fn ray_hit_m(&self, origin_ned_m: &Vector3<f64>, dir_ned: &Vector3<f64>) -> Option<f64>;
 }
 
 impl ObstacleGeometry for Obstacle {
@@ -63,24 +69,116 @@ impl ObstacleGeometry for Obstacle {
                 outside + radial.max(vertical).min(0.0)
             }
             Obstacle::Wall { from_ne_m, to_ne_m, height_m, thickness_m, .. } => {
-                let (from, to) = (Vector2::from(*from_ne_m), Vector2::from(*to_ne_m));
-                let along = to - from;
-                let mid = (from + to) / 2.0;
-                let center = Vector3::new(mid.x, mid.y, -height_m / 2.0);
-                let half = Vector3::new(along.norm() / 2.0, thickness_m / 2.0, height_m / 2.0);
-                box_distance(p_ned_m, &center, &half, along.y.atan2(along.x).to_degrees())
+                let (center, half, yaw_deg) = wall_box(from_ne_m, to_ne_m, *height_m, *thickness_m);
+                box_distance(p_ned_m, &center, &half, yaw_deg)
+            }
+        }
+    }
+
+    fn ray_hit_m(&self, origin_ned_m: &Vector3<f64>, dir_ned: &Vector3<f64>) -> Option<f64> {
+        match self {
+            Obstacle::Box { center_ned_m, size_m, yaw_deg } => box_ray_hit(
+                origin_ned_m,
+                dir_ned,
+                &Vector3::from(*center_ned_m),
+                &(Vector3::from(*size_m) / 2.0),
+                *yaw_deg,
+            ),
+            Obstacle::Cylinder { base_ne_m, radius_m, height_m } => {
+                let radial =
+                    disc_span(&(origin_ned_m.xy() - Vector2::from(*base_ne_m)), &dir_ned.xy(), *radius_m)?;
+                let vertical = slab_span(origin_ned_m.z, dir_ned.z, -height_m, 0.0)?;
+                entry([radial, vertical])
+            }
+            Obstacle::Wall { from_ne_m, to_ne_m, height_m, thickness_m, .. } => {
+                let (center, half, yaw_deg) = wall_box(from_ne_m, to_ne_m, *height_m, *thickness_m);
+                box_ray_hit(origin_ned_m, dir_ned, &center, &half, yaw_deg)
             }
         }
     }
 }
 
+/// A wall as the box it is: centre (NED, m), half-extents along, across and up (m), and the yaw
+/// of its run from `from` to `to` (degrees).
+fn wall_box(
+    from_ne_m: &[f64; 2],
+    to_ne_m: &[f64; 2],
+    height_m: f64,
+    thickness_m: f64,
+) -> (Vector3<f64>, Vector3<f64>, f64) {
+    let (from, to) = (Vector2::from(*from_ne_m), Vector2::from(*to_ne_m));
+    let along = to - from;
+    let mid = (from + to) / 2.0;
+    let center = Vector3::new(mid.x, mid.y, -height_m / 2.0);
+    let half = Vector3::new(along.norm() / 2.0, thickness_m / 2.0, height_m / 2.0);
+    (center, half, along.y.atan2(along.x).to_degrees())
+}
+
+/// `d` (NED) in the axes of a box yawed by `yaw_deg`: the one rotation both the distance and
+/// the ray use.
+fn box_local(d: &Vector3<f64>, yaw_deg: f64) -> Vector3<f64> {
+    let (sin, cos) = yaw_deg.to_radians().sin_cos();
+    Vector3::new(cos * d.x + sin * d.y, -sin * d.x + cos * d.y, d.z)
+}
+
 /// Signed distance to a box of half-extents `half` centred at `center`, yawed by `yaw_deg`.
 fn box_distance(p: &Vector3<f64>, center: &Vector3<f64>, half: &Vector3<f64>, yaw_deg: f64) -> f64 {
-    let d = p - center;
-    let (sin, cos) = yaw_deg.to_radians().sin_cos();
-    let local = Vector3::new(cos * d.x + sin * d.y, -sin * d.x + cos * d.y, d.z);
-    let q = local.abs() - half;
+    let q = box_local(&(p - center), yaw_deg).abs() - half;
     q.map(|c| c.max(0.0)).norm() + q.max().min(0.0)
+}
+
+/// Where the ray enters a box of half-extents `half` centred at `center`, yawed by `yaw_deg`
+/// (slab method in the box's own axes).
+fn box_ray_hit(
+    origin: &Vector3<f64>,
+    dir: &Vector3<f64>,
+    center: &Vector3<f64>,
+    half: &Vector3<f64>,
+    yaw_deg: f64,
+) -> Option<f64> {
+    let (o, d) = (box_local(&(origin - center), yaw_deg), box_local(dir, yaw_deg));
+    entry([
+        slab_span(o.x, d.x, -half.x, half.x)?,
+        slab_span(o.y, d.y, -half.y, half.y)?,
+        slab_span(o.z, d.z, -half.z, half.z)?,
+    ])
+}
+
+/// The ray parameters `t` at which `o + t·d` lies within `lo..=hi` along one axis, or `None`
+/// when a ray parallel to the slab lies outside it.
+fn slab_span(o: f64, d: f64, lo: f64, hi: f64) -> Option<(f64, f64)> {
+    if d == 0.0 {
+        return (lo..=hi).contains(&o).then_some((f64::NEG_INFINITY, f64::INFINITY));
+    }
+    let (a, b) = ((lo - o) / d, (hi - o) / d);
+    Some((a.min(b), a.max(b)))
+}
+
+/// The ray parameters at which the horizontal track `o + t·d` (relative to a vertical axis) lies
+/// within `radius` of the axis, or `None` when it never does.
+fn disc_span(o: &Vector2<f64>, d: &Vector2<f64>, radius: f64) -> Option<(f64, f64)> {
+    let c = o.norm_squared() - radius * radius;
+    let a = d.norm_squared();
+    // A beam within a nanoradian of vertical keeps its distance from the axis over any range
+    // a rangefinder reaches; dividing by `a` would only amplify rounding.
+    if a < 1e-18 {
+        return (c <= 0.0).then_some((f64::NEG_INFINITY, f64::INFINITY));
+    }
+    let b = o.dot(d);
+    let discriminant = b * b - a * c;
+    if discriminant < 0.0 {
+        return None;
+    }
+    let root = discriminant.sqrt();
+    Some(((-b - root) / a, (-b + root) / a))
+}
+
+/// Where a ray enters the intersection of `spans` (0 from inside), or `None` when the
+/// intersection is empty or behind the origin.
+fn entry<const N: usize>(spans: [(f64, f64); N]) -> Option<f64> {
+    let enter = spans.iter().map(|s| s.0).fold(f64::NEG_INFINITY, f64::max).max(0.0);
+    let leave = spans.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
+    (enter <= leave).then_some(enter)
 }
 
 /// Collision bookkeeping against a world's obstacles.

@@ -18,7 +18,7 @@ use kestrel_proto::esc::EscRanges;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
     ActuatorOutputs, BaroSample, BatteryStatus, EscTelemetry, GpsFix, GroundTruth, ImuSample, MAX_MOTORS,
-    MagSample, Motion, SimFault,
+    MagSample, Motion, RangefinderOrientation, RangefinderSample, SimFault,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -35,6 +35,7 @@ use crate::sensors::gps::Gps;
 use crate::sensors::imu::{Imu, ImuFaults};
 use crate::sensors::mag::Mag;
 use crate::sensors::noise::{Stream, rng};
+use crate::sensors::rangefinder::Rangefinder;
 use crate::sensors::schedule::{Delayed, Periodic, period_us};
 use crate::vehicle::VehicleParams;
 use crate::wind::Wind;
@@ -93,6 +94,9 @@ pub enum SimOutput {
     Gps(GpsFix),
     Baro(BaroSample),
     Mag(MagSample),
+    /// A rangefinder's sample (`[sensors.rangefinder_up]`, `[sensors.rangefinder_down]`); its
+    /// `orientation` says which.
+    Rangefinder(RangefinderSample),
     GroundTruth(GroundTruth),
     Battery(BatteryStatus),
     /// What the motors produce, every tick, as bidirectional-DShot ESCs report it with each
@@ -121,6 +125,9 @@ pub struct Simulator {
     gps: Gps,
     baro: Baro,
     mag: Mag,
+    /// The rangefinders the vehicle file fits (none, up, down or both), each with its own
+    /// schedule and lag.
+    rangefinders: Vec<Rangefinder>,
     gps_due: Periodic,
     baro_due: Periodic,
     mag_due: Periodic,
@@ -200,6 +207,15 @@ impl Simulator {
             gps: Gps::new(&sensors.gps, rng(seed, Stream::Gps)),
             baro: Baro::new(&sensors.baro, rng(seed, Stream::Baro)),
             mag: Mag::new(&sensors.mag, sensors.board_rotation(), rng(seed, Stream::Mag)),
+            rangefinders: [
+                (RangefinderOrientation::Up, &sensors.rangefinder_up, Stream::RangefinderUp),
+                (RangefinderOrientation::Down, &sensors.rangefinder_down, Stream::RangefinderDown),
+            ]
+            .into_iter()
+            .filter_map(|(orientation, params, stream)| {
+                Some(Rangefinder::new(orientation, params.as_ref()?, rng(seed, stream), start))
+            })
+            .collect(),
             gps_due: Periodic::new(sensors.gps.rate_hz, start),
             baro_due: Periodic::new(sensors.baro.rate_hz, start),
             mag_due: Periodic::new(sensors.mag.rate_hz, start),
@@ -456,6 +472,11 @@ impl Simulator {
         self.gps_pending.release(now, |m| self.outputs.push(SimOutput::Gps(m)));
         self.baro_pending.release(now, |m| self.outputs.push(SimOutput::Baro(m)));
         self.mag_pending.release(now, |m| self.outputs.push(SimOutput::Mag(m)));
+        for rangefinder in &mut self.rangefinders {
+            rangefinder.step(now, &self.state, &self.world.obstacles, |m| {
+                self.outputs.push(SimOutput::Rangefinder(m));
+            });
+        }
         if self.truth_due.due(now) {
             let truth = self.ground_truth();
             self.outputs.push(SimOutput::GroundTruth(truth));

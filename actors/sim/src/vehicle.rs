@@ -36,7 +36,7 @@ pub struct VehicleParams {
     pub battery: BatteryParams,
     /// `[contact]`: ground-contact and collision limits.
     pub contact: ContactParams,
-    /// `[sensors.*]`: IMU, GPS, barometer, magnetometer.
+    /// `[sensors.*]`: IMU, GPS, barometer, magnetometer, rangefinders.
     pub sensors: SensorParams,
 }
 

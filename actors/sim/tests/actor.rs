@@ -3,7 +3,9 @@
 use std::path::Path;
 use std::time::Duration;
 
-use kestrel_proto::messages::{ActuatorOutputs, GroundTruth, ImuSample};
+use kestrel_proto::messages::{
+    ActuatorOutputs, GroundTruth, ImuSample, RangefinderOrientation, RangefinderSample,
+};
 use kestrel_proto::testing::{TestSetup, ready};
 use kestrel_proto::{Actor, ActorError, Message, Time};
 use kestrel_sim::{SimActor, SimActorParams, SimInput, hover_throttle};
@@ -43,12 +45,20 @@ fn publishes_every_stream_at_its_rate_and_flies_on_actuators() {
     assert_eq!(count("mag"), 200);
     assert_eq!(count("baro"), 20 - 1, "the last baro sample is still in its 50 ms lag");
     assert_eq!(count("gps"), 8, "the fixes of 1.8 s and 2.0 s are still in their 220 ms lag");
+    // quad_x.toml's TFmini Pluses at 100 Hz: open sky above, the ground 4–5 m below.
+    assert_eq!((count("rangefinder_up"), count("rangefinder_down")), (200, 200));
+    let up = setup.published::<RangefinderSample>("rangefinder_up");
+    assert!(up.iter().all(|s| s.orientation == RangefinderOrientation::Up && s.distance_m.is_none()));
+    let down = &setup.published::<RangefinderSample>("rangefinder_down")[199];
+    assert_eq!((down.time, down.orientation), (Time(2_000_000), RangefinderOrientation::Down));
     let imu = &setup.published::<ImuSample>("imu")[799];
     assert_eq!(imu.time(), Time(2_000_000));
     let truth = &setup.published::<GroundTruth>("ground_truth")[99];
     // The motors spin up from rest, so the vehicle sags about a metre before hover thrust holds it.
     assert!(truth.position_ned_m[2] < -3.5 && truth.acceleration_ned_m_s2[2].abs() < 0.2, "{truth:?}");
     assert!((truth.lat_deg - 6.79710).abs() < 1e-6 && !truth.landed);
+    let height_m = -truth.position_ned_m[2];
+    assert!(down.distance_m.is_some_and(|d| (d - height_m).abs() < 0.05), "{down:?} at {height_m} m");
 }
 
 #[test]

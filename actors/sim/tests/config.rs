@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use kestrel_proto::frame_layout::FrameLayout;
+use kestrel_sim::sensors::RangefinderParams;
 use kestrel_sim::{ConfigError, Obstacle, VehicleParams, World, hover_throttle};
 
 fn config(relative: &str) -> PathBuf {
@@ -31,9 +32,15 @@ fn shipped_vehicles_load_and_can_hover() {
     // defaults in code, written out.
     let second = quad.sensors.imu2.as_ref().expect("quad_x.toml has the Navio2's second IMU");
     assert_eq!(second.rate_hz, quad.sensors.imu.rate_hz);
-    let mut one_imu = quad.clone();
-    one_imu.sensors.imu2 = None;
-    assert_eq!(one_imu, VehicleParams::default(), "quad_x.toml documents the defaults in code");
+    // Its rangefinders are TFmini Pluses, the defaults of a rangefinder table (absent by
+    // default: an airframe without them).
+    assert_eq!(quad.sensors.rangefinder_up, Some(RangefinderParams::default()));
+    assert_eq!(quad.sensors.rangefinder_down, Some(RangefinderParams::default()));
+    let mut bare = quad.clone();
+    bare.sensors.imu2 = None;
+    bare.sensors.rangefinder_up = None;
+    bare.sensors.rangefinder_down = None;
+    assert_eq!(bare, VehicleParams::default(), "quad_x.toml documents the defaults in code");
 }
 
 #[test]
@@ -74,6 +81,14 @@ fn an_out_of_range_field_names_the_file_and_the_field() {
     let path = scratch("dead_axis.toml", "[sensors.imu]\naccel_scale = [1.0, 0.0, 1.0]\n");
     let text = VehicleParams::load(&path).unwrap_err().to_string();
     assert!(text.contains("sensors.imu.accel_scale"), "{text}");
+
+    let path =
+        scratch("short_lidar.toml", "[sensors.rangefinder_down]\nmin_range_m = 0.5\nmax_range_m = 0.4\n");
+    let text = VehicleParams::load(&path).unwrap_err().to_string();
+    assert!(
+        text.contains("short_lidar.toml") && text.contains("sensors.rangefinder_down.min_range_m"),
+        "{text}"
+    );
 
     let path = scratch("board.toml", "[sensors]\nboard_rotation_deg = [0.0, 200.0, 0.0]\n");
     let text = VehicleParams::load(&path).unwrap_err().to_string();

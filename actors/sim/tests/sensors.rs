@@ -5,8 +5,10 @@ use std::collections::HashMap;
 
 use kestrel_proto::Time;
 use kestrel_proto::geo::LocalFrame;
+use kestrel_proto::messages::RangefinderOrientation;
+use kestrel_sim::sensors::RangefinderParams;
 use kestrel_sim::sensors::baro::isa_pressure_pa;
-use kestrel_sim::{SimOptions, SimOutput, Simulator, VehicleParams, World};
+use kestrel_sim::{Obstacle, SimOptions, SimOutput, Simulator, VehicleParams, World};
 
 /// Everything released in `seconds`, with the time each was released at.
 fn record(seconds: f64, seed: u64) -> (Simulator, Vec<(Time, SimOutput)>) {
@@ -29,6 +31,7 @@ fn stamp(o: &SimOutput) -> (&'static str, Time) {
         SimOutput::Gps(m) => ("gps", m.time),
         SimOutput::Baro(m) => ("baro", m.time),
         SimOutput::Mag(m) => ("mag", m.time),
+        SimOutput::Rangefinder(m) => ("rangefinder", m.time),
         SimOutput::GroundTruth(m) => ("ground_truth", m.time),
         SimOutput::Battery(m) => ("battery", m.time),
         SimOutput::Esc(m) => ("esc_telemetry", m.time),
@@ -142,6 +145,55 @@ fn noise_standard_deviations_match_the_config_over_60_seconds() {
     let mag = released.iter().filter_map(|(_, o)| if let SimOutput::Mag(m) = o { Some(m) } else { None });
     let residuals = mag.flat_map(|m| (0..3).map(move |i| m.field_gauss[i] - field[i]).collect::<Vec<_>>());
     within_5_percent("mag noise", std_dev(residuals), sensors.mag.noise_gauss);
+}
+
+#[test]
+fn rangefinders_sample_at_their_rate_after_their_lag_only_when_fitted() {
+    let (_, released) = record(1.0, 3);
+    assert!(!released.iter().any(|(_, o)| matches!(o, SimOutput::Rangefinder(_))), "none fitted by default");
+
+    // Landed under a 4 m-high overhang: the top one reads 4 m, the bottom one its minimum.
+    let mut vehicle = VehicleParams::default();
+    let tfmini = RangefinderParams::default();
+    vehicle.sensors.rangefinder_up = Some(RangefinderParams { lag_s: 0.03, ..tfmini.clone() });
+    vehicle.sensors.rangefinder_down = Some(RangefinderParams { rate_hz: 50.0, ..tfmini });
+    let world = World {
+        obstacles: vec![Obstacle::Box {
+            center_ned_m: [0.0, 0.0, -5.0],
+            size_m: [4.0, 4.0, 2.0],
+            yaw_deg: 0.0,
+        }],
+        ..World::default()
+    };
+    let mut sim = Simulator::new(vehicle, world, SimOptions::default()).expect("valid");
+    let mut samples = Vec::new();
+    while sim.time() < Time::from_secs_f64(10.0) {
+        sim.step();
+        let now = sim.time();
+        samples.extend(sim.drain().filter_map(|o| match o {
+            SimOutput::Rangefinder(m) => Some((now, m)),
+            _ => None,
+        }));
+    }
+    for (orientation, rate_hz, lag_s, reads_m) in
+        [(RangefinderOrientation::Up, 100.0_f64, 0.03, 4.0), (RangefinderOrientation::Down, 50.0, 0.0, 0.1)]
+    {
+        let mine: Vec<_> = samples.iter().filter(|(_, m)| m.orientation == orientation).collect();
+        // 10 s at the rate, less the ones still in their lag.
+        assert_eq!(mine.len() as f64, (10.0 * rate_hz - lag_s * rate_hz).round(), "{orientation:?}");
+        assert!(
+            mine.iter()
+                .all(|(at, m)| ((*at - m.time).as_secs_f64() - lag_s).abs() < 1e-9 && m.invalid().is_none())
+        );
+        let d: Vec<f64> = mine.iter().filter_map(|(_, m)| m.distance_m).collect();
+        assert_eq!(d.len(), mine.len(), "{orientation:?}: every sample in range");
+        let mean = d.iter().sum::<f64>() / d.len() as f64;
+        // The bottom one's noise is clipped at its minimum, so its mean sits a little above.
+        assert!((mean - reads_m).abs() < 0.01, "{orientation:?}: mean {mean}");
+        if orientation == RangefinderOrientation::Up {
+            within_5_percent("rangefinder noise", std_dev(d), 0.01);
+        }
+    }
 }
 
 #[test]

@@ -21,6 +21,7 @@ mod nav_state;
 mod obstacle_map;
 mod param_decl;
 mod param_set;
+mod rangefinder;
 mod sensor_health;
 mod setpoint;
 mod sim_fault;
@@ -59,6 +60,7 @@ pub use nav_state::{NavState, NavValidity};
 pub use obstacle_map::{Obstacle, ObstacleMap};
 pub use param_decl::{ParamDecl, ParamInfo};
 pub use param_set::ParamSet;
+pub use rangefinder::{RangefinderOrientation, RangefinderSample};
 pub use sensor_health::SensorHealth;
 pub use setpoint::{Setpoint, SetpointTarget, TrajectorySetpoint};
 pub use sim_fault::{SimFault, SimFaultPhase};
@@ -67,5 +69,5 @@ pub use supervisor::{SupervisorEvent, SupervisorEventKind};
 pub use vehicle_command::{Command, CommandResult, VehicleCommand};
 pub use vehicle_status::{
     Failsafe, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState, MissionProgress, SpeedCapStatus,
-    VehicleStatus,
+    VehicleStatus, VerticalLimitKind, VerticalLimitStatus,
 };

@@ -134,6 +134,36 @@ pub struct SpeedCapStatus {
     pub limiting: bool,
 }
 
+/// What a rangefinder made the commander do vertically (issue 20: TAKEOFF's climb and LAND's
+/// descent, which the forward camera cannot see).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum VerticalLimitKind {
+    /// The climb is held below something the upward rangefinder sees overhead.
+    Overhead,
+    /// The surface under a landing is an obstacle's top, not the ground: the descent waits
+    /// above it while the vehicle moves off it.
+    ObstacleBelow,
+}
+
+impl VerticalLimitKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            VerticalLimitKind::Overhead => "obstacle overhead",
+            VerticalLimitKind::ObstacleBelow => "obstacle below",
+        }
+    }
+}
+
+/// A vertical limit in force, with the rangefinder's distance to what set it.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct VerticalLimitStatus {
+    pub kind: VerticalLimitKind,
+    /// Vertical distance from the vehicle to the surface (m): above it for `Overhead`, below
+    /// for `ObstacleBelow`.
+    pub distance_m: f64,
+}
+
 /// Published by the commander at its status rate and on every change.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct VehicleStatus {
@@ -170,6 +200,10 @@ pub struct VehicleStatus {
     /// of status.
     #[serde(default)]
     pub speed_cap: Option<SpeedCapStatus>,
+    /// A rangefinder holding the climb or a landing's descent; `None` otherwise. Its distance
+    /// moves with every reading, so only its kind counts as a change of status.
+    #[serde(default)]
+    pub vertical_limit: Option<VerticalLimitStatus>,
 }
 
 /// The geofence is on unless a ground station switched it off (older logs did not say).

@@ -93,14 +93,22 @@ impl MissionRunner {
         }
     }
 
-    /// The next step, given the vehicle's NED position, the NED frame and home (NED, m).
+    /// The next step, given the vehicle's NED position, the NED frame, home (NED, m) and the
+    /// highest the vehicle may climb under something overhead (NED down, m; `None`: no limit).
+    /// Under such a ceiling a take-off or a waypoint counts as reached at the ceiling: the
+    /// vehicle cannot climb to it, and flying on moves it out from under.
     pub fn update(
         &mut self,
         now: Time,
         pos: &Vector3<f64>,
         frame: &LocalFrame,
         home: &Vector3<f64>,
+        ceiling_down_m: Option<f64>,
     ) -> MissionStep {
+        let reachable = |t: Vector3<f64>| match ceiling_down_m {
+            Some(c) => Vector3::new(t.x, t.y, t.z.max(c)),
+            None => t,
+        };
         loop {
             let Some(item) = self.mission.items.get(self.current).copied() else {
                 return MissionStep::Finished;
@@ -123,7 +131,7 @@ impl MissionRunner {
                         let t = resolve(&point, frame, home, pos);
                         Vector3::new(pos.x, pos.y, t.z)
                     });
-                    if (pos.z - target.z).abs() < TAKEOFF_TOLERANCE_M {
+                    if (pos.z - reachable(target).z).abs() < TAKEOFF_TOLERANCE_M {
                         self.advance();
                         continue;
                     }
@@ -131,13 +139,15 @@ impl MissionRunner {
                 }
                 MissionItem::Waypoint { point, acceptance_radius_m, hold_s } => {
                     let target = self.target_or(|| resolve(&point, frame, home, pos));
-                    if let Some(step) = self.arrive(now, pos, target, acceptance_radius_m, hold_s) {
+                    if let Some(step) =
+                        self.arrive(now, pos, target, reachable(target), acceptance_radius_m, hold_s)
+                    {
                         return step;
                     }
                 }
                 MissionItem::LoiterTime { duration_s } => {
                     let target = self.target_or(|| *pos);
-                    if let Some(step) = self.arrive(now, pos, target, f64::INFINITY, duration_s) {
+                    if let Some(step) = self.arrive(now, pos, target, target, f64::INFINITY, duration_s) {
                         return step;
                     }
                 }
@@ -145,20 +155,22 @@ impl MissionRunner {
         }
     }
 
-    /// While at `target`: the hold setpoint; once the hold is over, `None` (item done).
+    /// While at `target` (counted as reached at `reachable`, where a ceiling holds the vehicle
+    /// below it): the hold setpoint; once the hold is over, `None` (item done).
     fn arrive(
         &mut self,
         now: Time,
         pos: &Vector3<f64>,
         target: Vector3<f64>,
+        reachable: Vector3<f64>,
         radius: f64,
         hold_s: f64,
     ) -> Option<MissionStep> {
         match self.phase {
-            Some(Phase::Flying { .. }) if (pos - target).norm() <= radius => {
+            Some(Phase::Flying { .. }) if (pos - reachable).norm() <= radius => {
                 let until = now + std::time::Duration::from_secs_f64(hold_s.clamp(0.0, 86_400.0));
                 self.phase = Some(Phase::Holding { target, until });
-                self.arrive(now, pos, target, radius, hold_s)
+                self.arrive(now, pos, target, reachable, radius, hold_s)
             }
             Some(Phase::Holding { until, .. }) if now >= until => {
                 self.advance();

@@ -21,6 +21,7 @@ mod mission_runner;
 mod modes;
 mod motor_check;
 mod params;
+mod vertical;
 
 use kestrel_proto::Time;
 use kestrel_proto::attitude::{tilt_rad, unit_quaternion};
@@ -28,8 +29,8 @@ use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, EscTelemetry,
     FailsafeAction, FailsafeCause, FlightMode, Home, LandedState, ManualControl, Mission, MissionProgress,
-    NavState, ParamDecl, Setpoint, SetpointTarget, SupervisorEvent, SupervisorEventKind, VehicleCommand,
-    VehicleStatus,
+    NavState, ParamDecl, RangefinderSample, Setpoint, SetpointTarget, SupervisorEvent, SupervisorEventKind,
+    VehicleCommand, VehicleStatus, VerticalLimitKind, VerticalLimitStatus,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -41,6 +42,7 @@ pub use land_detector::LandDetector;
 pub use mission_runner::{MissionRunner, MissionStep};
 pub use motor_check::{COMMAND_STALE_S, MotorCheck};
 pub use params::{CommanderParams, FailsafeParams, FeasibilityParams, GeofenceParams};
+pub use vertical::VerticalParams;
 
 use crate::error::InvalidParam;
 use crate::flip::Flip;
@@ -48,6 +50,8 @@ use crate::position::yaw_of;
 use arming::{LOW_THROTTLE, refuse};
 use modes::{Hold, RtlPhase};
 
+/// A vehicle within this of the ceiling the upward rangefinder sets (m) is held by it.
+const AT_CEILING_M: f64 = 0.5;
 /// Height above home at which the vehicle counts as airborne (m).
 const AIRBORNE_HEIGHT_M: f64 = 0.5;
 /// A height target this far below the vehicle (m), or a descent faster than this (m/s), is a
@@ -126,6 +130,14 @@ pub struct Commander {
     refusals: u32,
     last_update: Option<Time>,
     avoidance: avoidance::AvoidanceLoop,
+    /// The up- and downward rangefinders (`vertical`).
+    rangefinders: vertical::Rangefinders,
+    /// A landing moving off an obstacle's top; reset by a mode change.
+    landing_search: vertical::LandingSearch,
+    /// What the rangefinders hold back this update, for the status.
+    vertical_limit: Option<VerticalLimitStatus>,
+    /// A mode lowered its climb's goal to the ceiling this update.
+    ceiling_held: bool,
 }
 
 impl Commander {
@@ -176,6 +188,10 @@ impl Commander {
             refusals: 0,
             last_update: None,
             avoidance: avoidance::AvoidanceLoop::default(),
+            rangefinders: vertical::Rangefinders::default(),
+            landing_search: vertical::LandingSearch::default(),
+            vertical_limit: None,
+            ceiling_held: false,
         })
     }
 
@@ -317,6 +333,19 @@ impl Commander {
             // a loss of the vision side knows from when on it counts.
             tracing::info!("avoider in the loop: its corrections steer the legs");
         }
+    }
+
+    /// A reading of the up- or downward rangefinder (`vertical`); a bad one is logged and
+    /// dropped, the last good one stays until it times out.
+    pub fn on_rangefinder(&mut self, sample: &RangefinderSample) {
+        if let Err(why) = self.rangefinders.on_sample(sample) {
+            tracing::warn!(orientation = ?sample.orientation, %why, "rangefinder sample refused");
+        }
+    }
+
+    /// The highest the vehicle may climb to now (NED down, m), if something is overhead.
+    fn ceiling_down_m(&self, now: Time, nav: &NavState) -> Option<f64> {
+        self.rangefinders.ceiling_down_m(now, nav, &self.params.vertical)
     }
 
     /// Holding because the avoidance stream is stale.
@@ -554,6 +583,7 @@ impl Commander {
         self.yaw_target = None;
         self.land_detector.reset();
         self.avoidance.reset();
+        self.landing_search = vertical::LandingSearch::default();
     }
 
     fn start_flip(&mut self, now: Time) -> Result<(), Refusal> {
@@ -663,7 +693,9 @@ impl Commander {
         self.track_landed(now);
         self.disarm_if_idle(now);
         self.check_failsafes(now);
-        let target = if self.armed { self.fly(now, dt_s) } else { SetpointTarget::MotorsOff };
+        self.ceiling_held = false;
+        let mut target = if self.armed { self.fly(now, dt_s) } else { SetpointTarget::MotorsOff };
+        self.hold_below_ceiling(now, &mut target);
         self.descent_demanded = self.nav.as_ref().is_some_and(|n| descends(&target, n));
         if self.armed && self.mode == FlightMode::Auto && self.runner.is_some() {
             // The run has started from the item a ground station chose; later runs start over.
@@ -692,6 +724,28 @@ impl Commander {
             geofence_enabled: self.geofence_enabled,
             failed_motor: self.failed_motor_u8(),
             speed_cap: self.avoidance.speed_cap,
+            vertical_limit: self.vertical_limit,
+        }
+    }
+
+    /// Keeps `target` below what the upward rangefinder sees (`vertical`), and notes in the
+    /// status what holds the vehicle back vertically this update.
+    fn hold_below_ceiling(&mut self, now: Time, target: &mut SetpointTarget) {
+        self.vertical_limit = self
+            .landing_search
+            .below_m
+            .filter(|_| self.landing_search.searching())
+            .map(|distance_m| VerticalLimitStatus { kind: VerticalLimitKind::ObstacleBelow, distance_m });
+        let (Some(nav), SetpointTarget::Trajectory(sp)) = (&self.nav, target) else { return };
+        let Some(ceiling) = self.ceiling_down_m(now, nav) else { return };
+        let down = nav.position_ned_m[2];
+        // Held: the setpoint was lowered, a mode lowered its goal, or the vehicle sits at the
+        // ceiling not asked to descend (a hold there would otherwise flicker in and out of the
+        // status).
+        let at_ceiling = down - ceiling < AT_CEILING_M && sp.velocity_ned_m_s[2].is_none_or(|v| v <= 0.0);
+        if vertical::hold_below(sp, down, ceiling, &self.params.vertical) || self.ceiling_held || at_ceiling {
+            let distance_m = down - ceiling + self.params.vertical.margin_m;
+            self.vertical_limit = Some(VerticalLimitStatus { kind: VerticalLimitKind::Overhead, distance_m });
         }
     }
 

@@ -113,7 +113,8 @@ impl Commander {
                 let home = self.home_or(&nav);
                 let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
                 let yaw = *self.hold.yaw_rad.get_or_insert(heading(&nav));
-                let down = home.z - self.takeoff_height_m;
+                // Under something the upward rangefinder sees, the take-off ends below it.
+                let down = self.under_ceiling(now, &nav, home.z - self.takeoff_height_m);
                 if (nav.position_ned_m[2] - down).abs() < ALTITUDE_TOLERANCE_M {
                     // Up: hold there in GUIDED, as ArduCopter's take-off ends, so targets are
                     // taken at once instead of refused until the mode is set again.
@@ -128,6 +129,18 @@ impl Commander {
                 let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
                 self.land_at(now, dt_s, &nav, Some([p.x, p.y]))
             }
+        }
+    }
+
+    /// `down` (NED, m), or the ceiling the upward rangefinder sets if that is lower down (which
+    /// the status then reports).
+    fn under_ceiling(&mut self, now: Time, nav: &NavState, down: f64) -> f64 {
+        match self.ceiling_down_m(now, nav) {
+            Some(ceiling) if ceiling > down => {
+                self.ceiling_held = true;
+                ceiling
+            }
+            _ => down,
         }
     }
 
@@ -302,13 +315,14 @@ impl Commander {
             self.avoidance.reset();
             return self.hold_here(nav);
         }
+        let ceiling = self.ceiling_down_m(now, nav);
         let (Some(frame), Some(runner)) = (self.frame, self.runner.as_mut()) else {
             self.avoidance.reset();
             return self.hold_here(nav);
         };
         let pos = Vector3::from(nav.position_ned_m);
         let home = self.home_ned.unwrap_or(pos);
-        let step = runner.update(now, &pos, &frame, &home);
+        let step = runner.update(now, &pos, &frame, &home, ceiling);
         if !matches!(step, MissionStep::Fly(_) | MissionStep::Land { .. }) {
             self.avoidance.reset();
         }
@@ -371,7 +385,7 @@ impl Commander {
     /// it is fresh again or a failsafe lands. The straight line is kept rather than the flown path
     /// retraced: the avoider corrects any leg, and a retraced path is no clearer once the wind or a
     /// moved obstacle has changed it. The climb and the descent are vertical, where the forward
-    /// camera sees nothing to avoid.
+    /// camera sees nothing: the rangefinders hold them (`vertical`).
     fn rtl(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
         let Some(home) = self.home_ned else { return self.land_at(now, dt_s, nav, None) };
         let pos = Vector3::from(nav.position_ned_m);
@@ -381,7 +395,9 @@ impl Commander {
                 let down = pos.z.min(home.z - self.params.rtl_altitude_m);
                 let start = *self.hold.position.get_or_insert(pos);
                 let down = *self.hold.down_m.get_or_insert(down);
-                if (pos.z - down).abs() < ALTITUDE_TOLERANCE_M {
+                // Held under something overhead, the climb ends there and the return sets off
+                // at it, climbing the rest once out from under.
+                if (pos.z - self.under_ceiling(now, nav, down)).abs() < ALTITUDE_TOLERANCE_M {
                     self.rtl = RtlPhase::Return { down_m: down };
                 }
                 traj([Some(start.x), Some(start.y), Some(down)], [None; 3], Some(yaw))
@@ -431,7 +447,8 @@ impl Commander {
     /// horizontal position it levels and descends. The approach is level, so with the avoider
     /// in the loop it is flown as a leg ([`Leg::To`], at the GUIDED speed): a landing item a
     /// few metres beside where a sidestep left the vehicle is no reason to fly blind. The
-    /// descent is vertical, where the forward camera sees nothing.
+    /// descent is vertical, where the forward camera sees nothing: the downward rangefinder
+    /// keeps it off an obstacle's top (`vertical::LandingSearch`).
     pub(super) fn land_at(
         &mut self,
         now: Time,
@@ -439,7 +456,11 @@ impl Commander {
         nav: &NavState,
         xy: Option<[f64; 2]>,
     ) -> SetpointTarget {
-        let rate = if self.height_m(nav) > self.params.land_slow_height_m {
+        // The nearer of the height above home and the rangefinder's distance to what is below:
+        // ground higher than home, or a top, slows the descent in time.
+        let below = self.rangefinders.below_m(now, nav, &self.params.vertical);
+        let height = below.map_or(self.height_m(nav), |b| b.min(self.height_m(nav)));
+        let rate = if height > self.params.land_slow_height_m {
             self.params.land_fast_m_s
         } else {
             self.params.land_slow_m_s
@@ -462,7 +483,17 @@ impl Commander {
                 }
                 self.hold.landing = true;
                 self.avoidance.reset();
-                traj([Some(n), Some(e), None], [None, None, Some(rate)], yaw)
+                if self.rangefinders.down_fresh(now, nav, &self.params.vertical) {
+                    let home_down = self.home_or(nav).z;
+                    let facing = yaw.unwrap_or_else(|| heading(nav));
+                    self.landing_search.step(nav, [n, e], below, home_down, facing, &self.params.vertical);
+                }
+                let [dn, de] = self.landing_search.offset_ne_m;
+                match self.landing_search.hold_down_m.filter(|_| self.landing_search.searching()) {
+                    // Over an obstacle's top: hold above it and move off it (`vertical`).
+                    Some(down) => traj([Some(n + dn), Some(e + de), Some(down)], [None; 3], yaw),
+                    None => traj([Some(n + dn), Some(e + de), None], [None, None, Some(rate)], yaw),
+                }
             }
             None => {
                 self.hold.landing = true;

@@ -5,6 +5,7 @@ use kestrel_proto::messages::FailsafeAction;
 use serde::{Deserialize, Serialize};
 
 use super::failsafe_actions;
+use super::vertical::VerticalParams;
 use crate::error::{InvalidParam, positive, within};
 use crate::motor_failure::{MotorFailureDetector, MotorFailureParams};
 
@@ -67,6 +68,8 @@ pub struct CommanderParams {
     pub failsafe: FailsafeParams,
     pub geofence: GeofenceParams,
     pub feasibility: FeasibilityParams,
+    /// `[vertical]`: the up- and downward rangefinders' limits (`vertical`).
+    pub vertical: VerticalParams,
 }
 
 impl Default for CommanderParams {
@@ -99,6 +102,7 @@ impl Default for CommanderParams {
             failsafe: FailsafeParams::default(),
             geofence: GeofenceParams::default(),
             feasibility: FeasibilityParams::default(),
+            vertical: VerticalParams::default(),
         }
     }
 }
@@ -303,6 +307,7 @@ impl CommanderParams {
         within("rtl_loiter_s", self.rtl_loiter_s, 0.0, 600.0)?;
         within("disarm_delay_s", self.disarm_delay_s, 0.0, 127.0)?;
         within("feasibility.min_height_m", self.feasibility.min_height_m, -100.0, 100.0)?;
+        self.vertical.validate()?;
         within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
         within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;
         within("failsafe.battery_critical", self.failsafe.battery_critical, 0.0, self.failsafe.battery_low)?;

@@ -291,8 +291,13 @@ pub fn fly_with_sensors(
                         });
                     }
                 }
-                // The second IMU is a failover this single-filter flight does not exercise.
-                SimOutput::Imu2(_) | SimOutput::Battery(_) | SimOutput::Esc(_) | SimOutput::Fault(_) => {}
+                // The second IMU is a failover this single-filter flight does not exercise; the
+                // estimator fuses no rangefinder.
+                SimOutput::Imu2(_)
+                | SimOutput::Rangefinder(_)
+                | SimOutput::Battery(_)
+                | SimOutput::Esc(_)
+                | SimOutput::Fault(_) => {}
             }
         }
     }

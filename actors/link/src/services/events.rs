@@ -1,7 +1,9 @@
 //! STATUSTEXT for what the commander does: arming, mode changes, the geofence switch,
-//! failsafes and refusals.
+//! failsafes, the speed cap, the rangefinders' vertical limits and refusals.
 
-use kestrel_proto::messages::{FailsafeCause, SpeedCapStatus, VehicleStatus};
+use kestrel_proto::messages::{
+    FailsafeCause, SpeedCapStatus, VehicleStatus, VerticalLimitKind, VerticalLimitStatus,
+};
 use mavlink::dialects::ardupilotmega::{MavMessage, MavSeverity, STATUSTEXT_DATA};
 
 use crate::modes::mode_name;
@@ -67,6 +69,9 @@ pub fn status_changes(old: Option<&VehicleStatus>, new: &VehicleStatus) -> Vec<M
     if let Some(text) = speed_cap_change(old.and_then(|o| o.speed_cap), new.speed_cap) {
         out.push(statustext(MavSeverity::MAV_SEVERITY_INFO, &text));
     }
+    if let Some(text) = vertical_limit_change(old.and_then(|o| o.vertical_limit), new.vertical_limit) {
+        out.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
+    }
     if let Some(refusal) = &new.last_refusal
         && old.is_none_or(|o| o.refusals != new.refusals || o.last_refusal.as_ref() != Some(refusal))
     {
@@ -89,6 +94,28 @@ fn speed_cap_change(old: Option<SpeedCapStatus>, new: Option<SpeedCapStatus>) ->
             c.range_m
         )),
         (Some(_), None) => Some("Speed cap lifted".to_owned()),
+        (None, None) => None,
+    }
+}
+
+/// What a ground station is told when a rangefinder starts or stops holding the vehicle
+/// vertically (issue 20): the kind and the distance when it starts or changes kind, and that it
+/// ended; the distance alone moving is no news.
+fn vertical_limit_change(
+    old: Option<VerticalLimitStatus>,
+    new: Option<VerticalLimitStatus>,
+) -> Option<String> {
+    match (old, new) {
+        (Some(a), Some(b)) if a.kind == b.kind => None,
+        (_, Some(v)) => Some(match v.kind {
+            VerticalLimitKind::Overhead => {
+                format!("Climb held: {} {:.1} m above", v.kind.as_str(), v.distance_m)
+            }
+            VerticalLimitKind::ObstacleBelow => {
+                format!("Landing: {} {:.1} m down, moving off", v.kind.as_str(), v.distance_m)
+            }
+        }),
+        (Some(_), None) => Some("Vertical limit lifted".to_owned()),
         (None, None) => None,
     }
 }
@@ -167,5 +194,23 @@ mod tests {
             ["Speed capped at 0.0 m/s: unknown ahead 0.0 m ahead"]
         );
         assert_eq!(texts(&untextured, &base), ["Speed cap lifted"]);
+    }
+
+    #[test]
+    fn a_vertical_limit_is_announced_when_it_starts_changes_kind_and_lifts() {
+        let base = vehicle_status(Time::ZERO, true, FlightMode::Takeoff, LandedState::InAir);
+        let limit = |kind, distance_m| VehicleStatus {
+            vertical_limit: Some(VerticalLimitStatus { kind, distance_m }),
+            ..base.clone()
+        };
+        let texts = |a: &VehicleStatus, b: &VehicleStatus| -> Vec<String> {
+            status_changes(Some(a), b).iter().map(text).collect()
+        };
+        let overhead = limit(VerticalLimitKind::Overhead, 3.96);
+        assert_eq!(texts(&base, &overhead), ["Climb held: obstacle overhead 4.0 m above"]);
+        assert!(texts(&overhead, &limit(VerticalLimitKind::Overhead, 2.5)).is_empty());
+        let below = limit(VerticalLimitKind::ObstacleBelow, 6.0);
+        assert_eq!(texts(&overhead, &below), ["Landing: obstacle below 6.0 m down, moving off"]);
+        assert_eq!(texts(&below, &base), ["Vertical limit lifted"]);
     }
 }

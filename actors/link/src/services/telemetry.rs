@@ -15,15 +15,17 @@ use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_e7};
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, DepthGrid, EstimatorStatus, FailsafeCause, GpsFix, GpsFixType,
-    GroundTruth, Innovation, LandedState, NavState, OBSTACLE_SECTORS, VehicleStatus,
+    GroundTruth, Innovation, LandedState, NavState, OBSTACLE_SECTORS, RangefinderOrientation,
+    RangefinderSample, VehicleStatus,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
-    ATTITUDE_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA,
-    EkfStatusFlags, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, GpsFixType as MavFix, HOME_POSITION_DATA,
-    LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavBatteryFunction, MavBatteryType, MavDataStream,
-    MavDistanceSensor, MavFrame, MavLandedState, MavMessage, MavResult, MavSysStatusSensor, MavVtolState,
-    MissionState, OBSTACLE_DISTANCE_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA, WIND_DATA,
+    ATTITUDE_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA, EKF_STATUS_REPORT_DATA,
+    EXTENDED_SYS_STATE_DATA, EkfStatusFlags, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA,
+    GpsFixType as MavFix, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
+    MavBatteryFunction, MavBatteryType, MavDataStream, MavDistanceSensor, MavFrame, MavLandedState,
+    MavMessage, MavResult, MavSensorOrientation, MavSysStatusSensor, MavVtolState, MissionState,
+    OBSTACLE_DISTANCE_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA, WIND_DATA,
 };
 
 /// The graph's latest state, as telemetry needs it.
@@ -41,6 +43,9 @@ pub struct Snapshot {
     pub mission_items: u16,
     /// The simulator's ground truth (for SIMSTATE); never on hardware.
     pub truth: Option<GroundTruth>,
+    /// Each rangefinder's newest usable sample (for DISTANCE_SENSOR), indexed by its
+    /// [`distance_sensor_id`]: down, then up.
+    pub rangefinders: [Option<RangefinderSample>; 2],
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -76,6 +81,9 @@ fn default_streams() -> Vec<Stream> {
         (MISSION_CURRENT_DATA::ID, hz(1.0)),
         (OBSTACLE_DISTANCE_DATA::ID, hz(5.0)),
         (DEBUG_VECT_DATA::ID, hz(5.0)),
+        // One per rangefinder with a fresh sample (down, up): the rangefinders sample at tens of
+        // Hz, a ground station's readout needs no more than this.
+        (DISTANCE_SENSOR_DATA::ID, hz(10.0)),
         // Only while the graph has a simulator's ground truth, as ArduPilot SITL sends it.
         (SIMSTATE_DATA::ID, hz(10.0)),
     ]
@@ -116,16 +124,70 @@ fn wind(wind_ne_m_s: [f64; 2]) -> WIND_DATA {
     WIND_DATA { direction: from_deg as f32, speed: speed_m_s as f32, speed_z: 0.0 }
 }
 
+/// A rangefinder's sample older than this is not reported (a sensor gone quiet is no longer
+/// in view): ArduPilot's backends mark a rangefinder `NoData` after 200 ms without a reading
+/// (`AP_RangeFinder_Benewake_TFMiniPlus::update`), and `GCS_MAVLINK::send_distance_sensor` sends
+/// nothing for a sensor without data.
+pub const RANGEFINDER_STALE: Duration = Duration::from_millis(200);
+
+/// What a reading beyond the sensor's range reports, above its maximum (cm): ArduPilot's
+/// Benewake drivers (`AP_RangeFinder_Benewake::get_reading`,
+/// `AP_RangeFinder_Benewake_TFMiniPlus::process_raw_measure`) turn a TFmini's "no return" into
+/// `max(model maximum, RNGFND_MAX_CM + BENEWAKE_OUT_OF_RANGE_ADD_CM)`, 100 cm beyond the
+/// maximum, and `GCS_MAVLINK::send_distance_sensor` sends that distance as `current_distance`;
+/// a ground station (and ArduPilot's own MAVLink rangefinder backend) reads a distance above
+/// `max_distance` as out of range high.
+pub const OUT_OF_RANGE_ADD_CM: u16 = 100;
+
+/// DISTANCE_SENSOR's `id` of the rangefinder looking `orientation`: 0 for the downward one, as
+/// ArduPilot numbers its first rangefinder (the one its altitude comes from), 1 for the upward.
+pub fn distance_sensor_id(orientation: RangefinderOrientation) -> u8 {
+    match orientation {
+        RangefinderOrientation::Down => 0,
+        RangefinderOrientation::Up => 1,
+    }
+}
+
+/// DISTANCE_SENSOR for `sample` (checked by [`RangefinderSample::invalid`]): distances in cm,
+/// stamped with its measurement time (ArduPilot stamps the sending time, a TODO in its code),
+/// a laser (a TFmini is a time-of-flight lidar) whose `covariance` is unknown (255: the sample
+/// does not carry its noise).
+fn distance_sensor(sample: &RangefinderSample) -> DISTANCE_SENSOR_DATA {
+    let cm = |m: f64| (m * 100.0).round().clamp(0.0, f64::from(u16::MAX)) as u16;
+    let max_distance = cm(sample.max_range_m);
+    DISTANCE_SENSOR_DATA {
+        time_boot_ms: (sample.time.as_micros() / 1000) as u32,
+        min_distance: cm(sample.min_range_m),
+        max_distance,
+        current_distance: sample.distance_m.map_or(max_distance.saturating_add(OUT_OF_RANGE_ADD_CM), cm),
+        mavtype: MavDistanceSensor::MAV_DISTANCE_SENSOR_LASER,
+        id: distance_sensor_id(sample.orientation),
+        orientation: match sample.orientation {
+            RangefinderOrientation::Up => MavSensorOrientation::MAV_SENSOR_ROTATION_PITCH_90,
+            RangefinderOrientation::Down => MavSensorOrientation::MAV_SENSOR_ROTATION_PITCH_270,
+        },
+        covariance: u8::MAX,
+        ..Default::default()
+    }
+}
+
 /// The telemetry scheduler and message builder.
 #[derive(Debug)]
 pub struct Telemetry {
     streams: Vec<Stream>,
     pub snapshot: Snapshot,
+    /// Whether a refused sample of each rangefinder (by [`distance_sensor_id`]) was logged: a
+    /// broken sensor at 100 Hz must not flood the log.
+    rangefinder_refusal_logged: [bool; 2],
 }
 
 impl Default for Telemetry {
     fn default() -> Self {
-        Telemetry { streams: default_streams(), snapshot: Snapshot::default() }
+        Telemetry {
+            streams: default_streams(),
+            snapshot: Snapshot::default(),
+            rangefinder_refusal_logged: [false; 2],
+        }
     }
 }
 
@@ -178,9 +240,12 @@ impl Telemetry {
             }
             MavDataStream::MAV_DATA_STREAM_EXTRA1 => &[ATTITUDE_DATA::ID, SIMSTATE_DATA::ID],
             MavDataStream::MAV_DATA_STREAM_EXTRA2 => &[VFR_HUD_DATA::ID],
-            MavDataStream::MAV_DATA_STREAM_EXTRA3 => {
-                &[BATTERY_STATUS_DATA::ID, EXTENDED_SYS_STATE_DATA::ID, WIND_DATA::ID]
-            }
+            MavDataStream::MAV_DATA_STREAM_EXTRA3 => &[
+                BATTERY_STATUS_DATA::ID,
+                EXTENDED_SYS_STATE_DATA::ID,
+                WIND_DATA::ID,
+                DISTANCE_SENSOR_DATA::ID,
+            ],
             _ => &[],
         };
         let interval = (start && rate_hz > 0).then(|| hz(f64::from(rate_hz.min(50)))).flatten();
@@ -202,9 +267,40 @@ impl Telemetry {
             // Keep the cadence; after a stall, restart from now rather than bursting.
             let next = s.next + interval;
             self.streams[i].next = if next <= now { now + interval } else { next };
-            due.extend(self.build(s.id, now));
+            if s.id == DISTANCE_SENSOR_DATA::ID {
+                due.extend(self.distance_sensors(now));
+            } else {
+                due.extend(self.build(s.id, now));
+            }
         }
         due
+    }
+
+    /// A rangefinder's newest sample, kept for DISTANCE_SENSOR; one that cannot be used is
+    /// dropped, and logged the first time for each sensor.
+    pub fn on_rangefinder(&mut self, sample: RangefinderSample) {
+        let id = usize::from(distance_sensor_id(sample.orientation));
+        match sample.invalid() {
+            None => self.snapshot.rangefinders[id] = Some(sample),
+            Some(why) => {
+                if !std::mem::replace(&mut self.rangefinder_refusal_logged[id], true) {
+                    tracing::warn!(
+                        orientation = ?sample.orientation,
+                        "rangefinder sample refused, not sent to the ground station: {why} (further refusals are not logged)"
+                    );
+                }
+            }
+        }
+    }
+
+    /// DISTANCE_SENSOR for every rangefinder whose newest sample is fresh at `now`, down first.
+    fn distance_sensors(&self, now: Time) -> impl Iterator<Item = MavMessage> + '_ {
+        self.snapshot
+            .rangefinders
+            .iter()
+            .flatten()
+            .filter(move |s| now.saturating_since(s.time) <= RANGEFINDER_STALE)
+            .map(|s| MavMessage::DISTANCE_SENSOR(distance_sensor(s)))
     }
 
     /// Message `id` from the latest state (`None`: not ours, or nothing known yet).
@@ -231,6 +327,8 @@ impl Telemetry {
                 })
             }
             SIMSTATE_DATA::ID => MavMessage::SIMSTATE(simstate(snap.truth.as_ref()?)?),
+            // Asked for once (MAV_CMD_REQUEST_MESSAGE): the first fresh one, down before up.
+            DISTANCE_SENSOR_DATA::ID => self.distance_sensors(now).next()?,
             WIND_DATA::ID => MavMessage::WIND(wind(snap.estimator.as_ref()?.wind_ne_m_s?)),
             LOCAL_POSITION_NED_DATA::ID => {
                 let nav = snap.nav.as_ref()?;
@@ -604,6 +702,82 @@ mod tests {
         let d = &sent[0];
         assert_eq!((d.x, d.y, d.z, d.time_usec), (-1.5, 0.5, -0.25, 123));
         assert_eq!(&d.name.to_str().expect("ascii").trim_end_matches('\0'), &AVOIDANCE_VECT_NAME);
+    }
+
+    #[test]
+    fn rangefinder_samples_become_distance_sensor_in_centimetres_at_10_hz() {
+        let sample = |orientation, time_us, distance_m| RangefinderSample {
+            time: Time::from_micros(time_us),
+            orientation,
+            distance_m,
+            min_range_m: 0.1,
+            max_range_m: 12.0,
+        };
+        let mut t = Telemetry::new();
+        t.on_rangefinder(sample(RangefinderOrientation::Down, 995_000, Some(3.456)));
+        // Open sky above: nothing within the 12 m.
+        t.on_rangefinder(sample(RangefinderOrientation::Up, 998_000, None));
+        let Some(MavMessage::DISTANCE_SENSOR(down)) =
+            t.build(DISTANCE_SENSOR_DATA::ID, Time::from_micros(1_000_000))
+        else {
+            panic!("the downward one first")
+        };
+        assert_eq!(
+            down,
+            DISTANCE_SENSOR_DATA {
+                time_boot_ms: 995,
+                min_distance: 10,
+                max_distance: 1200,
+                current_distance: 346,
+                mavtype: MavDistanceSensor::MAV_DISTANCE_SENSOR_LASER,
+                id: 0,
+                orientation: MavSensorOrientation::MAV_SENSOR_ROTATION_PITCH_270,
+                covariance: 255,
+                horizontal_fov: 0.0,
+                vertical_fov: 0.0,
+                quaternion: [0.0; 4],
+                signal_quality: 0,
+            }
+        );
+        let sent = |t: &mut Telemetry, from_ms: u64, to_ms: u64| {
+            (from_ms..to_ms)
+                .step_by(20)
+                .flat_map(|ms| t.due(Time::from_micros(ms * 1000)))
+                .filter_map(|m| match m {
+                    MavMessage::DISTANCE_SENSOR(d) => Some(d),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        // 10 Hz for each, while the samples are younger than 200 ms.
+        let fresh = sent(&mut t, 1000, 1200);
+        assert_eq!(fresh.len(), 4, "{fresh:?}");
+        let up = fresh.iter().find(|d| d.id == 1).expect("the upward one");
+        // Out of range high reads 100 cm beyond the maximum, as ArduPilot's TFmini drivers.
+        assert_eq!((up.current_distance, up.max_distance, up.time_boot_ms), (1300, 1200, 998));
+        assert_eq!(up.orientation, MavSensorOrientation::MAV_SENSOR_ROTATION_PITCH_90);
+        for o in [RangefinderOrientation::Up, RangefinderOrientation::Down] {
+            let mavlink = fresh.iter().find(|d| d.id == distance_sensor_id(o)).expect("both");
+            assert_eq!(mavlink.orientation as u8, o.mavlink_rotation(), "{o:?}");
+        }
+        assert!(sent(&mut t, 1200, 2000).is_empty(), "a sensor quiet for 200 ms is not reported");
+
+        // A sample its own ranges refuse is dropped; the last good one stays.
+        t.on_rangefinder(sample(RangefinderOrientation::Down, 2_000_000, Some(3.0)));
+        t.on_rangefinder(sample(RangefinderOrientation::Down, 2_010_000, Some(f64::NAN)));
+        t.on_rangefinder(sample(RangefinderOrientation::Down, 2_020_000, Some(12.5)));
+        let after = sent(&mut t, 2000, 2100);
+        assert!(
+            after.iter().all(|d| d.id == 0 && d.current_distance == 300 && d.time_boot_ms == 2000),
+            "{after:?}"
+        );
+        assert!(!after.is_empty());
+        t.request_data_stream(MavDataStream::MAV_DATA_STREAM_EXTRA3, 2, true, Time::ZERO);
+        assert_eq!(
+            t.interval(DISTANCE_SENSOR_DATA::ID),
+            Some(Duration::from_millis(500)),
+            "in EXTRA3, as ArduPilot"
+        );
     }
 
     #[test]

@@ -262,7 +262,9 @@ fn to_chip(
                 })
                 .map_err(io("the emulated RCIO ADC"))?;
         }
-        SimOutput::GroundTruth(_) | SimOutput::Fault(_) => return Ok(false),
+        // No rangefinder is emulated on the bench (nor is there a driver to read one), so a
+        // vehicle file's rangefinders go unread in HIL, as an unplugged sensor would.
+        SimOutput::GroundTruth(_) | SimOutput::Fault(_) | SimOutput::Rangefinder(_) => return Ok(false),
     }
     Ok(true)
 }

@@ -6,6 +6,7 @@
 //!
 //! Defaults follow the thesis's hardware (Navio2: MPU-9250 IMU, MS5611 barometer, u-blox M8N
 //! GPS) at the rates and lags the thesis used (IMU 400 Hz; GPS 5 Hz, 220 ms; baro 10 Hz, 50 ms).
+//! The thesis flew no rangefinder; the optional ones default to a Benewake TFmini Plus.
 //! The thesis's EKF noise settings (GPS 0.5 m and 0.5 m/s, baro 2 m, accel 0.25 m/s²) are
 //! tuning values and deliberately larger than the simulated sensors' noise, except GPS
 //! horizontal position, where 0.5 m is used as is.
@@ -15,6 +16,7 @@ pub mod gps;
 pub mod imu;
 pub mod mag;
 pub(crate) mod noise;
+pub mod rangefinder;
 pub(crate) mod schedule;
 
 use nalgebra::UnitQuaternion;
@@ -26,6 +28,7 @@ pub use baro::BaroParams;
 pub use gps::GpsParams;
 pub use imu::ImuParams;
 pub use mag::MagParams;
+pub use rangefinder::RangefinderParams;
 
 /// Every sensor's settings.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -49,6 +52,12 @@ pub struct SensorParams {
     pub baro: BaroParams,
     /// `[sensors.mag]`
     pub mag: MagParams,
+    /// `[sensors.rangefinder_up]`: a single-beam rangefinder looking out of the top (what is
+    /// overhead), published on `rangefinder_up`; absent on an airframe without one.
+    pub rangefinder_up: Option<RangefinderParams>,
+    /// `[sensors.rangefinder_down]`: one looking out of the bottom (height over the ground or
+    /// whatever stands below), published on `rangefinder_down`; absent without one.
+    pub rangefinder_down: Option<RangefinderParams>,
 }
 
 impl SensorParams {
@@ -72,7 +81,14 @@ impl SensorParams {
         }
         self.gps.validate().map_err(|e| e.within("gps"))?;
         self.baro.validate().map_err(|e| e.within("baro"))?;
-        self.mag.validate().map_err(|e| e.within("mag"))
+        self.mag.validate().map_err(|e| e.within("mag"))?;
+        if let Some(up) = &self.rangefinder_up {
+            up.validate().map_err(|e| e.within("rangefinder_up"))?;
+        }
+        if let Some(down) = &self.rangefinder_down {
+            down.validate().map_err(|e| e.within("rangefinder_down"))?;
+        }
+        Ok(())
     }
 
     /// Board → airframe, `None` for a board aligned with the airframe (so the default path does

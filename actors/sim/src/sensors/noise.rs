@@ -14,8 +14,12 @@ pub(crate) enum Stream {
     Gps,
     Baro,
     Mag,
-    /// The second IMU (`[sensors.imu2]`): last, so the other streams stay as they were.
+    /// The second IMU (`[sensors.imu2]`): after the first five, so they stay as they were.
     Imu2,
+    /// The rangefinders (`[sensors.rangefinder_up]`, `[sensors.rangefinder_down]`): last, so
+    /// the other streams stay as they were.
+    RangefinderUp,
+    RangefinderDown,
 }
 
 /// The generator for `stream` of the run seeded with `seed`.
