@@ -33,9 +33,10 @@ pub struct StereoTiming {
     pub rectify_ms: f64,
     /// Disparity search and the texture check.
     pub match_ms: f64,
-    /// Disparity → depth.
+    /// Disparity → depth: 0 since the grid is summarised straight from the matcher's output
+    /// (`DepthGridder::grid_fixed_point`), which `grid_ms` counts.
     pub depth_ms: f64,
-    /// Depth → grid regions and sectors.
+    /// The matcher's output → grid regions and sectors.
     pub grid_ms: f64,
     /// Capture to grid.
     pub total_ms: f64,

@@ -152,11 +152,17 @@ impl FixedPointDepth {
         self.depths.len() + 2
     }
 
-    /// The code of raw disparity `raw` at a pixel whose texture flag is `textureless`.
+    /// The code of raw disparity `raw` at a pixel whose texture flag is `textureless`; in 32
+    /// bits and without branches, so a row of them is computed in vector lanes.
     #[inline(always)]
-    pub fn code(&self, raw: i16, textureless: u8) -> usize {
-        let offset = i32::from(raw) - self.first;
-        if textureless != 0 || offset < 0 { 0 } else { (offset as usize + 1).min(self.depths.len() + 1) }
+    pub fn code(&self, raw: i16, textureless: u8) -> u32 {
+        // Wrapping only drops test builds' overflow checks (which kept a row out of vector
+        // lanes): a raw value is an i16 and the first code's a matcher's minimum disparity
+        // times 16, far inside i32.
+        let offset = i32::from(raw).wrapping_sub(self.first);
+        let beyond = self.depths.len() as i32 + 1;
+        let code = offset.wrapping_add(1).clamp(0, beyond);
+        if textureless != 0 { 0 } else { code as u32 }
     }
 
     /// The depth of `code` (m, `NaN` for none or at or beyond infinity); `None` beyond the table.

@@ -140,6 +140,8 @@ pub struct DepthGridder {
     column_codes: Vec<u32>,
     /// No texture flags: one row of zeros.
     textured_row: Vec<u8>,
+    /// The codes of the row being counted.
+    row_codes: Vec<u32>,
 }
 
 impl DepthGridder {
@@ -161,6 +163,7 @@ impl DepthGridder {
             code_histograms: Vec::new(),
             column_codes: Vec::new(),
             textured_row: Vec::new(),
+            row_codes: Vec::new(),
         }
     }
 
@@ -246,23 +249,22 @@ impl DepthGridder {
         self.code_histograms.resize(2 * 9 * codes, 0);
         self.column_codes.clear();
         self.column_codes.resize(width, 0);
+        self.row_codes.resize(width, 0);
         for y in 0..height {
             let band = usize::from(self.row_band[y]);
             let row = &raw[y * width..][..width];
             let flags = textureless.map_or(&self.textured_row[..], |t| &t[y * width..][..width]);
+            for ((code, &v), &t) in self.row_codes.iter_mut().zip(row).zip(flags) {
+                *code = depths.code(v, t);
+            }
+            if band == 1 {
+                for (nearest, &code) in self.column_codes.iter_mut().zip(&self.row_codes) {
+                    *nearest = (*nearest).max(code);
+                }
+            }
             for (column, range) in self.column_ranges.iter().enumerate() {
                 let pair = &mut self.code_histograms[2 * (band * 3 + column) * codes..][..2 * codes];
-                let (row, flags) = (&row[range.clone()], &flags[range.clone()]);
-                if band == 1 {
-                    let nearest = &mut self.column_codes[range.clone()];
-                    for ((&v, &t), nearest) in row.iter().zip(flags).zip(nearest) {
-                        let code = depths.code(v, t);
-                        pair[code] += 1;
-                        *nearest = (*nearest).max(code as u32);
-                    }
-                } else {
-                    count_codes(pair, row, flags, depths);
-                }
+                count_codes(pair, &self.row_codes[range.clone()]);
             }
         }
         self.histograms.fill(0);
@@ -394,21 +396,21 @@ impl RegionCount {
     }
 }
 
-/// Counts the codes of `raw` with its texture `flags` into `pair`, two histograms of
-/// [`FixedPointDepth::codes`] bins each: even pixels into the first, odd into the second.
+/// Counts `codes` into `pair`, two histograms of [`FixedPointDepth::codes`] bins each: even
+/// pixels into the first, odd into the second.
 /// Neighbouring pixels mostly share a code, and one histogram would make each increment wait
 /// for the last one's store; two let pairs of them overlap.
 #[inline(always)]
-fn count_codes(pair: &mut [u32], raw: &[i16], flags: &[u8], depths: &FixedPointDepth) {
-    let (even, odd) = pair.split_at_mut(depths.codes());
-    let (raw_pairs, flag_pairs) = (raw.chunks_exact(2), flags.chunks_exact(2));
-    let (raw_rest, flag_rest) = (raw_pairs.remainder(), flag_pairs.remainder());
-    for (v, t) in raw_pairs.zip(flag_pairs) {
-        even[depths.code(v[0], t[0])] += 1;
-        odd[depths.code(v[1], t[1])] += 1;
+fn count_codes(pair: &mut [u32], codes: &[u32]) {
+    let (even, odd) = pair.split_at_mut(pair.len() / 2);
+    let pairs = codes.chunks_exact(2);
+    let rest = pairs.remainder();
+    for c in pairs {
+        even[c[0] as usize] += 1;
+        odd[c[1] as usize] += 1;
     }
-    for (&v, &t) in raw_rest.iter().zip(flag_rest) {
-        even[depths.code(v, t)] += 1;
+    for &c in rest {
+        even[c as usize] += 1;
     }
 }
 

@@ -49,8 +49,9 @@ pub struct TextureFilter {
     gradient: Vec<u8>,
     /// Per column: the gradient summed over the window's rows.
     column_sums: Vec<u32>,
-    /// One row of column sums with the window's half-width replicated at each end.
-    padded: Vec<u32>,
+    /// Running sums along one row of column sums, the window's half-width replicated at each
+    /// end: a window's sum is the difference of two, so the compare runs over whole rows.
+    prefix: Vec<u32>,
     /// 1 where textureless, else 0.
     mask: Vec<u8>,
 }
@@ -75,7 +76,7 @@ impl TextureFilter {
             textured_sum: textured_sum(params.min_gradient, params.window_px),
             gradient: Vec::new(),
             column_sums: Vec::new(),
-            padded: Vec::new(),
+            prefix: Vec::new(),
             mask: Vec::new(),
         }))
     }
@@ -109,19 +110,50 @@ impl TextureFilter {
             self.mask.clear();
             return Ok(&self.mask);
         }
+        self.mask_of(pixels, width, height);
+        Ok(&self.mask)
+    }
+
+    /// The mask of `pixels`, in the host's widest vector code: with AVX2 the loops over rows of
+    /// gradients and sums run in vector lanes, which SSE2, x86-64's baseline, lacks the
+    /// unsigned widening and compares for (they stayed scalar there).
+    fn mask_of(&mut self, pixels: &[u8], width: usize, height: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU was just seen to have AVX2, the one feature the function needs.
+            unsafe { self.mask_of_avx2(pixels, width, height) };
+            return;
+        }
+        self.mask_of_in(pixels, width, height);
+    }
+
+    /// [`TextureFilter::mask_of_in`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn mask_of_avx2(&mut self, pixels: &[u8], width: usize, height: usize) {
+        self.mask_of_in(pixels, width, height);
+    }
+
+    /// The check, inlined into each instruction set's entry point.
+    #[inline(always)]
+    fn mask_of_in(&mut self, pixels: &[u8], width: usize, height: usize) {
         self.gradients(pixels, width, height);
         self.threshold(width, height);
-        Ok(&self.mask)
     }
 
     /// |I(x+1) − I(x−1)| / 2 per pixel, borders replicated, with OpenCV's rounding: `Sobel`'s
     /// float result goes to `CV_16S` rounded half to even, so an odd difference 2k+1 becomes
     /// the even one of k and k+1.
+    #[inline(always)]
     fn gradients(&mut self, pixels: &[u8], width: usize, height: usize) {
         self.gradient.resize(width * height, 0);
+        // Wrapping arithmetic here and in the sums below only drops the overflow checks of
+        // test builds, which kept these loops out of vector lanes: no value can overflow (a
+        // half difference is at most 128, a window sum at most 128 · 31², a row's running sum
+        // under 2²³).
         let half = |a: u8, b: u8| {
             let d = a.abs_diff(b);
-            (d >> 1) + (d & (d >> 1) & 1)
+            (d >> 1).wrapping_add(d & (d >> 1) & 1)
         };
         for (row, out) in pixels.chunks_exact(width).zip(self.gradient.chunks_exact_mut(width)) {
             if width == 1 {
@@ -138,8 +170,9 @@ impl TextureFilter {
 
     /// The mask: each pixel's window sum of gradients (rows, then columns, borders
     /// replicated) against [`TextureFilter::textured_sum`].
+    #[inline(always)]
     fn threshold(&mut self, width: usize, height: usize) {
-        let TextureFilter { params, textured_sum, gradient, column_sums, padded, mask } = self;
+        let TextureFilter { params, textured_sum, gradient, column_sums, prefix, mask } = self;
         let radius = (params.window_px / 2) as usize;
         let row = |y: isize| -> &[u8] {
             let y = y.clamp(0, height as isize - 1) as usize;
@@ -148,29 +181,52 @@ impl TextureFilter {
         column_sums.clear();
         column_sums.resize(width, 0);
         for dy in -(radius as isize)..=radius as isize {
-            for (sum, &g) in column_sums.iter_mut().zip(row(dy)) {
-                *sum += u32::from(g);
-            }
+            slide(column_sums, row(dy), &[]);
         }
         mask.resize(width * height, 0);
-        // One more than the window needs at the right end, so the sum slides past the last
-        // pixel (unused) without a branch.
-        padded.resize(width + 2 * radius + 1, 0);
+        prefix.resize(width + 2 * radius + 1, 0);
         let window = 2 * radius + 1;
         for (y, out) in mask.chunks_exact_mut(width).enumerate() {
-            padded[..radius].fill(column_sums[0]);
-            padded[radius..radius + width].copy_from_slice(column_sums);
-            padded[radius + width..].fill(column_sums[width - 1]);
-            let mut sum: u32 = padded[..window].iter().sum();
-            for ((flag, &entering), &leaving) in out.iter_mut().zip(&padded[window..]).zip(&padded[..]) {
-                *flag = u8::from(sum < *textured_sum);
-                sum = sum + entering - leaving;
+            let (left, right) = (column_sums[0], column_sums[width - 1]);
+            let mut running = 0;
+            for p in &mut prefix[1..=radius] {
+                running = u32::wrapping_add(running, left);
+                *p = running;
             }
-            let (leaving, entering) = (row(y as isize - radius as isize), row((y + radius + 1) as isize));
-            for ((sum, &out), &inn) in column_sums.iter_mut().zip(leaving).zip(entering) {
-                *sum = *sum + u32::from(inn) - u32::from(out);
+            for (p, &v) in prefix[radius + 1..=radius + width].iter_mut().zip(column_sums.iter()) {
+                running = running.wrapping_add(v);
+                *p = running;
             }
+            for p in &mut prefix[radius + width + 1..] {
+                running = running.wrapping_add(right);
+                *p = running;
+            }
+            below(out, &prefix[window..], &prefix[..width], *textured_sum);
+            slide(column_sums, row((y + radius + 1) as isize), row(y as isize - radius as isize));
         }
+    }
+}
+
+/// Adds `entering` to `sums` and takes `leaving` off (none when empty): the window's column
+/// sums moving down a row.
+#[inline(always)]
+fn slide(sums: &mut [u32], entering: &[u8], leaving: &[u8]) {
+    if leaving.is_empty() {
+        for (sum, &g) in sums.iter_mut().zip(entering) {
+            *sum = sum.wrapping_add(u32::from(g));
+        }
+    } else {
+        for ((sum, &inn), &out) in sums.iter_mut().zip(entering).zip(leaving) {
+            *sum = sum.wrapping_add(u32::from(inn)).wrapping_sub(u32::from(out));
+        }
+    }
+}
+
+/// `flags[x]` = 1 where the window sum `ends[x] − starts[x]` is below `threshold`.
+#[inline(always)]
+fn below(flags: &mut [u8], ends: &[u32], starts: &[u32], threshold: u32) {
+    for ((flag, &end), &start) in flags.iter_mut().zip(ends).zip(starts) {
+        *flag = u8::from(end.wrapping_sub(start) < threshold);
     }
 }
 
