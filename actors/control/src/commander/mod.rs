@@ -550,6 +550,7 @@ impl Commander {
         self.idle_on_ground_since = None;
         self.flip = None;
         self.landed = LandedState::OnGround;
+        self.landing_search = vertical::LandingSearch::default();
         // As PX4: failsafes belong to a flight. Latched causes (battery, estimator, critical
         // actor) would otherwise refuse every later arming; the pre-arm checks judge afresh.
         self.failsafes.clear();
@@ -731,19 +732,30 @@ impl Commander {
     /// Keeps `target` below what the upward rangefinder sees (`vertical`), and notes in the
     /// status what holds the vehicle back vertically this update.
     fn hold_below_ceiling(&mut self, now: Time, target: &mut SetpointTarget) {
+        // Held by the ceiling last update: a wider band keeps the status from flickering.
+        let band_m = match self.vertical_limit {
+            Some(VerticalLimitStatus { kind: VerticalLimitKind::Overhead, .. }) => 2.0 * AT_CEILING_M,
+            _ => AT_CEILING_M,
+        };
         self.vertical_limit = self
             .landing_search
             .below_m
             .filter(|_| self.landing_search.searching())
             .map(|distance_m| VerticalLimitStatus { kind: VerticalLimitKind::ObstacleBelow, distance_m });
-        let (Some(nav), SetpointTarget::Trajectory(sp)) = (&self.nav, target) else { return };
+        let Some(nav) = &self.nav else { return };
         let Some(ceiling) = self.ceiling_down_m(now, nav) else { return };
         let down = nav.position_ned_m[2];
-        // Held: the setpoint was lowered, a mode lowered its goal, or the vehicle sits at the
-        // ceiling not asked to descend (a hold there would otherwise flicker in and out of the
-        // status).
-        let at_ceiling = down - ceiling < AT_CEILING_M && sp.velocity_ned_m_s[2].is_none_or(|v| v <= 0.0);
-        if vertical::hold_below(sp, down, ceiling, &self.params.vertical) || self.ceiling_held || at_ceiling {
+        // Held: the setpoint was lowered, a mode lowered its goal (or kept the vehicle on the
+        // ground), or the vehicle sits at the ceiling not asked to descend (a hold there would
+        // otherwise flicker in and out of the status).
+        let held = match target {
+            SetpointTarget::Trajectory(sp) => {
+                let at_ceiling = down - ceiling < band_m && sp.velocity_ned_m_s[2].is_none_or(|v| v <= 0.0);
+                vertical::hold_below(sp, down, ceiling, &self.params.vertical) || at_ceiling
+            }
+            _ => false,
+        };
+        if held || self.ceiling_held {
             let distance_m = down - ceiling + self.params.vertical.margin_m;
             self.vertical_limit = Some(VerticalLimitStatus { kind: VerticalLimitKind::Overhead, distance_m });
         }
@@ -948,12 +960,15 @@ impl Commander {
     }
 
     fn is_landing(&self) -> bool {
-        match self.mode {
+        let landing = match self.mode {
             FlightMode::Land => true,
             FlightMode::ReturnToLaunch => self.rtl == RtlPhase::Land,
             FlightMode::Auto => self.hold.landing,
             _ => false,
-        }
+        };
+        // Holding above an obstacle's top while moving off it is no descent: the land detector
+        // would take the stillness for the ground.
+        landing && !self.landing_search.searching()
     }
 }
 

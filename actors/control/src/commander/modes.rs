@@ -15,6 +15,9 @@ use kestrel_proto::units::GRAVITY_M_S2;
 const LAND_APPROACH_RADIUS_M: f64 = 1.5;
 /// An altitude counts as reached within this (m).
 const ALTITUDE_TOLERANCE_M: f64 = 0.5;
+/// TAKEOFF stays on the ground when the upward rangefinder leaves less room than this (m)
+/// between home and the ceiling it sets.
+const MIN_TAKEOFF_ROOM_M: f64 = 1.0;
 /// RTL counts as home within this horizontal distance and below this speed (m, m/s).
 const HOME_RADIUS_M: f64 = 1.0;
 const HOME_SPEED_M_S: f64 = 0.5;
@@ -113,9 +116,16 @@ impl Commander {
                 let home = self.home_or(&nav);
                 let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
                 let yaw = *self.hold.yaw_rad.get_or_insert(heading(&nav));
-                // Under something the upward rangefinder sees, the take-off ends below it.
+                // Under something the upward rangefinder sees, the take-off ends below it; with
+                // less than a metre of room it does not leave the ground (and DISARM_DELAY
+                // disarms), and it never counts as done on the ground.
                 let down = self.under_ceiling(now, &nav, home.z - self.takeoff_height_m);
-                if (nav.position_ned_m[2] - down).abs() < ALTITUDE_TOLERANCE_M {
+                if self.landed == LandedState::OnGround && home.z - down < MIN_TAKEOFF_ROOM_M {
+                    return SetpointTarget::MotorsOff;
+                }
+                if self.landed != LandedState::OnGround
+                    && (nav.position_ned_m[2] - down).abs() < ALTITUDE_TOLERANCE_M
+                {
                     // Up: hold there in GUIDED, as ArduCopter's take-off ends, so targets are
                     // taken at once instead of refused until the mode is set again.
                     self.enter(FlightMode::Guided);
@@ -483,16 +493,20 @@ impl Commander {
                 }
                 self.hold.landing = true;
                 self.avoidance.reset();
-                if self.rangefinders.down_fresh(now, nav, &self.params.vertical) {
+                let reading = self.rangefinders.below(now, nav, &self.params.vertical);
+                // Without a downward rangefinder there is nothing to search with: land as before.
+                if reading.is_some() || self.landing_search.searching() {
                     let home_down = self.home_or(nav).z;
                     let facing = yaw.unwrap_or_else(|| heading(nav));
-                    self.landing_search.step(nav, [n, e], below, home_down, facing, &self.params.vertical);
+                    self.landing_search.step(nav, [n, e], reading, home_down, facing, &self.params.vertical);
                 }
+                let [sn, se] = self.landing_search.spot_ne_m.unwrap_or([n, e]);
                 let [dn, de] = self.landing_search.offset_ne_m;
+                let (n, e) = (sn + dn, se + de);
                 match self.landing_search.hold_down_m.filter(|_| self.landing_search.searching()) {
                     // Over an obstacle's top: hold above it and move off it (`vertical`).
-                    Some(down) => traj([Some(n + dn), Some(e + de), Some(down)], [None; 3], yaw),
-                    None => traj([Some(n + dn), Some(e + de), None], [None, None, Some(rate)], yaw),
+                    Some(down) => traj([Some(n), Some(e), Some(down)], [None; 3], yaw),
+                    None => traj([Some(n), Some(e), None], [None, None, Some(rate)], yaw),
                 }
             }
             None => {

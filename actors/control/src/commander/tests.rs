@@ -1635,3 +1635,40 @@ fn without_a_fresh_rangefinder_reading_a_takeoff_climbs_as_before() {
     let SetpointTarget::Trajectory(t) = c.update(Time(600_000)).target else { panic!("trajectory expected") };
     assert_eq!(t.position_ned_m[2], Some(-10.0));
 }
+
+#[test]
+fn holding_over_a_top_is_no_touchdown_and_a_silent_sensor_then_lands_where_it_is() {
+    let mut c = hovering();
+    c.on_nav(&nav(Time(3000), -10.0, true));
+    cmd(&mut c, Command::Land).expect("land");
+    let mut t = 3000;
+    // Still 10 m up over a 4 m top for 3 s (the detector needs 1 s of stillness): armed, holding.
+    while t < 3_000_000 {
+        t += 2500;
+        c.on_nav(&nav(Time(t), -10.0, true));
+        c.on_rangefinder(&rangefinder(t, RangefinderOrientation::Down, Some(6.0)));
+        c.update(Time(t));
+    }
+    assert!(c.armed(), "disarmed while holding over the top");
+    assert_eq!(c.landed(), LandedState::InAir);
+    // The sensor falls silent: the search ends and the descent starts where the vehicle is.
+    t += 600_000;
+    c.on_nav(&nav(Time(t), -10.0, true));
+    let SetpointTarget::Trajectory(sp) = c.update(Time(t)).target else { panic!("trajectory expected") };
+    assert!(sp.velocity_ned_m_s[2].is_some_and(|v| v > 0.0), "{sp:?}");
+    c.update(Time(t));
+    assert_eq!(c.landed(), LandedState::Landing);
+}
+
+#[test]
+fn a_takeoff_with_no_room_overhead_stays_on_the_ground() {
+    let mut c = ready(true);
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arm");
+    cmd(&mut c, Command::Takeoff { altitude_m: 10.0 }).expect("takeoff");
+    // A surface 2.5 m above the vehicle on the ground leaves 0.5 m under the margin.
+    c.on_rangefinder(&rangefinder(1000, RangefinderOrientation::Up, Some(2.5)));
+    assert_eq!(c.update(Time(1000)).target, SetpointTarget::MotorsOff);
+    assert_eq!(c.mode(), FlightMode::Takeoff);
+    assert_eq!(c.status(Time(1000)).vertical_limit.map(|l| l.kind), Some(VerticalLimitKind::Overhead));
+}

@@ -2,23 +2,29 @@
 //! nothing above or below the vehicle, so TAKEOFF's and RTL's climbs and LAND's descent were
 //! flown blind.
 //!
-//! * **Overhead.** While the upward rangefinder sees a surface, no setpoint may take the
-//!   vehicle higher than `margin_m` below it: a position target is lowered to that ceiling,
-//!   and a climb rate is cut to what stops in the gap left, `√(2·a·gap)`; inside the margin the
-//!   vehicle backs down at up to `backup_speed_m_s`. This is ArduCopter's
-//!   `AC_Avoid::adjust_velocity_z` (`AVOID_MARGIN` 2 m, 1 m/s² braking, `AVOID_BACKZ_SPD`
-//!   0.75 m/s), applied here to every setpoint, autonomous ones included: ArduCopter does not
-//!   call it in AUTO/GUIDED take-off or RTL's climb, and PX4's collision prevention is
-//!   horizontal only. A take-off or RTL climb held by a ceiling counts as done at it, so the
-//!   vehicle does not hover under it for ever (ArduCopter's take-off never completes there).
+//! * **Overhead.** While the upward rangefinder sees a surface, no trajectory setpoint (every
+//!   mode but STABILIZE and ACRO, which fly attitudes) may take the vehicle higher than
+//!   `margin_m` below it: a position target is lowered to that ceiling, and a climb rate is cut
+//!   to what stops in the gap left, `√(2·a·gap)`. This is ArduCopter's
+//!   `AC_Avoid::adjust_velocity_z` (`AVOID_MARGIN` 2 m, 1 m/s² braking), applied here to
+//!   autonomous setpoints too: ArduCopter does not call it in AUTO/GUIDED take-off or RTL's
+//!   climb, and PX4's collision prevention is horizontal only. Inside the margin the vehicle
+//!   holds and may not climb, but is not pushed down (ArduCopter backs away at `AVOID_BACKZ_SPD`):
+//!   a stuck or dirty beam would otherwise drive it towards the ground in every mode. A
+//!   take-off or RTL climb held by a ceiling counts as done at it, so the vehicle does not
+//!   hover under it for ever (ArduCopter's take-off never completes there); on the ground with
+//!   less than a metre of room under the ceiling, TAKEOFF does not leave the ground.
 //! * **Below.** A landing's descent reads the downward rangefinder. A surface under the vehicle
 //!   more than `obstacle_below_m` above the take-off ground is an obstacle's top (a roof, a
-//!   trunk), not a landing spot: the descent stops `margin_m` above it and the vehicle moves
-//!   back along the way it was facing, `land_shift_m` at a time, until the beam sees the ground,
-//!   then one step more so the airframe clears the edge, and lands there. After `land_search_m`
-//!   it lands where it is (a controlled end rather than hovering until the battery fails). The
-//!   ground is taken to be level with home: on a slope that rises more than `obstacle_below_m`
-//!   under the landing, the vehicle moves on before landing. PX4 and ArduPilot only slow the
+//!   trunk), not a landing spot: the descent stops (at least `margin_m` above it) and the
+//!   vehicle moves back along the way it was facing, the way it came, `land_shift_m` at a time,
+//!   reading the beam only when level over each step, until the beam sees the ground, then one
+//!   step more so the airframe clears the edge, and lands there. After `land_search_m`, when the
+//!   downward rangefinder falls silent, or when `obstacle_below_m` is set to 0, it lands where
+//!   it is (a controlled end rather than hovering until the battery fails). No return counts as
+//!   ground only from higher above home than the sensor reaches. The ground is taken to be
+//!   level with home: on a slope that rises more than `obstacle_below_m` under the landing, the
+//!   vehicle moves on before landing. PX4 and ArduPilot only slow the
 //!   last metres with a downward rangefinder (`MPC_LAND_ALT*`, `LAND_ALT_LOW`); the descent
 //!   speed here also follows the nearer of the height above home and the rangefinder's.
 //!
@@ -40,8 +46,6 @@ pub struct VerticalParams {
     pub margin_m: f64,
     /// Braking the climb limit assumes (m/s²): ArduPilot's 1 m/s² (`AC_AVOID_ACCEL_CMSS_MAX`).
     pub climb_accel_m_s2: f64,
-    /// Fastest descent back out of the margin (m/s); ArduPilot's `AVOID_BACKZ_SPD`.
-    pub backup_speed_m_s: f64,
     /// A reading older than this counts for nothing (s).
     pub timeout_s: f64,
     /// A surface under a landing more than this above home is an obstacle's top (m); 0 turns
@@ -58,7 +62,6 @@ impl Default for VerticalParams {
         VerticalParams {
             margin_m: 2.0,
             climb_accel_m_s2: 1.0,
-            backup_speed_m_s: 0.75,
             timeout_s: 0.5,
             obstacle_below_m: 1.5,
             land_shift_m: 2.0,
@@ -71,7 +74,6 @@ impl VerticalParams {
     pub(crate) fn validate(&self) -> Result<(), InvalidParam> {
         within("vertical.margin_m", self.margin_m, 0.2, 10.0)?;
         positive("vertical.climb_accel_m_s2", self.climb_accel_m_s2)?;
-        within("vertical.backup_speed_m_s", self.backup_speed_m_s, 0.0, 3.0)?;
         within("vertical.timeout_s", self.timeout_s, 0.02, 10.0)?;
         non_negative("vertical.obstacle_below_m", self.obstacle_below_m)?;
         within("vertical.land_shift_m", self.land_shift_m, 0.5, 20.0)?;
@@ -85,6 +87,20 @@ struct Reading {
     time: Time,
     /// Along the beam (m); `None`: nothing within the sensor's range.
     distance_m: Option<f64>,
+    /// The sensor's longest distance (m).
+    max_range_m: f64,
+}
+
+/// What the downward beam says now.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Below {
+    /// Vertical distance to the surface it sees (m); `None`: nothing within its range.
+    pub distance_m: Option<f64>,
+    /// The sensor's longest distance (m).
+    pub max_range_m: f64,
+    /// The vehicle is level enough (within about 25°) for the beam to fall near straight below
+    /// it; braking tilts it and the beam reads the ground ahead.
+    pub level: bool,
 }
 
 /// The up- and downward rangefinders' newest readings.
@@ -100,7 +116,11 @@ impl Rangefinders {
         if let Some(why) = sample.invalid() {
             return Err(why);
         }
-        let reading = Some(Reading { time: sample.time, distance_m: sample.distance_m });
+        let reading = Some(Reading {
+            time: sample.time,
+            distance_m: sample.distance_m,
+            max_range_m: sample.max_range_m,
+        });
         match sample.orientation {
             RangefinderOrientation::Up => self.up = reading,
             RangefinderOrientation::Down => self.down = reading,
@@ -126,10 +146,12 @@ impl Rangefinders {
         if now.saturating_since(reading.time).as_secs_f64() > timeout_s {
             return None;
         }
-        let [_, x, y, _] = nav.attitude;
-        // R₂₂ of body → NED: the cosine of the tilt.
-        let cos_tilt = 1.0 - 2.0 * (x * x + y * y);
-        Some(reading.distance_m.map(|d| d * cos_tilt.max(0.0)))
+        // Past 90° of tilt the beam points the other way: no reading at all.
+        let cos_tilt = cos_tilt(nav);
+        if cos_tilt <= 0.0 {
+            return None;
+        }
+        Some(reading.distance_m.map(|d| d * cos_tilt))
     }
 
     /// The highest the vehicle may be (NED down, m): `margin_m` below what the upward beam sees.
@@ -140,18 +162,30 @@ impl Rangefinders {
 
     /// The vertical distance to the surface under the vehicle (m), if the downward beam sees one.
     pub fn below_m(&self, now: Time, nav: &NavState, p: &VerticalParams) -> Option<f64> {
-        self.vertical_m(RangefinderOrientation::Down, now, nav, p.timeout_s)?
+        self.below(now, nav, p)?.distance_m
     }
 
-    /// Whether the downward beam has a fresh reading (a surface or nothing in range).
-    pub fn down_fresh(&self, now: Time, nav: &NavState, p: &VerticalParams) -> bool {
-        self.vertical_m(RangefinderOrientation::Down, now, nav, p.timeout_s).is_some()
+    /// The downward beam's fresh reading, `None` without one.
+    pub fn below(&self, now: Time, nav: &NavState, p: &VerticalParams) -> Option<Below> {
+        let distance_m = self.vertical_m(RangefinderOrientation::Down, now, nav, p.timeout_s)?;
+        let max_range_m = self.down.map_or(0.0, |r| r.max_range_m);
+        Some(Below { distance_m, max_range_m, level: cos_tilt(nav) >= LEVEL_COS_TILT })
     }
 }
 
+/// cos 25°: tilted further, the downward beam's reading is not taken as what is below.
+const LEVEL_COS_TILT: f64 = 0.906;
+
+/// The cosine of the vehicle's tilt: R₂₂ of its body → NED rotation.
+fn cos_tilt(nav: &NavState) -> f64 {
+    let [_, x, y, _] = nav.attitude;
+    1.0 - 2.0 * (x * x + y * y)
+}
+
 /// Keeps `sp` from taking a vehicle at `down_m` (NED, m) above `ceiling_down_m`: a position
-/// target no higher, a climb no faster than stops in the gap, inside the margin a slow descent
-/// back. Whether it changed anything.
+/// target no higher than the ceiling (nor, inside the margin, than where the vehicle is), a
+/// climb no faster than stops in the gap and none inside the margin. Whether it changed
+/// anything.
 pub(super) fn hold_below(
     sp: &mut TrajectorySetpoint,
     down_m: f64,
@@ -159,25 +193,20 @@ pub(super) fn hold_below(
     p: &VerticalParams,
 ) -> bool {
     let mut changed = false;
+    let highest = ceiling_down_m.min(down_m);
     if let Some(target) = &mut sp.position_ned_m[2]
-        && *target < ceiling_down_m
+        && *target < highest
     {
-        *target = ceiling_down_m;
+        *target = highest;
         changed = true;
     }
-    let gap = down_m - ceiling_down_m;
-    let stopping = |distance: f64| (2.0 * p.climb_accel_m_s2 * distance.abs()).sqrt();
-    let least_down_m_s = if gap >= 0.0 { -stopping(gap) } else { stopping(gap).min(p.backup_speed_m_s) };
-    match &mut sp.velocity_ned_m_s[2] {
-        Some(v) if *v < least_down_m_s => {
-            *v = least_down_m_s;
-            changed = true;
-        }
-        None if gap < 0.0 && sp.position_ned_m[2].is_none() => {
-            sp.velocity_ned_m_s[2] = Some(least_down_m_s);
-            changed = true;
-        }
-        _ => {}
+    let gap = (down_m - ceiling_down_m).max(0.0);
+    let least_down_m_s = -(2.0 * p.climb_accel_m_s2 * gap).sqrt();
+    if let Some(v) = &mut sp.velocity_ned_m_s[2]
+        && *v < least_down_m_s
+    {
+        *v = least_down_m_s;
+        changed = true;
     }
     changed
 }
@@ -185,6 +214,10 @@ pub(super) fn hold_below(
 /// A landing moving off an obstacle's top.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub(super) struct LandingSearch {
+    /// The landing spot (north, east, m), taken when the search first reads the beam: a
+    /// mission's LAND item without a place resolves to wherever the vehicle is, which must not
+    /// move with it.
+    pub spot_ne_m: Option<[f64; 2]>,
     /// Added to the landing spot (north, east, m).
     pub offset_ne_m: [f64; 2],
     /// The way it moves (north, east unit vector), set when the top is first seen.
@@ -205,31 +238,48 @@ pub(super) struct LandingSearch {
 const AT_SPOT_M: f64 = 0.4;
 
 impl LandingSearch {
-    /// One step of the search at `nav` over the spot `spot_ne` (without the offset), the beam
-    /// reading `below_m` (a fresh reading; `None` for nothing in range), home at `home_down_m`,
-    /// the vehicle facing `yaw_rad`. Moves the offset and the held height; sets `done`.
-    #[allow(clippy::too_many_arguments)]
+    /// One step of the search at `nav` over the spot `spot_ne` (without the offset; latched on
+    /// the first step), the downward beam reading `below` (`None`: no fresh reading), home at
+    /// `home_down_m`, the vehicle facing `yaw_rad`. Moves the offset and the held height; sets
+    /// `done`.
     pub fn step(
         &mut self,
         nav: &NavState,
         spot_ne: [f64; 2],
-        below_m: Option<f64>,
+        below: Option<Below>,
         home_down_m: f64,
         yaw_rad: f64,
         p: &VerticalParams,
     ) {
-        if self.done || p.obstacle_below_m <= 0.0 {
-            self.below_m = None;
+        if self.done {
             return;
         }
+        let Some(below) = below.filter(|_| p.obstacle_below_m > 0.0) else {
+            // The sensor fell silent or the check was turned off: land here.
+            if self.searching() {
+                tracing::warn!("landing: no downward rangefinder (or LAND_OBS_HGT_M 0), landing here");
+                self.finish();
+            }
+            return;
+        };
+        if !below.level {
+            return;
+        }
+        let spot = *self.spot_ne_m.get_or_insert(spot_ne);
         let [n, e, down] = nav.position_ned_m;
-        let surface_height_m = below_m.map(|b| home_down_m - (down + b));
+        let height_m = home_down_m - down;
+        let surface_height_m = below.distance_m.map(|b| height_m - b);
         let on_top = surface_height_m.is_some_and(|h| h > p.obstacle_below_m);
-        let target = [spot_ne[0] + self.offset_ne_m[0], spot_ne[1] + self.offset_ne_m[1]];
+        // Nothing in range is the ground only from higher up than the sensor reaches.
+        let over_ground = match surface_height_m {
+            Some(h) => h <= p.obstacle_below_m,
+            None => height_m > below.max_range_m,
+        };
+        let target = [spot[0] + self.offset_ne_m[0], spot[1] + self.offset_ne_m[1]];
         let there = (n - target[0]).hypot(e - target[1]) < AT_SPOT_M;
         if on_top {
-            self.below_m = below_m;
-            let top_down_m = down + below_m.unwrap_or(0.0);
+            self.below_m = below.distance_m;
+            let top_down_m = down + below.distance_m.unwrap_or(0.0);
             let hold = (top_down_m - p.margin_m).min(self.hold_down_m.unwrap_or(down));
             self.hold_down_m = Some(hold);
             self.clearing = false;
@@ -237,22 +287,25 @@ impl LandingSearch {
                 let direction = *self.direction_ne.get_or_insert([-yaw_rad.cos(), -yaw_rad.sin()]);
                 if self.moved_m + p.land_shift_m > p.land_search_m {
                     tracing::warn!(moved_m = self.moved_m, "landing: no clear ground found, landing here");
-                    self.done = true;
-                    self.below_m = None;
+                    self.finish();
                     return;
                 }
                 self.shift(direction, p.land_shift_m);
             }
-        } else if let Some(direction) = self.direction_ne {
-            // Moving off a top, now over the ground (or over nothing the beam reaches).
-            if !self.clearing && there {
+        } else if let Some(direction) = self.direction_ne.filter(|_| over_ground && there) {
+            // Moved off the top, over the ground: one step more to clear the edge, then land.
+            if self.clearing {
+                self.finish();
+            } else {
                 self.clearing = true;
                 self.shift(direction, p.land_shift_m);
-            } else if self.clearing && there {
-                self.done = true;
-                self.below_m = None;
             }
         }
+    }
+
+    fn finish(&mut self) {
+        self.done = true;
+        self.below_m = None;
     }
 
     fn shift(&mut self, direction: [f64; 2], step_m: f64) {
@@ -342,11 +395,18 @@ mod tests {
         assert!(hold_below(&mut sp, -3.0, -5.0, &p));
         assert_eq!(sp.position_ned_m[2], Some(-5.0));
         assert!((sp.velocity_ned_m_s[2].unwrap() - -2.0).abs() < 1e-12);
-        // Above the ceiling by 0.5 m: back down at √(2·1·0.5) = 1 m/s, capped at 0.75.
+        // Inside the margin (0.5 m above the ceiling): no climb, no push down, a target above
+        // held where the vehicle is.
+        let mut sp = TrajectorySetpoint {
+            position_ned_m: [None, None, Some(-8.0)],
+            velocity_ned_m_s: [None, None, Some(-1.0)],
+            ..TrajectorySetpoint::default()
+        };
+        assert!(hold_below(&mut sp, -5.5, -5.0, &p));
+        assert_eq!((sp.position_ned_m[2], sp.velocity_ned_m_s[2]), (Some(-5.5), Some(0.0)));
         let mut sp =
             TrajectorySetpoint { velocity_ned_m_s: [None, None, Some(0.0)], ..TrajectorySetpoint::default() };
-        assert!(hold_below(&mut sp, -5.5, -5.0, &p));
-        assert_eq!(sp.velocity_ned_m_s[2], Some(0.75));
+        assert!(!hold_below(&mut sp, -5.5, -5.0, &p));
         // Below the ceiling and descending: untouched.
         let mut sp = TrajectorySetpoint {
             position_ned_m: [None, None, Some(-2.0)],
@@ -360,8 +420,9 @@ mod tests {
 
     proptest::proptest! {
         /// Whatever the setpoint, after the limit a position target is at or below the ceiling
-        /// and a vertical rate never climbs faster than stops in the gap (and climbs not at all
-        /// inside the margin).
+        /// (or, inside the margin, where the vehicle is), never pushed below both, and a
+        /// vertical rate never climbs faster than stops in the gap (not at all inside the
+        /// margin) and is never made a descent.
         #[test]
         fn no_limited_setpoint_climbs_past_the_ceiling(
             target in proptest::option::of(-50.0f64..5.0),
@@ -376,18 +437,21 @@ mod tests {
                 ..TrajectorySetpoint::default()
             };
             hold_below(&mut sp, down, ceiling, &p);
-            if let Some(t) = sp.position_ned_m[2] {
-                proptest::prop_assert!(t >= ceiling);
+            if let (Some(t), Some(asked)) = (sp.position_ned_m[2], target) {
+                proptest::prop_assert!(t >= ceiling.min(down));
+                proptest::prop_assert!(t <= asked.max(ceiling.min(down)));
             }
-            if let Some(v) = sp.velocity_ned_m_s[2] {
-                let gap = down - ceiling;
-                if gap >= 0.0 {
-                    proptest::prop_assert!(v >= -(2.0 * gap).sqrt() - 1e-12);
-                } else {
-                    proptest::prop_assert!(v > 0.0);
-                }
+            if let (Some(v), Some(asked)) = (sp.velocity_ned_m_s[2], rate) {
+                let gap = (down - ceiling).max(0.0);
+                proptest::prop_assert!(v >= -(2.0 * gap).sqrt() - 1e-12);
+                proptest::prop_assert!(v <= asked.max(0.0));
             }
         }
+    }
+
+    /// A level reading of a 12 m sensor: `distance_m` below, or nothing in range.
+    fn seen(distance_m: Option<f64>) -> Option<Below> {
+        Some(Below { distance_m, max_range_m: 12.0, level: true })
     }
 
     #[test]
@@ -396,24 +460,24 @@ mod tests {
         let mut s = LandingSearch::default();
         // 10 m up facing north, a 4 m top under the vehicle (6 m below it).
         let mut nav = nav_at(-10.0, 0.0);
-        s.step(&nav, [0.0, 0.0], Some(6.0), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
         assert!(s.searching());
         assert_eq!(s.hold_down_m, Some(-10.0));
         assert_eq!(s.offset_ne_m, [-2.0, 0.0]);
         // Not there yet: nothing moves.
-        s.step(&nav, [0.0, 0.0], Some(6.0), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
         assert_eq!(s.offset_ne_m, [-2.0, 0.0]);
         // There, still over the top: another step.
         nav.position_ned_m = [-2.0, 0.0, -10.0];
-        s.step(&nav, [0.0, 0.0], Some(6.0), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
         assert_eq!(s.offset_ne_m, [-4.0, 0.0]);
         // There, over the ground: one step more to clear the edge, then done.
         nav.position_ned_m = [-4.0, 0.0, -10.0];
-        s.step(&nav, [0.0, 0.0], Some(10.0), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(10.0)), 0.0, 0.0, &p);
         assert_eq!(s.offset_ne_m, [-6.0, 0.0]);
         assert!(s.searching());
         nav.position_ned_m = [-6.0, 0.0, -10.0];
-        s.step(&nav, [0.0, 0.0], Some(10.0), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(10.0)), 0.0, 0.0, &p);
         assert!(s.done && !s.searching());
     }
 
@@ -423,16 +487,55 @@ mod tests {
         let mut s = LandingSearch::default();
         let mut nav = nav_at(-10.0, 0.0);
         // The ground 10 m below, and a top 1 m high (under obstacle_below_m): no search.
-        s.step(&nav, [0.0, 0.0], Some(10.0), 0.0, 0.0, &p);
-        s.step(&nav, [0.0, 0.0], Some(9.0), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(10.0)), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(9.0)), 0.0, 0.0, &p);
         assert!(!s.searching() && s.offset_ne_m == [0.0, 0.0]);
         // Over a wide roof, facing east: back west 2 m, 4 m, then gives up.
-        s.step(&nav, [0.0, 0.0], Some(6.0), 0.0, std::f64::consts::FRAC_PI_2, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, std::f64::consts::FRAC_PI_2, &p);
         assert!((s.offset_ne_m[1] - -2.0).abs() < 1e-12);
         nav.position_ned_m = [0.0, -2.0, -10.0];
-        s.step(&nav, [0.0, 0.0], Some(6.0), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
         nav.position_ned_m = [0.0, -4.0, -10.0];
-        s.step(&nav, [0.0, 0.0], Some(6.0), 0.0, 0.0, &p);
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
         assert!(s.done);
+    }
+
+    #[test]
+    fn a_silent_sensor_or_the_check_turned_off_mid_search_lands_there_and_a_tilted_reading_waits() {
+        let p = VerticalParams::default();
+        let nav = nav_at(-10.0, 0.0);
+        let mut s = LandingSearch::default();
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
+        assert!(s.searching());
+        // Tilted: no judgement, the search goes on.
+        s.step(&nav, [0.0, 0.0], Some(Below { level: false, ..seen(Some(10.0)).unwrap() }), 0.0, 0.0, &p);
+        assert!(s.searching());
+        s.step(&nav, [0.0, 0.0], None, 0.0, 0.0, &p);
+        assert!(s.done && !s.searching());
+        let mut s = LandingSearch::default();
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
+        let off = VerticalParams { obstacle_below_m: 0.0, ..VerticalParams::default() };
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &off);
+        assert!(s.done);
+    }
+
+    #[test]
+    fn the_spot_is_latched_and_no_return_is_ground_only_from_out_of_the_sensors_reach() {
+        let p = VerticalParams::default();
+        let mut s = LandingSearch::default();
+        let mut nav = nav_at(-10.0, 0.0);
+        s.step(&nav, [0.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
+        // A spot that moves with the vehicle (a LAND item without a place) is not followed.
+        nav.position_ned_m = [-2.0, 0.0, -10.0];
+        s.step(&nav, [-2.0, 0.0], seen(Some(6.0)), 0.0, 0.0, &p);
+        assert_eq!((s.spot_ne_m, s.offset_ne_m), (Some([0.0, 0.0]), [-4.0, 0.0]));
+        // 10 m up with a 12 m sensor, nothing in range: not the ground (a dark roof), wait.
+        nav.position_ned_m = [-4.0, 0.0, -10.0];
+        s.step(&nav, [0.0, 0.0], seen(None), 0.0, 0.0, &p);
+        assert_eq!(s.offset_ne_m, [-4.0, 0.0]);
+        // 14 m up, nothing in range: the ground, out of reach; one step more.
+        nav.position_ned_m = [-4.0, 0.0, -14.0];
+        s.step(&nav, [0.0, 0.0], seen(None), 0.0, 0.0, &p);
+        assert_eq!(s.offset_ne_m, [-6.0, 0.0]);
     }
 }
