@@ -94,7 +94,8 @@ impl MissionRunner {
     }
 
     /// The next step, given the vehicle's NED position, the NED frame, home (NED, m) and the
-    /// highest the vehicle may climb under something overhead (NED down, m; `None`: no limit).
+    /// highest the vehicle may climb under something seen overhead for a while (NED down, m;
+    /// `None`: no limit).
     /// Under such a ceiling a take-off or a waypoint counts as reached at the ceiling: the
     /// vehicle cannot climb to it, and flying on moves it out from under.
     pub fn update(

@@ -123,8 +123,9 @@ impl Commander {
                 if self.landed == LandedState::OnGround && home.z - down < MIN_TAKEOFF_ROOM_M {
                     return SetpointTarget::MotorsOff;
                 }
+                let done_at = self.under_steady_ceiling(now, &nav, home.z - self.takeoff_height_m);
                 if self.landed != LandedState::OnGround
-                    && (nav.position_ned_m[2] - down).abs() < ALTITUDE_TOLERANCE_M
+                    && (nav.position_ned_m[2] - done_at).abs() < ALTITUDE_TOLERANCE_M
                 {
                     // Up: hold there in GUIDED, as ArduCopter's take-off ends, so targets are
                     // taken at once instead of refused until the mode is set again.
@@ -140,6 +141,13 @@ impl Commander {
                 self.land_at(now, dt_s, &nav, Some([p.x, p.y]))
             }
         }
+    }
+
+    /// `down` (NED, m), or the steady ceiling the upward rangefinder sets if that is lower down:
+    /// where a climb towards `down` ends.
+    fn under_steady_ceiling(&self, now: Time, nav: &NavState, down: f64) -> f64 {
+        let ceiling = self.rangefinders.steady_ceiling_down_m(now, nav, &self.params.vertical);
+        ceiling.map_or(down, |c| down.max(c))
     }
 
     /// `down` (NED, m), or the ceiling the upward rangefinder sets if that is lower down (which
@@ -325,7 +333,7 @@ impl Commander {
             self.avoidance.reset();
             return self.hold_here(nav);
         }
-        let ceiling = self.ceiling_down_m(now, nav);
+        let ceiling = self.rangefinders.steady_ceiling_down_m(now, nav, &self.params.vertical);
         let (Some(frame), Some(runner)) = (self.frame, self.runner.as_mut()) else {
             self.avoidance.reset();
             return self.hold_here(nav);
@@ -407,7 +415,7 @@ impl Commander {
                 let down = *self.hold.down_m.get_or_insert(down);
                 // Held under something overhead, the climb ends there and the return sets off
                 // at it, climbing the rest once out from under.
-                if (pos.z - self.under_ceiling(now, nav, down)).abs() < ALTITUDE_TOLERANCE_M {
+                if (pos.z - self.under_steady_ceiling(now, nav, down)).abs() < ALTITUDE_TOLERANCE_M {
                     self.rtl = RtlPhase::Return { down_m: down };
                 }
                 traj([Some(start.x), Some(start.y), Some(down)], [None; 3], Some(yaw))

@@ -1580,20 +1580,31 @@ fn a_takeoff_under_something_overhead_stops_the_margin_below_it_and_ends_there_i
     assert_eq!(limit.kind, VerticalLimitKind::Overhead);
     assert!((limit.distance_m - 4.0).abs() < 1e-9);
     assert_eq!(c.mode(), FlightMode::Takeoff);
-    // At 4 m the take-off is over: GUIDED holds there.
-    c.on_nav(&nav(Time(4000), -4.0, true));
-    c.on_rangefinder(&rangefinder(4000, RangefinderOrientation::Up, Some(2.0)));
-    c.update(Time(4000));
+    // At 4 m under a slab seen for less than a second the take-off goes on (a passing return
+    // only holds the climb); seen for a second, it is over and GUIDED holds there.
+    let mut t = 2000;
+    while t < 980_000 {
+        t += 20_000;
+        c.on_nav(&nav(Time(t), -4.0, true));
+        c.on_rangefinder(&rangefinder(t, RangefinderOrientation::Up, Some(2.0)));
+        c.update(Time(t));
+        assert_eq!(c.mode(), FlightMode::Takeoff, "{t}");
+    }
+    t += 20_000;
+    c.on_nav(&nav(Time(t), -4.0, true));
+    c.on_rangefinder(&rangefinder(t, RangefinderOrientation::Up, Some(2.0)));
+    c.update(Time(t));
     assert_eq!(c.mode(), FlightMode::Guided);
     // A GUIDED target above the slab is held below it too; a stale reading no longer limits.
-    at(&mut c, 5000, Command::GotoNed { position_ned_m: [0.0, 0.0, -12.0] }).expect("goto");
-    c.on_nav(&nav(Time(5000), -4.0, true));
-    let SetpointTarget::Trajectory(t) = c.update(Time(5000)).target else { panic!("trajectory expected") };
-    assert_eq!(t.position_ned_m[2], Some(-4.0));
-    c.on_nav(&nav(Time(600_000), -4.0, true));
-    let SetpointTarget::Trajectory(t) = c.update(Time(600_000)).target else { panic!("trajectory expected") };
-    assert_eq!(t.position_ned_m[2], Some(-12.0));
-    assert_eq!(c.status(Time(600_000)).vertical_limit, None);
+    at(&mut c, t, Command::GotoNed { position_ned_m: [0.0, 0.0, -12.0] }).expect("goto");
+    c.on_nav(&nav(Time(t), -4.0, true));
+    let SetpointTarget::Trajectory(sp) = c.update(Time(t)).target else { panic!("trajectory expected") };
+    assert_eq!(sp.position_ned_m[2], Some(-4.0));
+    let later = t + 600_000;
+    c.on_nav(&nav(Time(later), -4.0, true));
+    let SetpointTarget::Trajectory(sp) = c.update(Time(later)).target else { panic!("trajectory expected") };
+    assert_eq!(sp.position_ned_m[2], Some(-12.0));
+    assert_eq!(c.status(Time(later)).vertical_limit, None);
 }
 
 #[test]

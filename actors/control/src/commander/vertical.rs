@@ -11,8 +11,8 @@
 //!   climb, and PX4's collision prevention is horizontal only. Inside the margin the vehicle
 //!   holds and may not climb, but is not pushed down (ArduCopter backs away at `AVOID_BACKZ_SPD`):
 //!   a stuck or dirty beam would otherwise drive it towards the ground in every mode. A
-//!   take-off or RTL climb held by a ceiling counts as done at it, so the vehicle does not
-//!   hover under it for ever (ArduCopter's take-off never completes there); on the ground with
+//!   take-off or RTL climb held by a ceiling seen for a second counts as done at it, so the
+//!   vehicle does not hover under it for ever (ArduCopter's take-off never completes there); on the ground with
 //!   less than a metre of room under the ceiling, TAKEOFF does not leave the ground.
 //! * **Below.** A landing's descent reads the downward rangefinder. A surface under the vehicle
 //!   more than `obstacle_below_m` above the take-off ground is an obstacle's top (a roof, a
@@ -108,7 +108,14 @@ pub(super) struct Below {
 pub(super) struct Rangefinders {
     up: Option<Reading>,
     down: Option<Reading>,
+    /// Since when the upward beam has seen a surface in every reading.
+    overhead_since: Option<Time>,
 }
+
+/// A ceiling counts for ending a climb (a take-off, RTL's climb, a mission item reached at it)
+/// once the upward beam has seen it this long (s): a passing return, a bird or a branch swaying
+/// through the beam, only holds the climb while it lasts.
+const STEADY_CEILING_S: f64 = 1.0;
 
 impl Rangefinders {
     /// Takes a sample in; a bad one is refused with the reason and changes nothing.
@@ -122,7 +129,10 @@ impl Rangefinders {
             max_range_m: sample.max_range_m,
         });
         match sample.orientation {
-            RangefinderOrientation::Up => self.up = reading,
+            RangefinderOrientation::Up => {
+                self.up = reading;
+                self.overhead_since = sample.distance_m.and(self.overhead_since.or(Some(sample.time)));
+            }
             RangefinderOrientation::Down => self.down = reading,
         }
         Ok(())
@@ -158,6 +168,15 @@ impl Rangefinders {
     pub fn ceiling_down_m(&self, now: Time, nav: &NavState, p: &VerticalParams) -> Option<f64> {
         let above = self.vertical_m(RangefinderOrientation::Up, now, nav, p.timeout_s)??;
         Some(nav.position_ned_m[2] - above + p.margin_m)
+    }
+
+    /// [`Rangefinders::ceiling_down_m`] once the surface overhead has been seen for
+    /// [`STEADY_CEILING_S`]: where a climb may end.
+    pub fn steady_ceiling_down_m(&self, now: Time, nav: &NavState, p: &VerticalParams) -> Option<f64> {
+        let since = self.overhead_since?;
+        (now.saturating_since(since).as_secs_f64() >= STEADY_CEILING_S)
+            .then(|| self.ceiling_down_m(now, nav, p))
+            .flatten()
     }
 
     /// The vertical distance to the surface under the vehicle (m), if the downward beam sees one.
