@@ -77,6 +77,17 @@ fn fly(name: &str, graph: &Path, plan: &Path) -> Value {
     report
 }
 
+/// Both scenarios' mission, written into `dir` as `name`: take off to 10 m, fly 20 m north at
+/// 10 m, land there.
+fn north_and_land(dir: &Path, name: &str) -> PathBuf {
+    let items = [
+        Item::north(qgc_plan::TAKEOFF, 0.0, 10.0),
+        Item::north(qgc_plan::WAYPOINT, 20.0, 10.0),
+        Item::north(qgc_plan::LAND, 20.0, 0.0),
+    ];
+    qgc_plan::write(dir, name, &items)
+}
+
 /// A slab 2 m thick whose underside is 6 m above home, 8 m square, centred over home: take off
 /// to 10 m, fly 20 m north at 10 m, land there.
 const SLAB: &str =
@@ -85,12 +96,7 @@ const SLAB: &str =
 #[test]
 fn a_takeoff_under_a_slab_stops_below_it_and_the_mission_climbs_once_clear() {
     let dir = scratch("vertical", "slab");
-    let items = [
-        Item::north(qgc_plan::TAKEOFF, 0.0, 10.0),
-        Item::north(qgc_plan::WAYPOINT, 20.0, 10.0),
-        Item::north(qgc_plan::LAND, 20.0, 0.0),
-    ];
-    let plan = qgc_plan::write(&dir, "slab.plan", &items);
+    let plan = north_and_land(&dir, "slab.plan");
     let with = fly("slab, rangefinders", &graph(&dir, SLAB, true), &plan);
     assert_eq!(collisions(&with), 0, "{with}");
     assert_eq!(with["flight"]["landed"], true);
@@ -110,12 +116,7 @@ const ROOF: &str =
 #[test]
 fn a_landing_onto_a_roof_moves_back_off_it_and_lands_beside_it() {
     let dir = scratch("vertical", "roof");
-    let items = [
-        Item::north(qgc_plan::TAKEOFF, 0.0, 10.0),
-        Item::north(qgc_plan::WAYPOINT, 20.0, 10.0),
-        Item::north(qgc_plan::LAND, 20.0, 0.0),
-    ];
-    let plan = qgc_plan::write(&dir, "roof.plan", &items);
+    let plan = north_and_land(&dir, "roof.plan");
     let with = fly("roof, rangefinders", &graph(&dir, ROOF, true), &plan);
     assert_eq!(collisions(&with), 0, "{with}");
     assert_eq!(with["flight"]["landed"], true);

@@ -23,7 +23,8 @@ const ALL_MODES: [FlightMode; 9] = [
     FlightMode::Land,
 ];
 
-fn nav(t: Time, down_m: f64, position: bool) -> NavState {
+/// A still, level NavState `down_m` (NED) at home, with or without a horizontal position.
+pub(super) fn nav(t: Time, down_m: f64, position: bool) -> NavState {
     NavState {
         time: t,
         attitude: [1.0, 0.0, 0.0, 0.0],

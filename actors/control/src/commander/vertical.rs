@@ -347,16 +347,8 @@ mod tests {
 
     fn nav_at(down_m: f64, roll_rad: f64) -> NavState {
         NavState {
-            time: Time::from_secs_f64(10.0),
             attitude: quaternion_from_euler(roll_rad, 0.0, 0.0),
-            angular_velocity_rad_s: [0.0; 3],
-            velocity_ned_m_s: [0.0; 3],
-            position_ned_m: [0.0, 0.0, down_m],
-            gyro_bias_rad_s: [0.0; 3],
-            accel_bias_m_s2: [0.0; 3],
-            covariance_diagonal: [0.0; 16],
-            origin: None,
-            valid: kestrel_proto::messages::NavValidity::default(),
+            ..crate::commander::tests::nav(Time::from_secs_f64(10.0), down_m, false)
         }
     }
 
