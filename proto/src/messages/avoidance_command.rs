@@ -83,6 +83,10 @@ pub enum ClearRangeReason {
     Stale,
     /// The nearest depth in the centre region (the flight path).
     Obstacle,
+    /// The nearest return of the `OBSTACLE_DISTANCE` sectors that can lie in the vehicle's
+    /// corridor (the avoider's `path_half_width_m`): a thin object, too few pixels for the
+    /// centre region's nearest depth.
+    ObstacleInPath,
     /// The centre region is mostly invalid but the ground below it is seen: open sky, or a
     /// textureless wall not yet called unknown. The range is the avoider's conservative
     /// `unknown_range_m`, the distance at which such a wall is reliably called unknown.
@@ -106,6 +110,7 @@ impl ClearRangeReason {
         match self {
             ClearRangeReason::Stale => "stale",
             ClearRangeReason::Obstacle => "obstacle",
+            ClearRangeReason::ObstacleInPath => "obstacle in path",
             ClearRangeReason::Untextured => "untextured",
             ClearRangeReason::UnknownAhead => "unknown ahead",
             ClearRangeReason::GroundOutOfReach => "ground out of reach",

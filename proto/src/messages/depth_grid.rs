@@ -47,6 +47,23 @@ pub struct ObstacleSectors {
     pub max_distance_cm: u16,
 }
 
+impl ObstacleSectors {
+    /// The range (m) of the obstacle sector `index` reports, `None` when it reports none: no
+    /// information ([`SECTOR_UNKNOWN`]), free up to `max_distance_cm`, below the sensor's
+    /// `min_distance_cm`, or no such sector.
+    pub fn obstacle_m(&self, index: usize) -> Option<f64> {
+        let cm = *self.distances_cm.get(index)?;
+        (cm != SECTOR_UNKNOWN && (self.min_distance_cm..=self.max_distance_cm).contains(&cm))
+            .then(|| f64::from(cm) / 100.0)
+    }
+
+    /// The centre bearing of sector `index` (deg, clockwise from forward), wrapped to −180..180.
+    pub fn bearing_deg(&self, index: usize) -> f64 {
+        let deg = f64::from(self.angle_offset_deg) + index as f64 * f64::from(self.increment_deg);
+        (deg + 180.0).rem_euclid(360.0) - 180.0
+    }
+}
+
 /// The depth image of one stereo frame split into 3×3 regions (thesis Figure 3.29).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct DepthGrid {

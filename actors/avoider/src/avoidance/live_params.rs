@@ -112,6 +112,15 @@ pub const LIVE_PARAMS: &[ParamDef<AvoiderParams>] = &[
         set: |p, v| p.stop_distance_m = v,
     },
     ParamDef {
+        name: "AVOID_PATH_HWID",
+        unit: "m",
+        min: 0.0,
+        max: 5.0,
+        description: "Half width of the flight path: a sector return within it of the nose caps the forward speed",
+        get: |p| p.path_half_width_m,
+        set: |p, v| p.path_half_width_m = v,
+    },
+    ParamDef {
         name: "AVOID_BRAKE_ACC",
         unit: "m/s^2",
         min: 0.5,

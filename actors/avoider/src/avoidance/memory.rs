@@ -177,15 +177,10 @@ impl ObstacleMemory {
             let seen_again = covering(sector_of(bearing)).is_some_and(|m| range < m + CARVE_TOLERANCE_M);
             fresh && range <= settings.range_m && !seen_again
         });
-        let min_m = f64::from(sectors.min_distance_cm) / 100.0;
         for index in 0..count {
-            let Some(range) = measured(index) else { continue };
-            if sectors.distances_cm[index] > sectors.max_distance_cm
-                || range < min_m
-                || range > settings.range_m
-            {
+            let Some(range) = sectors.obstacle_m(index).filter(|&range| range <= settings.range_m) else {
                 continue;
-            }
+            };
             if self.points.len() == CAPACITY {
                 self.points.remove(0);
             }

@@ -53,6 +53,7 @@ pub mod live_params;
 mod low_pass;
 pub mod memory;
 pub mod params;
+pub mod path;
 mod pose_history;
 pub mod region_inputs;
 mod view;
@@ -401,9 +402,9 @@ impl Avoider {
 
     /// The distance ahead `view` vouches for (see [`ClearRangeReason`]): an unknown view ahead
     /// vouches for nothing, unless the ground below the path is out of the stereo pair's reach;
-    /// otherwise the nearest depth in the centre, no farther than the conservative
-    /// `unknown_range_m` while the centre is mostly invalid, nor than the grid's reliable
-    /// stereo range.
+    /// otherwise the nearest of the centre's nearest depth and the sectors' nearest return in
+    /// the vehicle's corridor ([`path`]), no farther than the conservative `unknown_range_m`
+    /// while the centre is mostly invalid, nor than the grid's reliable stereo range.
     fn clear_range(
         &self,
         view: &View,
@@ -426,7 +427,9 @@ impl Avoider {
         let obstacle = nearest_ahead
             .filter(|d| *d >= 0.0)
             .map(|range_m| ClearRange { range_m, reason: ClearRangeReason::Obstacle });
-        [untextured, obstacle]
+        let in_path = path::nearest_in_path_m(&grid.sectors, self.params.path_half_width_m)
+            .map(|range_m| ClearRange { range_m, reason: ClearRangeReason::ObstacleInPath });
+        [untextured, obstacle, in_path]
             .into_iter()
             .flatten()
             .fold(stereo, |nearest, r| if r.range_m < nearest.range_m { r } else { nearest })

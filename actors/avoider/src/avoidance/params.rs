@@ -69,6 +69,14 @@ pub struct AvoiderParams {
     /// the thesis, which only slows through the rule base: like PX4's collision prevention
     /// (`CP_DIST`), the forward speed is capped so that the vehicle can still brake in time.
     pub stop_distance_m: f64,
+    /// Half the width of the corridor the vehicle flies (m): a sector's return that can lie
+    /// within it of the forward axis caps the forward speed like the centre's nearest depth
+    /// ([`ClearRangeReason::ObstacleInPath`], thin objects that fill too little of the centre
+    /// region to reach its percentile). The 450 mm quad's collision radius (0.35 m) plus
+    /// 0.4 m for the drift of a sidestep and the sector's bearing.
+    ///
+    /// [`ClearRangeReason::ObstacleInPath`]: kestrel_proto::messages::ClearRangeReason::ObstacleInPath
+    pub path_half_width_m: f64,
     /// Deceleration the forward-speed cap assumes (m/s²); below the commander's 2.5 m/s² limit
     /// on changes of the velocity demand, so the cap is always reachable.
     pub brake_decel_m_s2: f64,
@@ -129,6 +137,7 @@ impl Default for AvoiderParams {
             unknown_range_m: 4.0,
             ground_match_height_m: 12.0,
             stop_distance_m: 2.0,
+            path_half_width_m: 0.75,
             brake_decel_m_s2: 2.0,
             reaction_time_s: 0.3,
             sidestep_speed_m_s: 1.0,
@@ -164,6 +173,7 @@ impl AvoiderParams {
         let non_negative = [
             ("filter_time_constant_s", self.filter_time_constant_s),
             ("stop_distance_m", self.stop_distance_m),
+            ("path_half_width_m", self.path_half_width_m),
             ("unknown_range_m", self.unknown_range_m),
             ("reaction_time_s", self.reaction_time_s),
             ("sidestep_distance_m", self.sidestep_distance_m),

@@ -322,6 +322,11 @@ impl AvoidanceLoop {
     }
 }
 
+/// The braking the speed cap plans on for a depth grid `grid_age_s` old (s).
+pub fn cap_braking(grid_age_s: f64) -> Braking {
+    Braking { decel_m_s2: CAP_DECEL_M_S2, latency_s: grid_age_s + CAP_REACTION_S, margin_m: CAP_MARGIN_M }
+}
+
 /// Caps the forward part (along `heading_rad`) of the horizontal demand `desired` (NED, m/s)
 /// so that the vehicle can stop inside `cmd`'s clear range; lateral and vertical parts stay.
 fn cap_forward(
@@ -332,8 +337,7 @@ fn cap_forward(
 ) -> SpeedCapStatus {
     let range = cmd.clear_range;
     let age_s = cmd.grid_time.map_or(0.0, |t| now.saturating_since(t).as_secs_f64());
-    let braking =
-        Braking { decel_m_s2: CAP_DECEL_M_S2, latency_s: age_s + CAP_REACTION_S, margin_m: CAP_MARGIN_M };
+    let braking = cap_braking(age_s);
     // `on_command` admits only finite ranges ≥ 0 and the constants are valid; a refusal would
     // still stop forward motion rather than lift the cap.
     let cap_m_s = braking.speed_cap_m_s(range.range_m).unwrap_or(0.0);

@@ -35,7 +35,7 @@ use kestrel_proto::messages::{
 use nalgebra::{UnitQuaternion, Vector3};
 
 pub use arming::{Refusal, needs_position, needs_sticks};
-pub use avoidance::frd_to_ned;
+pub use avoidance::{cap_braking, frd_to_ned};
 pub use failsafe::{FailsafeMonitor, FailsafeRecord, HeldFor};
 pub use kestrel_proto::param_def::{ParamChange, ParamRefused};
 pub use land_detector::LandDetector;
