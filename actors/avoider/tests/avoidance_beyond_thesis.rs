@@ -281,6 +281,32 @@ fn a_sidestep_boxed_in_between_two_closing_sides_climbs_until_the_path_clears() 
 }
 
 #[test]
+fn a_sidestep_that_has_slid_its_limit_with_the_path_still_blocked_climbs() {
+    // A pole straight ahead with the sides tied: sidestep right, by convention, from 10 m north.
+    let pole = |t: f64| clear_grid(t, blocked(&[(1, 1)]));
+    let mut avoider = unfiltered(3.0);
+    let mut slide = |avoider: &mut Avoider, t: f64, east_m: f64| {
+        avoider.set_pose(&nav_at(t, 10.0, east_m));
+        avoider.update(at(t), &pole(t)).expect("valid").health
+    };
+    for (t, east_m) in [(0.0, 0.0), (1.0, 1.0), (2.0, 2.0), (2.9, 2.9)] {
+        let health = slide(&mut avoider, t, east_m);
+        assert!(!health.climbing && health.sidestep_m_s == 1.0, "at {east_m} m: {health:?}");
+    }
+    // 3 m (`sidestep_max_m`) from where it began: boxed in from the next grid on.
+    slide(&mut avoider, 3.0, 3.0);
+    let climbing = slide(&mut avoider, 3.1, 3.1);
+    assert!(climbing.climbing && climbing.sidestep_m_s == 0.0, "{climbing:?}");
+
+    // Without the estimator's poses the slide is not measured, so it is not limited.
+    let mut blind = unfiltered(3.0);
+    for t in [0.0, 3.0, 6.0] {
+        let health = blind.update(at(t), &pole(t)).expect("valid").health;
+        assert!(!health.climbing && health.sidestep_m_s == 1.0, "at {t} s: {health:?}");
+    }
+}
+
+#[test]
 fn a_whole_blocked_centre_column_sidesteps_instead_of_climbing_or_diving() {
     // A tall trunk straight ahead fills up, centre and down: the rule base's vertical answer
     // (rows 5 and 6 of table 3.1 fire against each other) is no way over or under.
@@ -354,6 +380,18 @@ fn the_clear_range_is_what_the_view_vouches_for_ahead_and_why() {
     // ... with a depth nearer than the conservative 4 m in the centre: the depth.
     near[1][1] = 0.6;
     assert_eq!(reason(range(near, invalid)), (2.0, ClearRangeReason::Obstacle));
+    // A thin pole straight ahead, too few pixels for the centre's nearest depth but in the
+    // sectors: 6.5 m in sector 0 against the centre's 20 m. Sector 2 (7.5°..12.5°) 5 m out can
+    // lie 0.65 m off the nose, inside the 0.75 m corridor; 6 m out (0.78 m) it cannot.
+    let clear = || grid(0.0, [[0.0; 3]; 3], [[0.0; 3]; 3]);
+    let in_path = |readings: &[(i32, f64)]| {
+        unfiltered(3.0).update(at(0.0), &with_sectors(clear(), readings)).expect("valid").clear_range
+    };
+    assert_eq!(reason(in_path(&[(0, 6.5)])), (6.5, ClearRangeReason::ObstacleInPath));
+    let beside = in_path(&[(0, 6.5), (2, 5.0)]);
+    assert_eq!(beside.reason, ClearRangeReason::ObstacleInPath);
+    assert!((beside.range_m - 5.0 * 7.5f64.to_radians().cos()).abs() < 1e-9, "{beside:?}");
+    assert_eq!(reason(in_path(&[(0, 6.5), (2, 6.0)])), (6.5, ClearRangeReason::ObstacleInPath));
     // The textureless wall: nothing is vouched for.
     invalid[2][1] = 0.95;
     assert_eq!(reason(range([[0.0; 3]; 3], invalid)), (0.0, ClearRangeReason::UnknownAhead));

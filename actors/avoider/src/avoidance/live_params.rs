@@ -157,6 +157,15 @@ pub const LIVE_PARAMS: &[ParamDef<AvoiderParams>] = &[
         set: |p, v| p.sidestep_distance_m = v,
     },
     ParamDef {
+        name: "AVOID_SIDE_MAX",
+        unit: "m",
+        min: 0.5,
+        max: 50.0,
+        description: "A sidestep that has slid this far with the path still blocked climbs instead",
+        get: |p| p.sidestep_max_m,
+        set: |p, v| p.sidestep_max_m = v,
+    },
+    ParamDef {
         name: "AVOID_MEM_TIME_S",
         unit: "s",
         min: 0.0,

@@ -19,7 +19,10 @@
 //!    * boxed in: a sidestep that has turned back to a side it gave up (each side closed in
 //!      turn, by what is in view or remembered) climbs as if every region were blocked, until
 //!      the path clears — sliding on between the two would dither in front of the obstacle
-//!      until the memory forgot one side (forest seed 8 turned 12 times in 19 s);
+//!      until the memory forgot one side (forest seed 8 turned 12 times in 19 s); so does a
+//!      sidestep that has slid `sidestep_max_m` from where it began: the camera does not see
+//!      sideways, and a long slide runs into what nearer trunks hid while it was in view
+//!      (thin forest seed 2 slid 4.4 m into such a trunk);
 //!    * view ahead unknown (the textureless wall of §4.2.3, [`View::unknown_ahead`]): the
 //!      vehicle keeps at most `unknown_speed_share` of its desired speed (0 by default: stop);
 //!      not above `ground_match_height_m`, where the ground below the path is out of the
@@ -89,6 +92,8 @@ struct Sidestep {
     side: Option<f64>,
     /// Times it turned to the other side.
     turns: u32,
+    /// Where it began (north, east; m), when the estimator's pose was known.
+    start_ne_m: Option<[f64; 2]>,
 }
 
 impl Sidestep {
@@ -338,9 +343,21 @@ impl Avoider {
                     // A side is kept until the path clears: the rule base's own way if it
                     // gives one, else the freer side.
                     let sides_nearest = [region_nearest(1, 0), region_nearest(1, 2)];
+                    if self.sidestep.side.is_none() {
+                        self.sidestep.start_ne_m =
+                            self.poses.newest().map(|pose| [pose.ned_m[0], pose.ned_m[1]]);
+                    }
                     let mut side = *self.sidestep.side.get_or_insert_with(|| {
                         if lateral_way { target[1].signum() } else { view.freer_side(sides_nearest) }
                     });
+                    let slid_m = self
+                        .sidestep
+                        .start_ne_m
+                        .zip(self.poses.newest())
+                        .map(|(start, pose)| (pose.ned_m[0] - start[0]).hypot(pose.ned_m[1] - start[1]));
+                    if slid_m.is_some_and(|slid| slid >= p.sidestep_max_m) {
+                        self.boxed_in = true;
+                    }
                     // Never slide into something close on the side under way, in view or
                     // remembered: turn to the other side if that one is not close too.
                     let close = |d: Option<f64>| d.is_some_and(|d| d < p.sidestep_distance_m);

@@ -91,6 +91,13 @@ pub struct AvoiderParams {
     /// Before the memory, in the forest of `config/worlds/forest.toml`: at 1.5 m/s seed 1
     /// collided; at 1.0 m/s 7 of seeds 1–10 flew clean; at 0.75 m/s 2 of the first 4 collided.
     pub sidestep_speed_m_s: f64,
+    /// A sidestep that has slid this far (m, horizontally, from where it began; known only
+    /// with the estimator's poses) with the path still blocked climbs instead, as when boxed
+    /// in: the camera does not see sideways, and farther on lies what nearer trunks hid while
+    /// it was in view. Thin forest seed 2 slid 4.4 m into a trunk that had stood behind
+    /// others; 3 m is about one trunk spacing of the thin forest and a few of its trunks'
+    /// widths.
+    pub sidestep_max_m: f64,
     /// A depth nearer than this in the centre region (m) blocks the path even when its near
     /// share is small (a thin trunk), so the vehicle sidesteps rather than waits in front of it.
     pub sidestep_distance_m: f64,
@@ -142,6 +149,7 @@ impl Default for AvoiderParams {
             reaction_time_s: 0.3,
             sidestep_speed_m_s: 1.0,
             sidestep_distance_m: 4.0,
+            sidestep_max_m: 3.0,
             memory_time_s: 30.0,
             memory_range_m: 10.0,
             memory_height_m: 1.5,
@@ -162,6 +170,7 @@ impl AvoiderParams {
             ("max_grid_age_s", self.max_grid_age_s),
             ("check_period_s", self.check_period_s),
             ("memory_range_m", self.memory_range_m),
+            ("sidestep_max_m", self.sidestep_max_m),
             ("memory_height_m", self.memory_height_m),
             ("ground_match_height_m", self.ground_match_height_m),
         ];
