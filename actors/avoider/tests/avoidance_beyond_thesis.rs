@@ -289,13 +289,14 @@ fn a_sidestep_that_has_slid_its_limit_with_the_path_still_blocked_climbs() {
         avoider.set_pose(&nav_at(t, 10.0, east_m));
         avoider.update(at(t), &pole(t)).expect("valid").health
     };
-    for (t, east_m) in [(0.0, 0.0), (1.0, 1.0), (2.0, 2.0), (2.9, 2.9)] {
-        let health = slide(&mut avoider, t, east_m);
+    let max_m = AvoiderParams::default().sidestep_max_m;
+    for east_m in [0.0, 1.0, 2.0, max_m - 0.1] {
+        let health = slide(&mut avoider, east_m, east_m);
         assert!(!health.climbing && health.sidestep_m_s == 1.0, "at {east_m} m: {health:?}");
     }
-    // 3 m (`sidestep_max_m`) from where it began: boxed in from the next grid on.
-    slide(&mut avoider, 3.0, 3.0);
-    let climbing = slide(&mut avoider, 3.1, 3.1);
+    // `sidestep_max_m` from where it began: boxed in from the next grid on.
+    slide(&mut avoider, max_m, max_m);
+    let climbing = slide(&mut avoider, max_m + 0.1, max_m + 0.1);
     assert!(climbing.climbing && climbing.sidestep_m_s == 0.0, "{climbing:?}");
 
     // Without the estimator's poses the slide is not measured, so it is not limited.
