@@ -285,7 +285,7 @@ fn a_sidestep_that_has_slid_its_limit_with_the_path_still_blocked_climbs() {
     // A pole straight ahead with the sides tied: sidestep right, by convention, from 10 m north.
     let pole = |t: f64| clear_grid(t, blocked(&[(1, 1)]));
     let mut avoider = unfiltered(3.0);
-    let mut slide = |avoider: &mut Avoider, t: f64, east_m: f64| {
+    let slide = |avoider: &mut Avoider, t: f64, east_m: f64| {
         avoider.set_pose(&nav_at(t, 10.0, east_m));
         avoider.update(at(t), &pole(t)).expect("valid").health
     };
