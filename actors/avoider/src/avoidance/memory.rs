@@ -303,20 +303,10 @@ mod tests {
     /// Sectors of a 110° camera (±55°: sectors −11..=11) reading `free` everywhere in view but
     /// for the given `(sector, range m)`; a negative sector counts anticlockwise from forward.
     fn view(readings: &[(i32, f64)]) -> ObstacleSectors {
-        let mut distances_cm = vec![SECTOR_UNKNOWN; OBSTACLE_SECTORS];
-        for s in -11i32..=11 {
-            distances_cm[s.rem_euclid(72) as usize] = 2001;
-        }
-        for &(s, range) in readings {
-            distances_cm[s.rem_euclid(72) as usize] = (range * 100.0).round() as u16;
-        }
-        ObstacleSectors {
-            distances_cm,
-            increment_deg: 5.0,
-            angle_offset_deg: 0.0,
-            min_distance_cm: 30,
-            max_distance_cm: 2000,
-        }
+        let index = |s: i32| s.rem_euclid(OBSTACLE_SECTORS as i32) as usize;
+        let free = (-11i32..=11).map(|s| (index(s), 2001));
+        let read = readings.iter().map(|&(s, range)| (index(s), (range * 100.0).round() as u16));
+        crate::avoidance::test_sectors(free.chain(read))
     }
 
     fn points(memory: &ObstacleMemory, at: &Pose) -> Vec<(f64, f64)> {

@@ -85,6 +85,26 @@ use pose_history::PoseHistory;
 use region_inputs::InputMap;
 pub use view::View;
 
+/// Test sectors as the stereo actor lays them out (72 of 5° from straight ahead, 0.3–20 m),
+/// unknown but for `set` (sector index, cm).
+#[cfg(test)]
+pub(crate) fn test_sectors(
+    set: impl IntoIterator<Item = (usize, u16)>,
+) -> kestrel_proto::messages::ObstacleSectors {
+    use kestrel_proto::messages::{OBSTACLE_SECTORS, ObstacleSectors, SECTOR_UNKNOWN};
+    let mut distances_cm = vec![SECTOR_UNKNOWN; OBSTACLE_SECTORS];
+    for (index, cm) in set {
+        distances_cm[index] = cm;
+    }
+    ObstacleSectors {
+        distances_cm,
+        increment_deg: 5.0,
+        angle_offset_deg: 0.0,
+        min_distance_cm: 30,
+        max_distance_cm: 2000,
+    }
+}
+
 /// The sidestep under way, kept until the path clears.
 #[derive(Debug, Clone, Copy, Default)]
 struct Sidestep {

@@ -41,24 +41,14 @@ pub fn nearest_in_path_m(sectors: &ObstacleSectors, half_width_m: f64) -> Option
 
 #[cfg(test)]
 mod tests {
-    use kestrel_proto::messages::{OBSTACLE_SECTORS, SECTOR_UNKNOWN};
+    use kestrel_proto::messages::OBSTACLE_SECTORS;
     use proptest::prelude::*;
 
     use super::*;
 
     /// 72 sectors of 5° from straight ahead, 0.3–20 m, all unknown but `set`.
     fn sectors(set: &[(usize, u16)]) -> ObstacleSectors {
-        let mut distances_cm = vec![SECTOR_UNKNOWN; OBSTACLE_SECTORS];
-        for &(index, cm) in set {
-            distances_cm[index] = cm;
-        }
-        ObstacleSectors {
-            distances_cm,
-            increment_deg: 5.0,
-            angle_offset_deg: 0.0,
-            min_distance_cm: 30,
-            max_distance_cm: 2000,
-        }
+        crate::avoidance::test_sectors(set.iter().copied())
     }
 
     #[test]
