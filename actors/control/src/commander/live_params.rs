@@ -161,6 +161,15 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.failsafe.link_timeout_s = v,
     },
     ParamDef {
+        name: "FS_NAV_TIMEOUT_S",
+        unit: "s",
+        min: 0.0,
+        max: 10.0,
+        description: "No fresh navigation state for this long lands (PX4's COM_POS_FS_DELAY)",
+        get: |p| p.failsafe.nav_stale_s,
+        set: |p, v| p.failsafe.nav_stale_s = v,
+    },
+    ParamDef {
         name: "FS_RC_TIMEOUT_S",
         unit: "s",
         min: 0.2,

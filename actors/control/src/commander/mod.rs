@@ -125,6 +125,8 @@ pub struct Commander {
     /// The pack voltage under `battery_low_volt` / `battery_critical_volt`, and since when.
     low_volt: HeldFor,
     critical_volt: HeldFor,
+    /// No fresh NavState (older than `nav_timeout_s`), and since when (`failsafe.nav_stale_s`).
+    nav_stale: HeldFor,
     last_refusal: Option<String>,
     /// Refusals so far (`VehicleStatus::refusals`).
     refusals: u32,
@@ -184,6 +186,7 @@ impl Commander {
             critical_failure: false,
             low_volt: HeldFor::default(),
             critical_volt: HeldFor::default(),
+            nav_stale: HeldFor::default(),
             last_refusal: None,
             refusals: 0,
             last_update: None,
@@ -779,6 +782,7 @@ impl Commander {
         let timer = fs.battery_volt_timer_s;
         let low_volt = self.low_volt.check(now, armed && under(fs.battery_low_volt), timer);
         let critical_volt = self.critical_volt.check(now, armed && under(fs.battery_critical_volt), timer);
+        let nav_stale = self.nav_stale.check(now, armed && !fresh, fs.nav_stale_s);
         let unhealthy = nav.as_ref().is_some_and(|n| {
             fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
         });
@@ -805,7 +809,7 @@ impl Commander {
         );
         m.set(now, FailsafeCause::GeofenceBreach, armed && fence, fs.geofence_action);
         m.set(now, FailsafeCause::EstimatorUnhealthy, armed && unhealthy, fs.estimator_action);
-        m.set(now, FailsafeCause::NavStateStale, armed && !fresh, FailsafeAction::Land);
+        m.set(now, FailsafeCause::NavStateStale, nav_stale, FailsafeAction::Land);
         m.set(
             now,
             FailsafeCause::CriticalActorFailed,

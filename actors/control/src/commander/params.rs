@@ -133,6 +133,12 @@ pub struct FailsafeParams {
     pub geofence_action: FailsafeAction,
     pub estimator_action: FailsafeAction,
     pub critical_actor_action: FailsafeAction,
+    /// No fresh navigation state (none newer than `nav_timeout_s`) for this long (s) lands.
+    /// Until then the controller flies blind (level, a little below hover) and the mode stands,
+    /// so a thread of a non-realtime host that misses a few periods (the flight side of a
+    /// Zenoh split on a loaded host had its loop wait up to 95 ms) does not end a mission. PX4 waits
+    /// `COM_POS_FS_DELAY` (1 s) of failed position checks before its failsafe acts.
+    pub nav_stale_s: f64,
     /// Sticks (RC or MAVLink MANUAL_CONTROL) older than this are gone (s): modes flown from
     /// them are refused, and losing them while one is flown fires `manual_action`. ArduPilot
     /// drops MAVLink sticks after `RC_OVERRIDE_TIME` (3 s) and PX4 declares RC lost after
@@ -174,6 +180,7 @@ impl Default for FailsafeParams {
             geofence_action: FailsafeAction::ReturnToLaunch,
             estimator_action: FailsafeAction::Land,
             critical_actor_action: FailsafeAction::Land,
+            nav_stale_s: 1.0,
             manual_timeout_s: 1.0,
             manual_action: FailsafeAction::ReturnToLaunch,
             motor_failure: MotorFailureParams::default(),
@@ -322,6 +329,7 @@ impl CommanderParams {
             ));
         }
         within("failsafe.battery_volt_timer_s", self.failsafe.battery_volt_timer_s, 0.0, 120.0)?;
+        within("failsafe.nav_stale_s", self.failsafe.nav_stale_s, 0.0, 10.0)?;
         self.failsafe.validate_actions()?;
         MotorFailureDetector::new(self.failsafe.motor_failure)
             .map_err(|e| InvalidParam::new("failsafe.motor_failure", e.to_string()))?;
