@@ -299,11 +299,63 @@ fn a_sidestep_that_has_slid_its_limit_with_the_path_still_blocked_climbs() {
     let climbing = slide(&mut avoider, max_m + 0.1, max_m + 0.1);
     assert!(climbing.climbing && climbing.sidestep_m_s == 0.0, "{climbing:?}");
 
-    // Without the estimator's poses the slide is not measured, so it is not limited.
+    // Without the estimator's poses the slide is not measured, so it is not limited...
     let mut blind = unfiltered(3.0);
     for t in [0.0, 3.0, 6.0] {
         let health = blind.update(at(t), &pole(t)).expect("valid").health;
         assert!(!health.climbing && health.sidestep_m_s == 1.0, "at {t} s: {health:?}");
+    }
+    // ...until they come: it is measured from the first.
+    for (t, east_m) in [(7.0, 0.0), (8.0, max_m - 0.1), (9.0, max_m)] {
+        let health = slide(&mut blind, t, east_m);
+        assert!(!health.climbing && health.sidestep_m_s == 1.0, "at {east_m} m: {health:?}");
+    }
+    assert!(slide(&mut blind, 10.0, max_m + 0.1).climbing);
+
+    // The limit reached on the grid where the side under way closes (the sidestep turns to the
+    // other side) climbs from the next grid all the same.
+    let mut turning = unfiltered(3.0);
+    for east_m in [0.0, 1.0, 2.0] {
+        slide(&mut turning, east_m, east_m);
+    }
+    turning.set_pose(&nav_at(max_m, 10.0, max_m));
+    let mut closing = pole(max_m);
+    closing.regions[1][2].nearest_m = Some(1.0);
+    let turned = turning.update(at(max_m), &closing).expect("valid").health;
+    assert!(!turned.climbing && turned.sidestep_m_s == -1.0, "turned left: {turned:?}");
+    let climbing = slide(&mut turning, max_m + 0.1, max_m + 0.1);
+    assert!(climbing.climbing, "{climbing:?}");
+}
+
+#[test]
+fn a_grid_captured_where_the_poses_stopped_is_not_placed_in_the_memory() {
+    let mut avoider = unfiltered(3.0);
+    avoider.set_pose(&nav_at(0.0, 0.0, 0.0));
+    avoider.update(at(0.0), &with_sectors(clear_grid(0.0, [[0.0; 3]; 3]), &[(6, 5.0)])).expect("valid");
+    let remembered = avoider.remembered();
+    assert!(remembered > 0);
+    // Half a second on without a pose: a new return 30° right is not placed from the frozen
+    // pose, and what the memory held stays.
+    let second = with_sectors(clear_grid(0.5, [[0.0; 3]; 3]), &[(6, 5.0), (-6, 5.0)]);
+    avoider.update(at(0.5), &second).expect("valid");
+    assert_eq!(avoider.remembered(), remembered);
+    // The poses come back: it is.
+    avoider.set_pose(&nav_at(0.6, 0.0, 0.0));
+    let third = with_sectors(clear_grid(0.6, [[0.0; 3]; 3]), &[(6, 5.0), (-6, 5.0)]);
+    avoider.update(at(0.6), &third).expect("valid");
+    assert!(avoider.remembered() > remembered, "{} points", avoider.remembered());
+}
+
+#[test]
+fn sectors_without_a_usable_angle_are_refused() {
+    for (increment, offset) in [(f32::NAN, 0.0), (0.0, 0.0), (-5.0, 0.0), (5.0, f32::INFINITY)] {
+        let mut grid = clear_grid(0.0, [[0.0; 3]; 3]);
+        (grid.sectors.increment_deg, grid.sectors.angle_offset_deg) = (increment, offset);
+        let refused = unfiltered(3.0).update(at(0.0), &grid);
+        assert!(
+            matches!(refused, Err(kestrel_avoider::avoidance::error::GridError::BadSectors { .. })),
+            "{increment}°, offset {offset}°: {refused:?}"
+        );
     }
 }
 

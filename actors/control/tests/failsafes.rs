@@ -139,6 +139,22 @@ fn a_navigation_gap_of_nav_stale_s_lands() {
 }
 
 #[test]
+fn a_navigation_state_back_for_a_moment_once_a_second_still_lands() {
+    // Each gap alone is shorter than nav_stale_s (0.95 s without a state, 0.9 s of it stale);
+    // the returns between them do not earn the time back.
+    let mut f = airborne(CommanderParams::default(), 6.0);
+    for _ in 0..3 {
+        f.nav_blackout = true;
+        f.run(0.95);
+        f.nav_blackout = false;
+        f.run(0.05);
+    }
+    assert_eq!(f.commander.mode(), FlightMode::Land);
+    assert_eq!(f.commander.failsafe_log()[0].cause, FailsafeCause::NavStateStale);
+    lands_and_disarms(&mut f);
+}
+
+#[test]
 fn a_failed_flight_critical_actor_lands() {
     let mut f = airborne(CommanderParams::default(), 6.0);
     f.commander.on_supervisor(&SupervisorEvent {

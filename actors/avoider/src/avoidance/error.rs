@@ -37,6 +37,10 @@ pub enum GridError {
     /// A region's share is NaN, infinite or outside 0..1.
     #[error("depth grid region [{row}][{col}]: {field} = {value} is not a share in 0..1")]
     BadShare { row: usize, col: usize, field: &'static str, value: f32 },
+    /// The OBSTACLE_DISTANCE sectors' geometry is unusable: an increment that is not a
+    /// finite positive angle, or an offset that is not finite (degrees).
+    #[error("depth grid sectors: {field} = {value} is not a usable angle")]
+    BadSectors { field: &'static str, value: f32 },
     /// The grid is not newer than the last accepted one.
     #[error("depth grid captured at {time} is not newer than the last accepted one ({last})")]
     OutOfOrder { time: Time, last: Time },

@@ -76,6 +76,16 @@ use crate::engine::{Engine, Workspace};
 const WAY_M_S: f64 = 0.3;
 /// A sidestep that turns this many times has come back to a side it gave up: boxed in.
 const BOXED_IN_TURNS: u32 = 2;
+/// A grid is placed in the world (the obstacle memory) only with a pose at most this far from
+/// its capture time (s): five of the pose history's 20 ms slots, 0.5 m at 5 m/s. Poses further
+/// off mean the estimator's state stopped coming, which the flight side flies through blind for
+/// up to `failsafe.nav_stale_s` (1 s, 5 m at 5 m/s).
+const CAPTURE_POSE_GAP_S: f64 = 0.1;
+
+/// Seconds between two times, either way round.
+fn pose_gap_s(a: Time, b: Time) -> f64 {
+    a.saturating_since(b).max(b.saturating_since(a)).as_secs_f64()
+}
 pub use desired_speed::desired_speed_m_s;
 use error::{AvoiderError, GridError, ParamsError, SetpointError};
 pub use low_pass::LowPass;
@@ -234,6 +244,7 @@ impl Avoider {
         if !valid || !nav.position_ned_m.iter().chain(&nav.attitude).all(|v| v.is_finite()) {
             self.poses.clear();
             self.memory.clear();
+            self.sidestep.start_ne_m = None;
             return;
         }
         let [w, x, y, z] = nav.attitude;
@@ -295,6 +306,13 @@ impl Avoider {
         if age_s > self.params.max_grid_age_s {
             return Err(GridError::TooOld { age_s, limit_s: self.params.max_grid_age_s });
         }
+        let sectors = &grid.sectors;
+        if !(sectors.increment_deg.is_finite() && sectors.increment_deg > 0.0) {
+            return Err(GridError::BadSectors { field: "increment_deg", value: sectors.increment_deg });
+        }
+        if !sectors.angle_offset_deg.is_finite() {
+            return Err(GridError::BadSectors { field: "angle_offset_deg", value: sectors.angle_offset_deg });
+        }
         let view = View::new(grid, self.params.unknown_invalid_share)?;
         let speed_input = self.speed_input();
         let inputs = self.map.inputs(&view.near, speed_input);
@@ -316,7 +334,12 @@ impl Avoider {
         let unmeasured_clear_m = if ground_out_of_reach { self.params.unknown_range_m } else { 0.0 };
         let settings = self.memory_settings().map(|s| MemorySettings { unmeasured_clear_m, ..s });
         match (settings, self.poses.at(grid.time)) {
-            (Some(settings), Some(capture)) => self.memory.observe(&grid.sectors, &capture, &settings),
+            (Some(settings), Some(capture)) if pose_gap_s(capture.time, grid.time) <= CAPTURE_POSE_GAP_S => {
+                self.memory.observe(&grid.sectors, &capture, &settings)
+            }
+            // The estimator's poses stopped around the capture: the grid cannot be placed, and
+            // what the memory holds stays.
+            (Some(_), Some(_)) => {}
             _ => self.memory.clear(),
         }
 
@@ -363,7 +386,8 @@ impl Avoider {
                     // A side is kept until the path clears: the rule base's own way if it
                     // gives one, else the freer side.
                     let sides_nearest = [region_nearest(1, 0), region_nearest(1, 2)];
-                    if self.sidestep.side.is_none() {
+                    // Measured from the first pose of the sidestep, if it began without one.
+                    if self.sidestep.start_ne_m.is_none() {
                         self.sidestep.start_ne_m =
                             self.poses.newest().map(|pose| [pose.ned_m[0], pose.ned_m[1]]);
                     }
@@ -388,7 +412,7 @@ impl Avoider {
                         side = -side;
                         self.sidestep.side = Some(side);
                         self.sidestep.turns += 1;
-                        self.boxed_in = self.sidestep.turns >= BOXED_IN_TURNS;
+                        self.boxed_in |= self.sidestep.turns >= BOXED_IN_TURNS;
                     }
                     // The rule base's lateral answer stands when it goes the same way faster.
                     if target[1] * side < p.sidestep_speed_m_s {

@@ -70,9 +70,10 @@ pub struct AvoiderParams {
     /// (`CP_DIST`), the forward speed is capped so that the vehicle can still brake in time.
     pub stop_distance_m: f64,
     /// Half the width of the corridor the vehicle flies (m): a sector's return that can lie
-    /// within it of the forward axis caps the forward speed like the centre's nearest depth
-    /// ([`ClearRangeReason::ObstacleInPath`], thin objects that fill too little of the centre
-    /// region to reach its percentile). The 450 mm quad's collision radius (0.35 m) plus
+    /// within it of the forward axis bounds the clear range, and with it the commander's
+    /// speed cap, as the centre's nearest depth does ([`ClearRangeReason::ObstacleInPath`],
+    /// thin objects that fill too little of the centre region to reach its percentile). The
+    /// avoider's own cap (`stop_distance_m`) and its blocked centre read the regions only. The 450 mm quad's collision radius (0.35 m) plus
     /// 0.4 m for the drift of a sidestep and the sector's bearing.
     ///
     /// [`ClearRangeReason::ObstacleInPath`]: kestrel_proto::messages::ClearRangeReason::ObstacleInPath

@@ -54,6 +54,33 @@ impl HeldFor {
     }
 }
 
+/// A condition that counts once it has held for `for_s` in all, net of the breaks between:
+/// time it holds adds up, time it does not pays the sum back at half the rate. A navigation
+/// state that comes back for a moment once a second is as good as gone, where a [`HeldFor`]
+/// would restart at every return and never fire; a state late for 150 ms now and then (a
+/// non-realtime host) pays it back within 0.3 s. PX4 likewise wants position checks passing
+/// for a probation time (`COM_POS_FS_PROB`) before it trusts them again.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NetHeldFor {
+    held_s: f64,
+    last: Option<Time>,
+}
+
+impl NetHeldFor {
+    /// Whether `condition`, true now, has held for `for_s` net of its breaks.
+    pub fn check(&mut self, now: Time, condition: bool, for_s: f64) -> bool {
+        let dt_s = self.last.map_or(0.0, |t| now.saturating_since(t).as_secs_f64());
+        self.last = Some(now);
+        self.held_s = if condition { self.held_s + dt_s } else { (self.held_s - 0.5 * dt_s).max(0.0) };
+        condition && self.held_s >= for_s
+    }
+
+    /// Forgets what has been held (on disarming).
+    pub fn reset(&mut self) {
+        *self = NetHeldFor::default();
+    }
+}
+
 fn slot(cause: FailsafeCause) -> usize {
     CAUSES.iter().position(|c| *c == cause).unwrap_or(0)
 }
@@ -127,6 +154,34 @@ mod tests {
         assert!(!h.check(s(12), false, 10.0));
         assert!(!h.check(s(13), true, 10.0), "the timer restarts");
         assert!(h.check(s(13), true, 0.0), "no timer: at once");
+    }
+
+    #[test]
+    fn net_held_for_adds_up_returning_breaks_and_pays_them_back_at_half_rate() {
+        let ms = |ms: u64| Time::from_micros(ms * 1000);
+        // Held 950 ms, broken 50 ms, each second: fires in the second second.
+        let mut h = NetHeldFor::default();
+        let mut fired = None;
+        for step in 0..=400u64 {
+            let t = step * 5;
+            if h.check(ms(t), t % 1000 >= 50, 1.0) {
+                fired = Some(t);
+                break;
+            }
+        }
+        // 0.95 s held, 0.025 s paid back over the 50 ms break, then 0.075 s more: 1.12 s, to
+        // a step of 5 ms.
+        assert!(fired.is_some_and(|t| (1115..=1125).contains(&t)), "fired at {fired:?} ms");
+        // Held 150 ms every 1.5 s: paid back each time, never fires.
+        let mut h = NetHeldFor::default();
+        assert!((0..=6000u64).all(|step| !h.check(ms(step * 5), (step * 5) % 1500 < 150, 0.5)));
+        // A break does not fire even with the sum past the limit; a reset forgets it.
+        let mut h = NetHeldFor::default();
+        assert!(!h.check(ms(0), true, 0.1));
+        assert!(h.check(ms(200), true, 0.1));
+        assert!(!h.check(ms(205), false, 0.1));
+        h.reset();
+        assert!(!h.check(ms(210), true, 0.1));
     }
 
     #[test]

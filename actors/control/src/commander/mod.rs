@@ -36,7 +36,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 pub use arming::{Refusal, needs_position, needs_sticks};
 pub use avoidance::{cap_braking, frd_to_ned};
-pub use failsafe::{FailsafeMonitor, FailsafeRecord, HeldFor};
+pub use failsafe::{FailsafeMonitor, FailsafeRecord, HeldFor, NetHeldFor};
 pub use kestrel_proto::param_def::{ParamChange, ParamRefused};
 pub use land_detector::LandDetector;
 pub use mission_runner::{MissionRunner, MissionStep};
@@ -125,8 +125,9 @@ pub struct Commander {
     /// The pack voltage under `battery_low_volt` / `battery_critical_volt`, and since when.
     low_volt: HeldFor,
     critical_volt: HeldFor,
-    /// No fresh NavState (older than `nav_timeout_s`), and since when (`failsafe.nav_stale_s`).
-    nav_stale: HeldFor,
+    /// How long the NavState has been stale (older than `nav_timeout_s`), net of its returns
+    /// (`failsafe.nav_stale_s`).
+    nav_stale: NetHeldFor,
     last_refusal: Option<String>,
     /// Refusals so far (`VehicleStatus::refusals`).
     refusals: u32,
@@ -186,7 +187,7 @@ impl Commander {
             critical_failure: false,
             low_volt: HeldFor::default(),
             critical_volt: HeldFor::default(),
-            nav_stale: HeldFor::default(),
+            nav_stale: NetHeldFor::default(),
             last_refusal: None,
             refusals: 0,
             last_update: None,
@@ -782,6 +783,9 @@ impl Commander {
         let timer = fs.battery_volt_timer_s;
         let low_volt = self.low_volt.check(now, armed && under(fs.battery_low_volt), timer);
         let critical_volt = self.critical_volt.check(now, armed && under(fs.battery_critical_volt), timer);
+        if !armed {
+            self.nav_stale.reset();
+        }
         let nav_stale = self.nav_stale.check(now, armed && !fresh, fs.nav_stale_s);
         let unhealthy = nav.as_ref().is_some_and(|n| {
             fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
