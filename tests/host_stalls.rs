@@ -20,7 +20,7 @@ use std::process::{Child, Command};
 use std::thread::sleep;
 use std::time::Duration;
 
-use flights::{collisions, repo, scratch};
+use flights::{collisions, merged_graph, repo, scratch};
 use serde_json::Value;
 
 /// How long each stall lasts, and how long the process runs between two.
@@ -31,15 +31,11 @@ const BETWEEN: Duration = Duration::from_millis(1500);
 /// paths, the MAVLink link on an ephemeral local port).
 fn realtime_graph(dir: &Path) -> PathBuf {
     let config_dir = repo().join("config");
-    let text = kestrel::LoadedConfig::load(&config_dir.join("sim.toml")).unwrap().merged_toml().unwrap();
-    let (link, lockstep) = ("[actors.link]\ntype = \"link\"\n", "clock = \"lockstep\"");
-    assert!(text.contains(link) && text.contains(lockstep), "the stock graph changed");
+    let text = merged_graph("sim.toml");
+    let lockstep = "clock = \"lockstep\"";
+    assert!(text.contains(lockstep), "the stock graph changed");
     let text = text
         .replace(lockstep, "clock = \"realtime\"")
-        .replace(
-            link,
-            &format!("{link}params.endpoints = [{{ type = \"udp_in\", bind = \"127.0.0.1:0\" }}]\n"),
-        )
         .replace("\"worlds/", &format!("\"{}/worlds/", config_dir.display()))
         .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()));
     let graph = dir.join("graph.toml");

@@ -15,7 +15,7 @@ use serde_json::Value;
 )]
 mod flights;
 mod qgc_plan;
-use flights::{clearance_m, collisions, repo, run_for_report, scratch};
+use flights::{clearance_m, collisions, merged_graph, repo, run_for_report, scratch};
 use qgc_plan::Item;
 
 /// Writes a world of `obstacles` (`[[obstacles]]` tables) and `config/sim.toml` (its bases
@@ -34,19 +34,9 @@ fn graph(dir: &Path, obstacles: &str, rangefinders: bool) -> PathBuf {
     let vehicle = dir.join("vehicle.toml");
     let vehicle_text = if rangefinders { vehicle_text } else { without_rangefinders(&vehicle_text) };
     std::fs::write(&vehicle, vehicle_text).unwrap();
-    let stock = kestrel::LoadedConfig::load(&config_dir.join("sim.toml")).unwrap();
-    let text = stock.merged_toml().unwrap();
-    let link = "[actors.link]\ntype = \"link\"\n";
-    assert!(
-        text.contains(link)
-            && text.contains("\"worlds/empty.toml\"")
-            && text.contains("\"vehicles/quad_x.toml\"")
-    );
+    let text = merged_graph("sim.toml");
+    assert!(text.contains("\"worlds/empty.toml\"") && text.contains("\"vehicles/quad_x.toml\""));
     let text = text
-        .replace(
-            link,
-            &format!("{link}params.endpoints = [{{ type = \"udp_in\", bind = \"127.0.0.1:0\" }}]\n"),
-        )
         .replace("\"worlds/empty.toml\"", &format!("\"{}\"", world.display()))
         .replace("\"vehicles/quad_x.toml\"", &format!("\"{}\"", vehicle.display()));
     let path = dir.join("graph.toml");

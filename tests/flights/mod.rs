@@ -20,20 +20,23 @@ pub fn scratch(prefix: &str, name: &str) -> PathBuf {
     dir
 }
 
-/// The text of `config/sim-forest.toml` (its bases merged in) flying `world` (a path), with its relative paths made
-/// absolute and its MAVLink link on an ephemeral local port (tests run in parallel, and a
-/// flight needs no ground station).
+/// `config/{file}`'s graph with its bases merged in, its MAVLink link on an ephemeral local port
+/// (tests run in parallel, and a flight needs no ground station).
+pub fn merged_graph(file: &str) -> String {
+    let text = kestrel::LoadedConfig::load(&repo().join("config").join(file)).unwrap().merged_toml().unwrap();
+    let link = "[actors.link]\ntype = \"link\"\n";
+    assert!(text.contains(link), "{file} has a link");
+    text.replace(
+        link,
+        &format!("{link}params.endpoints = [{{ type = \"udp_in\", bind = \"127.0.0.1:0\" }}]\n"),
+    )
+}
+
+/// The text of `config/sim-forest.toml` (see [`merged_graph`]) flying `world` (a path), with
+/// its relative paths made absolute.
 pub fn sim_forest_graph(world: &Path) -> String {
     let config_dir = repo().join("config");
-    let stock = kestrel::LoadedConfig::load(&config_dir.join("sim-forest.toml")).unwrap();
-    let text = stock.merged_toml().unwrap();
-    let link = "[actors.link]\ntype = \"link\"\n";
-    assert!(text.contains(link), "the stock graph has a link");
-    let text = text
-        .replace(
-            link,
-            &format!("{link}params.endpoints = [{{ type = \"udp_in\", bind = \"127.0.0.1:0\" }}]\n"),
-        )
+    let text = merged_graph("sim-forest.toml")
         .replace("worlds/forest.toml", &world.display().to_string())
         .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()));
     assert!(!text.contains("\"worlds/forest.toml"), "the world was swapped");
