@@ -84,6 +84,14 @@ const TURN_MIN_DISTANCE_M: f64 = 2.0;
 /// where it goes. Flying while turning, an RTL started facing away from home reached 3.8 m/s
 /// backwards into trees before the camera faced them (forest round trip, seed 10).
 const LEG_IN_VIEW_RAD: f64 = 30.0 * std::f64::consts::PI / 180.0;
+/// Descending along an AUTO, GUIDED or RTL leg, at most this far down per metre forward: the
+/// path stays inside the image's centre row band, which is all the speed cap reads (its
+/// regions and its `OBSTACLE_DISTANCE` sectors). The default camera (110° across, 4:3) sees
+/// that band to tan 19.6° = 0.357 below its axis; the quad's 0.35 m collision radius takes
+/// 0.04 of it at the 9.25 m stopping reach from 5 m/s, and a 3° nose-up pitch while braking
+/// 0.05, leaving 0.27. Steeper, a descent after a climb over trees went at 2 m/s while
+/// flying on at 2.5 m/s (39°) and met a trunk below the band (forest seed 9).
+pub(crate) const DESCENT_SLOPE: f64 = 0.25;
 
 /// What the leg wants, before the avoider.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -263,6 +271,17 @@ impl AvoidanceLoop {
         }
         if turning_first {
             (desired.x, desired.y) = (0.0, 0.0);
+        }
+        // A leg's own descent, while it still goes somewhere, follows what the camera sees
+        // ahead ([`DESCENT_SLOPE`]); over its target it descends straight down, out of the
+        // forward camera's sight as a landing is.
+        if matches!(leg, Leg::To { .. })
+            && fresh.is_some()
+            && !vertical_takeover
+            && leg_horizontal.norm() >= TURN_MIN_SPEED_M_S
+        {
+            let along = desired.x * heading.cos() + desired.y * heading.sin();
+            desired.z = desired.z.min(DESCENT_SLOPE * along.max(0.0));
         }
         let holding = avoided && fresh.is_none();
         if holding {

@@ -527,6 +527,31 @@ fn guided_velocity_blends_the_rotated_correction_and_honours_the_climb() {
 }
 
 #[test]
+fn a_leg_descends_no_steeper_than_the_camera_sees_ahead_and_straight_down_over_its_target() {
+    // From 17 m up, facing north: a GUIDED target 40 m north at 5 m, then one straight below.
+    for (north_m, slope_limited) in [(40.0, true), (0.0, false)] {
+        let mut c = hovering();
+        at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
+        at(&mut c, 2000, Command::GotoNed { position_ned_m: [north_m, 0.0, -5.0] }).expect("goto");
+        let mut v = [0.0; 3];
+        for k in 1..=1600 {
+            let t = 2000 + k * 2500;
+            // Flying the demand, so that the ground-contact check does not take a vehicle
+            // that holds still under a descent demand for one on the ground.
+            c.on_nav(&NavState { velocity_ned_m_s: v, ..nav_heading(t, -17.0, 0.0) });
+            c.on_avoidance(&avoidance(t, [0.0; 3], false));
+            v = velocity(&trajectory(c.update(Time(t)).target));
+            if slope_limited {
+                assert!(v[2] <= super::avoidance::DESCENT_SLOPE * v[0] + 1e-9, "{v:?} at {t} µs");
+            }
+        }
+        // Settled: 5 m/s north and a quarter of it down; or the leg's 2 m/s straight down.
+        let expected = if slope_limited { [5.0, 0.0, 1.25] } else { [0.0, 0.0, 2.0] };
+        assert!(v.iter().zip(expected).all(|(v, e)| (v - e).abs() < 1e-6), "{v:?}, not {expected:?}");
+    }
+}
+
+#[test]
 fn a_target_a_few_decimetres_away_does_not_turn_the_nose() {
     // Facing north; a GUIDED target 0.5 m east (the drift of a take-off spot) is flown to
     // without swinging the forward camera towards it; one 10 m east turns it.
