@@ -71,11 +71,6 @@ const LEASH_M: f64 = 0.3;
 /// so that a gust cannot drag the held position along (a leash of [`LEASH_M`] did: the
 /// vehicle drifted onto a trunk while climbing beside it, forest seed 4).
 const HOLD_LEASH_M: f64 = 1.0;
-/// A horizontal demand at most this fast (m/s) is a hold: the avoider's low-pass lets its
-/// last sidestep decay towards zero without reaching it, and a setpoint that kept following
-/// the vehicle through that tail held nothing. Boxed in and climbing beside a thin trunk, the
-/// vehicle drifted 0.4 m sideways onto it in the wind (thin forest seed 4).
-const HOLD_BELOW_M_S: f64 = 0.1;
 /// A vertical correction above this (m/s) takes the altitude over from the leg.
 const VERTICAL_TAKEOVER_M_S: f64 = 0.1;
 /// The nose turns towards the leg only while the leg asks for at least this speed (m/s).
@@ -306,27 +301,20 @@ impl AvoidanceLoop {
         // ramp by about half a second, and a vehicle braking for a trunk decelerated at about
         // 1.2 m/s² where the avoider planned on 2 (forest seed 9).
         let acceleration = step / dt_s.max(1e-6);
-        let holds_xy = v_cmd.x.hypot(v_cmd.y) <= HOLD_BELOW_M_S;
-        if !holds_xy {
+        if v_cmd.x.hypot(v_cmd.y) > 0.0 {
             // A velocity is flown, as in PX4's position mode: while the demand moves the
             // vehicle the horizontal setpoint follows it, without the lead that a lagging
             // vehicle would catch up on (up to 1 m/s faster than the demand, towards what the
             // avoider is braking for, or sideways into a trunk after a sidestep); it stays
-            // where the demand falls to a hold, and the vehicle holds there.
+            // where the demand reaches zero, and the vehicle holds there.
             (p_sp.x, p_sp.y) = (pos.x, pos.y);
         }
         p_sp += v_cmd * dt_s;
-        // Each axis on its own leash: a climb (the vertical demand moving) must not loosen the
-        // horizontal hold beside a trunk.
         let lead = p_sp - pos;
-        let leash_xy = if holds_xy { HOLD_LEASH_M } else { LEASH_M };
-        let lead_xy = lead.xy().norm();
-        if lead_xy > leash_xy {
-            p_sp.x = pos.x + lead.x * (leash_xy / lead_xy);
-            p_sp.y = pos.y + lead.y * (leash_xy / lead_xy);
+        let leash = if v_cmd.norm() > 0.0 { LEASH_M } else { HOLD_LEASH_M };
+        if lead.norm() > leash {
+            p_sp = pos + lead * (leash / lead.norm());
         }
-        let leash_z = if v_cmd.z != 0.0 { LEASH_M } else { HOLD_LEASH_M };
-        p_sp.z = pos.z + lead.z.clamp(-leash_z, leash_z);
         self.state = Some((p_sp, v_cmd));
         if turns && !holding {
             let error = wrap_pi(bearing - *yaw_rad);

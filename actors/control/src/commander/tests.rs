@@ -552,33 +552,6 @@ fn a_leg_descends_no_steeper_than_the_camera_sees_ahead_and_straight_down_over_i
 }
 
 #[test]
-fn climbing_with_the_tail_of_a_sidestep_holds_the_horizontal_position_against_a_drift() {
-    // Boxed in: the avoider stops the leg and climbs; its low-pass leaves 2 cm/s of the last
-    // sidestep. The vehicle drifts east at 0.1 m/s (a gust); the horizontal setpoint stays
-    // where the demand fell to a hold instead of following the vehicle.
-    let mut c = hovering();
-    at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
-    at(&mut c, 2000, Command::GotoNed { position_ned_m: [40.0, 0.0, -5.0] }).expect("goto");
-    let mut climb = avoidance(0, [-5.0, 0.02, -1.5], false);
-    climb.health.climbing = true;
-    let (mut east_m, mut sp) = (0.0, TrajectorySetpoint::default());
-    for k in 1..=1200 {
-        let t = 2000 + k * 2500;
-        east_m += 0.1 * 0.0025;
-        c.on_nav(&NavState {
-            position_ned_m: [0.0, east_m, -5.0],
-            velocity_ned_m_s: [0.0, 0.1, 0.0],
-            ..nav_heading(t, -5.0, 0.0)
-        });
-        c.on_avoidance(&AvoidanceCommand { time: Time(t), ..climb });
-        sp = trajectory(c.update(Time(t)).target);
-    }
-    let p = sp.position_ned_m.map(|p| p.expect("position"));
-    assert!(east_m > 0.29 && p[1] < 0.1, "the setpoint at {p:?} followed the vehicle {east_m:.2} m east");
-    assert!(p[2] < -5.0, "and climbs: {p:?}");
-}
-
-#[test]
 fn a_target_a_few_decimetres_away_does_not_turn_the_nose() {
     // Facing north; a GUIDED target 0.5 m east (the drift of a take-off spot) is flown to
     // without swinging the forward camera towards it; one 10 m east turns it.
