@@ -2,15 +2,16 @@
 //! every 1.5 s while it flies the 40 m leg: a non-realtime host that does not run the flight
 //! process for a while, as a loaded CI host did to the Zenoh split's flight side (its control
 //! loop went up to 95 ms between iterations, and it landed mid-mission on a stale navigation
-//! state). Every thread stops at once and wakes to a
-//! clock that moved on, so the commander may run before the estimator has published again.
+//! state). Every thread stops at once and wakes to a clock that moved on, so the commander may
+//! run before the estimator has published again.
 //!
 //! The controller flies blind through such a gap and the commander lands only once the state
 //! has been stale for `failsafe.nav_stale_s` (1 s, PX4's `COM_POS_FS_DELAY`). With that set to
 //! 0 (a stale state landed at once before) the same stalls landed the vehicle mid-mission in
-//! each of four runs (the failsafe fired 13.1 to 26.2 s into the run): a stall leaves the commander
-//! without a fresh state only when it runs before the estimator, so that check is left to the
-//! commander's tests (actors/control/tests/failsafes.rs), which time the gap exactly.
+//! each of four runs (the failsafe fired 13.1 to 26.2 s into the run): a stall leaves the
+//! commander without a fresh state only when it runs before the estimator, so that check is
+//! left to the commander's tests (actors/control/tests/failsafes.rs), which time the gap
+//! exactly.
 
 #[allow(dead_code, reason = "shared by the flight test binaries; this one runs its own process")]
 mod flights;

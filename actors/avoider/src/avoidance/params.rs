@@ -73,8 +73,9 @@ pub struct AvoiderParams {
     /// within it of the forward axis bounds the clear range, and with it the commander's
     /// speed cap, as the centre's nearest depth does ([`ClearRangeReason::ObstacleInPath`],
     /// thin objects that fill too little of the centre region to reach its percentile). The
-    /// avoider's own cap (`stop_distance_m`) and its blocked centre read the regions only. The 450 mm quad's collision radius (0.35 m) plus
-    /// 0.4 m for the drift of a sidestep and the sector's bearing.
+    /// avoider's own cap (`stop_distance_m`) and its blocked centre read the regions only.
+    /// The 450 mm quad's collision radius (0.35 m) plus 0.4 m for the drift of a sidestep and
+    /// the sector's bearing.
     ///
     /// [`ClearRangeReason::ObstacleInPath`]: kestrel_proto::messages::ClearRangeReason::ObstacleInPath
     pub path_half_width_m: f64,
@@ -98,7 +99,9 @@ pub struct AvoiderParams {
     /// it was in view. Thin forest seed 2 slid 4.4 m into a trunk that had stood behind
     /// others. With 3 m, 100 m forest seed 9 climbed to 17.6 m instead, and on the way back
     /// down to the leg's 5 m, flying on at 2.5 m/s, met a trunk below the camera's centre band
-    /// (the speed cap reads only that band); both fly clean with 3.5 m.
+    /// (the speed cap reads only that band); both fly clean with 3.5 m. Since the commander
+    /// keeps a leg's descent inside that band (`DESCENT_SLOPE`), seed 9 flies clean with 3 m
+    /// too.
     pub sidestep_max_m: f64,
     /// A depth nearer than this in the centre region (m) blocks the path even when its near
     /// share is small (a thin trunk), so the vehicle sidesteps rather than waits in front of it.

@@ -280,7 +280,7 @@ impl AvoidanceLoop {
             && !vertical_takeover
             && leg_horizontal.norm() >= TURN_MIN_SPEED_M_S
         {
-            let along = desired.x * heading.cos() + desired.y * heading.sin();
+            let along = desired.dot(&frd_to_ned([1.0, 0.0, 0.0], heading));
             desired.z = desired.z.min(DESCENT_SLOPE * along.max(0.0));
         }
         let holding = avoided && fresh.is_none();
@@ -360,7 +360,7 @@ fn cap_forward(
     // `on_command` admits only finite ranges ≥ 0 and the constants are valid; a refusal would
     // still stop forward motion rather than lift the cap.
     let cap_m_s = braking.speed_cap_m_s(range.range_m).unwrap_or(0.0);
-    let forward = Vector3::new(heading_rad.cos(), heading_rad.sin(), 0.0);
+    let forward = frd_to_ned([1.0, 0.0, 0.0], heading_rad);
     let along = desired.dot(&forward);
     let limiting = along > cap_m_s;
     if limiting {

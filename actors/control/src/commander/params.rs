@@ -134,10 +134,11 @@ pub struct FailsafeParams {
     pub estimator_action: FailsafeAction,
     pub critical_actor_action: FailsafeAction,
     /// No fresh navigation state (none newer than `nav_timeout_s`) for this long (s) lands.
-    /// Until then the controller flies blind (level, a little below hover) and the mode stands,
-    /// so a thread of a non-realtime host that misses a few periods (the flight side of a
-    /// Zenoh split on a loaded host had its loop wait up to 95 ms) does not end a mission. PX4 waits
-    /// `COM_POS_FS_DELAY` (1 s) of failed position checks before its failsafe acts.
+    /// Counted net of brief returns (`NetHeldFor`). Until then the controller flies blind
+    /// (level, a little below hover) and the mode stands, so a thread of a non-realtime host
+    /// that misses a few periods (the flight side of a Zenoh split on a loaded host had its
+    /// loop wait up to 95 ms) does not end a mission. PX4 waits `COM_POS_FS_DELAY` (1 s) of
+    /// failed position checks before its failsafe acts.
     pub nav_stale_s: f64,
     /// Sticks (RC or MAVLink MANUAL_CONTROL) older than this are gone (s): modes flown from
     /// them are refused, and losing them while one is flown fires `manual_action`. ArduPilot
