@@ -15,6 +15,11 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 # `unshare` and iproute2's `ip` for the tests that fly the default config on its fixed UDP ports,
 # each in a network namespace of its own (tests/mavsdk.rs, tests/instances.rs).
 packages=(build-essential pkg-config python3 python3-venv clang libclang-dev libopencv-dev socat util-linux iproute2)
+# The tests also check the shipped systemd unit with `systemd-analyze verify`
+# (tests/service_manager.rs).
+if [[ "${1:-}" == "--tests" ]]; then
+    packages+=(systemd)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
-use kestrel_proto::{Clock, Keepsake, Message, Publisher, Setup, Time};
+use kestrel_proto::{ActorError, Clock, Keepsake, Message, Publisher, Setup, Time};
 
 use crate::activity::{Activity, Busy};
 use crate::config::{ActorDecl, ConfigError, Source};
@@ -44,6 +44,8 @@ pub struct Graph {
     mailboxes: Vec<Arc<dyn MailboxView>>,
     /// `actor.port` of each input an actor declared and the config left unrouted.
     unrouted_inputs: Vec<(String, &'static str)>,
+    /// The devices the graph's drivers claimed ([`Setup::claim_device`]).
+    device_locks: Vec<crate::locks::Lock>,
 }
 
 /// What a topic looks like once the graph is wired, for status lines and reports.
@@ -64,7 +66,14 @@ impl TopicHandle {
 impl Graph {
     /// An empty graph on `clock`.
     pub fn new(clock: Arc<dyn Clock>, activity: Arc<Activity>) -> Graph {
-        Graph { clock, activity, topics: BTreeMap::new(), mailboxes: Vec::new(), unrouted_inputs: Vec::new() }
+        Graph {
+            clock,
+            activity,
+            topics: BTreeMap::new(),
+            mailboxes: Vec::new(),
+            unrouted_inputs: Vec::new(),
+            device_locks: Vec::new(),
+        }
     }
 
     /// The graph's clock.
@@ -106,6 +115,17 @@ impl Graph {
     /// Whether a topic `name` of message type `type_name` has a publisher.
     pub fn is_published(&self, name: &str, type_name: &str) -> bool {
         self.topics.get(name).is_some_and(|s| s.type_name == type_name && !s.publishers.is_empty())
+    }
+
+    /// The device locks the drivers took while they were built, for the run to hold until it
+    /// ends.
+    pub fn take_device_locks(&mut self) -> Vec<crate::locks::Lock> {
+        std::mem::take(&mut self.device_locks)
+    }
+
+    /// Whether some actor reads topic `name` carrying `type_name`.
+    pub fn is_subscribed(&self, name: &str, type_name: &str) -> bool {
+        self.topics.get(name).is_some_and(|s| s.type_name == type_name && !s.subscribers.is_empty())
     }
 
     /// In a graph with a ground-station link (a publisher of `param_set`), every live parameter
@@ -566,6 +586,15 @@ impl<I: Send + 'static> Setup<I> for Wiring<'_, I> {
         if let Some(mailbox) = mailbox {
             self.declared.inputs.push(Arc::new(BoundInput { mailbox: Arc::clone(&mailbox), wrap: tick }));
             self.declared.timers.push(TimerSpec { mailbox, period });
+        }
+    }
+
+    fn claim_device(&mut self, device: &Path) -> Result<(), ActorError> {
+        match self.first.as_mut() {
+            Some(first) => crate::locks::claim_device(&mut first.graph.device_locks, device)
+                .map_err(|e| ActorError::Failed(e.to_string())),
+            // A restarted actor still holds its first build's claim.
+            None => Ok(()),
         }
     }
 

@@ -1,14 +1,15 @@
 //! Running a graph: build the clock and the topics from the config, start every actor under
 //! its supervisor, drive lockstep time (or wait on the wall clock), and shut down cleanly on
-//! the run's end, Ctrl-C or SIGTERM, flushing the flight log.
+//! the run's end or a signal (after landing an armed vehicle: [`crate::shutdown`]), flushing
+//! the flight log.
 
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use kestrel_proto::messages::{GroundTruth, SupervisorEvent, VehicleStatus};
-use kestrel_proto::{Clock, Time};
+use kestrel_proto::messages::{GroundTruth, SupervisorEvent, VehicleCommand, VehicleStatus};
+use kestrel_proto::{Clock, Message, Time};
 use tokio_util::sync::CancellationToken;
 
 use crate::activity::Activity;
@@ -20,6 +21,8 @@ use crate::graph::Graph;
 use crate::mailbox::{Doorbell, MailboxKind};
 use crate::recorder::{Recorder, RecorderError, RecordingSummary};
 use crate::registry::Registry;
+use crate::service_manager::ServiceManager;
+use crate::shutdown::{Signals, Vehicle};
 use crate::supervisor::{ActorKind, EscalationHook, KindOf, Supervised, SupervisorContext};
 
 /// How long shutdown waits for actors to stop before it closes the log anyway.
@@ -177,6 +180,9 @@ async fn run_graph(
         return Err(RunError::Config(errors));
     }
 
+    let device_locks = graph.take_device_locks();
+    let vehicle = vehicle_handles(&mut graph).map_err(|m| RunError::Config(vec![source.error(m)]))?;
+    let alive = graph.observe::<VehicleStatus>("vehicle_status", Doorbell::new());
     let record_path = options.record.clone().or_else(|| config.graph.record.path.clone());
     let recorder = record_path.as_deref().map(Recorder::create).transpose()?;
     let truth = graph.observe::<GroundTruth>("ground_truth", Doorbell::new());
@@ -202,8 +208,19 @@ async fn run_graph(
         panics,
         dedicated_threads: config.graph.run.clock == ClockKind::Realtime,
     };
+    let signals = Signals::install();
+    let service = ServiceManager::from_env();
     let supervisors: Vec<_> = prepared.into_iter().map(|p| p.spawn(supervisor_ctx.clone())).collect();
-    tokio::spawn(cancel_on_signal(shutdown.clone()));
+    tokio::spawn(crate::shutdown::on_signals(
+        signals,
+        vehicle,
+        Arc::clone(&clock),
+        lockstep.is_some(),
+        service.clone(),
+        shutdown.clone(),
+    ));
+    service.ready(&format!("running {}", source.path.display()));
+    tokio::spawn(service.clone().feed_watchdog(alive, shutdown.clone()));
     if options.status && run_cfg.status_period_s > 0.0 {
         tokio::spawn(crate::status::run(
             Duration::from_secs_f64(run_cfg.status_period_s),
@@ -239,6 +256,8 @@ async fn run_graph(
     if tokio::time::timeout(SHUTDOWN_GRACE, stopped).await.is_err() {
         tracing::warn!("some actors did not stop within {SHUTDOWN_GRACE:?}; closing the log anyway");
     }
+    service.stopping();
+    drop(device_locks);
     let end_time = clock.now();
     let recording = recorder.map(Recorder::finish).transpose()?;
     let supervisor_events = log.lock().unwrap_or_else(|e| e.into_inner()).clone();
@@ -290,31 +309,16 @@ fn flight_report_actor(
     KindOf::<FlightReportActor>::default().prepare("flight_report", &decl, source, graph)
 }
 
-/// Completes on Ctrl-C or SIGTERM (never, where neither can be listened for).
-pub async fn interrupt() {
-    #[cfg(unix)]
-    let term = async {
-        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
-            Ok(mut s) => {
-                s.recv().await;
-            }
-            Err(_) => std::future::pending().await,
-        }
+/// What the shutdown path needs when the graph has a commander: its status (observed) and a
+/// publisher on the topic it takes commands from.
+fn vehicle_handles(graph: &mut Graph) -> Result<Option<Vehicle>, String> {
+    if !graph.is_subscribed("vehicle_command", VehicleCommand::TYPE_NAME) {
+        return Ok(None);
+    }
+    let doorbell = Doorbell::new();
+    let Some(status) = graph.observe::<VehicleStatus>("vehicle_status", Arc::clone(&doorbell)) else {
+        return Ok(None);
     };
-    #[cfg(not(unix))]
-    let term = std::future::pending::<()>();
-    tokio::select! {
-        _ = tokio::signal::ctrl_c() => {}
-        _ = term => {}
-    }
-}
-
-/// Cancels `shutdown` on Ctrl-C or SIGTERM.
-async fn cancel_on_signal(shutdown: CancellationToken) {
-    tokio::select! {
-        _ = shutdown.cancelled() => return,
-        _ = interrupt() => {}
-    }
-    tracing::info!("signal received, shutting down");
-    shutdown.cancel();
+    let command = graph.runtime_publisher::<VehicleCommand>("vehicle_command")?;
+    Ok(Some(Vehicle { status, doorbell, command }))
 }

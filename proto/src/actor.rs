@@ -81,6 +81,16 @@ pub trait Setup<I> {
     /// unhandled when the next one is due is conflated and counted as missed.
     fn timer(&mut self, port: &'static str, period: Duration, tick: fn(Time) -> I);
 
+    /// Claims a device file the actor is about to open (spidev, I²C, a serial port, a PWM chip)
+    /// for this process alone. Call it before opening the device, so a second process on the
+    /// same board fails here, naming the first, instead of resetting a chip under it. The claim
+    /// lasts for the whole run, restarts included. By default (a harness running one actor)
+    /// nothing is claimed.
+    fn claim_device(&mut self, device: &Path) -> Result<(), ActorError> {
+        let _ = device;
+        Ok(())
+    }
+
     /// The actor's keepsake `name`: the same slot in every incarnation of this actor, so what
     /// one keeps its restarted successor can take ([`Keepsake`]). By default an empty slot of
     /// its own, for a harness that never builds the actor twice.

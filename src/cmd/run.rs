@@ -16,6 +16,10 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         print!("{text}");
         return Ok(());
     }
+    // Before anything is built: a second run of this instance must not touch the first's
+    // devices or ports (kestrel::locks).
+    let _instance = kestrel::locks::claim_instance(&config_path, args.instance.unwrap_or(0))
+        .map_err(|e| format!("{e}: stop it first, or run another --instance"))?;
     apply_flight_flags(&mut config, &args)?;
     if let Some(n) = args.instance {
         apply_instance(&mut config, n)?;

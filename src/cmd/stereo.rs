@@ -168,7 +168,7 @@ fn interrupt_flag() -> Arc<AtomicBool> {
         let Ok(runtime) = tokio::runtime::Builder::new_current_thread().enable_all().build() else {
             return;
         };
-        runtime.block_on(kestrel::run::interrupt());
+        runtime.block_on(kestrel::shutdown::interrupt());
         set.store(true, Ordering::Relaxed);
     });
     flag

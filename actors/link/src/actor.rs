@@ -13,7 +13,7 @@ use kestrel_proto::messages::{
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
-use crate::config::LinkParams;
+use crate::config::{EndpointKind, LinkParams};
 use crate::hub::Hub;
 use crate::services::ToGraph;
 use crate::services::params::{ParamTable, parse_param_file, render_param_file};
@@ -155,6 +155,11 @@ impl Actor for LinkActor {
             kestrel_proto::timing::positive_seconds("gcs_timeout_s", params.gcs_timeout_s, 3600.0)?;
         let config_dir = setup.config_dir().to_owned();
         let table = load_params(params, &config_dir)?;
+        for endpoint in &params.endpoints {
+            if let EndpointKind::Serial { device, .. } = &endpoint.kind {
+                setup.claim_device(device)?;
+            }
+        }
         setup.input("nav_state", LinkInput::Nav);
         setup.input("gps", LinkInput::Gps);
         setup.input("battery", LinkInput::Battery);

@@ -106,6 +106,7 @@ impl Actor for BaroActor {
         if let Some(bus) = kestrel_proto::bus::open_plugged_i2c(&params.device, params.address) {
             return BaroActor::with_bus(bus, params, setup);
         }
+        setup.claim_device(&params.device)?;
         let bus = LinuxI2c::open(&params.device, params.address).map_err(|e| ActorError::Io {
             what: format!(
                 "MS5611 barometer at I2C address {:#04x} on {}",

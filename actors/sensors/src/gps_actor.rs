@@ -236,6 +236,7 @@ impl Actor for GpsActor {
     fn build(params: &GpsActorParams, setup: &mut impl Setup<GpsInput>) -> Result<GpsActor, ActorError> {
         let first_baud = if params.configure { params.initial_baud } else { params.baud };
         let what = format!("GPS receiver at {first_baud} baud");
+        setup.claim_device(&params.device)?;
         let port = serial::open(&params.device, LineSettings::n81(first_baud), &what)
             .map_err(|e| ActorError::Failed(e.to_string()))?;
         let mut actor =

@@ -257,6 +257,7 @@ impl Actor for ImuActor {
         if let Some(bus) = kestrel_proto::bus::open_plugged_spi(&params.device) {
             return ImuActor::with_bus(bus, params, setup);
         }
+        setup.claim_device(&params.device)?;
         let bus = LinuxSpi::open(&params.device, params.spi_mode, params.spi_speed_hz).map_err(|e| {
             ActorError::Io { what: format!("MPU-9250 IMU on {}", params.device.display()), source: e.source }
         })?;

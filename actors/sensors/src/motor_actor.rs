@@ -143,6 +143,7 @@ impl Actor for MotorActor {
             }
             None => {
                 let root = setup.config_dir().join(&params.root);
+                setup.claim_device(&root.join(format!("pwmchip{}", params.chip)))?;
                 let motors = MotorOutput::open(
                     &root,
                     params.chip,

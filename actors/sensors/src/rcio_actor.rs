@@ -117,7 +117,9 @@ impl Actor for RcioActor {
     fn build(params: &RcioActorParams, setup: &mut impl Setup<RcioInput>) -> Result<RcioActor, ActorError> {
         let rc_period = period("rc_rate_hz", params.rc_rate_hz)?;
         let battery_period = period("battery_rate_hz", params.battery_rate_hz)?;
-        let rcio = RcioSysfs::new(&setup.config_dir().join(&params.root));
+        let root = setup.config_dir().join(&params.root);
+        setup.claim_device(&root)?;
+        let rcio = RcioSysfs::new(&root);
         let channels = params.sticks.highest_channel();
         // Every file the actor will read must be there now: a missing driver or a wrong
         // channel is a start-up error naming the file, not a stream of failed polls.

@@ -142,6 +142,7 @@ impl Actor for SbusActor {
     type Input = SbusInput;
 
     fn build(params: &SbusActorParams, setup: &mut impl Setup<SbusInput>) -> Result<SbusActor, ActorError> {
+        setup.claim_device(&params.device)?;
         let port = serial::open(&params.device, LineSettings::sbus(), "SBUS receiver at 100000 baud 8E2")
             .map_err(|e| ActorError::Failed(e.to_string()))?;
         Ok(SbusActor::with_port(Box::new(port), &params.device.display().to_string(), params, setup))

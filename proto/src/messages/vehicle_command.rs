@@ -56,6 +56,10 @@ pub enum Command {
     /// In GUIDED and AUTO: keep the nose on this point, NED from the estimator's origin (m), or
     /// stop doing so (`None`) (MAV_CMD_DO_SET_ROI_LOCATION, DO_SET_ROI_NONE).
     RegionOfInterest { position_ned_m: Option<[f64; 3]> },
+    /// The process is being stopped (SIGTERM, SIGINT, SIGHUP): in the air, land where the
+    /// vehicle is and announce it; armed on the ground, disarm. The runtime sends it and exits
+    /// once the vehicle is disarmed, so ending the process never stops the motors in flight.
+    Shutdown,
     /// The ground station is alive. Heartbeats and sticks (not other commands, which scripts
     /// send too) establish and refresh the data link whose loss is a failsafe.
     Heartbeat,

@@ -21,6 +21,7 @@ mod mission_runner;
 mod modes;
 mod motor_check;
 mod params;
+mod shutdown;
 mod vertical;
 
 use kestrel_proto::Time;
@@ -417,6 +418,10 @@ impl Commander {
                 }
             }
             Command::Land => self.set_mode(now, FlightMode::Land),
+            Command::Shutdown => {
+                self.on_shutdown(now);
+                Ok(())
+            }
             Command::ReturnToLaunch => self.set_mode(now, FlightMode::ReturnToLaunch),
             Command::MissionStart => self.mode_allowed(now, FlightMode::Auto).and_then(|()| {
                 // MISSION_START in AUTO restarts the mission from its first item (or the one a
@@ -1021,4 +1026,4 @@ fn inside_polygon(vertices: &[[f64; 2]], north: f64, east: f64) -> bool {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -57,7 +57,7 @@ fn mission() -> Mission {
 }
 
 /// A commander with fresh navigation (with or without position) and a full battery.
-fn ready(position: bool) -> Commander {
+pub(super) fn ready(position: bool) -> Commander {
     let mut c = Commander::new(CommanderParams::default()).expect("valid");
     c.on_nav(&nav(Time(1000), 0.0, position));
     c.on_battery(&full_battery(Time(1000)));
@@ -261,7 +261,7 @@ fn a_mission_ending_in_a_land_item_completes_on_touchdown() {
 }
 
 /// Armed in POSHOLD and in the air 5 m above home at t = 2 ms.
-fn hovering() -> Commander {
+pub(super) fn hovering() -> Commander {
     let mut c = ready(true);
     cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
     cmd(&mut c, Command::Arm).expect("arm");
@@ -271,7 +271,7 @@ fn hovering() -> Commander {
     c
 }
 
-fn at(c: &mut Commander, t: u64, command: Command) -> Result<(), String> {
+pub(super) fn at(c: &mut Commander, t: u64, command: Command) -> Result<(), String> {
     c.on_command(&VehicleCommand { id: 0, time: Time(t), command }).map_err(|r| r.0)
 }
 
