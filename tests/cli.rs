@@ -8,9 +8,14 @@ use kestrel::recorder::{LogReader, Recorded};
 use kestrel_proto::Message;
 use kestrel_proto::messages::{BaroSample, BatteryStatus, GpsFix, GroundTruth, ImuSample, MagSample};
 
+/// The binary, from the repository's root. Several of these tests run the default graph at
+/// once, which the instance lock would refuse (`kestrel::locks`): each test keeps its locks in a
+/// folder of its own.
 fn kestrel() -> Command {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_kestrel"));
-    cmd.current_dir(env!("CARGO_MANIFEST_DIR")).env_remove("RUST_LOG");
+    cmd.current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env_remove("RUST_LOG")
+        .env("KESTREL_LOCK_DIR", temp_path("locks"));
     cmd
 }
 
