@@ -92,12 +92,12 @@ fn targets_in(line: &str) -> Vec<String> {
         rest = &after[end..];
     }
     let trimmed = line.trim_start();
-    if trimmed.starts_with('[') && !trimmed.starts_with("[^") {
-        if let Some(close) = trimmed.find("]:") {
-            if let Some(target) = trimmed[close + 2..].split_whitespace().next() {
-                targets.push(target.trim_start_matches('<').trim_end_matches('>').to_owned());
-            }
-        }
+    if trimmed.starts_with('[')
+        && !trimmed.starts_with("[^")
+        && let Some(close) = trimmed.find("]:")
+        && let Some(target) = trimmed[close + 2..].split_whitespace().next()
+    {
+        targets.push(target.trim_start_matches('<').trim_end_matches('>').to_owned());
     }
     for attribute in ["href=\"", "src=\""] {
         let mut rest = line.as_str();
@@ -208,10 +208,11 @@ fn problem(root: &Path, link: &Link) -> Option<String> {
     if link.file.starts_with(&book) && !resolved.starts_with(&book) {
         return Some(format!("{} is outside the book (docs/src), which mdBook publishes alone", path));
     }
-    if let Some(anchor) = anchor {
-        if resolved.extension().is_some_and(|e| e == "md") && !anchors(&resolved).contains(anchor) {
-            return Some(format!("{} has no heading with the id #{anchor}", resolved.display()));
-        }
+    if let Some(anchor) = anchor
+        && resolved.extension().is_some_and(|e| e == "md")
+        && !anchors(&resolved).contains(anchor)
+    {
+        return Some(format!("{} has no heading with the id #{anchor}", resolved.display()));
     }
     None
 }
