@@ -4,7 +4,7 @@
 # the Python reference tools in <repo>/.venv.
 #
 #   scripts/setup.sh           # what `kestrel run` needs
-#   scripts/setup.sh --tests   # plus what the test suite needs
+#   scripts/setup.sh --tests   # plus what the test suite needs (the Python tools, mdbook)
 set -euo pipefail
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -39,4 +39,12 @@ fi
 
 if [[ "${1:-}" == "--tests" ]]; then
     "$repo/scripts/python-env.sh"
+    # mdBook builds the user guide (docs/), pinned so that every machine renders and checks it
+    # alike; built without its `serve` and `watch` features (a web server and a file watcher the
+    # test run does not use, and most of its dependencies).
+    mdbook_version=0.5.4
+    if [[ "$(mdbook --version 2>/dev/null)" != "mdbook v$mdbook_version" ]]; then
+        echo "setup: installing mdbook $mdbook_version"
+        cargo install mdbook --version "$mdbook_version" --locked --no-default-features --features search
+    fi
 fi

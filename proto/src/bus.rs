@@ -6,7 +6,7 @@
 //! (`kestrel-sim`'s `hil` module) answer the chips' register and command protocols with the
 //! simulated world, so hardware-in-the-loop runs the real drivers. The traits live here, in the
 //! contract, because the drivers and the emulators are two actor crates that never depend on
-//! each other (docs/design.md).
+//! each other (docs/src/decisions/0017-device-emulators-behind-the-bus-traits.md).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
