@@ -10,7 +10,7 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
-    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, GpsFix, GroundTruth, NavState,
+    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, FlightMode, GpsFix, GroundTruth, NavState,
     ParamDecl, RangefinderSample, SensorHealth, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
@@ -230,6 +230,7 @@ impl Vehicle {
     /// current item moved (a ground station should not wait for the stream).
     pub fn on_status(&mut self, status: VehicleStatus) -> Outputs {
         let old = self.telemetry.snapshot.status.take();
+        self.missions.set_flying(status.armed && status.mode == FlightMode::Auto);
         let mut mav = status_changes(old.as_ref(), &status);
         let reached_before = old.as_ref().map_or(0, |o| o.mission.reached);
         let newly = status.mission.reached.saturating_sub(reached_before);
@@ -384,7 +385,7 @@ fn command_int(from: Sender, c: &COMMAND_INT_DATA) -> CommandRequest {
 
 #[cfg(test)]
 mod tests {
-    use kestrel_proto::messages::{FlightMode, LandedState, MissionProgress};
+    use kestrel_proto::messages::{LandedState, MissionProgress};
     use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MavCmd, MavResult, PARAM_REQUEST_LIST_DATA};
 
     use super::*;
@@ -602,6 +603,43 @@ mod tests {
         let out = v.on_message(GCS, &set(9), Time::ZERO);
         assert!(out.graph.is_empty());
         assert!(matches!(out.mav[..], [MavMessage::STATUSTEXT(_)]));
+    }
+
+    #[test]
+    fn a_mission_uploaded_while_flying_is_accepted_and_mission_current_describes_it() {
+        use mavlink::dialects::ardupilotmega::{MISSION_CLEAR_ALL_DATA, MavMissionResult, MavMissionType};
+        let mut v = vehicle(0);
+        with_mission(&mut v, 3);
+        v.on_tick(Time::ZERO);
+        // Flying the commander's item 2 (our 3) in AUTO, a mission of 5 waypoints arrives.
+        let mut flying = status(2);
+        flying.mission.total = 3;
+        v.on_status(flying.clone());
+        with_mission(&mut v, 5);
+        // The commander replaces it at the same index: MISSION_CURRENT carries our seq 3 of 5.
+        v.on_tick(Time::ZERO);
+        flying.mission.total = 5;
+        v.on_status(flying);
+        let current = |v: &mut Vehicle| {
+            v.telemetry.build(MISSION_CURRENT_DATA::ID, Time::ZERO).map(|m| match m {
+                MavMessage::MISSION_CURRENT(c) => (c.seq, c.total),
+                other => panic!("{other:?}"),
+            })
+        };
+        assert_eq!(current(&mut v), Some((3, 5)));
+        // Clearing it while it is flown is an error, and changes nothing.
+        let clear = MISSION_CLEAR_ALL_DATA {
+            target_system: 7,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        };
+        let out = v.on_message(GCS, &MavMessage::MISSION_CLEAR_ALL(clear), Time::ZERO);
+        assert!(out.mav.iter().any(
+            |m| matches!(m, MavMessage::MISSION_ACK(a) if a.mavtype == MavMissionResult::MAV_MISSION_ERROR)
+        ));
+        assert!(out.graph.is_empty());
+        v.on_tick(Time::ZERO);
+        assert_eq!(current(&mut v), Some((3, 5)));
     }
 
     #[test]

@@ -72,6 +72,20 @@ impl MissionRunner {
         true
     }
 
+    /// Flies `mission` instead, from the item index being flown (the new mission's last item
+    /// when it is shorter), as ArduCopter restarts its current command from a mission uploaded
+    /// in AUTO. The count of items reached goes on (MISSION_ITEM_REACHED is sent for each new
+    /// one), and so does the cruise speed in force; the item is started afresh, its target
+    /// resolved from the new mission. A run that had finished stays finished.
+    /// Held by `mission_runner::tests::a_replaced_mission_is_flown_from_the_same_index`.
+    pub fn replace(&mut self, mission: Mission) {
+        let finished = self.current >= self.mission.items.len();
+        let last = mission.items.len().saturating_sub(1);
+        self.current = if finished { mission.items.len() } else { self.current.min(last) };
+        self.mission = mission;
+        self.phase = None;
+    }
+
     /// Progress for `VehicleStatus`. A return-to-launch item counts as reached when RTL takes
     /// over; a land item when the vehicle has landed. Completed once the last item is done,
     /// whether or not a jump skipped some before it.
