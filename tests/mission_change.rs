@@ -44,7 +44,11 @@ fn text(v: &Value) -> &str {
 fn assert_kestrel(kestrel: &Value) {
     let change = record(kestrel, "change");
     assert_eq!(text(&change["ack"]), "MAV_MISSION_ACCEPTED", "{change:#}");
-    assert_eq!((change["current_before"].as_u64(), change["current_after"].as_u64()), (Some(3), Some(3)), "{change:#}");
+    assert_eq!(
+        (change["current_before"].as_u64(), change["current_after"].as_u64()),
+        (Some(3), Some(3)),
+        "{change:#}"
+    );
     assert_eq!((change["reached"].as_u64(), text(&change["flew_to"])), (Some(3), "B2"), "{change:#}");
     assert_eq!(change["download"], serde_json::json!(["B1", "B2", "B3"]), "{change:#}");
     let shorter = record(kestrel, "shorter");
@@ -66,9 +70,8 @@ fn assert_kestrel(kestrel: &Value) {
 fn a_mission_changed_in_auto_is_flown_as_arducopter_flies_it() {
     let started = Instant::now();
     let dir = temp_dir("mission-change");
-    let kestrel = scripted_session(&dir, "mission-change", SCRIPT, &[], |port| {
-        sim_config(&session_link(port, &dir))
-    });
+    let kestrel =
+        scripted_session(&dir, "mission-change", SCRIPT, &[], |port| sim_config(&session_link(port, &dir)));
     assert_kestrel(&kestrel);
     println!("kestrel half: {:.1} s", started.elapsed().as_secs_f64());
 

@@ -41,7 +41,9 @@ const INSTANCES: std::ops::RangeInclusive<u16> = 1..=60;
 /// skip.
 pub fn binary() -> Option<PathBuf> {
     let Some(path) = std::env::var_os(ENV) else {
-        println!("{ENV} is not set: the ArduCopter SITL half of this test is SKIPPED (set it to the arducopter binary, e.g. /work/shared/ardupilot/arducopter)");
+        println!(
+            "{ENV} is not set: the ArduCopter SITL half of this test is SKIPPED (set it to the arducopter binary, e.g. /work/shared/ardupilot/arducopter)"
+        );
         return None;
     };
     let path = PathBuf::from(path);
@@ -114,7 +116,8 @@ fn free_instance() -> (u16, File) {
         if file.try_lock().is_err() {
             continue;
         }
-        let tcp_free = [5762, 5763].iter().all(|p| std::net::TcpListener::bind(("0.0.0.0", p + 10 * n)).is_ok());
+        let tcp_free =
+            [5762, 5763].iter().all(|p| std::net::TcpListener::bind(("0.0.0.0", p + 10 * n)).is_ok());
         let udp_free = std::net::UdpSocket::bind(("0.0.0.0", 5501 + 10 * n)).is_ok();
         if tcp_free && udp_free {
             return (n, file);
@@ -152,8 +155,13 @@ pub fn scripted_session(binary: &Path, script: &str, env: &[(&str, String)]) -> 
             break None;
         }
     };
-    assert!(exit.is_some_and(|s| s.success()), "{script} against ArduCopter: client {exit:?}\nSITL:\n{}", sitl.log_tail(30));
+    assert!(
+        exit.is_some_and(|s| s.success()),
+        "{script} against ArduCopter: client {exit:?}\nSITL:\n{}",
+        sitl.log_tail(30)
+    );
     println!("{script} against ArduCopter took {:.1} s", started.elapsed().as_secs_f64());
     let last = transcript.last().expect("a result line");
-    serde_json::from_str(last).unwrap_or_else(|e| panic!("{script}: the last line is no JSON result ({e}): {last}"))
+    serde_json::from_str(last)
+        .unwrap_or_else(|e| panic!("{script}: the last line is no JSON result ({e}): {last}"))
 }

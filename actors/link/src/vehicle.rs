@@ -10,8 +10,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
-    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, FlightMode, GpsFix, GroundTruth, NavState,
-    ParamDecl, RangefinderSample, SensorHealth, VehicleStatus,
+    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, FlightMode, GpsFix, GroundTruth,
+    NavState, ParamDecl, RangefinderSample, SensorHealth, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,

@@ -86,7 +86,9 @@ impl Mission {
                 MissionItem::Takeoff { point } if !point.alt_m.is_finite() => {
                     return bad("altitude is not a number");
                 }
-                MissionItem::Waypoint { point, .. } | MissionItem::Land { point } if !finite_point(&point) => {
+                MissionItem::Waypoint { point, .. } | MissionItem::Land { point }
+                    if !finite_point(&point) =>
+                {
                     return bad("latitude/longitude is not a number");
                 }
                 MissionItem::Waypoint { point, .. } if !point.alt_m.is_finite() => {

@@ -701,7 +701,12 @@ mod tests {
     }
 
     fn waypoints(n: u16, x0: i32) -> Vec<MISSION_ITEM_INT_DATA> {
-        (0..n).map(|seq| MISSION_ITEM_INT_DATA { x: x0 + i32::from(seq), ..item(seq, MavCmd::MAV_CMD_NAV_WAYPOINT) }).collect()
+        (0..n)
+            .map(|seq| MISSION_ITEM_INT_DATA {
+                x: x0 + i32::from(seq),
+                ..item(seq, MavCmd::MAV_CMD_NAV_WAYPOINT)
+            })
+            .collect()
     }
 
     #[test]
