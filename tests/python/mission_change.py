@@ -6,7 +6,7 @@ Usage: mission_change.py   (prints `PORT <n>` first; see gcs_common.py for the t
 
 1. identify the vehicle, ask for its telemetry streams (ArduCopter sends only what is asked for);
 2. upload mission A: home, take-off to 10 m, waypoints A1 and A2 (items 2 and 3);
-3. GUIDED, arm (retried until the vehicle's pre-arm checks pass), take off to 10 m, AUTO
+3. GUIDED and arm (each retried until the vehicle's checks pass), take off to 10 m, AUTO
    (ArduCopter on its defaults takes off in AUTO only once the pilot raises the throttle);
 4. once MISSION_CURRENT says item 3 (A2) is flown, upload mission B, one item longer, whose
    items 2, 3 and 4 (B1, B2, B3) are elsewhere: record the MISSION_ACK, MISSION_CURRENT after it, the
@@ -102,19 +102,28 @@ def download(gcs, step):
     return names
 
 
-def arm_when_ready(gcs, timeout_s=30.0):
-    """Arms in GUIDED, asking again every second until the pre-arm checks pass."""
+def until_accepted(gcs, cmd, params, step, timeout_s=30.0):
+    """COMMAND_LONG, asked again every second until ACCEPTED: a vehicle refuses GUIDED and arming
+    until its position estimate is good (Kestrel: GUIDED; ArduCopter: arming)."""
     end = time.monotonic() + timeout_s
+    p = list(params) + [0.0] * (7 - len(params))
     while True:
-        gcs.conn.mav.command_long_send(*VEHICLE, mav.MAV_CMD_COMPONENT_ARM_DISARM, 0, 1, 0, 0, 0, 0, 0, 0)
-        ack = gcs.wait_type("COMMAND_ACK", 3.0, "arm",
-                            lambda m: m.command == mav.MAV_CMD_COMPONENT_ARM_DISARM)
+        gcs.conn.mav.command_long_send(*VEHICLE, cmd, 0, *p)
+        ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == cmd)
         if ack.result == mav.MAV_RESULT_ACCEPTED:
-            gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
             return
         if time.monotonic() > end:
-            raise Failed("arm", f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
+            raise Failed(step, f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
         gcs.quiet(1.0)
+
+
+def arm_in_guided(gcs):
+    """GUIDED, then armed, each asked for until the vehicle takes it."""
+    until_accepted(gcs, mav.MAV_CMD_DO_SET_MODE,
+                   [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]], "guided")
+    gcs.wait_type("HEARTBEAT", 3.0, "guided", lambda m: mavutil.mode_string_v10(m) == "GUIDED")
+    until_accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm")
+    gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
 
 
 def change(gcs, items, step):
@@ -167,8 +176,7 @@ def flight(gcs):
     ack, _ = upload(gcs, mission("A1", "A2"), "upload A")
     if ack != "MAV_MISSION_ACCEPTED":
         raise Failed("upload A", ack)
-    gcs.set_mode_command("GUIDED", "guided")
-    arm_when_ready(gcs)
+    arm_in_guided(gcs)
     gcs.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, TAKEOFF_M], "take-off")
     gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 1.0, 30.0, "take-off")
     gcs.set_mode_command("AUTO", "auto")

@@ -620,13 +620,13 @@ mod tests {
         v.on_tick(Time::ZERO);
         flying.mission.total = 5;
         v.on_status(flying);
-        let current = |v: &mut Vehicle| {
+        let current = |v: &Vehicle| {
             v.telemetry.build(MISSION_CURRENT_DATA::ID, Time::ZERO).map(|m| match m {
                 MavMessage::MISSION_CURRENT(c) => (c.seq, c.total),
                 other => panic!("{other:?}"),
             })
         };
-        assert_eq!(current(&mut v), Some((3, 5)));
+        assert_eq!(current(&v), Some((3, 5)));
         // Clearing it while it is flown is an error, and changes nothing.
         let clear = MISSION_CLEAR_ALL_DATA {
             target_system: 7,
@@ -639,7 +639,7 @@ mod tests {
         ));
         assert!(out.graph.is_empty());
         v.on_tick(Time::ZERO);
-        assert_eq!(current(&mut v), Some((3, 5)));
+        assert_eq!(current(&v), Some((3, 5)));
     }
 
     #[test]
