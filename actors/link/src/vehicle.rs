@@ -246,6 +246,10 @@ impl Vehicle {
         let home_moved = old.as_ref().is_some_and(|o| o.home != status.home);
         let item_moved = old.as_ref().is_some_and(|o| o.mission.current != status.mission.current);
         self.telemetry.snapshot.status = Some(status);
+        // The stored mission's size as of now, not the last tick: a MISSION_CURRENT sent at once
+        // for a mission just replaced carries the new total.
+        self.telemetry.snapshot.mission_items =
+            u16::try_from(self.missions.mission_len()).unwrap_or(u16::MAX);
         let now = self.telemetry.snapshot.status.as_ref().map_or(Time::ZERO, |s| s.time);
         for (moved, id) in [(home_moved, HOME_POSITION_DATA::ID), (item_moved, MISSION_CURRENT_DATA::ID)] {
             if moved {
@@ -616,10 +620,17 @@ mod tests {
         flying.mission.total = 3;
         v.on_status(flying.clone());
         with_mission(&mut v, 5);
-        // The commander replaces it at the same index: MISSION_CURRENT carries our seq 3 of 5.
-        v.on_tick(Time::ZERO);
+        // The commander replaces it at the same index: MISSION_CURRENT carries our seq 3 of 5,
+        // sent at once when the item moves, before any tick.
         flying.mission.total = 5;
-        v.on_status(flying);
+        flying.mission.current = 1;
+        v.on_status(flying.clone());
+        flying.mission.current = 2;
+        let out = v.on_status(flying);
+        assert!(
+            out.mav.iter().any(|m| matches!(m, MavMessage::MISSION_CURRENT(c) if (c.seq, c.total) == (3, 5))),
+            "{out:?}"
+        );
         let current = |v: &Vehicle| {
             v.telemetry.build(MISSION_CURRENT_DATA::ID, Time::ZERO).map(|m| match m {
                 MavMessage::MISSION_CURRENT(c) => (c.seq, c.total),
