@@ -124,6 +124,8 @@ impl Actor for CommanderActor {
         if let Some(path) = &params.mission {
             let path = setup.config_dir().join(path);
             let mission = load_plan(&path).map_err(|e| ActorError::Params(e.to_string()))?;
+            // A plan of no items is a mistake here, not a request to clear.
+            mission.check_fields().map_err(|e| ActorError::Params(format!("{}: {e}", path.display())))?;
             commander
                 .on_mission(mission)
                 .map_err(|e| ActorError::Params(format!("{}: {e}", path.display())))?;

@@ -7,7 +7,7 @@ use common::Flight;
 use kestrel_control::CommanderParams;
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    Command, FailsafeCause, FlightMode, LandedState, ManualControl, Mission, SupervisorEvent,
+    Command, FailsafeCause, FlightMode, LandedState, ManualControl, Mission, MissionItem, SupervisorEvent,
     SupervisorEventKind,
 };
 
@@ -183,9 +183,16 @@ fn refused_transitions_say_why() {
     f.command(Command::SetMode(FlightMode::Stabilize)).expect("stabilize");
     assert!(why(f.command(Command::GotoNed { position_ned_m: [0.0; 3] })).contains("GUIDED"));
     assert!(why(f.command(Command::Arm)).contains("throttle"));
-    let empty = Mission { time: Time::ZERO, items: vec![], cruise_speed_m_s: 5.0 };
-    assert!(f.commander.on_mission(empty).is_err());
-    assert_eq!(f.commander.status(f.now()).last_refusal.as_deref(), Some("mission refused: no items"));
+    let nan = Mission {
+        time: Time::ZERO,
+        items: vec![MissionItem::ChangeSpeed { speed_m_s: f64::NAN }],
+        cruise_speed_m_s: 5.0,
+    };
+    assert!(f.commander.on_mission(nan).is_err());
+    assert_eq!(
+        f.commander.status(f.now()).last_refusal.as_deref(),
+        Some("mission item 1: speed out of range")
+    );
     // In flight: no disarm without force.
     let mut f = airborne(CommanderParams::default(), 5.0);
     assert!(why(f.command(Command::Disarm { force: false })).contains("in flight"));

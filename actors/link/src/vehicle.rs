@@ -10,8 +10,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
     AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
-    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, GpsFix, GroundTruth, NavState,
-    ParamDecl, RangefinderSample, SensorHealth, VehicleStatus,
+    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, FlightMode, GpsFix, GroundTruth,
+    NavState, ParamDecl, RangefinderSample, SensorHealth, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -230,6 +230,7 @@ impl Vehicle {
     /// current item moved (a ground station should not wait for the stream).
     pub fn on_status(&mut self, status: VehicleStatus) -> Outputs {
         let old = self.telemetry.snapshot.status.take();
+        self.missions.set_flying(status.armed && status.mode == FlightMode::Auto);
         let mut mav = status_changes(old.as_ref(), &status);
         let reached_before = old.as_ref().map_or(0, |o| o.mission.reached);
         let newly = status.mission.reached.saturating_sub(reached_before);
@@ -245,6 +246,10 @@ impl Vehicle {
         let home_moved = old.as_ref().is_some_and(|o| o.home != status.home);
         let item_moved = old.as_ref().is_some_and(|o| o.mission.current != status.mission.current);
         self.telemetry.snapshot.status = Some(status);
+        // The stored mission's size as of now, not the last tick: a MISSION_CURRENT sent at once
+        // for a mission just replaced carries the new total.
+        self.telemetry.snapshot.mission_items =
+            u16::try_from(self.missions.mission_len()).unwrap_or(u16::MAX);
         let now = self.telemetry.snapshot.status.as_ref().map_or(Time::ZERO, |s| s.time);
         for (moved, id) in [(home_moved, HOME_POSITION_DATA::ID), (item_moved, MISSION_CURRENT_DATA::ID)] {
             if moved {
@@ -384,7 +389,7 @@ fn command_int(from: Sender, c: &COMMAND_INT_DATA) -> CommandRequest {
 
 #[cfg(test)]
 mod tests {
-    use kestrel_proto::messages::{FlightMode, LandedState, MissionProgress};
+    use kestrel_proto::messages::{LandedState, MissionProgress};
     use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MavCmd, MavResult, PARAM_REQUEST_LIST_DATA};
 
     use super::*;
@@ -602,6 +607,50 @@ mod tests {
         let out = v.on_message(GCS, &set(9), Time::ZERO);
         assert!(out.graph.is_empty());
         assert!(matches!(out.mav[..], [MavMessage::STATUSTEXT(_)]));
+    }
+
+    #[test]
+    fn a_mission_uploaded_while_flying_is_accepted_and_mission_current_describes_it() {
+        use mavlink::dialects::ardupilotmega::{MISSION_CLEAR_ALL_DATA, MavMissionResult, MavMissionType};
+        let mut v = vehicle(0);
+        with_mission(&mut v, 3);
+        v.on_tick(Time::ZERO);
+        // Flying the commander's item 2 (our 3) in AUTO, a mission of 5 waypoints arrives.
+        let mut flying = status(2);
+        flying.mission.total = 3;
+        v.on_status(flying.clone());
+        with_mission(&mut v, 5);
+        // The commander replaces it at the same index: MISSION_CURRENT carries our seq 3 of 5,
+        // sent at once when the item moves, before any tick.
+        flying.mission.total = 5;
+        flying.mission.current = 1;
+        v.on_status(flying.clone());
+        flying.mission.current = 2;
+        let out = v.on_status(flying);
+        assert!(
+            out.mav.iter().any(|m| matches!(m, MavMessage::MISSION_CURRENT(c) if (c.seq, c.total) == (3, 5))),
+            "{out:?}"
+        );
+        let current = |v: &Vehicle| {
+            v.telemetry.build(MISSION_CURRENT_DATA::ID, Time::ZERO).map(|m| match m {
+                MavMessage::MISSION_CURRENT(c) => (c.seq, c.total),
+                other => panic!("{other:?}"),
+            })
+        };
+        assert_eq!(current(&v), Some((3, 5)));
+        // Clearing it while it is flown is an error, and changes nothing.
+        let clear = MISSION_CLEAR_ALL_DATA {
+            target_system: 7,
+            target_component: 1,
+            mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+        };
+        let out = v.on_message(GCS, &MavMessage::MISSION_CLEAR_ALL(clear), Time::ZERO);
+        assert!(out.mav.iter().any(
+            |m| matches!(m, MavMessage::MISSION_ACK(a) if a.mavtype == MavMissionResult::MAV_MISSION_ERROR)
+        ));
+        assert!(out.graph.is_empty());
+        v.on_tick(Time::ZERO);
+        assert_eq!(current(&v), Some((3, 5)));
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! ground station says what to fix instead of the vehicle flying into the ground.
 
 use kestrel_proto::geo::LocalFrame;
-use kestrel_proto::messages::{MAX_MISSION_ITEMS, Mission, MissionItem, MissionPoint};
+use kestrel_proto::messages::{Mission, MissionItem};
 use nalgebra::Vector3;
 
 use super::arming::Refusal;
@@ -23,58 +23,10 @@ pub(crate) struct Place<'a> {
     pub fence_enabled: bool,
 }
 
-/// What can be checked without knowing where the vehicle is: the item count and that every
-/// number is one. The caller names the mission's origin (upload, `.plan` file).
+/// What can be checked without knowing where the vehicle is ([`Mission::check_fields`], which
+/// the link runs before it acknowledges an upload).
 pub(crate) fn check_fields(mission: &Mission) -> Result<(), Refusal> {
-    let n = mission.items.len();
-    if n == 0 {
-        return Err(Refusal("mission refused: no items".into()));
-    }
-    if n > MAX_MISSION_ITEMS {
-        return Err(Refusal(format!("mission refused: {n} items, at most {MAX_MISSION_ITEMS}")));
-    }
-    if !(mission.cruise_speed_m_s.is_finite() && mission.cruise_speed_m_s > 0.0) {
-        return Err(Refusal(format!("mission refused: cruise speed {} m/s", mission.cruise_speed_m_s)));
-    }
-    for (i, item) in mission.items.iter().enumerate() {
-        let bad = |what: &str| Err(Refusal(format!("mission item {}: {what}", i + 1)));
-        let finite_point = |p: &MissionPoint| p.lat_deg.is_finite() && p.lon_deg.is_finite();
-        match *item {
-            MissionItem::Takeoff { point } if !point.alt_m.is_finite() => {
-                return bad("altitude is not a number");
-            }
-            MissionItem::Waypoint { point, .. } | MissionItem::Land { point } if !finite_point(&point) => {
-                return bad("latitude/longitude is not a number");
-            }
-            MissionItem::Waypoint { point, .. } if !point.alt_m.is_finite() => {
-                return bad("altitude is not a number");
-            }
-            MissionItem::Waypoint { acceptance_radius_m, hold_s, .. }
-                if !(acceptance_radius_m.is_finite()
-                    && acceptance_radius_m > 0.0
-                    && hold_s.is_finite()
-                    && hold_s >= 0.0) =>
-            {
-                return bad("acceptance radius or hold time out of range");
-            }
-            MissionItem::LoiterTime { duration_s } if !(duration_s.is_finite() && duration_s >= 0.0) => {
-                return bad("loiter time out of range");
-            }
-            MissionItem::ChangeSpeed { speed_m_s } if !(speed_m_s.is_finite() && speed_m_s > 0.0) => {
-                return bad("speed out of range");
-            }
-            _ => {}
-        }
-        if let MissionItem::Takeoff { point }
-        | MissionItem::Waypoint { point, .. }
-        | MissionItem::Land { point } = item
-            && finite_point(point)
-            && !(point.lat_deg.abs() <= 90.0 && point.lon_deg.abs() <= 180.0)
-        {
-            return bad("latitude/longitude out of range");
-        }
-    }
-    Ok(())
+    mission.check_fields().map_err(Refusal)
 }
 
 /// The whole check, once home and the NED frame are known: every point flown is at least
@@ -192,7 +144,7 @@ impl Commander {
 mod tests {
     use kestrel_proto::Time;
     use kestrel_proto::geo::Geodetic;
-    use kestrel_proto::messages::AltitudeFrame;
+    use kestrel_proto::messages::{AltitudeFrame, MAX_MISSION_ITEMS, MissionPoint};
 
     use super::*;
 

@@ -72,6 +72,21 @@ impl MissionRunner {
         true
     }
 
+    /// Flies `mission` instead, from the item index being flown (the new mission's last item
+    /// when it is shorter), as ArduCopter restarts its current command from a mission uploaded
+    /// in AUTO. The count of items reached goes on (MISSION_ITEM_REACHED is sent for each new
+    /// one), and so does the cruise speed in force; the item is started afresh, its target
+    /// resolved from the new mission. A run that had finished stays finished.
+    /// Held by `tests::replace_keeps_the_index_within_the_new_mission` and the commander's
+    /// `a_mission_uploaded_in_auto_is_flown_from_the_same_item`.
+    pub fn replace(&mut self, mission: Mission) {
+        let finished = self.current >= self.mission.items.len();
+        let last = mission.items.len().saturating_sub(1);
+        self.current = if finished { mission.items.len() } else { self.current.min(last) };
+        self.mission = mission;
+        self.phase = None;
+    }
+
     /// Progress for `VehicleStatus`. A return-to-launch item counts as reached when RTL takes
     /// over; a land item when the vehicle has landed. Completed once the last item is done,
     /// whether or not a jump skipped some before it.
@@ -228,5 +243,46 @@ pub fn resolve(
         Vector3::new(ned[0], ned[1], down)
     } else {
         Vector3::new(pos.x, pos.y, down)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use kestrel_proto::Time;
+    use kestrel_proto::messages::{Mission, MissionItem};
+
+    use super::MissionRunner;
+
+    fn loiters(n: usize) -> Mission {
+        Mission {
+            time: Time::ZERO,
+            items: vec![MissionItem::LoiterTime { duration_s: 1.0 }; n],
+            cruise_speed_m_s: 5.0,
+        }
+    }
+
+    proptest::proptest! {
+        /// Whatever the lengths, the item flown after a replacement is the same index or the new
+        /// mission's last, the count of reached items goes on, and a finished run stays finished.
+        #[test]
+        fn replace_keeps_the_index_within_the_new_mission(
+            old_len in 1usize..20,
+            index in 0usize..25,
+            new_len in 1usize..20,
+            reached in 0u32..10,
+        ) {
+            let mut runner = MissionRunner::new(loiters(old_len));
+            let index = index.min(old_len);
+            runner.current = index;
+            runner.reached = reached;
+            runner.replace(loiters(new_len));
+            let p = runner.progress();
+            let finished = index >= old_len;
+            let want = if finished { new_len } else { index.min(new_len - 1) };
+            proptest::prop_assert_eq!(p.current as usize, want);
+            proptest::prop_assert_eq!(p.completed, finished);
+            proptest::prop_assert_eq!(p.total as usize, new_len);
+            proptest::prop_assert_eq!(p.reached, reached);
+        }
     }
 }

@@ -366,23 +366,49 @@ impl Commander {
         }
     }
 
-    /// A new mission; replaces the old one. Refused while flying it, and when a field is not a
-    /// number or there are too many items. One that is well-formed but cannot be flown from here
+    /// A new mission; replaces the old one, and one of no items clears it. Refused when a field
+    /// is not a number or there are too many items (`Mission::check_fields`, which the link runs
+    /// before it acknowledges an upload). One that is well-formed but cannot be flown from here
     /// (below home, outside the fence, too far: `feasibility`) is kept — the ground station holds
     /// it, and flying an older one instead would be worse — and refused, by item, when AUTO is
     /// asked for; the reason is reported at once as well.
+    ///
+    /// While AUTO flies the old one, the new one is flown from the same item index (its last
+    /// item when it is shorter: `MissionRunner::replace`), as ArduCopter restarts its current
+    /// command; one that cannot be flown from here pauses the mission where the vehicle is (as
+    /// DO_PAUSE_CONTINUE does), the reason said, until a ground station continues it or sends
+    /// another. Held by `tests::a_mission_uploaded_in_auto_is_flown_from_the_same_item`.
     pub fn on_mission(&mut self, mission: Mission) -> Result<(), Refusal> {
-        if self.armed && self.mode == FlightMode::Auto {
-            return self.refused(refuse("mission upload refused while flying AUTO"));
+        let flying = self.armed && self.mode == FlightMode::Auto && self.runner.is_some();
+        if mission.items.is_empty() {
+            // No items: the ground station cleared its mission (MISSION_CLEAR_ALL, or home
+            // alone uploaded). Not while it is flown: the link refuses that clear as well.
+            if flying {
+                return self.refused(refuse("mission clear refused while flying AUTO"));
+            }
+            self.mission = None;
+            self.runner = None;
+            self.mission_start = None;
+            self.last_progress = MissionProgress::default();
+            return Ok(());
         }
         let fields = feasibility::check_fields(&mission);
         self.refused(fields)?;
         let feasible = self.mission_feasible(&mission);
-        let _ = self.refused(feasible);
-        self.last_progress = MissionRunner::new(mission.clone()).progress();
-        self.mission = Some(mission);
-        self.runner = None;
+        let infeasible = self.refused(feasible).is_err();
+        self.mission = Some(mission.clone());
         self.mission_start = None;
+        if flying && let Some(runner) = &mut self.runner {
+            runner.replace(mission);
+            tracing::info!(index = runner.progress().current, "mission replaced in flight");
+            // Drop what AUTO latched for the old item (a landing under way, a held position).
+            let paused = self.paused || infeasible;
+            self.enter(FlightMode::Auto);
+            self.paused = paused;
+        } else {
+            self.last_progress = MissionRunner::new(mission).progress();
+            self.runner = None;
+        }
         Ok(())
     }
 

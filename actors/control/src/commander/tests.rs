@@ -1150,6 +1150,108 @@ fn outside_auto_the_current_item_is_where_the_next_run_starts() {
     assert!((target - 20.0).abs() < 0.5, "{target}");
 }
 
+/// Waypoints at 10 m, `north_m` north of home each.
+fn waypoints_north(north_m: &[f64]) -> Mission {
+    let items = north_m
+        .iter()
+        .map(|&n| MissionItem::Waypoint {
+            point: point_north(n, 10.0, AltitudeFrame::RelativeHome),
+            acceptance_radius_m: 1.0,
+            hold_s: 0.0,
+        })
+        .collect();
+    Mission { time: Time::ZERO, items, cruise_speed_m_s: 5.0 }
+}
+
+/// three_waypoints() in AUTO, item 0 (20 m north) reached at t = 3 ms: item 1 is flown.
+fn flying_item_1() -> Commander {
+    let mut c = ready(true);
+    c.on_mission(three_waypoints()).expect("mission");
+    cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect("auto");
+    cmd(&mut c, Command::Arm).expect("arm");
+    hover_at(&mut c, 2000, [0.0, 0.0, -10.0]);
+    hover_at(&mut c, 3000, [20.0, 0.0, -10.0]);
+    let progress = c.status(Time(3000)).mission;
+    assert_eq!((progress.current, progress.reached, progress.last_reached), (1, 1, Some(0)));
+    c
+}
+
+#[test]
+fn a_mission_uploaded_in_auto_is_flown_from_the_same_item() {
+    let mut c = flying_item_1();
+    // A longer mission: item 1 is now 50 m north, and is flown at once (ArduCopter restarts its
+    // current command from the new mission: tests/mission_change.rs shows it in SITL).
+    c.on_mission(waypoints_north(&[25.0, 50.0, 75.0, 100.0])).expect("replaced in flight");
+    assert_eq!(c.mode(), FlightMode::Auto);
+    let progress = c.status(Time(3000)).mission;
+    assert_eq!((progress.current, progress.total, progress.reached), (1, 4, 1), "{progress:?}");
+    assert!(!progress.completed);
+    let target = north_target(hover_at(&mut c, 4000, [20.0, 0.0, -10.0]));
+    assert!((target - 50.0).abs() < 0.5, "{target}");
+    // Reaching it counts on from the items reached before (MISSION_ITEM_REACHED seq 2).
+    hover_at(&mut c, 5000, [target, 0.0, -10.0]);
+    let progress = c.status(Time(5000)).mission;
+    assert_eq!((progress.current, progress.reached, progress.last_reached), (2, 2, Some(1)));
+    let target = north_target(hover_at(&mut c, 6000, [target, 0.0, -10.0]));
+    assert!((target - 75.0).abs() < 0.5, "{target}");
+}
+
+#[test]
+fn a_shorter_mission_uploaded_in_auto_is_flown_from_its_last_item() {
+    let mut c = flying_item_1();
+    c.on_mission(waypoints_north(&[35.0])).expect("replaced in flight");
+    let progress = c.status(Time(3000)).mission;
+    assert_eq!((progress.current, progress.total), (0, 1), "{progress:?}");
+    let target = north_target(hover_at(&mut c, 4000, [20.0, 0.0, -10.0]));
+    assert!((target - 35.0).abs() < 0.5, "{target}");
+    hover_at(&mut c, 5000, [35.0, 0.0, -10.0]);
+    let progress = c.status(Time(5000)).mission;
+    assert!(progress.completed, "{progress:?}");
+    assert_eq!((progress.reached, progress.last_reached), (2, Some(0)));
+    assert_eq!(c.mode(), FlightMode::Auto, "a finished mission holds in AUTO");
+}
+
+#[test]
+fn a_mission_refused_in_auto_leaves_the_old_one_flown_and_one_that_cannot_be_flown_pauses() {
+    let mut c = flying_item_1();
+    let mut bad = waypoints_north(&[25.0, 50.0]);
+    bad.cruise_speed_m_s = f64::NAN;
+    let why = c.on_mission(bad).expect_err("not a number").0;
+    assert!(why.contains("cruise speed"), "{why}");
+    let target = north_target(hover_at(&mut c, 4000, [20.0, 0.0, -10.0]));
+    assert!((target - 40.0).abs() < 0.5, "the old mission's item 1 is still flown: {target}");
+    assert_eq!(c.status(Time(4000)).mission.total, 3);
+    // Well-formed but below home: kept (what the ground station holds), said, and not flown.
+    let mut below = waypoints_north(&[25.0, 50.0]);
+    below.items[1] = MissionItem::Waypoint {
+        point: point_north(50.0, -5.0, AltitudeFrame::RelativeHome),
+        acceptance_radius_m: 1.0,
+        hold_s: 0.0,
+    };
+    c.on_mission(below).expect("kept");
+    let status = c.status(Time(4000));
+    assert!(status.last_refusal.as_deref().is_some_and(|r| r.contains("mission item 2")), "{status:?}");
+    assert_eq!((status.mission.current, status.mission.total), (1, 2));
+    let held = trajectory(hover_at(&mut c, 5000, [22.0, 0.0, -10.0]));
+    assert_eq!(held.position_ned_m, [Some(22.0), Some(0.0), Some(-10.0)], "paused where it was");
+    assert_eq!(c.mode(), FlightMode::Auto);
+}
+
+#[test]
+fn an_empty_mission_clears_on_the_ground_and_is_refused_while_flown() {
+    let empty = || Mission { time: Time::ZERO, items: Vec::new(), cruise_speed_m_s: 5.0 };
+    let mut c = flying_item_1();
+    let why = c.on_mission(empty()).expect_err("flying it").0;
+    assert!(why.contains("clear refused"), "{why}");
+    assert_eq!(c.status(Time(3000)).mission.total, 3, "the flown mission stays");
+    let mut c = ready(true);
+    c.on_mission(three_waypoints()).expect("mission");
+    c.on_mission(empty()).expect("cleared");
+    assert_eq!(c.status(Time(1000)).mission.total, 0);
+    let why = cmd(&mut c, Command::SetMode(FlightMode::Auto)).expect_err("nothing to fly");
+    assert!(why.contains("mission"), "{why}");
+}
+
 /// GUIDED, armed and told to take off to 5 m at t = 1 ms; then NavStates every 2.5 ms climb at
 /// `climb_m_s` until `land_at_m` above home, where LAND arrives; from then on the vehicle slows
 /// at 3 m/s², descends at 0.6 m/s to the ground and stands there. Returns the commander and the

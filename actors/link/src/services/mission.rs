@@ -4,7 +4,13 @@
 //! MISSION_SET_CURRENT; missions, geofences and rally points kept apart by `mission_type`.
 //!
 //! ArduPilot convention (we announce ArduPilot): item 0 of a flight mission is the home
-//! position, stored and sent back but not flown. An upload that fails keeps the previous plan.
+//! position, stored and sent back but not flown. An upload replaces the stored plan only once
+//! every item has arrived and passed the checks the commander makes on it
+//! (`Mission::check_fields`): one that fails, times out or is cancelled changes nothing, and
+//! every refusal is the MISSION_ACK's error, never ACCEPTED. A mission uploaded while AUTO flies
+//! the old one is flown from the same item index (the commander's `MissionRunner::replace`), as
+//! ArduCopter does; clearing it then is refused with MAV_MISSION_ERROR, as ArduPilot refuses to
+//! clear a running mission.
 //! Each item request is retried [`RETRIES`] times, [`ITEM_TIMEOUT`] apart, before the upload is
 //! cancelled.
 #![allow(
@@ -36,6 +42,9 @@ pub const ITEM_TIMEOUT: Duration = Duration::from_millis(1500);
 pub const RETRIES: u32 = 5;
 /// Cruise speed of a mission that does not set one (m/s).
 pub const DEFAULT_CRUISE_M_S: f64 = 5.0;
+/// Why clearing the mission (MISSION_CLEAR_ALL, or an upload of home alone or of nothing) is
+/// refused while AUTO flies it.
+const CLEAR_REFUSED: &str = "Mission clear refused while flying AUTO";
 /// Acceptance radius of a waypoint that gives none (m).
 const DEFAULT_ACCEPTANCE_M: f64 = 2.0;
 
@@ -56,6 +65,9 @@ pub struct MissionService {
     fence: Vec<MISSION_ITEM_INT_DATA>,
     rally: Vec<MISSION_ITEM_INT_DATA>,
     upload: Option<Upload>,
+    /// The commander flies the mission (armed, in AUTO), as its last status said: clearing the
+    /// mission is refused then.
+    flying: bool,
     /// Items or acks that did not fit the transfer in progress.
     pub ignored: u64,
 }
@@ -63,7 +75,19 @@ pub struct MissionService {
 impl MissionService {
     /// Empty plans.
     pub fn new() -> MissionService {
-        MissionService { mission: Vec::new(), fence: Vec::new(), rally: Vec::new(), upload: None, ignored: 0 }
+        MissionService {
+            mission: Vec::new(),
+            fence: Vec::new(),
+            rally: Vec::new(),
+            upload: None,
+            flying: false,
+            ignored: 0,
+        }
+    }
+
+    /// Whether the commander flies the mission now (armed in AUTO), from its status.
+    pub fn set_flying(&mut self, flying: bool) {
+        self.flying = flying;
     }
 
     /// Items of the stored flight mission (home included).
@@ -199,18 +223,24 @@ impl MissionService {
         let t = up.mission_type;
         let mut out = Outputs::none();
         if t == MavMissionType::MAV_MISSION_TYPE_MISSION {
+            let refuse = |text: &str, result| Outputs {
+                mav: vec![statustext(MavSeverity::MAV_SEVERITY_ERROR, text), Self::ack(from, t, result)],
+                graph: Vec::new(),
+            };
             match to_mission(&up.items, now) {
-                Ok(mission) => out.graph.push(ToGraph::Mission(mission)),
+                // Home alone clears the mission (QGroundControl's "remove all" on ArduPilot).
+                Ok(mission) if mission.items.is_empty() && self.flying => {
+                    return refuse(CLEAR_REFUSED, MavMissionResult::MAV_MISSION_ERROR);
+                }
+                Ok(mission) if mission.items.is_empty() => out.graph.push(ToGraph::Mission(mission)),
+                // The commander's own check, made here so that what is ACKed is never refused.
+                Ok(mission) => match mission.check_fields() {
+                    Ok(()) => out.graph.push(ToGraph::Mission(mission)),
+                    Err(text) => return refuse(&text, MavMissionResult::MAV_MISSION_ERROR),
+                },
                 Err(ItemRefused { seq, result }) => {
                     // MISSION_ACK carries only the reason; the item it is about goes in words.
-                    let text = format!("Mission item {seq}: {}", refusal_text(result));
-                    return Outputs {
-                        mav: vec![
-                            statustext(MavSeverity::MAV_SEVERITY_ERROR, &text),
-                            Self::ack(from, t, result),
-                        ],
-                        graph: Vec::new(),
-                    };
+                    return refuse(&format!("Mission item {seq}: {}", refusal_text(result)), result);
                 }
             }
         }
@@ -262,6 +292,15 @@ impl MissionService {
 
     /// MISSION_CLEAR_ALL.
     pub fn clear(&mut self, from: Sender, t: MavMissionType, now: Time) -> Outputs {
+        if t == MavMissionType::MAV_MISSION_TYPE_MISSION && self.flying {
+            return Outputs {
+                mav: vec![
+                    statustext(MavSeverity::MAV_SEVERITY_ERROR, CLEAR_REFUSED),
+                    Self::ack(from, t, MavMissionResult::MAV_MISSION_ERROR),
+                ],
+                graph: Vec::new(),
+            };
+        }
         let Some(plan) = self.plan(t) else {
             return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_UNSUPPORTED));
         };
@@ -646,6 +685,82 @@ mod tests {
         // A late item of the dead upload is ignored, not taken as a new one.
         assert!(s.on_item(GCS, &item(1, MavCmd::MAV_CMD_NAV_WAYPOINT), t(61.0)).mav.is_empty());
         assert_eq!(s.mission_len(), 2);
+    }
+
+    fn download_x(s: &mut MissionService) -> Vec<i32> {
+        let n = match s.on_request_list(GCS, MISSION).mav[..] {
+            [MavMessage::MISSION_COUNT(MISSION_COUNT_DATA { count, .. })] => count,
+            ref other => panic!("no MISSION_COUNT: {other:?}"),
+        };
+        (0..n)
+            .map(|seq| match &s.on_request(GCS, seq, MISSION, false).mav[..] {
+                [MavMessage::MISSION_ITEM_INT(it)] => it.x,
+                other => panic!("no item {seq}: {other:?}"),
+            })
+            .collect()
+    }
+
+    fn waypoints(n: u16, x0: i32) -> Vec<MISSION_ITEM_INT_DATA> {
+        (0..n)
+            .map(|seq| MISSION_ITEM_INT_DATA {
+                x: x0 + i32::from(seq),
+                ..item(seq, MavCmd::MAV_CMD_NAV_WAYPOINT)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn an_upload_while_flying_replaces_the_mission_longer_or_shorter() {
+        let mut s = MissionService::new();
+        upload(&mut s, &waypoints(3, 1000));
+        s.set_flying(true);
+        for (n, x0) in [(5, 2000), (2, 3000)] {
+            let out = upload(&mut s, &waypoints(n, x0));
+            assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+            let [ToGraph::Mission(m)] = &out.graph[..] else { panic!("no mission published: {out:?}") };
+            assert_eq!(m.items.len(), usize::from(n) - 1);
+            assert_eq!(download_x(&mut s), waypoints(n, x0).iter().map(|i| i.x).collect::<Vec<_>>());
+        }
+    }
+
+    #[test]
+    fn clearing_the_mission_while_flying_is_an_error_that_changes_nothing() {
+        let mut s = MissionService::new();
+        let flown = waypoints(3, 1000);
+        upload(&mut s, &flown);
+        s.set_flying(true);
+        let home_alone = upload(&mut s, &waypoints(1, 5000));
+        let cleared = s.clear(GCS, MISSION, t(1.0));
+        let counted_zero = s.on_count(GCS, &count(0), t(1.0));
+        for out in [home_alone, cleared, counted_zero] {
+            assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ERROR));
+            assert!(out.graph.is_empty(), "nothing reaches the commander: {out:?}");
+            assert!(out.mav.iter().any(|m| matches!(m, MavMessage::STATUSTEXT(_))), "the reason is said");
+            assert_eq!(download_x(&mut s), flown.iter().map(|i| i.x).collect::<Vec<_>>());
+        }
+        // On the ground the same clear is done.
+        s.set_flying(false);
+        let out = s.clear(GCS, MISSION, t(2.0));
+        assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+        assert_eq!(s.mission_len(), 0);
+    }
+
+    #[test]
+    fn a_cancelled_upload_while_flying_leaves_the_flown_mission() {
+        let mut s = MissionService::new();
+        let flown = waypoints(3, 1000);
+        upload(&mut s, &flown);
+        s.set_flying(true);
+        s.on_count(GCS, &count(4), t(1.0));
+        for it in &waypoints(2, 7000) {
+            assert!(s.on_item(GCS, it, t(1.1)).graph.is_empty(), "nothing published before the last item");
+        }
+        // The ground station gives up (its MISSION_ACK cancels the transfer); the late items of
+        // the dead upload are ignored.
+        s.on_ack(GCS);
+        let late = s.on_item(GCS, &waypoints(4, 7000)[2], t(1.2));
+        assert!(late.mav.is_empty() && late.graph.is_empty());
+        assert_eq!(download_x(&mut s), flown.iter().map(|i| i.x).collect::<Vec<_>>());
     }
 
     #[test]
