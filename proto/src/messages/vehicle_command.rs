@@ -56,9 +56,10 @@ pub enum Command {
     /// In GUIDED and AUTO: keep the nose on this point, NED from the estimator's origin (m), or
     /// stop doing so (`None`) (MAV_CMD_DO_SET_ROI_LOCATION, DO_SET_ROI_NONE).
     RegionOfInterest { position_ned_m: Option<[f64; 3]> },
-    /// The ground station is alive. Heartbeats and sticks (not other commands, which scripts
-    /// send too) establish and refresh the data link whose loss is a failsafe.
-    Heartbeat,
+    /// A ground station's HEARTBEAT from system `system_id`. Only the one `MAV_GCS_SYSID`
+    /// names (and its MANUAL_CONTROL; not other commands, which scripts send too) establishes
+    /// and refreshes the data link whose loss is a failsafe; others are counted and ignored.
+    Heartbeat { system_id: u8 },
 }
 
 /// A timestamped [`Command`].
