@@ -133,7 +133,7 @@ def two_stations(gcs):
     gcs.log(f"moved forward {local:.1f} m (LOCAL_POSITION_NED), {global_:.1f} m (GLOBAL_POSITION_INT)")
     if not (local > 10.0 and global_ > 10.0):
         raise Failed("only MAV_GCS_SYSID flies", f"forward {local:.1f} m / {global_:.1f} m in 6 s")
-    ignored = [t for t in gcs.statustexts if "MANUAL_CONTROL from system 254 ignored" in t]
+    ignored = [t for t in gcs.statustexts if "Sticks from sysid 254 ignored" in t]
     if not ignored:
         raise Failed("ignored sticks announced", gcs.statustexts)
     gcs.results["opposite_sticks"] = {"forward_local_m": round(local, 2), "forward_global_m": round(global_, 2),

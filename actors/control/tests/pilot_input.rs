@@ -51,7 +51,7 @@ fn one_stale_mavlink_deflection_arms_nothing_and_live_low_sticks_arm_acro() {
     // Booted on those sticks in STABILIZE: arming there is refused, naming why.
     assert_eq!(f.commander.mode(), FlightMode::Stabilize);
     let why = f.command(Command::Arm).expect_err("stale sticks").0;
-    assert!(why.starts_with("Arm: Stabilize needs manual control input: sticks 8.0 s old"), "{why}");
+    assert_eq!(why, "Arm: Stabilize: no manual control for 8.0 s");
     assert!(!f.commander.armed());
     // Live sticks, throttle up: refused; throttle low: ACRO arms.
     f.gcs_sticks = Some(sticks(0.0, 0.6, GCS));
@@ -113,7 +113,7 @@ fn only_mav_gcs_sysid_flies_and_another_ground_stations_heartbeats_hold_off_noth
     let moved = f.l.position() - start;
     assert!(moved.x > 5.0, "MAV_GCS_SYSID's forward did not fly: moved {moved}");
     let text = f.commander.status(f.now()).last_refusal.unwrap_or_default();
-    assert_eq!(text, "MANUAL_CONTROL from system 254 ignored: MAV_GCS_SYSID is 255");
+    assert_eq!(text, "Sticks from sysid 254 ignored (MAV_GCS_SYSID 255)");
     // 255 falls silent (no heartbeats, no sticks); 254 goes on with both.
     f.gcs_sticks = None;
     let silent_from = f.now();
@@ -145,4 +145,26 @@ fn the_receivers_sticks_do_not_hold_off_the_ground_station_failsafe() {
     assert!(f.run_until(6.0, |f| cause(f) == Some(FailsafeCause::DataLinkLost)), "no GCS failsafe");
     let after_s = f.now().saturating_since(silent_from).as_secs_f64();
     assert!((5.0..5.1).contains(&after_s), "fired {after_s} s after the last heartbeat");
+}
+
+#[test]
+fn a_lost_receiver_refuses_arming_in_stick_modes_and_poshold_refuses_a_climbing_throttle() {
+    let mut f = Flight::new(CommanderParams::default());
+    f.sticks = Some(sticks(0.0, 0.0, StickSource::Radio));
+    f.run(0.5);
+    f.sticks = None;
+    f.gcs_sticks = Some(sticks(0.0, 0.0, GCS));
+    f.run(1.5);
+    // The ground station's live sticks may enter POSHOLD, but the receiver's loss refuses arming.
+    f.command(Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    let why = f.command(Command::Arm).expect_err("receiver lost").0;
+    assert_eq!(why, "Arm: Radio failsafe on (RC receiver lost)");
+    // The receiver back, its throttle above mid-stick: POSHOLD would climb at once.
+    f.sticks = Some(sticks(0.0, 0.8, StickSource::Radio));
+    f.run(0.1);
+    let why = f.command(Command::Arm).expect_err("climbing throttle").0;
+    assert!(why.starts_with("Arm: Throttle too high"), "{why}");
+    f.sticks = Some(sticks(0.0, 0.5, StickSource::Radio));
+    f.run(0.1);
+    f.command(Command::Arm).expect("mid-stick holds on the ground");
 }

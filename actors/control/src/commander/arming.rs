@@ -95,7 +95,8 @@ impl Commander {
         Ok(())
     }
 
-    /// The pilot's part of the pre-arm checks, in ArduCopter's words (`AP_Arming_Copter`'s
+    /// The pilot's part of the pre-arm checks, each text within one STATUSTEXT (50 characters),
+    /// in ArduCopter's words (`AP_Arming_Copter`'s
     /// "Throttle too high", "RC not found", "Radio failsafe on"): a mode flown from the sticks
     /// arms only on live ones with the throttle low — one MANUAL_CONTROL heard seconds ago is
     /// no pilot — and POSHOLD not with the throttle asking to climb; a receiver that was heard
@@ -106,11 +107,10 @@ impl Commander {
         if needs_sticks(self.mode) {
             let Some(s) = sticks else {
                 return match self.pilot.sticks_age_s(now) {
-                    None => refuse(format!("Arm: RC not found: {:?} needs manual control input", self.mode)),
-                    Some(age_s) => refuse(format!(
-                        "Arm: {:?} needs manual control input: sticks {age_s:.1} s old",
-                        self.mode
-                    )),
+                    None => refuse(format!("Arm: RC not found ({:?} needs sticks)", self.mode)),
+                    Some(age_s) => {
+                        refuse(format!("Arm: {:?}: no manual control for {age_s:.1} s", self.mode))
+                    }
                 };
             };
             if s.throttle > LOW_THROTTLE {
@@ -120,7 +120,7 @@ impl Commander {
         if self.mode == FlightMode::PosHold
             && sticks.is_some_and(|s| s.throttle > 0.5 + 0.5 * self.params.throttle_deadband)
         {
-            return refuse("Arm: Throttle too high (above mid-stick, POSHOLD would climb)");
+            return refuse("Arm: Throttle too high (POSHOLD would climb)");
         }
         if flown_from_sticks(self.mode)
             && self.pilot.radio_lost(now, &limits)

@@ -323,13 +323,14 @@ impl Commander {
                 if self.pilot.ignored_notice_due(manual.time) {
                     let ignored = self.pilot.ignored_sticks();
                     tracing::warn!(system_id, ignored, "MANUAL_CONTROL not from MAV_GCS_SYSID ignored");
+                    // Within one STATUSTEXT (50 characters).
                     self.announce(format!(
-                        "MANUAL_CONTROL from system {system_id} ignored: MAV_GCS_SYSID is {}",
+                        "Sticks from sysid {system_id} ignored (MAV_GCS_SYSID {})",
                         limits.gcs_system_id
                     ));
                 }
             }
-            SticksHeard::NotFinite => tracing::warn!(source = ?manual.source, "non-finite sticks ignored"),
+            SticksHeard::NotFinite => tracing::debug!(source = ?manual.source, "non-finite sticks ignored"),
         }
     }
 
