@@ -164,7 +164,8 @@ def stale_sticks(gcs):
     gcs.log("-> one MANUAL_CONTROL, full deflection")
     gcs.manual_control(gcs.conn, (1000, 1000, 1000, 1000))
     sent_at = gcs.boot_s
-    gcs.pump(lambda m: gcs.boot_s is not None and gcs.boot_s >= sent_at + 8.0, 10.0, "8 s of silence")
+    # 8 s of silence on the vehicle's clock (telemetry's time_boot_ms lags it by a stream period).
+    gcs.pump(lambda m: gcs.boot_s is not None and gcs.boot_s >= sent_at + 8.2, 10.0, "8 s of silence")
     acro = gcs.set_mode_raw("ACRO")
     arm = gcs.arm_raw()
     gcs.quiet(0.5)
