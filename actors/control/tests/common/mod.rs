@@ -198,7 +198,7 @@ impl Flight {
         if let Some(sticks) = self.sticks {
             self.commander.on_manual(&kestrel_proto::messages::ManualControl { time: self.now(), ..sticks });
         }
-        if let Some(sticks) = self.gcs_sticks.filter(|_| self.steps % 40 == 0) {
+        if let Some(sticks) = self.gcs_sticks.filter(|_| self.steps.is_multiple_of(40)) {
             self.commander.on_manual(&kestrel_proto::messages::ManualControl { time: self.now(), ..sticks });
         }
         self.steps += 1;
