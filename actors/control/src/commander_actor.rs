@@ -1,7 +1,8 @@
 //! `CommanderActor`: the actor shell of the [`Commander`].
 //!
 //! Ports — inputs `nav` (NavState, `latest`), `battery` (BatteryStatus, `latest`), `manual`
-//! (ManualControl, `latest`), `command` (VehicleCommand, `queue`), `mission` (Mission,
+//! (ManualControl, `queue`: the receiver's and ground stations' sticks on one topic, each naming
+//! its source), `command` (VehicleCommand, `queue`), `mission` (Mission,
 //! `queue`), `supervisor` (SupervisorEvent, `queue`), `avoidance` (AvoidanceCommand,
 //! `latest`; optional: routed only where the obstacle avoider runs, and from its first command
 //! on AUTO/GUIDED legs and POSHOLD's forward sticks blend its correction in and hold when it

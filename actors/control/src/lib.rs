@@ -9,8 +9,9 @@
 //! * the cascade — [`position`] (PX4-style position/velocity loops), [`attitude`] (SO(3)
 //!   error, tilt-first), [`rate`] (body-rate PID), [`mixer`] (allocation with desaturation),
 //!   composed per iteration by [`flight_controller`]; [`flip`] is the aerobatic manoeuvre;
-//! * the commander — [`commander`] (modes, arming, failsafes, land detector, missions) and
-//!   [`plan`] (QGroundControl `.plan` files);
+//! * the commander — [`commander`] (modes, arming, failsafes, land detector, missions, and
+//!   who is in control: [`commander::PilotInput`], the receiver against a ground station's
+//!   sticks and `MAV_GCS_SYSID`) and [`plan`] (QGroundControl `.plan` files);
 //! * running it — [`rt`] (real-time thread, triple buffer, loop statistics),
 //!   [`controller_actor`] and [`commander_actor`] (the actor shells, with their ports);
 //!   [`pilot_script`] is a pilot on a timetable for deterministic simulated flights.

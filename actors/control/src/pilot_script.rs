@@ -5,8 +5,10 @@
 //! On the lockstep clock the sticks arrive at exactly the same simulated times in every run,
 //! which MAVLink `MANUAL_CONTROL` from outside the graph cannot promise (the graph does not
 //! wait for a socket): closed-loop tests of the pilot's modes use it (tests/poshold_avoidance.rs
-//! flies POSHOLD at a wall), and so can a bench without a radio. The sticks count as a live
-//! data link for the commander, as a real pilot's do.
+//! flies POSHOLD at a wall), and so can a bench without a radio. The sticks are a receiver's
+//! (`StickSource::Radio`): they win over a ground station's MAVLink sticks, stopping them is
+//! the RC-loss failsafe, and they do not hold off the ground station's (commander
+//! `pilot_input`).
 //!
 //! Ports — outputs `manual` (ManualControl, from the first step on) and `command`
 //! (VehicleCommand); timer `tick` at `rate_hz`.

@@ -35,7 +35,14 @@ fn waypoint(f: &Flight, north_m: f64, alt_m: f64) -> MissionItem {
 #[test]
 fn sticks_heard_once_and_then_silent_fly_nothing() {
     let mut f = Flight::new(CommanderParams::default());
-    let full = ManualControl { time: f.now(), roll: 1.0, pitch: 1.0, yaw: 1.0, throttle: 0.0 };
+    let full = ManualControl {
+        time: f.now(),
+        roll: 1.0,
+        pitch: 1.0,
+        yaw: 1.0,
+        throttle: 0.0,
+        ..ManualControl::default()
+    };
     f.commander.on_manual(&full);
     f.command(Command::SetMode(FlightMode::Acro)).expect("fresh sticks: ACRO may be entered");
     f.command(Command::SetMode(FlightMode::PosHold)).expect("poshold");
@@ -77,9 +84,11 @@ fn stale_sticks_are_centred_not_flown() {
     let mut params = CommanderParams::default();
     params.failsafe.manual_action = kestrel_proto::messages::FailsafeAction::Warn;
     let mut f = Flight::new(params);
-    f.sticks = Some(ManualControl { time: f.now(), throttle: 1.0, ..ManualControl::default() });
+    f.sticks = Some(ManualControl { time: f.now(), throttle: 0.0, ..ManualControl::default() });
+    f.run(0.05);
     f.command(Command::SetMode(FlightMode::AltHold)).expect("althold");
-    f.command(Command::Arm).expect("armed");
+    f.command(Command::Arm).expect("armed with the throttle low");
+    f.sticks = Some(ManualControl { time: f.now(), throttle: 1.0, ..ManualControl::default() });
     assert!(f.run_until(10.0, |f| f.height() > 5.0), "climbed");
     // Full climb stick, then silence: after the timeout the vehicle must stop climbing.
     f.sticks = None;

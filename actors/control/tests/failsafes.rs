@@ -33,13 +33,13 @@ fn lands_and_disarms(f: &mut Flight) {
 #[test]
 fn data_link_loss_returns_home_and_lands() {
     let mut f = Flight::new(CommanderParams::default());
-    f.command(Command::Heartbeat).expect("heartbeat");
+    f.command(Command::Heartbeat { system_id: 255 }).expect("heartbeat");
     f.command(Command::SetMode(FlightMode::Guided)).expect("guided");
     f.command(Command::Arm).expect("armed");
     f.command(Command::GotoNed { position_ned_m: [12.0, 5.0, -8.0] }).expect("goto");
     for _ in 0..4 {
         f.run(1.0);
-        f.command(Command::Heartbeat).expect("heartbeat");
+        f.command(Command::Heartbeat { system_id: 255 }).expect("heartbeat");
     }
     assert_eq!(f.commander.mode(), FlightMode::Guided);
     assert!(f.run_until(6.0, |f| f.commander.mode() == FlightMode::ReturnToLaunch));
@@ -182,7 +182,7 @@ fn refused_transitions_say_why() {
     f.commander.on_manual(&ManualControl { time: f.now(), throttle: 0.6, ..ManualControl::default() });
     f.command(Command::SetMode(FlightMode::Stabilize)).expect("stabilize");
     assert!(why(f.command(Command::GotoNed { position_ned_m: [0.0; 3] })).contains("GUIDED"));
-    assert!(why(f.command(Command::Arm)).contains("throttle"));
+    assert!(why(f.command(Command::Arm)).contains("Throttle too high"));
     let nan = Mission {
         time: Time::ZERO,
         items: vec![MissionItem::ChangeSpeed { speed_m_s: f64::NAN }],

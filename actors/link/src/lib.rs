@@ -18,8 +18,9 @@
 //! Graph ports of [`LinkActor`]: inputs `nav_state` (NavState), `gps` (GpsFix), `battery`
 //! (BatteryStatus), `vehicle_status` (VehicleStatus), `depth_grid` (DepthGrid), `rangefinder_up`
 //! and `rangefinder_down` (RangefinderSample, sent as DISTANCE_SENSOR); outputs
-//! `vehicle_command` (VehicleCommand, including `Command::Heartbeat` for every ground-station
-//! heartbeat), `mission` (Mission), `manual_control` (ManualControl), `param_set` (ParamSet);
+//! `vehicle_command` (VehicleCommand, including `Command::Heartbeat` with the sender's system id
+//! for every ground-station heartbeat), `mission` (Mission), `manual_control` (ManualControl,
+//! `StickSource::Mavlink` with the sender's system id), `param_set` (ParamSet);
 //! timers `heartbeat` (1 Hz) and `tick` (50 Hz, telemetry and timeouts).
 
 pub mod actor;

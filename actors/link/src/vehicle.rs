@@ -35,6 +35,11 @@ use crate::services::{Outputs, Sender, Service, ToGraph};
 /// Our component id (MAV_COMP_ID_AUTOPILOT1).
 pub const COMPONENT_ID: u8 = 1;
 
+/// The parameter naming the ground station in control (ArduPilot 4.7's name for SYSID_MYGCS),
+/// declared by the commander, and its default there and in ArduPilot.
+const GCS_SYSID_PARAM: &str = "MAV_GCS_SYSID";
+const DEFAULT_GCS_SYSID: u8 = 255;
+
 /// What we claim in AUTOPILOT_VERSION: only what this crate implements (not FTP: requests are
 /// only refused, see `services::ftp`).
 pub fn capabilities() -> MavProtocolCapability {
@@ -111,6 +116,16 @@ impl Vehicle {
         sys_ok && comp_ok
     }
 
+    /// The ground station in control: the commander's `MAV_GCS_SYSID` once it is declared,
+    /// ArduPilot's default 255 until then.
+    fn gcs_system_id(&self) -> u8 {
+        self.params
+            .values()
+            .find(|(name, _)| *name == GCS_SYSID_PARAM)
+            .and_then(|(_, v)| (v.fract() == 0.0 && (1.0..=255.0).contains(&v)).then_some(v as u8))
+            .unwrap_or(DEFAULT_GCS_SYSID)
+    }
+
     /// Our HEARTBEAT.
     pub fn heartbeat(&self) -> MavMessage {
         MavMessage::HEARTBEAT(vehicle_heartbeat(self.telemetry.snapshot.status.as_ref()))
@@ -140,8 +155,13 @@ impl Vehicle {
         }
         match msg {
             MavMessage::HEARTBEAT(hb) if hb.mavtype == MavType::MAV_TYPE_GCS => {
-                let mut out = Outputs { mav: Vec::new(), graph: vec![ToGraph::Command(Command::Heartbeat)] };
-                if self.gcs.heard(now) == Some(GcsEvent::Regained) {
+                // Every ground station's heartbeat goes to the commander, which keeps the data
+                // link only on `MAV_GCS_SYSID`'s; the link's own lost/regained texts follow
+                // the same one.
+                let system_id = from.target_system();
+                let command = Command::Heartbeat { system_id };
+                let mut out = Outputs { mav: Vec::new(), graph: vec![ToGraph::Command(command)] };
+                if system_id == self.gcs_system_id() && self.gcs.heard(now) == Some(GcsEvent::Regained) {
                     out.mav.push(statustext(MavSeverity::MAV_SEVERITY_INFO, "GCS link regained"));
                 }
                 out
@@ -177,7 +197,7 @@ impl Vehicle {
             }
             MavMessage::MANUAL_CONTROL(m) => Outputs {
                 mav: Vec::new(),
-                graph: manual_control(m, now, &mut self.offboard_rejects)
+                graph: manual_control(m, from.target_system(), now, &mut self.offboard_rejects)
                     .map(ToGraph::Manual)
                     .into_iter()
                     .collect(),
@@ -497,7 +517,16 @@ mod tests {
         let mut v = vehicle(0);
         let gcs =
             MavMessage::HEARTBEAT(HEARTBEAT_DATA { mavtype: MavType::MAV_TYPE_GCS, ..Default::default() });
-        assert_eq!(v.on_message(GCS, &gcs, Time::ZERO).graph, vec![ToGraph::Command(Command::Heartbeat)]);
+        assert_eq!(
+            v.on_message(GCS, &gcs, Time::ZERO).graph,
+            vec![ToGraph::Command(Command::Heartbeat { system_id: 255 })]
+        );
+        // Another ground station's is passed on with its id: the commander decides.
+        let other_gcs = Sender { system_id: 254, component_id: 190 };
+        assert_eq!(
+            v.on_message(other_gcs, &gcs, Time::ZERO).graph,
+            vec![ToGraph::Command(Command::Heartbeat { system_id: 254 })]
+        );
         let other = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
             mavtype: MavType::MAV_TYPE_QUADROTOR,
             ..Default::default()
@@ -839,10 +868,10 @@ mod one_ack_per_command {
             prop_assert!(asked.len() <= 1, "{command:?}: {} requests", asked.len());
             for id in &asked {
                 let refusal = refused.then(|| "refused".to_owned());
-                let got = v.on_command_result(&CommandResult { time: now, id: *id, command: kestrel_proto::messages::Command::Heartbeat, refusal });
+                let got = v.on_command_result(&CommandResult { time: now, id: *id, command: kestrel_proto::messages::Command::Heartbeat { system_id: 255 }, refusal });
                 answers.extend(acks(&got.mav, command));
                 // The same answer again (a duplicate on the graph) is not acknowledged twice.
-                let again = v.on_command_result(&CommandResult { time: now, id: *id, command: kestrel_proto::messages::Command::Heartbeat, refusal: None });
+                let again = v.on_command_result(&CommandResult { time: now, id: *id, command: kestrel_proto::messages::Command::Heartbeat { system_id: 255 }, refusal: None });
                 answers.extend(acks(&again.mav, command));
             }
             let (late, _) = v.on_tick(now + ACK_TIMEOUT + ACK_TIMEOUT);

@@ -54,7 +54,7 @@ pub use gps::{GpsFix, GpsFixType};
 pub use ground_truth::GroundTruth;
 pub use imu::ImuSample;
 pub use mag::MagSample;
-pub use manual_control::ManualControl;
+pub use manual_control::{ManualControl, StickSource};
 pub use mission::{AltitudeFrame, MAX_MISSION_ITEMS, Mission, MissionItem, MissionPoint};
 pub use nav_state::{NavState, NavValidity};
 pub use obstacle_map::{Obstacle, ObstacleMap};

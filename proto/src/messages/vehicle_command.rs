@@ -60,9 +60,10 @@ pub enum Command {
     /// vehicle is and announce it; armed on the ground, disarm. The runtime sends it and exits
     /// once the vehicle is disarmed, so ending the process never stops the motors in flight.
     Shutdown,
-    /// The ground station is alive. Heartbeats and sticks (not other commands, which scripts
-    /// send too) establish and refresh the data link whose loss is a failsafe.
-    Heartbeat,
+    /// A ground station's HEARTBEAT from system `system_id`. Only the one `MAV_GCS_SYSID`
+    /// names (and its MANUAL_CONTROL; not other commands, which scripts send too) establishes
+    /// and refreshes the data link whose loss is a failsafe; others are counted and ignored.
+    Heartbeat { system_id: u8 },
 }
 
 /// A timestamped [`Command`].

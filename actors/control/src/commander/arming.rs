@@ -1,9 +1,10 @@
 //! Pre-arm checks and what each mode needs before it may be entered.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{FlightMode, LandedState};
+use kestrel_proto::messages::{FailsafeAction, FlightMode, LandedState};
 
-use super::Commander;
+use super::pilot_input::PilotLimits;
+use super::{Commander, flown_from_sticks};
 
 /// Why a command or mode change was refused (reported in `VehicleStatus::last_refusal`).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -26,9 +27,12 @@ pub fn needs_position(mode: FlightMode) -> bool {
     )
 }
 
-/// Modes flown from the sticks alone.
+/// Modes flown from the sticks alone, with no position to hold without them: entered and armed
+/// only on live sticks (`Commander::sticks`), and armed only with the throttle low. POSHOLD,
+/// also flown from the sticks, holds its position without them and may arm on none; with live
+/// sticks it must not be asked to climb (`prearm`).
 pub fn needs_sticks(mode: FlightMode) -> bool {
-    matches!(mode, FlightMode::Stabilize | FlightMode::Acro)
+    matches!(mode, FlightMode::Stabilize | FlightMode::Acro | FlightMode::AltHold)
 }
 
 /// How long a battery report stays valid for the pre-arm check (s).
@@ -86,9 +90,43 @@ impl Commander {
             // come straight back down, or sit armed waiting for the land detector.
             return refuse(format!("arming refused: not in {:?} (choose GUIDED, LOITER or AUTO)", self.mode));
         }
+        self.sticks_ready(now)?;
         self.mode_allowed(now, self.mode).map_err(|r| Refusal(format!("arming refused: {r}")))?;
-        if needs_sticks(self.mode) && self.sticks(now).is_some_and(|m| m.throttle > LOW_THROTTLE) {
-            return refuse("arming refused: throttle not low");
+        Ok(())
+    }
+
+    /// The pilot's part of the pre-arm checks, each text within one STATUSTEXT (50 characters),
+    /// in ArduCopter's words (`AP_Arming_Copter`'s
+    /// "Throttle too high", "RC not found", "Radio failsafe on"): a mode flown from the sticks
+    /// arms only on live ones with the throttle low — one MANUAL_CONTROL heard seconds ago is
+    /// no pilot — and POSHOLD not with the throttle asking to climb; a receiver that was heard
+    /// and is lost refuses every stick mode while its failsafe acts.
+    fn sticks_ready(&self, now: Time) -> Result<(), Refusal> {
+        let limits = PilotLimits::of(&self.params);
+        let sticks = self.sticks(now);
+        if needs_sticks(self.mode) {
+            let Some(s) = sticks else {
+                return match self.pilot.sticks_age_s(now) {
+                    None => refuse(format!("Arm: RC not found ({:?} needs sticks)", self.mode)),
+                    Some(age_s) => {
+                        refuse(format!("Arm: {:?}: no manual control for {age_s:.1} s", self.mode))
+                    }
+                };
+            };
+            if s.throttle > LOW_THROTTLE {
+                return refuse(format!("Arm: Throttle too high ({:.0} %)", s.throttle * 100.0));
+            }
+        }
+        if self.mode == FlightMode::PosHold
+            && sticks.is_some_and(|s| s.throttle > 0.5 + 0.5 * self.params.throttle_deadband)
+        {
+            return refuse("Arm: Throttle too high (POSHOLD would climb)");
+        }
+        if flown_from_sticks(self.mode)
+            && self.pilot.radio_lost(now, &limits)
+            && self.params.failsafe.manual_action != FailsafeAction::Warn
+        {
+            return refuse("Arm: Radio failsafe on (RC receiver lost)");
         }
         Ok(())
     }

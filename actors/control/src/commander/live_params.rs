@@ -152,11 +152,30 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.guided_timeout_s = v,
     },
     ParamDef {
+        name: "MAV_GCS_SYSID",
+        unit: "",
+        min: 1.0,
+        max: 255.0,
+        description: "The ground station in control: its heartbeats and sticks count, others' not",
+        get: |p| f64::from(p.gcs_system_id),
+        // `apply` takes whole numbers only, and the range is 1..=255.
+        set: |p, v| p.gcs_system_id = v as u8,
+    },
+    ParamDef {
+        name: "RC_OVERRIDE_TIME",
+        unit: "s",
+        min: 0.2,
+        max: 30.0,
+        description: "A ground station's MANUAL_CONTROL older than this flies nothing",
+        get: |p| p.failsafe.mavlink_sticks_timeout_s,
+        set: |p, v| p.failsafe.mavlink_sticks_timeout_s = v,
+    },
+    ParamDef {
         name: "FS_GCS_TIMEOUT_S",
         unit: "s",
         min: 1.0,
         max: 60.0,
-        description: "Data link lost after this long without a GCS heartbeat or sticks",
+        description: "Data link lost after this long without MAV_GCS_SYSID's heartbeat or sticks",
         get: |p| p.failsafe.link_timeout_s,
         set: |p, v| p.failsafe.link_timeout_s = v,
     },
@@ -174,7 +193,7 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         unit: "s",
         min: 0.2,
         max: 5.0,
-        description: "Sticks older than this are gone: stick modes refused, RC-loss failsafe",
+        description: "RC receiver lost after this long: MAVLink sticks fly, RC-loss failsafe",
         get: |p| p.failsafe.manual_timeout_s,
         set: |p, v| p.failsafe.manual_timeout_s = v,
     },
@@ -366,6 +385,9 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
 /// neither.
 const SWITCHES: [&str; 1] = ["FD_ACT_EN"];
 
+/// Parameters that are whole numbers (a system id).
+const WHOLE: [&str; 1] = ["MAV_GCS_SYSID"];
+
 /// A failsafe action's code (NaN, which no declaration passes, if it has none: `validate`
 /// refuses such an action before it can be declared).
 fn action_code(codes: &ActionCodes, action: FailsafeAction) -> f64 {
@@ -388,6 +410,12 @@ pub fn apply(params: &mut CommanderParams, name: &str, value: f64) -> Result<Par
         return Err(ParamRefused::Invalid {
             name: name.to_owned(),
             reason: format!("is a switch: 0 or 1, got {value}"),
+        });
+    }
+    if WHOLE.contains(&name) && value.fract() != 0.0 {
+        return Err(ParamRefused::Invalid {
+            name: name.to_owned(),
+            reason: format!("is a whole number, got {value}"),
         });
     }
     if let Some(codes) = failsafe_actions::named(name)

@@ -21,6 +21,7 @@ mod mission_runner;
 mod modes;
 mod motor_check;
 mod params;
+mod pilot_input;
 mod shutdown;
 mod vertical;
 
@@ -43,6 +44,7 @@ pub use land_detector::LandDetector;
 pub use mission_runner::{MissionRunner, MissionStep};
 pub use motor_check::{COMMAND_STALE_S, MotorCheck};
 pub use params::{CommanderParams, FailsafeParams, FeasibilityParams, GeofenceParams};
+pub use pilot_input::{PilotInput, PilotLimits, SticksHeard};
 pub use vertical::VerticalParams;
 
 use crate::error::InvalidParam;
@@ -91,8 +93,9 @@ pub struct Commander {
     battery: Option<BatteryStatus>,
     /// The calibration's last word: required steps missing, one running (pre-arm).
     calibration: Option<CalibrationStatus>,
-    manual: Option<ManualControl>,
-    last_link: Option<Time>,
+    /// The receiver's and the ground station's sticks and the ground station's link: who is in
+    /// control (`pilot_input`).
+    pilot: PilotInput,
     mission: Option<Mission>,
     runner: Option<MissionRunner>,
     /// The item a ground station made current while no mission was being flown: the next run
@@ -167,8 +170,7 @@ impl Commander {
             geofence_enabled: true,
             battery: None,
             calibration: None,
-            manual: None,
-            last_link: None,
+            pilot: PilotInput::default(),
             mission: None,
             runner: None,
             mission_start: None,
@@ -305,24 +307,31 @@ impl Commander {
         self.calibration = Some(status.clone());
     }
 
-    /// Sticks; they also count as a live data link. Non-finite sticks are ignored; sticks older
-    /// than `failsafe.manual_timeout_s` count as none (`sticks`).
+    /// Sticks from the receiver or a ground station, arbitrated by `pilot_input`: the
+    /// receiver wins while healthy, MAVLink sticks count only from `MAV_GCS_SYSID` (and also
+    /// as its heartbeat), others are ignored with a STATUSTEXT at most every
+    /// [`pilot_input::IGNORED_NOTICE_S`]. Non-finite sticks are ignored.
     pub fn on_manual(&mut self, manual: &ManualControl) {
-        let m = manual;
-        if [m.roll, m.pitch, m.yaw, m.throttle].iter().all(|v| v.is_finite()) {
-            self.manual = Some(ManualControl {
-                roll: m.roll.clamp(-1.0, 1.0),
-                pitch: m.pitch.clamp(-1.0, 1.0),
-                yaw: m.yaw.clamp(-1.0, 1.0),
-                throttle: m.throttle.clamp(0.0, 1.0),
-                ..*m
-            });
-            self.last_link = Some(m.time);
-            if self.boot_mode && !self.armed {
+        let limits = PilotLimits::of(&self.params);
+        match self.pilot.on_sticks(manual, &limits) {
+            SticksHeard::Taken if self.boot_mode && !self.armed => {
                 tracing::info!("sticks heard: booting in Stabilize");
                 self.boot_mode = false;
                 self.enter(FlightMode::Stabilize);
             }
+            SticksHeard::Taken => {}
+            SticksHeard::NotOurGcs { system_id } => {
+                if self.pilot.ignored_notice_due(manual.time) {
+                    let ignored = self.pilot.ignored_sticks();
+                    tracing::warn!(system_id, ignored, "MANUAL_CONTROL not from MAV_GCS_SYSID ignored");
+                    // Within one STATUSTEXT (50 characters).
+                    self.announce(format!(
+                        "Sticks from sysid {system_id} ignored (MAV_GCS_SYSID {})",
+                        limits.gcs_system_id
+                    ));
+                }
+            }
+            SticksHeard::NotFinite => tracing::debug!(source = ?manual.source, "non-finite sticks ignored"),
         }
     }
 
@@ -416,8 +425,9 @@ impl Commander {
     pub fn on_command(&mut self, cmd: &VehicleCommand) -> Result<(), Refusal> {
         let now = cmd.time;
         let result = match cmd.command {
-            Command::Heartbeat => {
-                self.last_link = Some(now);
+            Command::Heartbeat { system_id } => {
+                // Another system's heartbeat is answered by the link and holds off nothing here.
+                self.pilot.on_heartbeat(system_id, now, &PilotLimits::of(&self.params));
                 Ok(())
             }
             Command::Arm => self.arm(now),
@@ -686,11 +696,11 @@ impl Commander {
         Ok(())
     }
 
-    /// The pilot's sticks if they are fresh at `now`: a ground station's MANUAL_CONTROL sent
-    /// once, seconds ago, must not fly the vehicle.
+    /// The pilot's sticks if they are fresh at `now` (`pilot_input`: the receiver's while it is
+    /// healthy, else the ground station's): a MANUAL_CONTROL sent once, seconds ago, must not
+    /// fly the vehicle.
     pub(crate) fn sticks(&self, now: Time) -> Option<&ManualControl> {
-        let timeout = self.params.failsafe.manual_timeout_s;
-        self.manual.as_ref().filter(|m| now.saturating_since(m.time).as_secs_f64() <= timeout)
+        self.pilot.sticks(now, &PilotLimits::of(&self.params))
     }
 
     /// The newest NavState if it is fresh at `now`.
@@ -806,8 +816,10 @@ impl Commander {
         let armed = self.armed;
         let nav = self.nav.clone();
         let fresh = self.fresh_nav(now).is_some();
-        let link_lost =
-            self.last_link.is_some_and(|t| now.saturating_since(t).as_secs_f64() > fs.link_timeout_s);
+        let limits = PilotLimits::of(&self.params);
+        // Each loss on its own source's silence (`pilot_input`): the receiver never holds off
+        // the ground station's, nor MAVLink sticks the receiver's.
+        let link_lost = self.pilot.gcs_lost(now, &limits);
         let remaining = self.battery.as_ref().map(|b| b.remaining);
         let volts = self.battery.as_ref().map(|b| b.voltage_v);
         let under = |threshold: f64| threshold > 0.0 && volts.is_some_and(|v| v < threshold);
@@ -822,7 +834,7 @@ impl Commander {
             fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
         });
         let avoidance_lost = self.avoidance.silent_for_s(now).is_some_and(|s| s > fs.avoidance_lost_s);
-        let sticks_lost = self.manual.is_some() && flown_from_sticks(self.mode) && self.sticks(now).is_none();
+        let sticks_lost = flown_from_sticks(self.mode) && self.pilot.sticks_lost(now, &limits);
         let fence = self.geofence_enabled
             && nav.as_ref().is_some_and(|n| {
                 let home = self.home_or(n);
@@ -1012,7 +1024,7 @@ impl Commander {
 }
 
 /// Modes whose setpoint comes from the sticks: losing them is a failsafe there.
-fn flown_from_sticks(mode: FlightMode) -> bool {
+pub(crate) fn flown_from_sticks(mode: FlightMode) -> bool {
     matches!(mode, FlightMode::Stabilize | FlightMode::Acro | FlightMode::AltHold | FlightMode::PosHold)
 }
 

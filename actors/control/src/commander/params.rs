@@ -65,6 +65,11 @@ pub struct CommanderParams {
     /// A GUIDED velocity target not repeated within this time is dropped and the vehicle holds
     /// (s). ArduCopter's `GUIDED_TIMEOUT` is 3 s; MAVSDK's Offboard repeats its setpoint at 20 Hz.
     pub guided_timeout_s: f64,
+    /// The ground station in control (`MAV_GCS_SYSID`, ArduPilot 4.7's name for SYSID_MYGCS;
+    /// 255 as there and as QGroundControl and MAVProxy identify themselves): only its
+    /// heartbeats and MANUAL_CONTROL hold off the ground-station failsafe, and only its
+    /// MANUAL_CONTROL flies (`pilot_input`).
+    pub gcs_system_id: u8,
     pub failsafe: FailsafeParams,
     pub geofence: GeofenceParams,
     pub feasibility: FeasibilityParams,
@@ -99,6 +104,7 @@ impl Default for CommanderParams {
             require_battery: true,
             disarm_delay_s: 10.0,
             guided_timeout_s: 3.0,
+            gcs_system_id: 255,
             failsafe: FailsafeParams::default(),
             geofence: GeofenceParams::default(),
             feasibility: FeasibilityParams::default(),
@@ -111,8 +117,10 @@ impl Default for CommanderParams {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct FailsafeParams {
-    /// Data link lost after this long without a GCS heartbeat or sticks (s); armed only once a
-    /// link was seen, so a scripted flight without a ground station does not trip it.
+    /// Data link lost after this long without a heartbeat or MANUAL_CONTROL from the ground
+    /// station `gcs_system_id` names (s; ArduCopter's `FS_GCS_TIMEOUT`, 5 s); armed only once
+    /// it was heard, so a scripted flight without a ground station does not trip it. Other
+    /// systems and the RC receiver never hold it off.
     pub link_timeout_s: f64,
     pub link_action: FailsafeAction,
     /// Battery share below which `battery_low_action` fires.
@@ -140,12 +148,15 @@ pub struct FailsafeParams {
     /// loop wait up to 95 ms) does not end a mission. PX4 waits `COM_POS_FS_DELAY` (1 s) of
     /// failed position checks before its failsafe acts.
     pub nav_stale_s: f64,
-    /// Sticks (RC or MAVLink MANUAL_CONTROL) older than this are gone (s): modes flown from
-    /// them are refused, and losing them while one is flown fires `manual_action`. ArduPilot
-    /// drops MAVLink sticks after `RC_OVERRIDE_TIME` (3 s) and PX4 declares RC lost after
-    /// `COM_RC_LOSS_T` (0.5 s); 1 s tolerates a ground station's joystick at 10 Hz over a lossy
-    /// radio without flying stale sticks for long.
+    /// The RC receiver is lost after this long without sticks (s; ArduPilot's `RC_FS_TIMEOUT`,
+    /// 1 s; PX4's `COM_RC_LOSS_T` 0.5 s): while it is fresh it wins over MAVLink sticks, and
+    /// its loss while a mode is flown from sticks fires `manual_action`, whatever a ground
+    /// station's sticks do (`pilot_input`).
     pub manual_timeout_s: f64,
+    /// A ground station's MANUAL_CONTROL older than this flies nothing (s; ArduPilot's
+    /// `RC_OVERRIDE_TIME`, 3 s). With no receiver ever heard, this timing out while a mode is
+    /// flown from sticks fires `manual_action`.
+    pub mavlink_sticks_timeout_s: f64,
     /// What losing the sticks does (ArduPilot `FS_THR_ENABLE` = RTL, PX4 `NAV_RCL_ACT` = Return).
     pub manual_action: FailsafeAction,
     /// `[failsafe.motor_failure]`: the ESC-telemetry check (PX4's `FD_ACT_EN`,
@@ -183,6 +194,7 @@ impl Default for FailsafeParams {
             critical_actor_action: FailsafeAction::Land,
             nav_stale_s: 1.0,
             manual_timeout_s: 1.0,
+            mavlink_sticks_timeout_s: 3.0,
             manual_action: FailsafeAction::ReturnToLaunch,
             motor_failure: MotorFailureParams::default(),
             motor_failure_action: FailsafeAction::Land,
@@ -303,6 +315,7 @@ impl CommanderParams {
             ("guided_timeout_s", self.guided_timeout_s),
             ("failsafe.link_timeout_s", self.failsafe.link_timeout_s),
             ("failsafe.manual_timeout_s", self.failsafe.manual_timeout_s),
+            ("failsafe.mavlink_sticks_timeout_s", self.failsafe.mavlink_sticks_timeout_s),
             ("failsafe.avoidance_lost_s", self.failsafe.avoidance_lost_s),
             ("feasibility.max_distance_m", self.feasibility.max_distance_m),
             ("feasibility.first_distance_m", self.feasibility.first_distance_m),
@@ -313,6 +326,9 @@ impl CommanderParams {
             positive(name, v)?;
         }
         within("rtl_loiter_s", self.rtl_loiter_s, 0.0, 600.0)?;
+        if self.gcs_system_id == 0 {
+            return Err(InvalidParam::new("gcs_system_id", "0 is broadcast, not a system: 1..=255"));
+        }
         within("disarm_delay_s", self.disarm_delay_s, 0.0, 127.0)?;
         within("feasibility.min_height_m", self.feasibility.min_height_m, -100.0, 100.0)?;
         self.vertical.validate()?;

@@ -89,7 +89,7 @@ fn modes_refuse_with_a_reason_when_their_needs_are_missing() {
     let expectations = [
         (FlightMode::Stabilize, Some("manual control")),
         (FlightMode::Acro, Some("manual control")),
-        (FlightMode::AltHold, None),
+        (FlightMode::AltHold, Some("manual control")),
         (FlightMode::PosHold, Some("position estimate")),
         (FlightMode::Guided, Some("position estimate")),
         (FlightMode::Auto, Some("position estimate")),
@@ -404,7 +404,7 @@ fn a_hold_failsafe_on_the_ground_does_not_disarm() {
     let mut c = Commander::new(params).expect("valid");
     c.on_nav(&nav(Time(1000), 0.0, true));
     c.on_battery(&full_battery(Time(1000)));
-    cmd(&mut c, Command::Heartbeat).expect("heartbeat");
+    cmd(&mut c, Command::Heartbeat { system_id: 255 }).expect("heartbeat");
     cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
     cmd(&mut c, Command::Arm).expect("arm");
     // The link is lost while armed on the ground: HOLD, which is weaker than RTL.
@@ -425,7 +425,7 @@ fn the_link_loss_action_set_live_is_the_one_flown() {
         (0.0, FlightMode::Guided),
     ] {
         let mut c = ready(true);
-        cmd(&mut c, Command::Heartbeat).expect("heartbeat");
+        cmd(&mut c, Command::Heartbeat { system_id: 255 }).expect("heartbeat");
         cmd(&mut c, Command::SetMode(FlightMode::Guided)).expect("guided");
         cmd(&mut c, Command::Arm).expect("arm");
         c.on_nav(&nav(Time(2000), -5.0, true));
@@ -750,7 +750,14 @@ fn poshold_facing(yaw_rad: f64) -> Commander {
 }
 
 fn sticks(t: u64, roll: f64, pitch: f64, yaw: f64, throttle: f64) -> ManualControl {
-    ManualControl { time: Time(t), roll, pitch, yaw, throttle }
+    ManualControl {
+        time: Time(t),
+        roll,
+        pitch,
+        yaw,
+        throttle,
+        source: kestrel_proto::messages::StickSource::Radio,
+    }
 }
 
 /// Steps `c` every 2.5 ms for `duration_us` from `t` (µs, advanced) hovering 5 m up facing `yaw_rad` with

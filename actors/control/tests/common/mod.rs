@@ -153,6 +153,10 @@ pub struct Flight {
     pub nav_edit: fn(&mut NavState),
     /// Sticks sent on every step, as a radio does; `None` sends none.
     pub sticks: Option<kestrel_proto::messages::ManualControl>,
+    /// A ground station's MANUAL_CONTROL sent on every 40th step (10 Hz, as QGroundControl's
+    /// virtual joystick), with its own `source`; `None` sends none.
+    pub gcs_sticks: Option<kestrel_proto::messages::ManualControl>,
+    steps: u64,
 }
 
 impl Flight {
@@ -167,6 +171,8 @@ impl Flight {
             nav_blackout: false,
             nav_edit: |_| {},
             sticks: None,
+            gcs_sticks: None,
+            steps: 0,
         };
         f.run(0.2);
         f
@@ -192,6 +198,10 @@ impl Flight {
         if let Some(sticks) = self.sticks {
             self.commander.on_manual(&kestrel_proto::messages::ManualControl { time: self.now(), ..sticks });
         }
+        if let Some(sticks) = self.gcs_sticks.filter(|_| self.steps.is_multiple_of(40)) {
+            self.commander.on_manual(&kestrel_proto::messages::ManualControl { time: self.now(), ..sticks });
+        }
+        self.steps += 1;
         if !self.nav_blackout {
             self.commander.on_nav(&nav);
         }

@@ -1,6 +1,7 @@
 //! HEARTBEAT: ours at 1 Hz (the timer lives in the shell), and the ground station's, whose loss
-//! we report. The commander owns the data-link failsafe; every GCS heartbeat refreshes its timer
-//! through `Command::Heartbeat`.
+//! we report. The commander owns the data-link failsafe: every GCS heartbeat goes to it as
+//! `Command::Heartbeat` with the sender's system id, and only `MAV_GCS_SYSID`'s refresh its
+//! timer (and this watch).
 
 use std::time::Duration;
 

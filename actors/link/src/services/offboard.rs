@@ -7,7 +7,7 @@
 
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_from_e7};
-use kestrel_proto::messages::{Command, ManualControl};
+use kestrel_proto::messages::{Command, ManualControl, StickSource};
 use mavlink::dialects::ardupilotmega::{
     MANUAL_CONTROL_DATA, MavFrame, MavMessage, POSITION_TARGET_GLOBAL_INT_DATA,
     POSITION_TARGET_LOCAL_NED_DATA, PositionTargetTypemask, SET_POSITION_TARGET_GLOBAL_INT_DATA,
@@ -25,18 +25,25 @@ pub struct OffboardRejects {
     pub no_origin: u64,
 }
 
-/// MANUAL_CONTROL (x forward, y right, r yaw in -1000..1000; z throttle 0..1000) as sticks.
+/// MANUAL_CONTROL (x forward, y right, r yaw in -1000..1000; z throttle 0..1000) from system
+/// `system_id` as sticks; the commander decides whether that system is the one in control.
 pub fn manual_control(
     m: &MANUAL_CONTROL_DATA,
+    system_id: u8,
     now: Time,
     rejects: &mut OffboardRejects,
 ) -> Option<ManualControl> {
     let axis = |v: i16| (v != i16::MAX && (-1000..=1000).contains(&v)).then(|| f64::from(v) / 1000.0);
     let throttle = (0..=1000).contains(&m.z).then(|| f64::from(m.z) / 1000.0);
     match (axis(m.x), axis(m.y), axis(m.r), throttle) {
-        (Some(pitch), Some(roll), Some(yaw), Some(throttle)) => {
-            Some(ManualControl { time: now, roll, pitch, yaw, throttle })
-        }
+        (Some(pitch), Some(roll), Some(yaw), Some(throttle)) => Some(ManualControl {
+            time: now,
+            roll,
+            pitch,
+            yaw,
+            throttle,
+            source: StickSource::Mavlink { system_id },
+        }),
         _ => {
             rejects.invalid += 1;
             None
@@ -169,9 +176,10 @@ mod tests {
     fn sticks_are_normalised_and_out_of_range_refused() {
         let mut r = OffboardRejects::default();
         let m = MANUAL_CONTROL_DATA { x: 500, y: -1000, z: 250, r: 0, ..Default::default() };
-        let s = manual_control(&m, Time::ZERO, &mut r).expect("valid sticks");
+        let s = manual_control(&m, 254, Time::ZERO, &mut r).expect("valid sticks");
         assert_eq!((s.pitch, s.roll, s.throttle, s.yaw), (0.5, -1.0, 0.25, 0.0));
-        assert!(manual_control(&MANUAL_CONTROL_DATA { z: -5, ..m }, Time::ZERO, &mut r).is_none());
+        assert_eq!(s.source, StickSource::Mavlink { system_id: 254 }, "the sender is named");
+        assert!(manual_control(&MANUAL_CONTROL_DATA { z: -5, ..m }, 255, Time::ZERO, &mut r).is_none());
         assert_eq!(r.invalid, 1);
     }
 

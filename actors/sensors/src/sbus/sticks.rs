@@ -3,7 +3,7 @@
 //! range 172..992..1811 (988..1500..2012 µs).
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::ManualControl;
+use kestrel_proto::messages::{ManualControl, StickSource};
 
 use crate::sbus::frame::SbusFrame;
 
@@ -105,6 +105,7 @@ impl StickMap {
             pitch: self.pitch.centred(channels),
             yaw: self.yaw.centred(channels),
             throttle: self.throttle.upward(channels),
+            source: StickSource::Radio,
         }
     }
 
@@ -134,7 +135,14 @@ mod tests {
             .expect("ok");
         assert_eq!(
             mc,
-            ManualControl { time: Time::from_micros(7), roll: 0.0, pitch: 0.0, yaw: 0.0, throttle: 0.0 }
+            ManualControl {
+                time: Time::from_micros(7),
+                roll: 0.0,
+                pitch: 0.0,
+                yaw: 0.0,
+                throttle: 0.0,
+                source: StickSource::Radio
+            }
         );
     }
 
