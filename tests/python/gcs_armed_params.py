@@ -50,8 +50,8 @@ def armed_params(gcs):
             raise Failed(f"{name} read in flight", f"{read}, wanted the value in force {old}")
         refused[name] = {"set": value, "echo": old, "read": read}
     gcs.set_param("RTL_ALT_M", 20.0, "a limit tuned in flight")
-    # Hover on: the refused values must have changed nothing (5 s of vehicle time at 5x).
-    gcs.quiet(1.0)
+    # Hover on: the refused values must have changed nothing (about 10 s of vehicle time).
+    gcs.quiet(2.0)
     if not gcs.armed or gcs.mode != "GUIDED":
         raise Failed("flight unaffected", f"armed {gcs.armed}, mode {gcs.mode}")
     low, high = min(heights), max(heights)
