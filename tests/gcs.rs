@@ -297,6 +297,21 @@ fn a_parameter_whose_owner_never_hears_the_set_keeps_its_old_value() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Pulse ranges and sensor calibration are disarmed-only (`param_def::WhileArmed::Locked`): set in
+/// a hover at 10 m they are refused with a STATUSTEXT and the value in force, and the hover goes
+/// on; on the ground the same parameters take new values (tests/python/gcs_armed_params.py).
+#[test]
+fn output_and_calibration_parameters_are_refused_in_flight_and_taken_on_the_ground() {
+    let dir = temp_dir("armed-params");
+    let flight = fly(&dir, "armed-params", "gcs_armed_params.py", &[], |port| link_params(port, "", ""));
+    let result = flight.transcript.last().expect("result");
+    println!("figure: disarmed-only parameters set in flight and on the ground: {result}");
+    assert!(flight.failsafe_causes().is_empty(), "{:#}", flight.report);
+    assert_eq!(flight.report["flight"]["collisions"], 0, "{:#}", flight.report);
+    assert!(flight.landed(), "{:#}", flight.report);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn with_signing_on_only_a_client_holding_the_key_can_arm() {
     let dir = temp_dir("signing");

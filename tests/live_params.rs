@@ -1,7 +1,8 @@
 //! Live parameters through the whole default graph (`config/sim.toml`, lockstep, in-process):
 //! the link restores a parameter file at start and sends each stored value to the actor that
 //! declared it; the controller and the estimator apply theirs and declare back the values they
-//! now use, recorded on `param_decl`.
+//! now use, recorded on `param_decl` — those locked while armed (a pulse range, a calibration)
+//! included, since the vehicle boots disarmed.
 
 use std::path::Path;
 use std::time::Duration;
@@ -27,8 +28,9 @@ fn stored_gains_and_noises_reach_their_owners_at_start() {
     let param_file = dir.join("params.txt");
     // MPC_THR_MAX 0.12 is inside its range but below the minimum thrust (0.08) plus 0.05: the
     // controller must refuse it and keep 0.9.
-    std::fs::write(&param_file, "MC_ROLLRATE_P=30\nEKF2_GPS_P_NOISE=3\nRTL_ALT_M=25\nMPC_THR_MAX=0.12\n")
-        .expect("param file");
+    // SERVO1_MAX and COMPASS_OFS_X are refused while armed, never at boot: the vehicle is disarmed.
+    let stored = "MC_ROLLRATE_P=30\nEKF2_GPS_P_NOISE=3\nRTL_ALT_M=25\nMPC_THR_MAX=0.12\nSERVO1_MAX=1950\nCOMPASS_OFS_X=100\n";
+    std::fs::write(&param_file, stored).expect("param file");
     let record = dir.join("params.mcap");
 
     let config_dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("config");
@@ -73,6 +75,27 @@ fn stored_gains_and_noises_reach_their_owners_at_start() {
     assert_eq!(answered(&decls, "controller", "MC_ROLLRATE_P"), Some(30.0));
     assert_eq!(answered(&decls, "estimator", "EKF2_GPS_P_NOISE"), Some(3.0));
     assert_eq!(answered(&decls, "commander", "RTL_ALT_M"), Some(25.0));
+    assert_eq!(answered(&decls, "sim", "SERVO1_MAX"), Some(1950.0));
+    assert_eq!(answered(&decls, "sim", "COMPASS_OFS_X"), Some(100.0));
+    // Locked while armed, across every owner of the graph: exactly the pulse ranges of the four
+    // motors and the sensor calibration with the board trim (README, "Ground stations").
+    let mut locked: Vec<&str> = decls
+        .iter()
+        .filter(|d| d.start)
+        .flat_map(|d| d.params.iter().filter(|p| p.disarmed_only).map(|p| p.name.as_str()))
+        .collect();
+    locked.sort_unstable();
+    locked.dedup();
+    let mut wanted: Vec<String> =
+        (1..=4).flat_map(|i| [format!("SERVO{i}_MIN"), format!("SERVO{i}_MAX")]).collect();
+    for prefix in
+        ["COMPASS_OFS_", "COMPASS_DIA_", "COMPASS_ODI_", "INS_ACCOFFS_", "INS_ACCSCAL_", "INS_GYROFFS_"]
+    {
+        wanted.extend(["X", "Y", "Z"].map(|axis| format!("{prefix}{axis}")));
+    }
+    wanted.extend(["AHRS_TRIM_X".to_owned(), "AHRS_TRIM_Y".to_owned()]);
+    wanted.sort_unstable();
+    assert_eq!(locked, wanted);
     assert_eq!(answered(&decls, "controller", "MPC_THR_MAX"), Some(0.9), "the refused value is not applied");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -358,6 +358,9 @@ macro_rules! cal_param {
             min: $min,
             max: $max,
             description: $desc,
+            // The corrected samples would step under an estimator that realigns only on the
+            // ground: set on the ground only.
+            while_armed: crate::param_def::WhileArmed::Locked,
             get: |p: &CalibrationParams| p.$field[$i],
             set: |p: &mut CalibrationParams, v| p.$field[$i] = v,
         }

@@ -13,7 +13,7 @@
 use std::time::Duration;
 
 use crate::messages::{EscPulses, MAX_MOTORS};
-use crate::param_def::ParamDef;
+use crate::param_def::{ParamDef, WhileArmed};
 use crate::time::Time;
 
 /// Lowest pulse any output is ever asked for directly or by a range (µs).
@@ -107,6 +107,9 @@ macro_rules! esc_param {
             min: SAFE_PULSE_MIN_US,
             max: SAFE_PULSE_MAX_US,
             description: $desc,
+            // A narrowed range stops or races that motor (SERVO1_MIN 800 then SERVO1_MAX 900
+            // leaves motor 1 near stopped): set on the ground only.
+            while_armed: WhileArmed::Locked,
             get: $get,
             set: $set,
         }

@@ -7,12 +7,30 @@
 //! `ParamSet` without a link), then the owner's own validation of the whole struct, and the old
 //! value is kept when either refuses. [`answer`] is the rest of every owner's `param_set`
 //! handler: what to log, and whether to publish the declaration again.
+//!
+//! Each definition also says whether the parameter may change while the vehicle is armed
+//! ([`WhileArmed`]): the link refuses a PARAM_SET of a [`WhileArmed::Locked`] one while armed,
+//! and an owner that knows the armed state refuses it too ([`apply_set`]).
 
 use crate::messages::{ParamDecl, ParamInfo, ParamSet};
 use crate::time::Time;
 
 /// The longest MAVLink `param_id`.
 pub const PARAM_NAME_MAX: usize = 16;
+
+/// Whether a parameter may change while the vehicle is armed, declared with each parameter so
+/// that adding one is a decision.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WhileArmed {
+    /// Gains, speeds, limits, failsafe choices, simulated faults: tunable in flight, as
+    /// ArduPilot allows.
+    Tunable,
+    /// Moves what the outputs or the sensors mean: a motor's pulse range (`SERVOn_MIN/MAX`: a
+    /// narrowed range stops that motor), a sensor's offsets and scales or the board's trim (the
+    /// corrected samples step under an estimator that realigns only on the ground). Set only
+    /// while disarmed; a parameter file loaded at boot applies them all.
+    Locked,
+}
 
 /// One live parameter of a `P`: where it lives and what values it accepts.
 pub struct ParamDef<P> {
@@ -23,6 +41,8 @@ pub struct ParamDef<P> {
     pub min: f64,
     pub max: f64,
     pub description: &'static str,
+    /// Whether a PARAM_SET may change it while armed.
+    pub while_armed: WhileArmed,
     /// Reads the value from `P`.
     pub get: fn(&P) -> f64,
     /// Writes the value into `P` (one parameter may set several fields, e.g. north and east).
@@ -45,6 +65,8 @@ pub enum ParamRefused {
     OutOfRange { name: String, value: f64, min: f64, max: f64, unit: &'static str },
     #[error("parameter {name}: {reason}")]
     Invalid { name: String, reason: String },
+    #[error("{name}: cannot change while armed")]
+    WhileArmed { name: String },
 }
 
 /// Why a declaration cannot be served over MAVLink.
@@ -71,6 +93,7 @@ pub fn declare<P>(defs: &[ParamDef<P>], params: &P, owner: &str, start: bool, ti
             unit: d.unit.to_owned(),
             description: d.description.to_owned(),
             integer: false,
+            disarmed_only: d.while_armed == WhileArmed::Locked,
         })
         .collect();
     ParamDecl { time, owner: owner.to_owned(), start, params: values }
@@ -102,6 +125,25 @@ pub fn apply<P: Clone, E: std::fmt::Display>(
     validate(&changed).map_err(|e| ParamRefused::Invalid { name: name.to_owned(), reason: e.to_string() })?;
     *params = changed;
     Ok(ParamChange::Applied)
+}
+
+/// [`apply`] for a `ParamSet` arriving at an owner that knows whether the vehicle is `armed`:
+/// a [`WhileArmed::Locked`] parameter is refused while armed — unless the set restores the
+/// value in force before this owner (re)started ([`ParamSet::restore`]), which its restart
+/// already dropped. Holds "no locked parameter changes while armed"
+/// (`tests::no_locked_parameter_changes_while_armed_whatever_the_sets`).
+pub fn apply_set<P: Clone, E: std::fmt::Display>(
+    defs: &[ParamDef<P>],
+    params: &mut P,
+    set: &ParamSet,
+    armed: bool,
+    validate: impl Fn(&P) -> Result<(), E>,
+) -> Result<ParamChange, ParamRefused> {
+    let locked = defs.iter().any(|d| d.name == set.name && d.while_armed == WhileArmed::Locked);
+    if armed && locked && !set.restore {
+        return Err(ParamRefused::WhileArmed { name: set.name.clone() });
+    }
+    apply(defs, params, &set.name, set.value, validate)
 }
 
 /// What an owner does after trying a `ParamSet` (`outcome`, from [`apply`] and whatever the
@@ -163,6 +205,7 @@ mod tests {
             min: 0.0,
             max: 10.0,
             description: "lower",
+            while_armed: WhileArmed::Tunable,
             get: |t| t.low,
             set: |t, v| t.low = v,
         },
@@ -172,6 +215,7 @@ mod tests {
             min: 0.0,
             max: 10.0,
             description: "upper",
+            while_armed: WhileArmed::Locked,
             get: |t| t.high,
             set: |t, v| t.high = v,
         },
@@ -218,9 +262,81 @@ mod tests {
         assert!(matches!(decl.check(), Err(DeclError::OutOfRange { .. })));
     }
 
+    fn set(name: &str, value: f64, restore: bool) -> ParamSet {
+        ParamSet { time: Time::ZERO, name: name.into(), value, restore }
+    }
+
+    #[test]
+    fn the_declaration_carries_which_parameters_are_locked_while_armed() {
+        let decl = declare(&DEFS, &Tuning { low: 1.0, high: 4.0 }, "owner", true, Time::ZERO);
+        let locked: Vec<(&str, bool)> =
+            decl.params.iter().map(|p| (p.name.as_str(), p.disarmed_only)).collect();
+        assert_eq!(locked, [("T_LOW", false), ("T_HIGH", true)]);
+    }
+
+    #[test]
+    fn a_locked_parameter_is_refused_while_armed_and_taken_disarmed_or_restored() {
+        let mut t = Tuning { low: 1.0, high: 4.0 };
+        assert_eq!(
+            apply_set(&DEFS, &mut t, &set("T_HIGH", 6.0, false), true, ordered),
+            Err(ParamRefused::WhileArmed { name: "T_HIGH".into() })
+        );
+        assert_eq!(
+            ParamRefused::WhileArmed { name: "T_HIGH".into() }.to_string(),
+            "T_HIGH: cannot change while armed"
+        );
+        assert_eq!(t.high, 4.0);
+        // A tunable one is taken armed; the locked one disarmed, or restored after a restart.
+        assert_eq!(
+            apply_set(&DEFS, &mut t, &set("T_LOW", 2.0, false), true, ordered),
+            Ok(ParamChange::Applied)
+        );
+        assert_eq!(
+            apply_set(&DEFS, &mut t, &set("T_HIGH", 6.0, false), false, ordered),
+            Ok(ParamChange::Applied)
+        );
+        assert_eq!(
+            apply_set(&DEFS, &mut t, &set("T_HIGH", 7.0, true), true, ordered),
+            Ok(ParamChange::Applied)
+        );
+        assert_eq!(t, Tuning { low: 2.0, high: 7.0 });
+        // Range and validation still apply to every path.
+        assert!(apply_set(&DEFS, &mut t, &set("T_HIGH", 11.0, false), false, ordered).is_err());
+        assert_eq!(
+            apply_set(&DEFS, &mut t, &set("OTHER", 1.0, false), true, ordered),
+            Ok(ParamChange::NotMine)
+        );
+    }
+
+    proptest::proptest! {
+        /// Whatever sets arrive, armed or not, a locked parameter holds its value through every
+        /// armed stretch, and a tunable one is never refused for being armed.
+        #[test]
+        fn no_locked_parameter_changes_while_armed_whatever_the_sets(
+            sets in proptest::collection::vec((proptest::bool::ANY, 0usize..3, -2.0f64..12.0), 1..60)
+        ) {
+            let mut t = Tuning { low: 1.0, high: 9.0 };
+            for (armed, which, value) in sets {
+                let name = ["T_LOW", "T_HIGH", "OTHER"][which];
+                let before = t.clone();
+                let outcome = apply_set(&DEFS, &mut t, &set(name, value, false), armed, ordered);
+                if armed {
+                    proptest::prop_assert_eq!(t.high, before.high);
+                    if name == "T_HIGH" {
+                        proptest::prop_assert_eq!(&outcome, &Err(ParamRefused::WhileArmed { name: name.into() }));
+                    }
+                }
+                if name == "T_LOW" {
+                    let armed_refusal = matches!(outcome, Err(ParamRefused::WhileArmed { .. }));
+                    proptest::prop_assert!(!armed_refusal, "a tunable parameter refused for being armed");
+                }
+            }
+        }
+    }
+
     #[test]
     fn an_owner_answers_its_own_names_applied_or_refused_and_not_others() {
-        let set = ParamSet { time: Time::ZERO, name: "T_LOW".into(), value: 1.0 };
+        let set = ParamSet { time: Time::ZERO, name: "T_LOW".into(), value: 1.0, restore: false };
         assert!(answer("t", &set, Ok::<_, ParamRefused>(ParamChange::Applied)));
         assert!(answer("t", &set, Err("out of range")));
         assert!(!answer("t", &set, Ok::<_, ParamRefused>(ParamChange::NotMine)));

@@ -61,6 +61,7 @@ impl Bench {
                 time: self.sim.time(),
                 name: format!("COMPASS_OFS_{axis}"),
                 value: -hard * 1000.0,
+                restore: false,
             };
             self.send(EstimatorInput::Param(set));
         }

@@ -247,8 +247,10 @@ impl Vehicle {
 
     /// The commander's new status: STATUSTEXTs and ACKs for what changed, MISSION_ITEM_REACHED
     /// for every item reached, and HOME_POSITION / MISSION_CURRENT at once when home or the
-    /// current item moved (a ground station should not wait for the stream).
+    /// current item moved (a ground station should not wait for the stream). The armed state
+    /// goes to the parameter table, which refuses disarmed-only parameters while armed.
     pub fn on_status(&mut self, status: VehicleStatus) -> Outputs {
+        self.params.set_armed(status.armed);
         let old = self.telemetry.snapshot.status.take();
         self.missions.set_flying(status.armed && status.mode == FlightMode::Auto);
         let mut mav = status_changes(old.as_ref(), &status);

@@ -9,7 +9,9 @@
 //! Like ArduPilot's `AP_InertialSensor` and `Compass`, the driver owns the board's calibration
 //! (`param_decl`: [`CALIBRATION_PARAMS`], set from `param_set`) and publishes corrected samples;
 //! while a calibration asks for a motion (`calibration_motion`) it also publishes the raw ones on
-//! `imu_raw` and `mag_raw` for the `calibration` actor, as the simulator does.
+//! `imu_raw` and `mag_raw` for the `calibration` actor, as the simulator does. The calibration
+//! is disarmed-only (`WhileArmed::Locked`): where `vehicle_status` is routed, a set while armed is
+//! refused here as well as by the link.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -18,8 +20,10 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
-use kestrel_proto::messages::{CalibrationMotion, ImuSample, MagSample, ParamDecl, ParamSet, SensorHealth};
-use kestrel_proto::param_def::{ParamChange, answer, apply, declare};
+use kestrel_proto::messages::{
+    CalibrationMotion, ImuSample, MagSample, ParamDecl, ParamSet, SensorHealth, VehicleStatus,
+};
+use kestrel_proto::param_def::{ParamChange, answer, apply_set, declare};
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
@@ -69,6 +73,8 @@ pub enum ImuInput {
     Param(ParamSet),
     /// How a running calibration wants the vehicle handled: anything but idle asks for raw samples.
     Motion(CalibrationMotion),
+    /// The commander's status (port `vehicle_status`): whether the vehicle is armed.
+    Status(Box<VehicleStatus>),
 }
 
 /// Counters the reader thread shares with the actor.
@@ -106,6 +112,8 @@ pub struct ImuActor {
     /// Opened in [`Actor::start`], on the running graph's clock.
     window: Option<HealthWindow>,
     health_out: Publisher<SensorHealth>,
+    /// Whether the newest `vehicle_status` says armed (false where it is not routed).
+    armed: bool,
 }
 
 impl ImuActor {
@@ -128,6 +136,7 @@ impl ImuActor {
         setup.timer("health_report", Duration::from_secs(1), ImuInput::Health);
         setup.input("param_set", ImuInput::Param);
         setup.input("calibration_motion", ImuInput::Motion);
+        setup.input("vehicle_status", |s| ImuInput::Status(Box::new(s)));
         Ok(ImuActor {
             imu: Some(imu),
             reader: None,
@@ -144,6 +153,7 @@ impl ImuActor {
             device: bus_path,
             window: None,
             health_out: setup.output("health"),
+            armed: false,
         })
     }
 
@@ -151,7 +161,7 @@ impl ImuActor {
     /// matrix is refused) and hands the calibration to the reader; the link is told the values
     /// in use, applied or refused.
     fn on_param(&mut self, p: &ParamSet) {
-        let outcome = apply(&CALIBRATION_PARAMS, &mut self.calibration, &p.name, p.value, |c| {
+        let outcome = apply_set(&CALIBRATION_PARAMS, &mut self.calibration, p, self.armed, |c| {
             c.calibration().map(|_| ())
         });
         if let Ok(ParamChange::Applied) = outcome
@@ -299,6 +309,10 @@ impl Actor for ImuActor {
                 self.live.set_raw_wanted(m.motion.wants_raw_samples());
                 return Ok(());
             }
+            ImuInput::Status(s) => {
+                self.armed = s.armed;
+                return Ok(());
+            }
         };
         if self.reader.as_ref().is_some_and(JoinHandle::is_finished) {
             self.join_reader()?;
@@ -333,7 +347,8 @@ mod tests {
 
     use super::*;
     use crate::mpu9250::FakeMpu9250;
-    use kestrel_proto::messages::Motion;
+    use kestrel_proto::messages::{FlightMode, LandedState, Motion};
+    use kestrel_proto::testing::vehicle_status;
     use kestrel_proto::units::GRAVITY_M_S2;
 
     /// Runs the reader on `fake` until it has published an IMU and a mag sample, then takes a
@@ -389,13 +404,22 @@ mod tests {
             ImuActor::with_bus(Box::new(fake), &ImuActorParams::default(), &mut setup).expect("build");
         let ctx = setup.context();
         ready(actor.start(&ctx)).expect("start");
-        let set = |name: &str, value| ParamSet { time: Time::ZERO, name: name.into(), value };
+        let set = |name: &str, value| ParamSet { time: Time::ZERO, name: name.into(), value, restore: false };
         // COMPASS_OFS_X is added to the reading (mG); INS_ACCOFFS_Z subtracted (m/s²).
         ready(actor.handle(&ctx, ImuInput::Param(set("COMPASS_OFS_X", 120.0)))).expect("param");
         ready(actor.handle(&ctx, ImuInput::Param(set("INS_ACCOFFS_Z", 0.25)))).expect("param");
         ready(actor.handle(&ctx, ImuInput::Param(set("COMPASS_DIA_X", 0.0))))
             .expect("a refusal is no failure");
         ready(actor.handle(&ctx, ImuInput::Param(set("RTL_ALT_M", 25.0)))).expect("not ours");
+        // Armed, a calibration change is refused, and disarmed again it is taken.
+        for (armed, value) in [(true, 0.05), (false, 0.02)] {
+            let status = vehicle_status(Time::ZERO, armed, FlightMode::PosHold, LandedState::InAir);
+            ready(actor.handle(&ctx, setup.input("vehicle_status", status))).expect("status");
+            ready(actor.handle(&ctx, ImuInput::Param(set("INS_GYROFFS_X", value)))).expect("param");
+            let decls: Vec<ParamDecl> = setup.published("param_decl");
+            let now = decls.last().unwrap().params.iter().find(|p| p.name == "INS_GYROFFS_X").unwrap().value;
+            assert_eq!(now, if armed { 0.0 } else { 0.02 }, "armed {armed}");
+        }
         let tumble = CalibrationMotion { time: Time::ZERO, motion: Motion::Tumble };
         ready(actor.handle(&ctx, ImuInput::Motion(tumble))).expect("motion");
         for k in 1..=5_000u64 {
@@ -409,7 +433,7 @@ mod tests {
         ready(actor.stop(&ctx));
 
         let decls: Vec<ParamDecl> = setup.published("param_decl");
-        assert_eq!(decls.len(), 4, "at start and after each of our three sets: {decls:?}");
+        assert_eq!(decls.len(), 6, "at start and after each of our five sets: {decls:?}");
         assert!(decls[0].start && decls[0].params.len() == CALIBRATION_PARAMS.len());
         let value = |name: &str| decls.last().unwrap().params.iter().find(|p| p.name == name).unwrap().value;
         assert_eq!((value("COMPASS_OFS_X"), value("INS_ACCOFFS_Z")), (120.0, 0.25));

@@ -9,7 +9,7 @@
 //!
 //! It maps each command onto its output's pulse range, the live `SERVOn_MIN`/`SERVOn_MAX` it
 //! owns and declares (`param_set` in, `param_decl` out; `pulses.min_us`/`max_us` until set, as
-//! an ESC range calibration sets them), and takes direct pulses while disarmed (`esc_pulses`,
+//! an ESC range calibration sets them; refused while armed, `WhileArmed::Locked`), and takes direct pulses while disarmed (`esc_pulses`,
 //! an ESC calibration's ramp), checked and dropped after 0.1 s by
 //! [`DirectPulses`](kestrel_proto::esc::DirectPulses): the disarmed pulse again.
 
@@ -19,7 +19,7 @@ use std::time::Duration;
 
 use kestrel_proto::esc::{DirectPulses, EscRanges, esc_range_params};
 use kestrel_proto::messages::{ActuatorOutputs, EscPulses, ParamDecl, ParamSet, SensorHealth};
-use kestrel_proto::param_def::{answer, apply, declare};
+use kestrel_proto::param_def::{answer, apply_set, declare};
 use kestrel_proto::{Actor, ActorError, Context, Keepsake, Publisher, Setup, Time};
 use serde::Deserialize;
 
@@ -244,11 +244,13 @@ impl Actor for MotorActor {
                 }
             }
             MotorInput::Param(set) => {
-                let outcome = apply(
+                // Armed (the newest commands say so), a range change is refused here too: the
+                // link refuses it first, but a bench may publish `param_set` without one.
+                let outcome = apply_set(
                     esc_range_params(self.outputs),
                     &mut self.ranges,
-                    &set.name,
-                    set.value,
+                    &set,
+                    self.armed,
                     EscRanges::validate,
                 );
                 if answer(&self.name, &set, outcome) {
@@ -370,7 +372,7 @@ mod tests {
     }
 
     #[test]
-    fn servo_ranges_apply_live_and_direct_pulses_drive_only_disarmed_and_time_out() {
+    fn servo_ranges_apply_disarmed_only_and_direct_pulses_drive_only_disarmed_and_time_out() {
         let fake = FakePwmRoot::new("actor-esc", 0, &[0, 1, 2, 3]);
         let params = MotorActorParams { root: fake.root.clone(), ..MotorActorParams::default() };
         let mut setup = TestSetup::new("motors", "/");
@@ -386,7 +388,8 @@ mod tests {
 
         // SERVO2_MIN/MAX set: the same command maps onto output 2's own range at once.
         for (name, value) in [("SERVO2_MIN", 1080.0), ("SERVO2_MAX", 1920.0), ("SERVO2_MAX", f64::NAN)] {
-            let set = ParamSet { time: Time::from_micros(1_000_000), name: name.into(), value };
+            let set =
+                ParamSet { time: Time::from_micros(1_000_000), name: name.into(), value, restore: false };
             ready(actor.handle(&ctx, setup.input("param_set", set))).expect("param");
         }
         let decl: Vec<ParamDecl> = setup.published("param_decl");
@@ -396,6 +399,20 @@ mod tests {
         ready(actor.handle(&ctx, setup.input("actuators", armed(1_002_500, 0.25)))).expect("apply");
         wait_for(&fake, "pwmchip0/pwm1/duty_cycle", "1290000");
         wait_for(&fake, "pwmchip0/pwm0/duty_cycle", "1250000");
+
+        // Armed: a range change is refused (declared back unchanged) and the pulses stay.
+        let set = ParamSet {
+            time: Time::from_micros(1_002_500),
+            name: "SERVO1_MAX".into(),
+            value: 1100.0,
+            restore: false,
+        };
+        ready(actor.handle(&ctx, setup.input("param_set", set))).expect("param");
+        let decl: Vec<ParamDecl> = setup.published("param_decl");
+        assert_eq!(decl.last().expect("declared again").params[1].value, 2000.0, "refused while armed");
+        ready(actor.handle(&ctx, setup.input("actuators", armed(1_003_000, 0.25)))).expect("apply");
+        std::thread::sleep(Duration::from_millis(20));
+        assert_eq!(fake.read("pwmchip0/pwm0/duty_cycle"), "1250000", "the range in force");
 
         // Armed: direct pulses are ignored.
         let direct = |t_us: u64, pulse_us: f64| EscPulses {

@@ -11,7 +11,7 @@ use kestrel_proto::messages::{
     FailureInjectionResult, GpsFix, GroundTruth, ImuSample, MagSample, ObstacleMap, ParamDecl, ParamSet,
     RangefinderOrientation, RangefinderSample, SimFault, SimFaultPhase,
 };
-use kestrel_proto::param_def::{ParamChange, ParamRefused, answer, apply, declare};
+use kestrel_proto::param_def::{ParamChange, ParamRefused, answer, apply, apply_set, declare};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
@@ -200,9 +200,12 @@ impl Actor for SimActor {
             }
             SimInput::Motion(m) => self.sim.set_calibration_motion(m.motion),
             SimInput::Param(p) => {
-                let mut outcome = apply(&CALIBRATION_PARAMS, &mut self.calibration, &p.name, p.value, |c| {
-                    c.calibration().map(|_| ())
-                });
+                // Calibration and pulse ranges are disarmed-only: refused here too while the
+                // newest commands say armed (the link refuses first; a bench may not have one).
+                let mut outcome =
+                    apply_set(&CALIBRATION_PARAMS, &mut self.calibration, &p, self.armed, |c| {
+                        c.calibration().map(|_| ())
+                    });
                 if let Ok(ParamChange::Applied) = outcome
                     && let Ok(calibration) = self.calibration.calibration()
                 {
@@ -293,7 +296,7 @@ impl SimActor {
     fn set_esc_range(&mut self, set: &ParamSet) -> Result<ParamChange, ParamRefused> {
         let motors = self.sim.vehicle().frame.motor_count();
         let change =
-            apply(esc_range_params(motors), &mut self.esc_ranges, &set.name, set.value, EscRanges::validate)?;
+            apply_set(esc_range_params(motors), &mut self.esc_ranges, set, self.armed, EscRanges::validate)?;
         if change == ParamChange::Applied {
             self.sim.set_esc_ranges(&self.esc_ranges);
         }

@@ -13,7 +13,7 @@
 use kestrel_proto::messages::{
     FAILURE_INJECTION_ENABLE, FailureInjection, FailureType, FailureUnit, InjectionOutcome,
 };
-use kestrel_proto::param_def::ParamDef;
+use kestrel_proto::param_def::{ParamDef, WhileArmed};
 
 use crate::error::InvalidParam;
 use crate::faults::FaultKind;
@@ -81,6 +81,7 @@ macro_rules! switch_param {
             min: 0.0,
             max: 1.0,
             description: $what,
+            while_armed: WhileArmed::Tunable,
             get: |p| p.$field,
             set: |p, v| p.$field = v,
         }
@@ -96,6 +97,7 @@ macro_rules! axis_param {
             min: -$limit,
             max: $limit,
             description: $what,
+            while_armed: WhileArmed::Tunable,
             get: |p| p.$field[$i],
             set: |p, v| p.$field[$i] = v,
         }
@@ -115,6 +117,7 @@ pub static LIVE_FAULT_PARAMS: [ParamDef<LiveFaultParams>; 26] = [
         min: 0.0,
         max: 100.0,
         description: "GPS noise factor, 1 none (gps_noise)",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.gps_noise_factor,
         set: |p, v| p.gps_noise_factor = v,
     },
@@ -135,6 +138,7 @@ pub static LIVE_FAULT_PARAMS: [ParamDef<LiveFaultParams>; 26] = [
         min: -100.0,
         max: 100.0,
         description: "Baro altitude error growth, + reads high (baro_drift)",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.baro_drift_m_s,
         set: |p, v| p.baro_drift_m_s = v,
     },
@@ -167,6 +171,7 @@ pub static LIVE_FAULT_PARAMS: [ParamDef<LiveFaultParams>; 26] = [
         min: 0.0,
         max: 8.0,
         description: "Motor SIM_ENGINE_MUL acts on, 1-based; 0 none",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.engine_fail,
         set: |p, v| p.engine_fail = v,
     },
@@ -176,6 +181,7 @@ pub static LIVE_FAULT_PARAMS: [ParamDef<LiveFaultParams>; 26] = [
         min: 0.0,
         max: 1.0,
         description: "Thrust factor of SIM_ENGINE_FAIL's motor, 0 lost",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.engine_mul,
         set: |p, v| p.engine_mul = v,
     },
@@ -185,6 +191,7 @@ pub static LIVE_FAULT_PARAMS: [ParamDef<LiveFaultParams>; 26] = [
         min: 0.0,
         max: 100.0,
         description: "Battery voltage lowered by (battery_sag)",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.battery_sag_v,
         set: |p, v| p.battery_sag_v = v,
     },
@@ -194,6 +201,7 @@ pub static LIVE_FAULT_PARAMS: [ParamDef<LiveFaultParams>; 26] = [
         min: 0.0,
         max: 50.0,
         description: "Wind speed replacing the world's; 0 with TURB 0: world's",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.wind_speed_m_s,
         set: |p, v| p.wind_speed_m_s = v,
     },
@@ -203,6 +211,7 @@ pub static LIVE_FAULT_PARAMS: [ParamDef<LiveFaultParams>; 26] = [
         min: 0.0,
         max: 360.0,
         description: "Direction the wind blows from, clockwise from north",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.wind_from_deg,
         set: |p, v| p.wind_from_deg = v,
     },
@@ -212,6 +221,7 @@ pub static LIVE_FAULT_PARAMS: [ParamDef<LiveFaultParams>; 26] = [
         min: 0.0,
         max: 20.0,
         description: "Gust 1 sigma with SIM_WIND_SPD (wind)",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.wind_gust_m_s,
         set: |p, v| p.wind_gust_m_s = v,
     },

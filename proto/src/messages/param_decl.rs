@@ -29,6 +29,11 @@ pub struct ParamInfo {
     /// (MAVSDK's `set_param_int`) gets the type it asked for.
     #[serde(default)]
     pub integer: bool,
+    /// Refused while armed (`param_def::WhileArmed::Locked`): an output's pulse range, a
+    /// sensor's calibration, the board's trim. The link answers a PARAM_SET of it while armed
+    /// with a STATUSTEXT and the value still in force.
+    #[serde(default)]
+    pub disarmed_only: bool,
 }
 
 /// Every live parameter of one actor, with its current value.

@@ -13,5 +13,10 @@ pub struct ParamSet {
     /// The parameter's name (at most 16 characters, MAVLink's `param_id`).
     pub name: String,
     pub value: f64,
+    /// The link restoring the value in force before the owner (re)started (an earlier set or
+    /// the parameter file), not a new value: taken even while armed, since the restart
+    /// dropped it. A ground station's set is never a restore.
+    #[serde(default)]
+    pub restore: bool,
 }
 crate::impl_message!(ParamSet);

@@ -8,11 +8,14 @@
 //! on which actor started first.
 //!
 //! A set outside the parameter's range is refused: the current value is echoed and a STATUSTEXT
-//! says why. An unknown name gets a STATUSTEXT only (there is no value to echo). An accepted set
-//! of a parameter the link serves itself is echoed at once. One an actor owns is published as
-//! `ParamSet` for the owner, which validates it again and declares the value it really uses; only
-//! that declaration is echoed, as PX4 answers with the value in use: the set value when the owner
-//! took it, the owner's own when it refused (with a STATUSTEXT). An owner that does not answer
+//! says why. So is a set, while armed (the commander's `VehicleStatus`), of a parameter its owner
+//! declared disarmed-only (`param_def::WhileArmed::Locked`: pulse ranges, sensor calibration,
+//! board trim): "SERVO1_MAX: cannot change while armed", and the value still in force, which the
+//! ground station then shows. An unknown name gets a STATUSTEXT only (there is no value to
+//! echo). An accepted set of a parameter the link serves itself is echoed at once. One an actor
+//! owns is published as `ParamSet` for the owner, which validates it again and declares the value
+//! it really uses; only that declaration is echoed, as PX4 answers with the value in use: the set
+//! value when the owner took it, the owner's own when it refused (with a STATUSTEXT). An owner that does not answer
 //! within [`CONFIRM_TIMEOUT`] — its `param_set` input unrouted, the actor down — leaves the old
 //! value, which is echoed with a STATUSTEXT saying so: a ground station never sees a value the
 //! vehicle does not use.
@@ -68,6 +71,8 @@ struct Entry {
     owner: Option<String>,
     /// Set over MAVLink or restored from the file: written to the file.
     persist: bool,
+    /// Declared disarmed-only by its owner: a PARAM_SET while armed is refused.
+    disarmed_only: bool,
 }
 
 /// The vehicle's parameters, sorted by name (that order is the MAVLink index).
@@ -83,6 +88,10 @@ pub struct ParamTable {
     /// A value changed that the parameter file must follow (`take_changed`): a PARAM_SET that
     /// went to its owner, or a declaration whose owner refused a persisted value.
     changed: bool,
+    /// Whether the vehicle is armed, from the commander's latest `VehicleStatus`; false until
+    /// one arrives (the link starts with the vehicle on the ground, and an owner that knows the
+    /// armed state refuses a locked set on its own as well).
+    armed: bool,
 }
 
 /// PARAM_VALUEs sent per scheduler tick while a parameter list is streaming: a burst of hundreds
@@ -120,8 +129,10 @@ impl ParamTable {
                 });
             }
         }
-        let mut entries: Vec<Entry> =
-            specs.into_iter().map(|spec| Entry { spec, owner: None, persist: false }).collect();
+        let mut entries: Vec<Entry> = specs
+            .into_iter()
+            .map(|spec| Entry { spec, owner: None, persist: false, disarmed_only: false })
+            .collect();
         entries.sort_by(|a, b| a.spec.name.cmp(&b.spec.name));
         Ok(ParamTable {
             entries,
@@ -129,6 +140,7 @@ impl ParamTable {
             awaiting: Vec::new(),
             list_cursor: None,
             changed: false,
+            armed: false,
         })
     }
 
@@ -140,6 +152,11 @@ impl ParamTable {
     /// Whether there are none.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
+    }
+
+    /// The vehicle's armed state, from the commander's `VehicleStatus`.
+    pub fn set_armed(&mut self, armed: bool) {
+        self.armed = armed;
     }
 
     /// Whether an actor of the graph has declared `name` (not only the config listing it).
@@ -222,6 +239,7 @@ impl ParamTable {
             };
             match index {
                 Some(i) if self.entries[i].owner.is_some() => {
+                    self.entries[i].disarmed_only = p.disarmed_only;
                     self.redeclared(i, spec, (decl.start, answered.as_deref()), now, &mut done);
                 }
                 _ => {
@@ -230,7 +248,12 @@ impl ParamTable {
                         .filter(|&i| self.entries[i].persist)
                         .map(|i| self.entries[i].spec.value)
                         .or_else(|| self.pending.remove(&p.name));
-                    let entry = Entry { spec, owner: Some(decl.owner.clone()), persist: false };
+                    let entry = Entry {
+                        spec,
+                        owner: Some(decl.owner.clone()),
+                        persist: false,
+                        disarmed_only: p.disarmed_only,
+                    };
                     let i = match index {
                         Some(i) => {
                             self.entries[i] = entry;
@@ -338,7 +361,7 @@ impl ParamTable {
                 deadline: now + CONFIRM_TIMEOUT,
                 restored: true,
             });
-            done.out.graph.push(ToGraph::Param(ParamSet { time: now, name, value }));
+            done.out.graph.push(ToGraph::Param(ParamSet { time: now, name, value, restore: true }));
         }
     }
 
@@ -399,7 +422,10 @@ impl ParamTable {
         let value = f64::from(value);
         let entry = &mut self.entries[i];
         let spec = &mut entry.spec;
-        let refusal = if !in_range(spec, value) {
+        let refusal = if self.armed && entry.disarmed_only {
+            // Checked first: while armed no value of it is taken, whatever it is.
+            Some(format!("{name}: cannot change while armed"))
+        } else if !in_range(spec, value) {
             Some(format!("Param {name}: {value} outside {}..{} {}", spec.min, spec.max, spec.unit))
         } else if spec.kind != ParamKind::Real32 && value.fract() != 0.0 {
             // An integer parameter (a switch, an index) is not rounded into one of its values.
@@ -413,7 +439,7 @@ impl ParamTable {
             return out;
         }
         let value = quantise(spec.kind, value);
-        let set = ParamSet { time: now, name: spec.name.clone(), value };
+        let set = ParamSet { time: now, name: spec.name.clone(), value, restore: false };
         if entry.owner.is_some() {
             self.awaiting.retain(|a| a.name != set.name);
             self.awaiting.push(Awaiting {
@@ -577,13 +603,107 @@ mod tests {
                     unit: "m".into(),
                     description: String::new(),
                     integer: false,
+                    disarmed_only: false,
                 })
                 .collect(),
         }
     }
 
     fn param_set(name: &str, value: f64) -> ToGraph {
-        ToGraph::Param(ParamSet { time: Time::ZERO, name: name.into(), value })
+        ToGraph::Param(ParamSet { time: Time::ZERO, name: name.into(), value, restore: false })
+    }
+
+    fn restored(name: &str, value: f64) -> ToGraph {
+        ToGraph::Param(ParamSet { time: Time::ZERO, name: name.into(), value, restore: true })
+    }
+
+    fn text_of(m: &MavMessage) -> Option<String> {
+        match m {
+            MavMessage::STATUSTEXT(t) => {
+                Some(t.text.to_str().unwrap_or_default().trim_end_matches('\0').to_owned())
+            }
+            _ => None,
+        }
+    }
+
+    /// `SERVO1_MAX` (disarmed-only) and `MPC_XY_P` (tunable) of one owner, both in 0..3000.
+    fn motors(start: bool, servo: f64, gain: f64) -> ParamDecl {
+        let mut d = decl("motors", start, &[("SERVO1_MAX", servo), ("MPC_XY_P", gain)]);
+        for p in &mut d.params {
+            p.max = 3000.0;
+        }
+        d.params[0].disarmed_only = true;
+        d
+    }
+
+    #[test]
+    fn a_disarmed_only_parameter_is_refused_while_armed_with_the_value_in_force() {
+        let mut t = ParamTable::new(Vec::new()).expect("empty table");
+        t.declare(&motors(true, 2000.0, 1.0), Time::ZERO);
+        t.set_armed(true);
+        let out = t.set("SERVO1_MAX", 900.0, Time::ZERO);
+        assert!(out.graph.is_empty(), "nothing goes to the owner");
+        let texts: Vec<String> = out.mav.iter().filter_map(text_of).collect();
+        assert_eq!(texts, ["SERVO1_MAX: cannot change while armed"]);
+        assert_eq!(values(&out.mav), [("SERVO1_MAX".to_owned(), 2000.0)]);
+        assert_eq!(value(&t.read("SERVO1_MAX", -1).expect("known")).1, 2000.0);
+        assert!(!t.take_changed(), "nothing to persist");
+        // A gain is tuned in flight as before.
+        assert_eq!(t.set("MPC_XY_P", 1.5, Time::ZERO).graph, vec![param_set("MPC_XY_P", 1.5)]);
+        // Disarmed, the same set goes to the owner.
+        t.set_armed(false);
+        assert_eq!(t.set("SERVO1_MAX", 1900.0, Time::ZERO).graph, vec![param_set("SERVO1_MAX", 1900.0)]);
+    }
+
+    #[test]
+    fn a_restart_while_armed_still_gets_its_stored_values_back() {
+        let mut t = ParamTable::new(Vec::new()).expect("empty table");
+        t.restore("SERVO1_MAX", 1900.0).expect("held");
+        let out = t.declare(&motors(true, 2000.0, 1.0), Time::ZERO).out;
+        assert_eq!(out.graph.len(), 1);
+        let done = t.declare(&motors(false, 1900.0, 1.0), Time::ZERO);
+        assert!(done.out.mav.is_empty() && done.out.graph.is_empty(), "taken");
+        // The owner restarts in flight with its configured 2000: the value it flew with is
+        // restored (marked so, for an owner that refuses locked sets while armed).
+        t.set_armed(true);
+        let out = t.declare(&motors(true, 2000.0, 1.0), Time::ZERO).out;
+        assert_eq!(out.graph, vec![restored("SERVO1_MAX", 1900.0)]);
+    }
+
+    proptest::proptest! {
+        /// Whatever a ground station sends, armed or not, the table never sends a new value of a
+        /// disarmed-only parameter to its owner while armed, and so never serves one: its value
+        /// holds through every armed stretch. The owner here takes whatever it is sent (the
+        /// link's refusal alone holds this).
+        #[test]
+        fn no_disarmed_only_parameter_changes_while_armed_whatever_the_sets(
+            steps in proptest::collection::vec((0u8..4, 0.0f64..3000.0), 1..80)
+        ) {
+            let mut t = ParamTable::new(Vec::new()).expect("empty table");
+            let mut owner = [("SERVO1_MAX", 2000.0), ("MPC_XY_P", 1.0)];
+            t.declare(&motors(true, 2000.0, 1.0), Time::ZERO);
+            let mut armed = false;
+            for (what, v) in steps {
+                let before = value(&t.read("SERVO1_MAX", -1).expect("known")).1;
+                let out = match what {
+                    0 => { armed = !armed; t.set_armed(armed); Outputs::none() }
+                    1 => t.set("SERVO1_MAX", v as f32, Time::ZERO),
+                    _ => t.set("MPC_XY_P", v as f32, Time::ZERO),
+                };
+                for g in &out.graph {
+                    let ToGraph::Param(set) = g else { continue };
+                    proptest::prop_assert!(!(armed && set.name == "SERVO1_MAX"), "sent armed: {set:?}");
+                    for p in &mut owner {
+                        if p.0 == set.name { p.1 = set.value; }
+                    }
+                    t.declare(&motors(false, owner[0].1, owner[1].1), Time::ZERO);
+                }
+                let after = value(&t.read("SERVO1_MAX", -1).expect("known")).1;
+                if armed {
+                    proptest::prop_assert_eq!(before, after);
+                }
+            }
+        }
     }
 
     #[test]
@@ -692,14 +812,14 @@ mod tests {
         let mut t = table();
         t.restore("TKOFF_ALT_M", 12.5).expect("held");
         let done = t.declare(&decl("commander", true, &[("TKOFF_ALT_M", 10.0)]), Time::ZERO);
-        assert_eq!(done.out.graph, vec![param_set("TKOFF_ALT_M", 12.5)]);
+        assert_eq!(done.out.graph, vec![restored("TKOFF_ALT_M", 12.5)]);
         assert_eq!(value(&t.read("TKOFF_ALT_M", -1).expect("known")).1, 12.5);
         // The owner's answer confirms it: nothing more to do.
         let done = t.declare(&decl("commander", false, &[("TKOFF_ALT_M", 12.5)]), Time::ZERO);
         assert!(done.out.mav.is_empty() && done.out.graph.is_empty());
         // A restart loses it: the link sends it again.
         let done = t.declare(&decl("commander", true, &[("TKOFF_ALT_M", 10.0)]), Time::ZERO);
-        assert_eq!(done.out.graph, vec![param_set("TKOFF_ALT_M", 12.5)]);
+        assert_eq!(done.out.graph, vec![restored("TKOFF_ALT_M", 12.5)]);
         // A stored value outside the declared range is dropped with a STATUSTEXT.
         let mut t = table();
         t.restore("TKOFF_ALT_M", 500.0).expect("held");
