@@ -44,6 +44,8 @@ const BIAS_LEARN_MAX_RATE_RAD_S: f64 = 0.175;
 const ALIGN_GAIN: f64 = 10.0;
 /// Longest IMU step integrated (s): a longer gap is taken as this long.
 const MAX_DT_S: f64 = 0.02;
+/// The estimator not followed for this long (s): the backup is flying, and holds its gyro bias.
+const FOLLOW_LAPSE_S: f64 = 0.1;
 
 /// `[actors.controller.params.control.backup]`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -197,6 +199,8 @@ pub struct BackupAttitude {
     mag: Option<(Time, Vector3<f64>)>,
     vertical: Vertical,
     datum: Datum,
+    /// When the estimator's state was last followed.
+    last_follow: Option<Time>,
     counters: BackupCounters,
 }
 
@@ -213,6 +217,7 @@ impl BackupAttitude {
             mag: None,
             vertical: Vertical::default(),
             datum: Datum::default(),
+            last_follow: None,
             counters: BackupCounters::default(),
         })
     }
@@ -349,8 +354,16 @@ impl BackupAttitude {
                     self.q.inverse_transform_vector(&Vector3::new(0.0, 0.0, -error)) * (p.mag_weight * boost);
             }
         }
+        // Flying on its own (the estimator followed once, not lately) the bias is held: a
+        // multirotor's accelerometer reads drag as tilt, and the level attitude flown on the
+        // estimate closes a loop (velocity → drag → tilt error → velocity) that the bias
+        // integrator would make marginal (s³ + c·s² + k·c·s + k·c·w, c the drag rate ≈ 0.1/s,
+        // k = ATT_W_ACC, w = ATT_W_GYRO_BIAS = 0.1 ≈ c); without it, s² + c·s + k·c is damped.
+        // Held by `tests/fault_flights.rs` (the estimator failing for good in forward flight).
+        let flying_alone =
+            self.last_follow.is_some_and(|t| now.saturating_since(t).as_secs_f64() > FOLLOW_LAPSE_S);
         let spin = (gyro - self.gyro_bias_rad_s).norm();
-        if spin < BIAS_LEARN_MAX_RATE_RAD_S {
+        if spin < BIAS_LEARN_MAX_RATE_RAD_S && !flying_alone {
             let max = p.max_gyro_bias_rad_s;
             self.gyro_bias_rad_s -= correction * (p.gyro_bias_weight * dt);
             self.gyro_bias_rad_s = self.gyro_bias_rad_s.map(|b| b.clamp(-max, max));
@@ -384,6 +397,7 @@ impl BackupAttitude {
         if !self.aligned() {
             return;
         }
+        self.last_follow = Some(nav.time);
         let Ok(q) = kestrel_proto::attitude::unit_quaternion(nav.attitude) else { return };
         if nav.valid.attitude {
             self.datum.set = true;

@@ -174,6 +174,22 @@ fn a_heading_the_gyro_missed_is_pulled_to_the_compass_with_its_declination() {
 }
 
 #[test]
+fn flying_on_its_own_after_the_estimator_the_gyro_bias_is_held() {
+    let bias = Vector3::new(0.01, -0.01, 0.0);
+    let still = |_: f64| UnitQuaternion::identity();
+    let sensors = Sensors { gyro_bias: bias, ..Sensors::clean() };
+    let mut f = filter();
+    fly(&mut f, &still, 0.0, 60.0, &sensors);
+    let learnt = f.gyro_bias_rad_s();
+    assert!((learnt - bias).norm() < 0.002, "learnt on its own before the estimator: {learnt:?}");
+    f.follow(&NavState::exact(at(60.0), [1.0, 0.0, 0.0, 0.0], [0.0; 3], [0.0; 3], [0.0; 3]));
+    // The estimator gone, a gyro whose bias moves: the backup keeps what it learnt.
+    let moved = Sensors { gyro_bias: bias * 2.0, ..Sensors::clean() };
+    fly(&mut f, &still, 60.0, 30.0, &moved);
+    assert_eq!(f.gyro_bias_rad_s(), learnt, "held while flying alone");
+}
+
+#[test]
 fn without_a_compass_the_heading_holds_on_the_gyro() {
     let mut f = filter();
     let no_mag = Sensors { mag: false, ..Sensors::clean() };
