@@ -370,7 +370,7 @@ impl BackupAttitude {
         }
         self.rate_rad_s = gyro - self.gyro_bias_rad_s;
         let omega = self.rate_rad_s + correction;
-        self.q = self.q * UnitQuaternion::from_scaled_axis(omega * dt);
+        self.q *= UnitQuaternion::from_scaled_axis(omega * dt);
         self.q.renormalize_fast();
     }
 
