@@ -3,8 +3,9 @@
 //! regular was the control loop, which failsafes fired, and which simulated faults were
 //! injected when (the simulator's `sim_fault`), and what the estimator noticed when
 //! (`estimator_status`, see [`crate::estimator_events`]), which actors the supervisor restarted
-//! (`supervisor`) and what the commander announced (its status's refusals and notices, each a
-//! STATUSTEXT on the link).
+//! (`supervisor`), what the commander announced (its status's refusals and notices, each a
+//! STATUSTEXT on the link), and which attitude flew — the estimator's or the controller's backup
+//! (`backup_nav_state`, see [`crate::attitude_source`]) — and when it switched.
 //!
 //! It is an ordinary actor fed through queue mailboxes, so under lockstep it sees every
 //! message and the report of a simulated flight is as repeatable as the flight itself. Each
@@ -23,6 +24,7 @@ use kestrel_proto::messages::{
 use kestrel_proto::{Actor, ActorError, Context, Setup, Time};
 use serde::{Deserialize, Serialize};
 
+use crate::attitude_source::{AttitudeSourceSection, AttitudeSources};
 use crate::estimator_events::{EstimatorEvent, EstimatorEvents};
 use crate::frame_latency::FrameLatency;
 use crate::serde_name::serde_name;
@@ -37,7 +39,7 @@ pub struct FlightReportParams {
 
 /// The topics the report reads, with their message types, so the runtime can route the ones
 /// a graph has.
-pub const REPORT_INPUTS: [(&str, &str); 10] = [
+pub const REPORT_INPUTS: [(&str, &str); 11] = [
     ("ground_truth", <GroundTruth as kestrel_proto::Message>::TYPE_NAME),
     ("nav_state", <NavState as kestrel_proto::Message>::TYPE_NAME),
     ("vehicle_status", <VehicleStatus as kestrel_proto::Message>::TYPE_NAME),
@@ -48,6 +50,7 @@ pub const REPORT_INPUTS: [(&str, &str); 10] = [
     ("sim_fault", <SimFault as kestrel_proto::Message>::TYPE_NAME),
     ("estimator_status", <EstimatorStatus as kestrel_proto::Message>::TYPE_NAME),
     ("supervisor", <SupervisorEvent as kestrel_proto::Message>::TYPE_NAME),
+    ("backup_nav_state", <NavState as kestrel_proto::Message>::TYPE_NAME),
 ];
 
 /// What the report actor handles.
@@ -63,6 +66,8 @@ pub enum ReportInput {
     Fault(SimFault),
     Estimator(Box<EstimatorStatus>),
     Supervisor(SupervisorEvent),
+    /// The controller's backup attitude, on the iterations it flew on it.
+    BackupNav(Box<NavState>),
 }
 
 /// The report, in the field layout other tools rely on (docs/design.md).
@@ -93,6 +98,11 @@ pub struct FlightReport {
     /// What the commander announced (a refusal, the avoider's stale hold), in order.
     #[serde(default)]
     pub notices: Vec<NoticeEntry>,
+    /// Which attitude flew (the estimator's, or the controller's backup while the estimator's
+    /// was gone), when it switched, and the backup's error against the truth; `null` without
+    /// any NavState.
+    #[serde(default)]
+    pub attitude_source: Option<AttitudeSourceSection>,
 }
 
 /// A supervisor event.
@@ -364,6 +374,7 @@ pub struct FlightReportActor {
     motor_failures: Vec<MotorFailureEntry>,
     actor_events: Vec<ActorEventEntry>,
     notices: Vec<NoticeEntry>,
+    attitude_sources: AttitudeSources,
     frame_latency: FrameLatency,
     speed_cap: SpeedCapTally,
     /// Graph time and host time of the first and the latest stereo frame.
@@ -452,6 +463,7 @@ impl FlightReportActor {
 
     fn on_nav(&mut self, nav: &NavState) {
         self.seen(nav.time);
+        self.attitude_sources.on_estimator(nav);
         let (Some(origin), true) = (nav.origin, nav.valid.attitude) else { return };
         if self.nav_frame.is_none_or(|f| f.home() != origin) {
             self.nav_frame = Some(LocalFrame::new(origin));
@@ -588,6 +600,7 @@ impl FlightReportActor {
             motor_failures: self.motor_failures.clone(),
             actor_events: self.actor_events.clone(),
             notices: self.notices.clone(),
+            attitude_source: self.attitude_sources.section(),
         }
     }
 }
@@ -607,6 +620,7 @@ impl Actor for FlightReportActor {
         setup.input("sim_fault", ReportInput::Fault);
         setup.input("estimator_status", |s| ReportInput::Estimator(Box::new(s)));
         setup.input("supervisor", ReportInput::Supervisor);
+        setup.input("backup_nav_state", |n| ReportInput::BackupNav(Box::new(n)));
         Ok(FlightReportActor {
             out: params.out.clone(),
             first: None,
@@ -626,6 +640,7 @@ impl Actor for FlightReportActor {
             motor_failures: Vec::new(),
             actor_events: Vec::new(),
             notices: Vec::new(),
+            attitude_sources: AttitudeSources::default(),
             frame_latency: FrameLatency::default(),
             frames_span: None,
             speed_cap: SpeedCapTally::default(),
@@ -681,6 +696,11 @@ impl Actor for FlightReportActor {
                     event: serde_name(&e.kind),
                     reason: e.reason,
                 });
+            }
+            ReportInput::BackupNav(n) => {
+                self.seen(n.time);
+                let truth = truth_at(&self.truth, n.time);
+                self.attitude_sources.on_backup(&n, truth.as_ref());
             }
             ReportInput::Loop(l) => {
                 self.seen(l.time);

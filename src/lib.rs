@@ -2,6 +2,7 @@
 //! supervisor, clocks (monotonic and lockstep), the flight-log recorder, and the CLI's pieces.
 
 pub mod activity;
+pub mod attitude_source;
 pub mod clock;
 pub mod compose;
 pub mod config;

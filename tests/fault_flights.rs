@@ -240,6 +240,64 @@ fn the_estimator_panicking_once_in_hover_is_restarted_and_the_vehicle_lands() {
     );
 }
 
+/// A QGroundControl plan: take off to 12 m, 100 m north at 12 m, land there.
+fn forward_plan(dir: &Path) -> PathBuf {
+    let items = [
+        Item::north(qgc_plan::TAKEOFF, 0.0, 12.0),
+        Item::north(qgc_plan::WAYPOINT, 100.0, 12.0),
+        Item::north(qgc_plan::LAND, 100.0, 0.0),
+    ];
+    qgc_plan::write(dir, "forward.plan", &items)
+}
+
+/// The estimator panics from 20 s on, for good (the supervisor gives up on it), while the
+/// vehicle flies north at 12 m: the controller's backup attitude takes over, the commander
+/// announces it and lands, level, on the backup's height and climb rate, drifting (no
+/// horizontal position), and the report names the backup as the source flown.
+#[test]
+fn the_estimator_failing_for_good_in_forward_flight_lands_level_on_the_backup_attitude() {
+    let dir = scratch("estimator-gone");
+    let graph =
+        graph_with_faults(&dir, "[[faults]]\nat_s = 20.0\nkind = \"actor_panic\"\nactor = \"estimator\"\n");
+    let report = fly("estimator_gone", &graph, &forward_plan(&dir), None);
+    assert_landed_intact("estimator_gone", &report);
+    let fired = failsafes(&report);
+    assert!(fired.iter().all(|(_, _, action)| action == "land"), "{fired:?}");
+    assert!(fired.iter().any(|(t, cause, _)| cause == "critical_actor_failed" && *t >= 20.0), "{fired:?}");
+    let source = &report["attitude_source"];
+    assert_eq!(source["flown"], "backup", "{source}");
+    let switched = source["switches"][0]["t_s"].as_f64().expect("a switch");
+    assert_eq!(source["switches"][0]["to"], "backup", "{source}");
+    // The loop's own stale limit (nav_timeout_s, 50 ms) after the last state before the panic.
+    assert!((20.0..20.2).contains(&switched), "switched at {switched} s");
+    let notices = report["notices"].as_array().expect("notices");
+    assert!(
+        notices.iter().any(|n| n["text"] == "EKF failed: backup attitude"),
+        "the switch announced: {notices:?}"
+    );
+    let rms_deg = f64_at(&report, "attitude_source", "backup_rms_roll_pitch_deg");
+    let worst_deg = f64_at(&report, "attitude_source", "backup_max_roll_pitch_deg");
+    // The accelerometer reads the drag of the slowing vehicle as tilt: the error peaks near
+    // √(k·c)·v/g (k = ATT_W_ACC 0.2, drag c ≈ 0.1/s, v ≈ 5 m/s), about 4°, and the vehicle,
+    // levelled on it, drifts on (2.3° RMS, 4.0° worst, 28 m of drift as flown here).
+    assert!(rms_deg < 3.0 && worst_deg < 6.0, "backup error vs truth: rms {rms_deg}°, worst {worst_deg}°");
+    let touchdown = &report["flight"]["touchdown"];
+    let speed = touchdown["speed_down_m_s"].as_f64().expect("touchdown speed");
+    let tilt = touchdown["tilt_deg"].as_f64().expect("touchdown tilt");
+    // LAND's slow rate near the ground is 0.6 m/s (`land_slow_m_s`); the ground's crash limits
+    // are 3 m/s and 60°.
+    assert!(speed < 1.0 && tilt < 10.0, "touchdown {touchdown}");
+    println!(
+        "estimator_gone: backup from {switched:.3} s, {:.1} s on it; roll/pitch error vs truth rms {rms_deg:.2}°, \
+         worst {worst_deg:.2}°, yaw rms {:.2}°; touchdown {speed:.2} m/s at {tilt:.1}°, {:.1} m from home; \
+         max tilt {:.1}°; failsafes {fired:?}",
+        f64_at(&report, "attitude_source", "backup_s"),
+        f64_at(&report, "attitude_source", "backup_rms_yaw_deg"),
+        f64_at(&report, "flight", "landing_distance_from_home_m"),
+        f64_at(&report, "flight", "max_tilt_deg"),
+    );
+}
+
 #[test]
 fn an_actor_panic_naming_no_actor_of_the_graph_is_refused_at_start_up() {
     let dir = scratch("panic-nobody");

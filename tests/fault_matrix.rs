@@ -17,7 +17,8 @@
 //! `link_lost` fault silences. The camera and stereo rows fly config/perception-sim.toml (the
 //! simulated stereo camera, the stereo worker and the fuzzy avoider in the loop) in the empty
 //! world on a short leg — take off to 5 m, 12 m north, land there — with the fault from 8 s:
-//! rendering and matching every frame costs wall time.
+//! rendering and matching every frame costs wall time. The row of the estimator failing for
+//! good flies config/sim.toml north at 12 m ([`Flight::ForwardAt12m`]), the fault from 20 s.
 //!
 //! The sensor rows (GPS, magnetometer, barometer, IMU, camera) fly a second time with the avoider
 //! in the loop among trees ([`Flight::ForestLeg`]: config/sim-forest.toml, the forest of seed 1,
@@ -47,6 +48,9 @@ const PERCEPTION_FAULT_AT_S: f64 = 8.0;
 /// When the faults of [`Flight::ForestLeg`] start (s of simulated time): some 15 m north, past
 /// the forest's first trees (from 12 m).
 const FOREST_FAULT_AT_S: f64 = 12.0;
+/// When the faults of [`Flight::ForwardAt12m`] start (s of simulated time): some 40 m north,
+/// in forward flight.
+const FORWARD_FAULT_AT_S: f64 = 20.0;
 /// The page the tables are generated into, relative to the repository.
 const RESULTS_PAGE: &str = "docs/src/results/fault-matrix.md";
 /// The results page's two generated tables: the open-field matrix and its sensor rows in the forest.
@@ -86,6 +90,8 @@ enum Flight {
     PerceptionLeg,
     /// config/sim-forest.toml in the forest of seed 1, 40 m north and land.
     ForestLeg,
+    /// config/sim.toml: take off to 12 m, 100 m north, land there.
+    ForwardAt12m,
 }
 
 impl Flight {
@@ -94,6 +100,7 @@ impl Flight {
             Flight::OutAndBack | Flight::OutAndBackWithGcs => FAULT_AT_S,
             Flight::PerceptionLeg => PERCEPTION_FAULT_AT_S,
             Flight::ForestLeg => FOREST_FAULT_AT_S,
+            Flight::ForwardAt12m => FORWARD_FAULT_AT_S,
         }
     }
 }
@@ -128,7 +135,7 @@ struct Case {
 
 /// Every row, in table order: the test of each row names its case here, and the table is
 /// complete when all have written their line.
-const CASES: [Case; 22] = [
+const CASES: [Case; 23] = [
     Case {
         order: 1,
         name: "GPS jump 50 m for 5 s",
@@ -332,6 +339,15 @@ const CASES: [Case; 22] = [
         graph: "",
         expect: Expect::Failsafe { cause: "avoidance_lost", action: "land" },
     },
+    Case {
+        order: 23,
+        name: "estimator fails for good in forward flight at 12 m",
+        flight: Flight::ForwardAt12m,
+        fault: "kind = \"actor_panic\"\nactor = \"estimator\"",
+        vehicle: "quad_x",
+        graph: "",
+        expect: Expect::Failsafe { cause: "critical_actor_failed", action: "land" },
+    },
 ];
 
 /// Rows that do not reach their expected outcome yet, with why: their tests are ignored
@@ -401,7 +417,9 @@ fn prepare(case: &Case) -> (PathBuf, PathBuf) {
     std::fs::write(&world, format!("{base}\n[[faults]]\nat_s = {at_s:.1}\n{}\n", case.fault)).unwrap();
     // The graph as composed (config/sim.toml extends config/base/vehicle.toml), written out whole.
     let (stock, stock_world) = match case.flight {
-        Flight::OutAndBack | Flight::OutAndBackWithGcs => ("sim.toml", "\"worlds/empty.toml\""),
+        Flight::OutAndBack | Flight::OutAndBackWithGcs | Flight::ForwardAt12m => {
+            ("sim.toml", "\"worlds/empty.toml\"")
+        }
         Flight::PerceptionLeg => ("perception-sim.toml", "\"worlds/obstacles.toml\""),
         Flight::ForestLeg => ("sim-forest.toml", "\"worlds/forest.toml\""),
     };
@@ -421,7 +439,7 @@ fn prepare(case: &Case) -> (PathBuf, PathBuf) {
             );
             (format!("127.0.0.1:{port}"), gcs)
         }
-        Flight::OutAndBack | Flight::PerceptionLeg | Flight::ForestLeg => {
+        Flight::OutAndBack | Flight::PerceptionLeg | Flight::ForestLeg | Flight::ForwardAt12m => {
             ("127.0.0.1:0".to_owned(), String::new())
         }
     };
@@ -440,6 +458,7 @@ fn prepare(case: &Case) -> (PathBuf, PathBuf) {
         Flight::OutAndBack | Flight::OutAndBackWithGcs => out_and_back_plan(&dir),
         Flight::PerceptionLeg => perception_leg_plan(&dir),
         Flight::ForestLeg => forest_leg_plan(&dir),
+        Flight::ForwardAt12m => forward_plan(&dir),
     };
     (graph, plan)
 }
@@ -475,6 +494,16 @@ fn out_and_back_plan(dir: &Path) -> PathBuf {
         Item::north(qgc_plan::LAND, 0.0, 0.0),
     ];
     qgc_plan::write(dir, "out-and-back.plan", &items)
+}
+
+/// A QGroundControl plan: take off to 12 m, 100 m north, land there.
+fn forward_plan(dir: &Path) -> PathBuf {
+    let items = [
+        Item::north(qgc_plan::TAKEOFF, 0.0, 12.0),
+        Item::north(qgc_plan::WAYPOINT, 100.0, 12.0),
+        Item::north(qgc_plan::LAND, 100.0, 0.0),
+    ];
+    qgc_plan::write(dir, "forward.plan", &items)
 }
 
 /// A QGroundControl plan: take off to 5 m, 12 m north, land there.
@@ -808,6 +837,11 @@ fn camera_black_for_good() {
 #[test]
 fn camera_frozen_for_good() {
     run_case(22);
+}
+
+#[test]
+fn estimator_gone_in_forward_flight() {
+    run_case(23);
 }
 
 // The sensor rows again, among the trees (FOREST_ROWS).

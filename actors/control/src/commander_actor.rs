@@ -1,8 +1,9 @@
 //! `CommanderActor`: the actor shell of the [`Commander`].
 //!
-//! Ports — inputs `nav` (NavState, `latest`), `battery` (BatteryStatus, `latest`), `manual`
-//! (ManualControl, `queue`: the receiver's and ground stations' sticks on one topic, each naming
-//! its source), `command` (VehicleCommand, `queue`), `mission` (Mission,
+//! Ports — inputs `nav` (NavState, `latest`), `backup_nav` (NavState, `latest`: the controller's
+//! backup attitude, flown on while the estimator's state is stale), `battery` (BatteryStatus,
+//! `latest`), `manual` (ManualControl, `queue`: the receiver's and ground stations' sticks on one
+//! topic, each naming its source), `command` (VehicleCommand, `queue`), `mission` (Mission,
 //! `queue`), `supervisor` (SupervisorEvent, `queue`), `avoidance` (AvoidanceCommand,
 //! `latest`; optional: routed only where the obstacle avoider runs, and from its first command
 //! on AUTO/GUIDED legs and POSHOLD's forward sticks blend its correction in and hold when it
@@ -71,6 +72,8 @@ impl Default for CommanderActorParams {
 pub enum CommanderInput {
     /// Boxed: a NavState is several times larger than the other inputs.
     Nav(Box<NavState>),
+    /// The controller's backup attitude (boxed as `Nav`).
+    BackupNav(Box<NavState>),
     Battery(BatteryStatus),
     Manual(ManualControl),
     Command(VehicleCommand),
@@ -134,6 +137,7 @@ impl Actor for CommanderActor {
         let tick_period =
             kestrel_proto::timing::period_of_rate("tick_rate_hz", params.tick_rate_hz, 1.0, 1000.0)?;
         setup.input("nav", |nav| CommanderInput::Nav(Box::new(nav)));
+        setup.input("backup_nav", |nav| CommanderInput::BackupNav(Box::new(nav)));
         setup.input("battery", CommanderInput::Battery);
         setup.input("manual", CommanderInput::Manual);
         setup.input("command", CommanderInput::Command);
@@ -176,6 +180,12 @@ impl Actor for CommanderActor {
             CommanderInput::Nav(nav) => {
                 self.commander.on_nav(&nav);
                 self.step(ctx, nav.time);
+            }
+            CommanderInput::BackupNav(nav) => {
+                self.commander.on_backup_nav(&nav);
+                if self.commander.on_backup_attitude() {
+                    self.step(ctx, nav.time);
+                }
             }
             CommanderInput::Tick(time) => {
                 if self.last_step.is_none_or(|t| time.saturating_since(t) >= self.tick_period) {

@@ -1,10 +1,14 @@
 //! `ControllerActor`: the actor shell of the control loop.
 //!
-//! Ports — inputs `nav` (NavState, mailbox `latest`), `setpoint` (Setpoint, `latest`) and
-//! `param_set` (ParamSet, `queue`); timer `tick` at the loop rate (lockstep only); outputs
-//! `actuators` (ActuatorOutputs), `loop_stats` (ControlLoopStats, about 1 Hz) and `param_decl`
-//! (ParamDecl: the live gains of [`crate::live_params`], at start and after each `param_set` naming
-//! one of them).
+//! Ports — inputs `nav` (NavState, mailbox `latest`), `setpoint` (Setpoint, `latest`),
+//! `param_set` (ParamSet, `queue`), and for the backup attitude (`crate::backup_attitude`) the raw
+//! `imu` (ImuSample, `queue`: every sample is integrated), `mag` (MagSample) and `baro`
+//! (BaroSample); timer `tick` at the loop rate (lockstep only); outputs `actuators`
+//! (ActuatorOutputs), `loop_stats` (ControlLoopStats, about 1 Hz), `backup_nav` (NavState: the
+//! backup's state, each iteration that flew on it, for the commander and the flight report) and
+//! `param_decl` (ParamDecl: the live gains of [`crate::live_params`], at start and after each
+//! `param_set` naming one of them). Without `imu` routed the backup never aligns and a lost
+//! NavState is flown blind, as before it existed.
 //!
 //! Two ways to run, chosen by `loop_mode`:
 //! * `lockstep` (simulation): one loop iteration per NavState received, in the actor's handler,
@@ -12,8 +16,9 @@
 //!   runs in step with simulated time and never sleeps on the clock. The `tick` timer (graph
 //!   clock, so still deterministic) covers NavStates that stop: a tick with no NavState handled
 //!   since the previous one, and none fresh within `timing.nav_timeout_s`, runs the same
-//!   fallback as the thread — fly blind, or idle when the setpoint is disarmed — so the motors
-//!   never keep the last command forever. While NavStates arrive the ticks do nothing.
+//!   fallback as the thread — fly on the backup attitude, else blind, or idle when the setpoint
+//!   is disarmed — so the motors never keep the last command forever. While NavStates arrive
+//!   the ticks do nothing.
 //! * `thread` (hardware, `clock = "realtime"`): the loop runs on its own OS thread with
 //!   SCHED_FIFO where permitted (logged either way), one iteration per NavState with a watchdog
 //!   at 1.5 periods (`rt/thread.rs`); the handler only drops each input into a lock-free triple
@@ -28,11 +33,15 @@
 
 use std::time::Duration;
 
-use kestrel_proto::messages::{ActuatorOutputs, ControlLoopStats, NavState, ParamDecl, ParamSet, Setpoint};
+use kestrel_proto::messages::{
+    ActuatorOutputs, BaroSample, ControlLoopStats, ImuSample, MagSample, NavState, ParamDecl, ParamSet,
+    Setpoint,
+};
 use kestrel_proto::param_def::{self, ParamChange};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
+use crate::backup_attitude::ImuReading;
 use crate::flight_controller::{FlightController, LoopCounters};
 use crate::live_params::{Gains, Tuning};
 use crate::params::ControlParams;
@@ -44,6 +53,9 @@ use crate::rt::{
 /// Timing samples the relay can fall behind by before the loop's are dropped (and counted):
 /// about 2.5 s at 400 Hz.
 const SAMPLE_RING: usize = 1024;
+/// IMU samples the loop thread can fall behind by before the backup attitude misses some
+/// (counted by the ring): 160 ms at 400 Hz.
+const IMU_RING: usize = 64;
 
 /// How the loop is clocked.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -93,11 +105,16 @@ pub enum ControllerInput {
     Param(ParamSet),
     /// The lockstep loop's timer, at the loop rate.
     Tick(Time),
+    /// Raw sensor samples for the backup attitude.
+    Imu(ImuSample),
+    Mag(MagSample),
+    Baro(BaroSample),
 }
 
 struct Outputs {
     actuators: Publisher<ActuatorOutputs>,
     stats: Publisher<ControlLoopStats>,
+    backup_nav: Publisher<NavState>,
 }
 
 /// The loop thread's side of its outputs: triple buffers and a ring, so it never locks or
@@ -105,6 +122,7 @@ struct Outputs {
 struct BufferedOutputs {
     granted: Writer<Option<Granted>>,
     actuators: Writer<Option<ActuatorOutputs>>,
+    backup_nav: Writer<Option<NavState>>,
     samples: RingWriter<LoopSample>,
     counters: Writer<LoopCounters>,
 }
@@ -116,6 +134,10 @@ impl ThreadOutput for BufferedOutputs {
 
     fn actuators(&mut self, outputs: &ActuatorOutputs) {
         self.actuators.write(Some(outputs.clone()));
+    }
+
+    fn backup_nav(&mut self, nav: &NavState) {
+        self.backup_nav.write(Some(nav.clone()));
     }
 
     fn record(&mut self, sample: LoopSample, counters: LoopCounters) {
@@ -130,6 +152,7 @@ impl ThreadOutput for BufferedOutputs {
 struct Relay {
     granted: Reader<Option<Granted>>,
     actuators: Reader<Option<ActuatorOutputs>>,
+    backup_nav: Reader<Option<NavState>>,
     samples: RingReader<LoopSample>,
     counters: Reader<LoopCounters>,
     stats: LoopStats,
@@ -160,6 +183,9 @@ impl Relay {
             if let (Some(out), true) = self.actuators.read() {
                 self.outputs.actuators.publish(out.clone());
             }
+            if let (Some(nav), true) = self.backup_nav.read() {
+                self.outputs.backup_nav.publish(nav.clone());
+            }
             let stats = &mut self.stats;
             self.samples.drain(|sample| stats.record(sample));
             ticks += 1;
@@ -183,6 +209,9 @@ struct Pending {
     nav: Reader<Option<NavState>>,
     setpoint: Reader<Option<Setpoint>>,
     gains: Reader<Option<Gains>>,
+    imu: RingReader<ImuReading>,
+    mag: Reader<Option<MagSample>>,
+    baro: Reader<Option<BaroSample>>,
     outputs: BufferedOutputs,
     relay: Relay,
 }
@@ -202,6 +231,9 @@ enum Loop {
         nav: Writer<Option<NavState>>,
         setpoint: Writer<Option<Setpoint>>,
         gains: Writer<Option<Gains>>,
+        imu: RingWriter<ImuReading>,
+        mag: Writer<Option<MagSample>>,
+        baro: Writer<Option<BaroSample>>,
         /// What the thread takes when it starts.
         pending: Option<Box<Pending>>,
         thread: Option<ControlThread>,
@@ -233,8 +265,15 @@ impl Actor for ControllerActor {
         setup.input("nav", ControllerInput::Nav);
         setup.input("setpoint", ControllerInput::Setpoint);
         setup.input("param_set", ControllerInput::Param);
+        setup.input("imu", ControllerInput::Imu);
+        setup.input("mag", ControllerInput::Mag);
+        setup.input("baro", ControllerInput::Baro);
         let param_decl = setup.output("param_decl");
-        let outputs = Outputs { actuators: setup.output("actuators"), stats: setup.output("loop_stats") };
+        let outputs = Outputs {
+            actuators: setup.output("actuators"),
+            stats: setup.output("loop_stats"),
+            backup_nav: setup.output("backup_nav"),
+        };
         let period_us = (1e6 / params.control.timing.rate_hz).round() as u64;
         let inner = match params.loop_mode {
             LoopMode::Lockstep => {
@@ -254,21 +293,32 @@ impl Actor for ControllerActor {
                 let (gains, gains_reader) = triple_buffer(None);
                 let (granted, granted_reader) = triple_buffer(None);
                 let (actuators, actuators_reader) = triple_buffer(None);
+                let (backup_nav, backup_nav_reader) = triple_buffer(None);
+                let (imu, imu_reader) = sample_ring(IMU_RING, ImuReading::default());
+                let (mag, mag_reader) = triple_buffer(None);
+                let (baro, baro_reader) = triple_buffer(None);
                 let (samples, samples_reader) = sample_ring(SAMPLE_RING, LoopSample::default());
                 let (counters, counters_reader) = triple_buffer(LoopCounters::default());
                 Loop::Thread {
                     nav,
                     setpoint,
                     gains,
+                    imu,
+                    mag,
+                    baro,
                     pending: Some(Box::new(Pending {
                         ctl: Box::new(ctl),
                         nav: nav_reader,
                         setpoint: setpoint_reader,
                         gains: gains_reader,
-                        outputs: BufferedOutputs { granted, actuators, samples, counters },
+                        imu: imu_reader,
+                        mag: mag_reader,
+                        baro: baro_reader,
+                        outputs: BufferedOutputs { granted, actuators, backup_nav, samples, counters },
                         relay: Relay {
                             granted: granted_reader,
                             actuators: actuators_reader,
+                            backup_nav: backup_nav_reader,
                             samples: samples_reader,
                             counters: counters_reader,
                             stats: LoopStats::new(period_us),
@@ -300,8 +350,8 @@ impl Actor for ControllerActor {
         if let Loop::Thread { pending, thread, relay, os, .. } = &mut self.inner
             && let Some(pending) = pending.take()
         {
-            let Pending { ctl, nav, setpoint, gains, outputs, relay: publisher } = *pending;
-            let inputs = ThreadInputs { nav, setpoint, gains };
+            let Pending { ctl, nav, setpoint, gains, imu, mag, baro, outputs, relay: publisher } = *pending;
+            let inputs = ThreadInputs { nav, setpoint, gains, imu, mag, baro };
             let spawned =
                 ControlThread::spawn(*ctl, inputs, ctx.clock().clone(), outputs, *os).map_err(|source| {
                     ActorError::Io { what: "cannot start the control thread".into(), source }
@@ -334,16 +384,27 @@ impl Actor for ControllerActor {
                 ControllerInput::Tick(now),
             ) => {
                 // The NavState handler runs the loop while NavStates arrive; the tick only acts
-                // when they have stopped (the thread's rule: no fresh NavState → fly blind, which
-                // idles when the setpoint is disarmed).
+                // when they have stopped (the thread's rule: no fresh NavState → fly on the
+                // backup attitude, else blind, which idles when the setpoint is disarmed).
                 let handled = std::mem::take(nav_since_tick);
                 let timeout_s = ctl.params().timing.nav_timeout_s;
                 let fresh = last_nav.is_some_and(|t| now.saturating_since(t).as_secs_f64() <= timeout_s);
                 if !handled && !fresh {
                     let started = std::time::Instant::now();
-                    let out = ctl.fly_blind(now);
+                    let out = ctl.fly_without_nav(now);
                     lockstep_output(ctx, ctl, stats, outputs, iterations, now, out, started, false);
                 }
+            }
+            (Loop::Lockstep { ctl, .. }, ControllerInput::Imu(imu)) => ctl.on_imu(&ImuReading::from(&imu)),
+            (Loop::Lockstep { ctl, .. }, ControllerInput::Mag(mag)) => ctl.on_mag(&mag),
+            (Loop::Lockstep { ctl, .. }, ControllerInput::Baro(baro)) => ctl.on_baro(&baro),
+            // A full ring drops the sample (counted by the ring): the loop never waits.
+            (Loop::Thread { imu: ring, .. }, ControllerInput::Imu(imu)) => {
+                let _ = ring.push(ImuReading::from(&imu));
+            }
+            (Loop::Thread { mag: to_thread, .. }, ControllerInput::Mag(mag)) => to_thread.write(Some(mag)),
+            (Loop::Thread { baro: to_thread, .. }, ControllerInput::Baro(baro)) => {
+                to_thread.write(Some(baro))
             }
             (Loop::Lockstep { ctl, .. }, ControllerInput::Setpoint(sp)) => {
                 if let Err(e) = ctl.set_setpoint(&sp) {
@@ -415,6 +476,9 @@ fn lockstep_output(
 ) {
     let execution_us = kestrel_proto::time::duration_micros(started.elapsed());
     outputs.actuators.publish(out);
+    if let Some(nav) = ctl.flown_backup() {
+        outputs.backup_nav.publish(nav.clone());
+    }
     stats.record(LoopSample { start_us: at.as_micros(), execution_us, nav_age_us: nav_driven.then_some(0) });
     *iterations += 1;
     let every = ctl.params().timing.rate_hz.round().max(1.0) as u64;

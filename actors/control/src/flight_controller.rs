@@ -7,6 +7,13 @@
 //! lost setpoint brakes to a stop and descends. It is pure: the lockstep actor calls it once
 //! per NavState, the real-time thread once per period.
 //!
+//! Beside the cascade it runs the [`BackupAttitude`] on the raw IMU, compass and barometer
+//! (`on_imu`, `on_mag`, `on_baro`): when the estimator's NavState is stale or unusable the loop
+//! flies on the backup's state instead of blind (`fly_without_nav`) — level, on the barometer's
+//! height and climb rate, horizontal position unknown — and says so (`flown_backup`), as
+//! ArduPilot falls back to DCM when EKF3 fails. Blind flight remains for when the backup has
+//! nothing either (not aligned, or no IMU).
+//!
 //! A quad that lost a motor (the setpoint names it) cannot hold a heading, nor its attitude on
 //! the cascade: from then on the outer loops' thrust axis and collective go to
 //! [`SpinDescent`], which lets it spin and steers the axis with the three motors left.
@@ -14,11 +21,13 @@
 use kestrel_proto::Time;
 use kestrel_proto::attitude::unit_quaternion;
 use kestrel_proto::messages::{
-    ActuatorOutputs, MAX_MOTORS, NavState, Setpoint, SetpointTarget, TrajectorySetpoint,
+    ActuatorOutputs, BaroSample, MAX_MOTORS, MagSample, NavState, Setpoint, SetpointTarget,
+    TrajectorySetpoint,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::attitude::AttitudeController;
+use crate::backup_attitude::{BackupAttitude, ImuReading};
 use crate::error::{InvalidParam, RejectedInput};
 use crate::live_params::Gains;
 use crate::mixer::{Mixer, Saturation};
@@ -44,6 +53,8 @@ pub struct LoopCounters {
     pub blind_steps: u64,
     /// Iterations flown on the lost-setpoint fallback.
     pub lost_setpoint_steps: u64,
+    /// Iterations flown on the backup attitude (the estimator's NavState stale or unusable).
+    pub backup_steps: u64,
 }
 
 /// The intermediate demands of the last iteration, for logs and tests.
@@ -88,6 +99,11 @@ pub struct FlightController {
     yaw_hold_rad: Option<f64>,
     counters: LoopCounters,
     demand: Demand,
+    /// The complementary filter flown when the estimator's NavState is gone.
+    backup: BackupAttitude,
+    /// The backup's state the last iteration flew on; `None` when it flew on the estimator's,
+    /// blind or idle.
+    flown_backup: Option<NavState>,
 }
 
 impl FlightController {
@@ -96,6 +112,8 @@ impl FlightController {
         params.validate()?;
         let hover_thrust = params.hover_thrust();
         Ok(FlightController {
+            backup: BackupAttitude::new(params.backup)?,
+            flown_backup: None,
             mixer: Mixer::new(&params.airframe),
             spin: std::array::from_fn(|lost| SpinDescent::new(&params.airframe, lost)),
             attitude: AttitudeController::new(params.attitude),
@@ -172,16 +190,68 @@ impl FlightController {
         }
     }
 
-    /// One loop iteration at `nav.time`.
+    /// An IMU sample for the backup attitude (a refused one is counted there).
+    pub fn on_imu(&mut self, imu: &ImuReading) {
+        let _ = self.backup.on_imu(imu);
+    }
+
+    /// A compass sample for the backup attitude (a refused one is counted there).
+    pub fn on_mag(&mut self, mag: &MagSample) {
+        let _ = self.backup.on_mag(mag);
+    }
+
+    /// A barometer sample for the backup attitude (a refused one is counted there).
+    pub fn on_baro(&mut self, baro: &BaroSample) {
+        let _ = self.backup.on_baro(baro);
+    }
+
+    /// The backup attitude filter.
+    pub fn backup(&self) -> &BackupAttitude {
+        &self.backup
+    }
+
+    /// The backup's state the last iteration flew on, if it flew on it.
+    pub fn flown_backup(&self) -> Option<&NavState> {
+        self.flown_backup.as_ref()
+    }
+
+    /// One loop iteration at `nav.time` on the estimator's state; one it cannot fly on (not
+    /// finite, attitude not valid) is flown on the backup instead.
     pub fn update(&mut self, nav: &NavState) -> ActuatorOutputs {
+        let now = nav.time;
+        if unit_quaternion(nav.attitude).is_err() || !nav_is_finite(nav) {
+            self.counters.rejected_nav += 1;
+            return self.fly_without_nav(now);
+        }
+        if !nav.valid.attitude {
+            return self.fly_without_nav(now);
+        }
+        self.backup.follow(nav);
+        self.flown_backup = None;
+        self.fly_on(nav)
+    }
+
+    /// An iteration without a usable NavState from the estimator (stale, or refused): on the
+    /// backup attitude when it has a state at `now`, blind otherwise.
+    pub fn fly_without_nav(&mut self, now: Time) -> ActuatorOutputs {
+        match self.backup.nav_state(now) {
+            Some(nav) => {
+                self.counters.backup_steps += 1;
+                let out = self.fly_on(&nav);
+                self.flown_backup = Some(nav);
+                out
+            }
+            None => self.fly_blind(now),
+        }
+    }
+
+    /// The cascade on `nav`.
+    fn fly_on(&mut self, nav: &NavState) -> ActuatorOutputs {
         let now = nav.time;
         let Some(q) = unit_quaternion(nav.attitude).ok().filter(|_| nav_is_finite(nav)) else {
             self.counters.rejected_nav += 1;
             return self.fly_blind(now);
         };
-        if !nav.valid.attitude {
-            return self.fly_blind(now);
-        }
         let dt = self.step_dt(now);
         let Some(sp) = self.setpoint.filter(|s| s.armed) else {
             return self.idle(now, false);
@@ -258,6 +328,7 @@ impl FlightController {
     /// while armed and flying, so the vehicle sinks instead of climbing away; stopped otherwise.
     pub fn fly_blind(&mut self, now: Time) -> ActuatorOutputs {
         self.counters.blind_steps += 1;
+        self.flown_backup = None;
         self.last_step = Some(now);
         let flying = self.setpoint.is_some_and(|s| s.armed && s.target != SetpointTarget::MotorsOff);
         if !flying {

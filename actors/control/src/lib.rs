@@ -9,6 +9,7 @@
 //! * the cascade — [`position`] (PX4-style position/velocity loops), [`attitude`] (SO(3)
 //!   error, tilt-first), [`rate`] (body-rate PID), [`mixer`] (allocation with desaturation),
 //!   composed per iteration by [`flight_controller`]; [`flip`] is the aerobatic manoeuvre;
+//!   [`backup_attitude`] is the complementary filter flown when the estimator is gone;
 //! * the commander — [`commander`] (modes, arming, failsafes, land detector, missions, and
 //!   who is in control: [`commander::PilotInput`], the receiver against a ground station's
 //!   sticks and `MAV_GCS_SYSID`) and [`plan`] (QGroundControl `.plan` files);
@@ -24,6 +25,7 @@
 
 pub mod airframe;
 pub mod attitude;
+pub mod backup_attitude;
 pub mod commander;
 pub mod commander_actor;
 pub mod controller_actor;
@@ -44,6 +46,7 @@ pub mod truth_nav;
 
 pub use airframe::AirframeParams;
 pub use attitude::{AttitudeController, AttitudeGains, attitude_error};
+pub use backup_attitude::{BackupAttitude, BackupAttitudeParams, ImuReading};
 pub use commander::{Commander, CommanderParams, Refusal};
 pub use commander_actor::{CommanderActor, CommanderActorParams, CommanderInput};
 pub use controller_actor::{ControllerActor, ControllerActorParams, ControllerInput, LoopMode};

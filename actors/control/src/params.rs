@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::airframe::AirframeParams;
 use crate::attitude::AttitudeGains;
+use crate::backup_attitude::BackupAttitudeParams;
 use crate::error::{InvalidParam, positive, within};
 use crate::position::PositionGains;
 use crate::rate::RateGains;
@@ -18,6 +19,8 @@ pub struct ControlParams {
     pub rate: RateGains,
     pub position: PositionGains,
     pub timing: LoopParams,
+    /// The attitude flown when the estimator's NavState is gone (`backup_attitude`).
+    pub backup: BackupAttitudeParams,
 }
 
 /// Timing and the loop's own failsafes.
@@ -55,6 +58,7 @@ impl ControlParams {
         self.attitude.validate()?;
         self.rate.validate()?;
         self.position.validate()?;
+        self.backup.validate()?;
         let l = &self.timing;
         within("timing.rate_hz", l.rate_hz, 50.0, 2000.0)?;
         positive("timing.nav_timeout_s", l.nav_timeout_s)?;

@@ -1,13 +1,16 @@
 //! The control loop allocates nothing per iteration: a counting global allocator watches one
-//! thread through every kind of setpoint, the loop's failsafes and the lock-free hand-over.
+//! thread through every kind of setpoint, the loop's failsafes (blind, and on the backup attitude
+//! fed IMU, compass and barometer samples) and the lock-free hand-over.
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
 use kestrel_control::rt::triple_buffer;
-use kestrel_control::{ControlParams, FlightController};
+use kestrel_control::{ControlParams, FlightController, ImuReading};
 use kestrel_proto::Time;
-use kestrel_proto::messages::{NavState, Setpoint, SetpointTarget, TrajectorySetpoint};
+use kestrel_proto::messages::{
+    BaroSample, MagSample, NavState, Setpoint, SetpointTarget, TrajectorySetpoint,
+};
 
 struct Counting;
 
@@ -72,12 +75,25 @@ fn a_loop_iteration_allocates_nothing() {
                 failed_motor: ((i / 800) % 2 == 1).then_some((i / 1600 % 4) as u8),
             }));
             nav_w.write(Some(nav(i)));
+            let time = Time::from_micros(i * 2500);
+            let accel = [0.1, -0.2, -9.7];
+            ctl.on_imu(&ImuReading {
+                time,
+                gyro_rad_s: [0.01, 0.0, -0.02],
+                accel_m_s2: accel,
+                accel_clipped: false,
+            });
+            ctl.on_mag(&MagSample { time, field_gauss: [0.3, 0.05, -0.1] });
+            ctl.on_baro(&BaroSample { time, pressure_pa: 101_000.0, altitude_m: 30.0, temperature_c: 20.0 });
             if let (Some(sp), true) = sp_r.read() {
                 let _ = ctl.set_setpoint(sp);
             }
+            // Now and then, and for a whole second, the estimator's state is gone: the backup
+            // attitude flies (aligned after 2 s), blind before it is.
             let out = match nav_r.read() {
-                (Some(n), _) if i % 97 != 0 => ctl.update(n),
-                _ => ctl.fly_blind(Time::from_micros(i * 2500)),
+                (Some(n), _) if i % 97 != 0 && !(2000..2400).contains(&i) => ctl.update(n),
+                _ if i % 291 == 0 => ctl.fly_blind(time),
+                _ => ctl.fly_without_nav(time),
             };
             assert!(out.motors.iter().all(|m| m.is_finite()));
         }
@@ -88,4 +104,5 @@ fn a_loop_iteration_allocates_nothing() {
     let allocations = ALLOCATIONS.with(Cell::get) - before;
     println!("allocations in 3990 loop iterations: {allocations}");
     assert_eq!(allocations, 0);
+    assert!(ctl.counters().backup_steps >= 400, "the backup flew: {:?}", ctl.counters());
 }

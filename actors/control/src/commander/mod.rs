@@ -79,7 +79,16 @@ pub struct Commander {
     /// Armed and on the ground since then without a take-off (`disarm_delay_s`).
     idle_on_ground_since: Option<Time>,
     landed: LandedState,
+    /// The state flown on: the estimator's, or the backup attitude's while the estimator's is
+    /// stale (`on_backup_nav`).
     nav: Option<NavState>,
+    /// Time of the estimator's newest state: its staleness is a failsafe whatever the backup
+    /// does.
+    estimator_nav_at: Option<Time>,
+    /// The estimator's newest state had a valid attitude.
+    estimator_attitude_valid: bool,
+    /// `nav` is the backup attitude's.
+    on_backup: bool,
     frame: Option<LocalFrame>,
     /// Polygon fence vertices, north/east (m), once the NED origin is known.
     fence_ned: Vec<[f64; 2]>,
@@ -162,6 +171,9 @@ impl Commander {
             idle_on_ground_since: None,
             landed: LandedState::OnGround,
             nav: None,
+            estimator_nav_at: None,
+            estimator_attitude_valid: false,
+            on_backup: false,
             frame: None,
             fence_ned: Vec::new(),
             home_ned: None,
@@ -249,10 +261,50 @@ impl Commander {
     /// A new navigation state (non-finite ones, and attitudes that are no rotation, are
     /// ignored: the loop rejects them too).
     pub fn on_nav(&mut self, nav: &NavState) {
-        let finite = nav.position_ned_m.iter().chain(&nav.velocity_ned_m_s).all(|v| v.is_finite());
-        if !finite || unit_quaternion(nav.attitude).is_err() {
+        if !usable(nav) {
             return;
         }
+        self.estimator_nav_at = Some(nav.time);
+        self.estimator_attitude_valid = nav.valid.attitude;
+        if !nav.valid.attitude && self.on_backup {
+            // A restarted estimator still aligning: the backup flies on.
+            return;
+        }
+        if self.on_backup {
+            tracing::warn!(at = %nav.time, "estimator back: flying on its state again");
+            self.on_backup = false;
+        }
+        self.take_nav(nav);
+    }
+
+    /// A state of the controller's backup attitude, published while the loop flies on it: taken
+    /// in place of the estimator's while that is stale, so the modes, the landing and the land
+    /// detector have an attitude, a height and a climb rate (no horizontal position). The
+    /// switch is announced. The estimator's staleness stays a failsafe (`check_failsafes`).
+    pub fn on_backup_nav(&mut self, nav: &NavState) {
+        if !usable(nav) || (self.estimator_fresh(nav.time) && self.estimator_attitude_valid) {
+            return;
+        }
+        if !self.on_backup {
+            tracing::error!(at = %nav.time, "estimator failed: flying on the backup attitude");
+            self.announce("EKF failed: backup attitude".to_owned());
+            self.on_backup = true;
+        }
+        self.take_nav(nav);
+    }
+
+    /// The state flown on is the backup attitude's.
+    pub fn on_backup_attitude(&self) -> bool {
+        self.on_backup
+    }
+
+    /// The estimator's newest state is no older than `nav_timeout_s` at `now`.
+    fn estimator_fresh(&self, now: Time) -> bool {
+        self.estimator_nav_at
+            .is_some_and(|t| now.saturating_since(t).as_secs_f64() <= self.params.nav_timeout_s)
+    }
+
+    fn take_nav(&mut self, nav: &NavState) {
         if self.frame.is_none()
             && let Some(origin) = nav.origin
         {
@@ -815,7 +867,9 @@ impl Commander {
         let fs = self.params.failsafe.clone();
         let armed = self.armed;
         let nav = self.nav.clone();
-        let fresh = self.fresh_nav(now).is_some();
+        // The estimator's own freshness: the backup attitude lands the vehicle, it does not
+        // stand in for the estimator's health.
+        let fresh = self.estimator_fresh(now);
         let limits = PilotLimits::of(&self.params);
         // Each loss on its own source's silence (`pilot_input`): the receiver never holds off
         // the ground station's, nor MAVLink sticks the receiver's.
@@ -1021,6 +1075,12 @@ impl Commander {
         // would take the stillness for the ground.
         landing && !self.landing_search.searching()
     }
+}
+
+/// A state `on_nav` keeps: finite, and its attitude a rotation (the loop rejects others too).
+fn usable(nav: &NavState) -> bool {
+    nav.position_ned_m.iter().chain(&nav.velocity_ned_m_s).all(|v| v.is_finite())
+        && unit_quaternion(nav.attitude).is_ok()
 }
 
 /// Modes whose setpoint comes from the sticks: losing them is a failsafe there.

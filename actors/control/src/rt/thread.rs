@@ -3,7 +3,9 @@
 //! into a triple buffer and unparks the thread. When none arrives within
 //! [`WATCHDOG_PERIODS`] periods the watchdog runs the iteration instead (the last commands
 //! re-stamped while the newest NavState is younger than the timeout, flying blind after it), so
-//! the motors never go without a command. Each iteration takes the newest gains and setpoint,
+//! the motors never go without a command; without a fresh NavState it flies on the backup
+//! attitude, fed every IMU sample through a ring and the newest compass and barometer samples
+//! (`FlightController::fly_without_nav`). Each iteration takes the newest gains and setpoint,
 //! hands the motor commands to `output` and pushes its timing; the statistics are made elsewhere.
 //! It never waits on tokio or a lock, and allocates nothing per iteration; it ends when told to
 //! or when the actor that feeds it is gone.
@@ -14,12 +16,14 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use kestrel_proto::Clock;
-use kestrel_proto::messages::{ActuatorOutputs, NavState, Setpoint};
+use kestrel_proto::messages::{ActuatorOutputs, BaroSample, MagSample, NavState, Setpoint};
 use kestrel_proto::time::duration_micros;
 
 use super::affinity::pin_to_cpu;
 use super::memory::lock_memory;
+use super::sample_ring::RingReader;
 use super::triple_buffer::Reader;
+use crate::backup_attitude::ImuReading;
 use crate::flight_controller::{FlightController, LoopCounters};
 use crate::live_params::Gains;
 use kestrel_proto::realtime::{RealtimePriority, set_realtime_priority};
@@ -54,6 +58,8 @@ pub struct Granted {
 pub trait ThreadOutput: Send + 'static {
     fn granted(&mut self, granted: Granted);
     fn actuators(&mut self, outputs: &ActuatorOutputs);
+    /// The backup attitude's state, after an iteration that flew on it.
+    fn backup_nav(&mut self, nav: &NavState);
     /// Once per iteration, after `actuators`.
     fn record(&mut self, sample: LoopSample, counters: LoopCounters);
 }
@@ -64,6 +70,10 @@ pub struct ThreadInputs {
     pub setpoint: Reader<Option<Setpoint>>,
     /// New gains, already validated by the actor (see [`crate::live_params`]).
     pub gains: Reader<Option<Gains>>,
+    /// Every IMU sample, for the backup attitude.
+    pub imu: RingReader<ImuReading>,
+    pub mag: Reader<Option<MagSample>>,
+    pub baro: Reader<Option<BaroSample>>,
 }
 
 /// What the loop thread asks of the OS, each granted or refused with a log line and reported
@@ -165,7 +175,7 @@ fn run(
     output: &mut impl ThreadOutput,
     stop: &AtomicBool,
 ) {
-    let ThreadInputs { mut nav, mut setpoint, mut gains } = inputs;
+    let ThreadInputs { mut nav, mut setpoint, mut gains, mut imu, mut mag, mut baro } = inputs;
     let timing = ctl.params().timing.clone();
     let watchdog = Duration::from_secs_f64(WATCHDOG_PERIODS / timing.rate_hz);
     let origin = Instant::now();
@@ -187,6 +197,13 @@ fn run(
         if let (Some(g), true) = gains.read() {
             ctl.retune(g);
         }
+        if let (Some(m), true) = mag.read() {
+            ctl.on_mag(m);
+        }
+        if let (Some(b), true) = baro.read() {
+            ctl.on_baro(b);
+        }
+        imu.drain(|sample| ctl.on_imu(&sample));
         if let (Some(sp), true) = setpoint.read() {
             // A refused setpoint is counted by the controller and the last good one kept.
             let _ = ctl.set_setpoint(sp);
@@ -201,9 +218,12 @@ fn run(
                     ActuatorOutputs { time: now, ..last }
                 }
             }
-            _ => ctl.fly_blind(now),
+            _ => ctl.fly_without_nav(now),
         };
         output.actuators(&last);
+        if let Some(backup) = ctl.flown_backup() {
+            output.backup_nav(backup);
+        }
         let sample = LoopSample {
             start_us: duration_micros(started - origin),
             execution_us: duration_micros(started.elapsed()),
@@ -232,6 +252,7 @@ mod tests {
 
     use super::*;
     use crate::params::ControlParams;
+    use crate::rt::sample_ring::{RingWriter, sample_ring};
     use crate::rt::triple_buffer::{Writer, triple_buffer};
 
     /// What the thread handed out, shared with the test (a test may lock; the loop's real
@@ -240,6 +261,7 @@ mod tests {
     struct Seen {
         granted: Option<Granted>,
         outputs: Vec<ActuatorOutputs>,
+        backup: Vec<NavState>,
         samples: Vec<(LoopSample, LoopCounters)>,
     }
 
@@ -252,6 +274,9 @@ mod tests {
         fn actuators(&mut self, outputs: &ActuatorOutputs) {
             self.0.lock().expect("seen").outputs.push(outputs.clone());
         }
+        fn backup_nav(&mut self, nav: &NavState) {
+            self.0.lock().expect("seen").backup.push(nav.clone());
+        }
         fn record(&mut self, sample: LoopSample, counters: LoopCounters) {
             self.0.lock().expect("seen").samples.push((sample, counters));
         }
@@ -262,6 +287,9 @@ mod tests {
         nav: Writer<Option<NavState>>,
         _setpoint: Writer<Option<Setpoint>>,
         _gains: Writer<Option<Gains>>,
+        imu: RingWriter<ImuReading>,
+        _mag: Writer<Option<MagSample>>,
+        _baro: Writer<Option<BaroSample>>,
         clock: Arc<ManualClock>,
         seen: Arc<Mutex<Seen>>,
     }
@@ -272,6 +300,9 @@ mod tests {
         let (nav, nav_reader) = triple_buffer(None);
         let (mut setpoint, setpoint_reader) = triple_buffer(None);
         let (gains, gains_reader) = triple_buffer(None);
+        let (imu, imu_reader) = sample_ring(64, ImuReading::default());
+        let (mag, mag_reader) = triple_buffer(None);
+        let (baro, baro_reader) = triple_buffer(None);
         setpoint.write(Some(Setpoint {
             time: Time(0),
             armed: true,
@@ -284,11 +315,18 @@ mod tests {
         }));
         let clock = Arc::new(ManualClock::default());
         let seen = Arc::new(Mutex::new(Seen::default()));
-        let inputs = ThreadInputs { nav: nav_reader, setpoint: setpoint_reader, gains: gains_reader };
+        let inputs = ThreadInputs {
+            nav: nav_reader,
+            setpoint: setpoint_reader,
+            gains: gains_reader,
+            imu: imu_reader,
+            mag: mag_reader,
+            baro: baro_reader,
+        };
         let os = RealtimeSettings { priority: 1, lock_memory: false, cpu: None };
         let thread = ControlThread::spawn(ctl, inputs, clock.clone(), Recording(Arc::clone(&seen)), os)
             .expect("spawn");
-        Bench { thread, nav, _setpoint: setpoint, _gains: gains, clock, seen }
+        Bench { thread, nav, _setpoint: setpoint, _gains: gains, imu, _mag: mag, _baro: baro, clock, seen }
     }
 
     fn nav_at(us: u64) -> NavState {
@@ -349,5 +387,41 @@ mod tests {
         let seen = b.seen.lock().expect("seen");
         let last = seen.outputs.last().expect("outputs");
         assert!(last.armed && last.time == Time(61_000));
+    }
+
+    #[test]
+    fn when_navstates_stop_the_thread_flies_on_the_backup_attitude() {
+        let mut b = bench();
+        let push = |b: &mut Bench, from: u64, to: u64| {
+            for k in from..to {
+                let time = Time(k * 2500);
+                let reading = ImuReading { time, accel_m_s2: [0.0, 0.0, -9.80665], ..ImuReading::default() };
+                while !b.imu.push(reading) {
+                    std::thread::sleep(Duration::from_micros(200));
+                }
+                b.clock.set(time);
+            }
+        };
+        // 2.4 s of IMU samples at rest, level: the backup aligns (2 s); then one NavState, flown.
+        push(&mut b, 0, 961);
+        let at = Time(960 * 2500);
+        b.nav.write(Some(nav_at(at.0)));
+        b.thread.wake();
+        wait_for(&b.seen, |s| s.outputs.iter().any(|o| o.time == at));
+        assert!(b.seen.lock().expect("seen").backup.is_empty(), "the estimator's state flew");
+        // No NavState after it: past `nav_timeout_s` the backup flies.
+        push(&mut b, 961, 1000);
+        wait_for(&b.seen, |s| s.samples.last().is_some_and(|(_, c)| c.backup_steps >= 5));
+        b.thread.stop();
+        let seen = b.seen.lock().expect("seen");
+        let nav = seen.backup.last().expect("the backup's state handed out");
+        assert!(nav.valid.attitude && !nav.valid.horizontal_position);
+        assert_eq!(nav.time, Time(999 * 2500), "the newest IMU sample's time");
+        assert!(
+            (nav.position_ned_m[2] + 10.0).abs() < 1e-9,
+            "on the estimator's height: {:?}",
+            nav.position_ned_m
+        );
+        assert!(seen.outputs.last().is_some_and(|o| o.armed));
     }
 }
