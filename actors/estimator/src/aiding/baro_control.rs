@@ -40,6 +40,8 @@ use crate::params::EkfParams;
 pub const AGREEMENT_FIXES: u32 = 50;
 /// Time constant, in fixes, with which the agreed difference follows a slow GPS bias (100 s).
 pub const AGREEMENT_TAU_FIXES: f64 = 500.0;
+/// Time constant, in fixes, of the averages a disagreement is judged on (1 s).
+pub const JUDGE_TAU_FIXES: f64 = 5.0;
 /// How long a faulty barometer, or a refused GPS height, must agree with the other again to be
 /// used again (s).
 pub const RECOVERY_S: f64 = 10.0;
@@ -72,7 +74,14 @@ struct GpsAgreement {
     /// velocity (m/s): the velocity-propagated height, independent of either height sensor.
     velocity_down_m: f64,
     last: Option<(Time, f64)>,
-    /// Baro-down and GPS-down minus the velocity height at the last fix where they agreed (m).
+    /// Baro-down and GPS-down minus the velocity height, each averaged over the last
+    /// [`JUDGE_TAU_FIXES`] fixes (m): what a disagreement is judged on, GPS's 0.8 m of height
+    /// noise averaged down.
+    baro_rel_m: f64,
+    gps_rel_m: f64,
+    /// The same at the last fix where the two agreed well inside the tolerance (within half of
+    /// it): a drift creeping past the tolerance, agreeing now and then on noise, does not move
+    /// this point along with it.
     agreed_baro_m: f64,
     agreed_gps_m: f64,
 }
@@ -205,8 +214,13 @@ impl BaroControl {
         };
         let difference_m = baro_down_m - gps.pos_ned_m.z;
         let a = &mut self.agreement;
-        let baro_rel_m = baro_down_m - a.velocity_down_m;
-        let gps_rel_m = gps.pos_ned_m.z - a.velocity_down_m;
+        if a.fixes == 0 {
+            (a.baro_rel_m, a.gps_rel_m) =
+                (baro_down_m - a.velocity_down_m, gps.pos_ned_m.z - a.velocity_down_m);
+        }
+        a.baro_rel_m += (baro_down_m - a.velocity_down_m - a.baro_rel_m) / JUDGE_TAU_FIXES;
+        a.gps_rel_m += (gps.pos_ned_m.z - a.velocity_down_m - a.gps_rel_m) / JUDGE_TAU_FIXES;
+        let (baro_rel_m, gps_rel_m) = (a.baro_rel_m, a.gps_rel_m);
         if a.fixes < AGREEMENT_FIXES {
             a.fixes += 1;
             a.offset_m += (difference_m - a.offset_m) / f64::from(a.fixes);
@@ -217,6 +231,8 @@ impl BaroControl {
         let healthy = !self.faulty && !self.gps_height_faulty;
         if agrees && healthy {
             a.offset_m += (difference_m - a.offset_m) / AGREEMENT_TAU_FIXES;
+        }
+        if healthy && (difference_m - a.offset_m).abs() <= 0.5 * params.baro_gps_tolerance_m {
             (a.agreed_baro_m, a.agreed_gps_m) = (baro_rel_m, gps_rel_m);
         }
         let verdict = a.disagreeing.judge(now, agrees, params.baro_fault_timeout_s);
