@@ -1,5 +1,6 @@
 //! What the estimator noticed, as events for the flight report: the start of each run of
-//! rejections per aiding source, GPS lost, dead reckoning, the barometer found faulty, an IMU
+//! rejections per aiding source, GPS lost, dead reckoning, the barometer or GPS height found
+//! faulty, a GPS position reset refused for its length, an IMU
 //! gap, a numerical fault. Taken from `estimator_status` (its counters and health flags), so a
 //! fault the estimator handles without any failsafe still shows when it was detected.
 
@@ -12,7 +13,9 @@ pub struct EstimatorEvent {
     /// IMU time of the status that showed it (s).
     pub t_s: f64,
     /// `gps_rejected`, `baro_rejected`, `mag_rejected` (a run of rejections began), `gps_lost`,
-    /// `dead_reckoning`, `baro_faulty`, `imu_gap`, `imu_switched`, `warm_start`, `realigned`, `numerical_fault`.
+    /// `dead_reckoning`, `baro_faulty`, `gps_height_faulty` (GPS height refused, the barometer
+    /// kept), `gps_reset_refused` (a GPS position reset longer than `EKF2_GPS_RST_M`), `imu_gap`,
+    /// `imu_switched`, `warm_start`, `realigned`, `numerical_fault`.
     pub event: String,
 }
 
@@ -50,6 +53,8 @@ impl EstimatorEvents {
             (ph.gps_fusing && !h.gps_fusing, "gps_lost"),
             (!ph.dead_reckoning && h.dead_reckoning, "dead_reckoning"),
             (!ph.baro_faulty && h.baro_faulty, "baro_faulty"),
+            (!ph.gps_height_faulty && h.gps_height_faulty, "gps_height_faulty"),
+            (ph.gps_reset_refused_m.is_none() && h.gps_reset_refused_m.is_some(), "gps_reset_refused"),
             (h.imu_gaps > ph.imu_gaps, "imu_gap"),
             (h.imu_switches > ph.imu_switches, "imu_switched"),
             (h.warm_starts > ph.warm_starts, "warm_start"),
@@ -96,5 +101,20 @@ mod tests {
             got,
             [(1.5, "gps_rejected"), (3.0, "gps_rejected"), (3.0, "gps_lost"), (3.0, "baro_faulty")]
         );
+    }
+
+    #[test]
+    fn a_refused_gps_reset_and_a_refused_gps_height_are_one_event_each() {
+        let mut e = EstimatorEvents::default();
+        for (t, refused, height) in
+            [(1.0, None, false), (2.0, Some(2000), true), (3.0, Some(1990), true), (4.0, None, false)]
+        {
+            let mut s = status(t, 0, true, false);
+            s.health.gps_reset_refused_m = refused;
+            s.health.gps_height_faulty = height;
+            e.on_status(&s);
+        }
+        let got: Vec<(f64, &str)> = e.log.iter().map(|v| (v.t_s, v.event.as_str())).collect();
+        assert_eq!(got, [(2.0, "gps_height_faulty"), (2.0, "gps_reset_refused")]);
     }
 }

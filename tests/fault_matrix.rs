@@ -116,6 +116,9 @@ enum Expect {
     /// The failsafe `cause` fires and takes `action`: the last to fire (a battery going critical
     /// passes through low first).
     Failsafe { cause: &'static str, action: &'static str },
+    /// The same, with the estimator event `event` saying why (a refused GPS reset behind an
+    /// estimator failsafe).
+    FailsafeWithEvent { cause: &'static str, action: &'static str, event: &'static str },
 }
 
 /// One row of the matrix.
@@ -135,7 +138,7 @@ struct Case {
 
 /// Every row, in table order: the test of each row names its case here, and the table is
 /// complete when all have written their line.
-const CASES: [Case; 23] = [
+const CASES: [Case; 25] = [
     Case {
         order: 1,
         name: "GPS jump 50 m for 5 s",
@@ -347,6 +350,32 @@ const CASES: [Case; 23] = [
         vehicle: "quad_x",
         graph: "",
         expect: Expect::Failsafe { cause: "critical_actor_failed", action: "land" },
+    },
+    Case {
+        order: 24,
+        name: "GPS height step 10 m up for 60 s",
+        // GPS reports 10 m higher than the vehicle flies; the barometer and the IMU do not move:
+        // GPS height is refused, the barometer kept, the mission flown at its height.
+        flight: Flight::OutAndBack,
+        fault: "for_s = 60.0\nkind = \"gps_jump\"\nned_m = [0.0, 0.0, -10.0]",
+        vehicle: "quad_x",
+        graph: "",
+        expect: Expect::Continue { event: "gps_height_faulty" },
+    },
+    Case {
+        order: 25,
+        name: "GPS offset 2 km north held",
+        // Past EKF2_GPS_RST_S the reset to GPS would move the position 2 km, beyond
+        // EKF2_GPS_RST_M: refused, the position invalid, FS_EKF_ACTION lands where it is.
+        flight: Flight::OutAndBack,
+        fault: "kind = \"gps_jump\"\nned_m = [2000.0, 0.0, 0.0]",
+        vehicle: "quad_x",
+        graph: "",
+        expect: Expect::FailsafeWithEvent {
+            cause: "estimator_unhealthy",
+            action: "land",
+            event: "gps_reset_refused",
+        },
     },
 ];
 
@@ -677,6 +706,17 @@ fn run_case(order: u32) {
             let expected = format!("{cause}/{action}");
             assert_eq!(failsafes.last().map(|f| &f.1), Some(&expected), "{}: {failsafes:?}", case.name);
         }
+        Expect::FailsafeWithEvent { cause, action, event } => {
+            let expected = format!("{cause}/{action}");
+            assert_eq!(failsafes.last().map(|f| &f.1), Some(&expected), "{}: {failsafes:?}", case.name);
+            let at = events.iter().find(|e| e.1 == event).map(|e| e.0);
+            let fired = failsafes.last().map(|f| f.0);
+            assert!(
+                at.zip(fired).is_some_and(|(at, fired)| at <= fired + 0.5),
+                "{}: {event} ({at:?}) should explain the failsafe ({fired:?}): {events:?}",
+                case.name
+            );
+        }
     }
     if let Some(table) = table {
         compare_page_when_complete(&dir, table);
@@ -842,6 +882,16 @@ fn camera_frozen_for_good() {
 #[test]
 fn estimator_gone_in_forward_flight() {
     run_case(23);
+}
+
+#[test]
+fn gps_height_step() {
+    run_case(24);
+}
+
+#[test]
+fn gps_offset_2_km_held() {
+    run_case(25);
 }
 
 // The sensor rows again, among the trees (FOREST_ROWS).

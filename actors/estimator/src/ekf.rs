@@ -577,7 +577,7 @@ impl Ekf {
         let t = filter.state.time;
         let params = &self.params;
         while let Some(fix) = self.gps_buffer.pop_oldest_if(|f| f.time <= t) {
-            self.gps.fuse(filter, &fix, &mut self.frame, params, self.baro.faulty());
+            self.gps.fuse(filter, &fix, &mut self.frame, params, self.baro.height_from_gps());
             if let Some((at, obs)) = self.gps.newest
                 && at == t
             {
@@ -638,8 +638,8 @@ impl Ekf {
         let t = f.time;
         let gps_velocity = self.gps.velocity_aiding(t, params);
         let from_drag = !gps_velocity && self.drag.velocity_aiding(t, params);
-        let height =
-            self.baro.height_aiding(t, params) || (self.baro.faulty() && self.gps.position_aiding(t, params));
+        let height = self.baro.height_aiding(t, params)
+            || (self.baro.height_from_gps() && self.gps.position_aiding(t, params));
         Some(NavState {
             time: o.time,
             attitude: [q.w, q.i, q.j, q.k],
@@ -654,9 +654,12 @@ impl Ekf {
                 attitude: true,
                 horizontal_velocity: gps_velocity || from_drag,
                 horizontal_velocity_from_drag: from_drag,
+                // A refused GPS reset leaves an estimate GPS contradicts by more than
+                // `gps_reset_max_m`: not vouched for, so the commander's estimator failsafe acts.
                 horizontal_position: self
                     .gps
-                    .horizontal_aiding_within(t, params.horizontal_position_timeout_s),
+                    .horizontal_aiding_within(t, params.horizontal_position_timeout_s)
+                    && self.gps.reset_refused().is_none(),
                 vertical_velocity: gps_velocity || height,
                 vertical_position: height,
             },
@@ -701,6 +704,12 @@ impl Ekf {
                 warm_starts: self.warm_starts,
                 realignments: self.realignments,
                 baro_faulty: self.baro.faulty(),
+                gps_height_faulty: self.baro.gps_height_faulty(),
+                // Whole metres (saturating: a reset refused is at least `gps_reset_max_m`).
+                gps_reset_refused_m: self
+                    .gps
+                    .reset_refused()
+                    .map(|m| m.round().min(f64::from(u32::MAX)) as u32),
                 imu_clipped: self.imu_clipped,
             },
             fusion_horizon_s: self.newest_imu.map_or(0.0, |n| (n - t).as_secs_f64()),

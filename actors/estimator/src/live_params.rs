@@ -154,6 +154,15 @@ pub const LIVE_PARAMS: &[ParamDef<EkfParams>] = &[
         get: |p| p.gps_reset_timeout_s,
         set: |p, v| p.gps_reset_timeout_s = v,
     },
+    ParamDef {
+        name: "EKF2_GPS_RST_M",
+        unit: "m",
+        min: 5.0,
+        max: 1000.0,
+        description: "Longest GPS position reset taken; a longer one is refused and the position invalid",
+        get: |p| p.gps_reset_max_m,
+        set: |p, v| p.gps_reset_max_m = v,
+    },
 ];
 
 /// Sets `name` to `value` in `params` when it is one of ours, in range, and the result

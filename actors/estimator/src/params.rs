@@ -72,6 +72,13 @@ pub struct EkfParams {
     /// GPS position (or velocity) rejected continuously for this long resets it to GPS (s);
     /// PX4 EKF2's `reset_timeout_max`, 7 s.
     pub gps_reset_timeout_s: f64,
+    /// Longest horizontal move a GPS position reset (after `gps_reset_timeout_s` of rejection)
+    /// may make (m): a longer one is refused, reported, and the position flagged invalid, so the
+    /// commander's estimator failsafe lands or holds where the vehicle is rather than flying
+    /// to a home that GPS has moved. Well under the geofence's 300 m radius; ArduPilot's
+    /// nearest is `EK3_GLITCH_RAD` (25 m). Resets after a GPS loss are not limited: dead
+    /// reckoning has no bound to hold them to.
+    pub gps_reset_max_m: f64,
     /// GPS velocity rejected continuously for this long resets velocity to GPS and raises the
     /// tilt and bias uncertainty (s): the inertial prediction, not GPS velocity, is wrong.
     pub gps_velocity_reset_timeout_s: f64,
@@ -85,10 +92,11 @@ pub struct EkfParams {
     /// this long makes the barometer faulty (or resets the height to it without GPS) (s); PX4
     /// EKF2's `hgt_fusion_timeout_max`, 5 s.
     pub baro_timeout_s: f64,
-    /// Largest change of the baro-minus-GPS height difference before the barometer counts as
-    /// disagreeing with GPS (m).
+    /// Largest change of the baro-minus-GPS height difference before the two count as
+    /// disagreeing (m).
     pub baro_gps_tolerance_m: f64,
-    /// Barometer disagreeing with GPS height for this long is faulty: height from GPS (s).
+    /// Barometer and GPS height disagreeing for this long: the one that moved away from the
+    /// height propagated on GPS's Doppler vertical velocity is faulty (s); see [`crate::aiding::baro_control`].
     pub baro_fault_timeout_s: f64,
     /// Magnetometer not fused for this long: reported not fusing (s).
     pub mag_timeout_s: f64,
@@ -168,6 +176,7 @@ impl Default for EkfParams {
             in_flight_yaw_reset: true,
             mag_yaw_reset_height_m: 1.5,
             gps_reset_timeout_s: 7.0,
+            gps_reset_max_m: 50.0,
             gps_velocity_reset_timeout_s: 1.0,
             gps_timeout_s: 1.0,
             gps_height_noise_m: 1.0,
@@ -211,6 +220,7 @@ impl EkfParams {
             ("mag_strength_tolerance", self.mag_strength_tolerance),
             ("mag_yaw_reset_height_m", self.mag_yaw_reset_height_m),
             ("gps_reset_timeout_s", self.gps_reset_timeout_s),
+            ("gps_reset_max_m", self.gps_reset_max_m),
             ("gps_velocity_reset_timeout_s", self.gps_velocity_reset_timeout_s),
             ("gps_timeout_s", self.gps_timeout_s),
             ("gps_height_noise_m", self.gps_height_noise_m),

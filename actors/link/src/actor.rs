@@ -238,8 +238,8 @@ impl Actor for LinkActor {
                     Vec::new()
                 }
                 LinkInput::Estimator(s) => {
-                    hub.vehicle().on_estimator(*s);
-                    Vec::new()
+                    let out = hub.vehicle().on_estimator(*s);
+                    hub.dispatch(out)
                 }
                 LinkInput::Battery(b) => {
                     hub.vehicle().on_battery(b);

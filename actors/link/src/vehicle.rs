@@ -19,7 +19,6 @@ use mavlink::dialects::ardupilotmega::{
 };
 use mavlink::{Message, MessageData};
 
-use crate::services::calibration;
 use crate::services::command::{self, CommandRequest, CommandService};
 use crate::services::events::{status_changes, statustext};
 use crate::services::ftp;
@@ -31,6 +30,7 @@ use crate::services::offboard::{
 use crate::services::params::ParamTable;
 use crate::services::telemetry::{Telemetry, home};
 use crate::services::{Outputs, Sender, Service, ToGraph};
+use crate::services::{calibration, estimator_text};
 
 /// Our component id (MAV_COMP_ID_AUTOPILOT1).
 pub const COMPONENT_ID: u8 = 1;
@@ -319,9 +319,17 @@ impl Vehicle {
         self.telemetry.snapshot.nav = Some(nav);
     }
 
-    /// The estimator's latest innovations and health (EKF_STATUS_REPORT).
-    pub fn on_estimator(&mut self, status: EstimatorStatus) {
+    /// The estimator's latest innovations and health (EKF_STATUS_REPORT), and a STATUSTEXT
+    /// warning for each finding that began (`services::estimator_text`).
+    pub fn on_estimator(&mut self, status: EstimatorStatus) -> Outputs {
+        let old = self.telemetry.snapshot.estimator.as_ref().map(|s| s.health);
+        let texts = estimator_text::estimator_changes(old.as_ref(), &status.health);
         self.telemetry.snapshot.estimator = Some(status);
+        let mav = texts
+            .iter()
+            .flat_map(|t| calibration::chunked(MavSeverity::MAV_SEVERITY_WARNING, t, &mut self.text_id))
+            .collect();
+        Outputs { mav, graph: Vec::new() }
     }
 
     /// The latest GPS fix.

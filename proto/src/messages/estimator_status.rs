@@ -58,9 +58,19 @@ pub struct EstimatorHealth {
     /// Times the IMU stream stopped and resumed in flight (the state's uncertainty was reset).
     #[serde(default)]
     pub imu_gaps: u32,
-    /// The barometer disagreed with GPS height or was rejected for too long: height from GPS.
+    /// The barometer was rejected for too long, or moved away from the height propagated on GPS
+    /// velocity while GPS height did not: height from GPS.
     #[serde(default)]
     pub baro_faulty: bool,
+    /// GPS height moved away from the barometer and the height propagated on GPS velocity: it
+    /// is not used.
+    #[serde(default)]
+    pub gps_height_faulty: bool,
+    /// A GPS position reset was refused for moving the position further than the estimator's
+    /// limit (the distance, whole m), and GPS position has not come back inside its gate: the
+    /// horizontal position is reported invalid.
+    #[serde(default)]
+    pub gps_reset_refused_m: Option<u32>,
     /// Times the prediction moved to another IMU because the one in use fell silent.
     #[serde(default)]
     pub imu_switches: u32,

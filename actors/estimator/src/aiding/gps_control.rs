@@ -10,7 +10,15 @@
 //!   separately at `gps_gate_sigma`. A rejected position is dead reckoned on the velocity that
 //!   still passes; a run of rejections longer than `gps_reset_timeout_s` (EKF2's
 //!   `reset_timeout_max`, 7 s) resets to GPS, which by then is consistent with itself and not with
-//!   the filter. A jump shorter than that is never followed. Velocity does not jump when the
+//!   the filter. A jump shorter than that is never followed. A reset that would move the
+//!   position by more than `gps_reset_max_m` is not made: GPS is then consistent with itself and
+//!   far from where the inertial navigation put the vehicle, and nothing on board says which is
+//!   right; flying to a home kilometres away is worse than landing where the vehicle is. The
+//!   refusal is reported ([`GpsControl::reset_refused`]) and the position reported invalid
+//!   (the commander's estimator failsafe, `FS_EKF_ACTION`), while velocity, which did not jump,
+//!   is still fused; GPS position back inside the gate is fused again. ArduPilot's analogue
+//!   is `EK3_GLITCH_RAD` (25 m), the radius beyond which a GPS glitch is not followed at once;
+//!   PX4 EKF2 resets after `reset_timeout_max` with no limit. Velocity does not jump when the
 //!   receiver glitches: velocity the filter cannot follow for `gps_velocity_reset_timeout_s`
 //!   means the inertial prediction is wrong (a gyro or accelerometer bias step), so velocity is
 //!   reset to GPS and tilt and biases made uncertain, for GPS velocity to correct them.
@@ -42,6 +50,9 @@ pub struct GpsControl {
     velocity_run: RejectionRun,
     /// The newest usable fix in the local frame, for the barometer's check against GPS height.
     pub newest: Option<(Time, GpsObservation)>,
+    /// The horizontal distance (m) of the last position reset refused for being longer than
+    /// `gps_reset_max_m`, while GPS position stays outside its gate.
+    refused_reset_m: Option<f64>,
     pub counters: AidingCounters,
     pub position: [Innovation; 2],
     pub velocity: [Innovation; 3],
@@ -62,6 +73,12 @@ impl GpsControl {
     /// Whether any horizontal GPS observation was fused within `timeout_s` of `now`.
     pub fn horizontal_aiding_within(&self, now: Time, timeout_s: f64) -> bool {
         recent(self.last_position_fused, now, timeout_s) || recent(self.last_velocity_fused, now, timeout_s)
+    }
+
+    /// The distance of a GPS position reset refused for exceeding `gps_reset_max_m` (m), while
+    /// GPS position has not come back inside its gate: the position cannot be vouched for.
+    pub fn reset_refused(&self) -> Option<f64> {
+        self.refused_reset_m
     }
 
     /// Forgets the fusion history, so that the next usable fix resets position and velocity
@@ -136,13 +153,30 @@ impl GpsControl {
             Verdict::Fuse => {
                 fused |= gps::fuse_position(filter, &obs);
                 self.last_position_fused = Some(now);
+                if self.refused_reset_m.take().is_some() {
+                    tracing::info!(time = %now, "GPS position inside its gate again: fused again");
+                }
             }
             Verdict::Reject => rejected = true,
+            Verdict::TimedOut if reset_distance_m(filter, &obs) > params.gps_reset_max_m => {
+                let jump_m = reset_distance_m(filter, &obs);
+                if self.refused_reset_m.is_none() {
+                    tracing::warn!(
+                        time = %now,
+                        jump_m,
+                        limit_m = params.gps_reset_max_m,
+                        "GPS position rejected for too long, but a reset would move it too far: refused"
+                    );
+                }
+                self.refused_reset_m = Some(jump_m);
+                rejected = true;
+            }
             Verdict::TimedOut => {
                 tracing::warn!(time = %now, "GPS position rejected for too long: resetting to GPS");
                 filter.reset_horizontal_position([obs.pos_ned_m.x, obs.pos_ned_m.y], obs.pos_var_m2);
                 self.counters.resets += 1;
                 self.last_position_fused = Some(now);
+                self.refused_reset_m = None;
             }
         }
 
@@ -166,7 +200,13 @@ impl GpsControl {
         self.last_velocity_fused = Some(now);
         self.position_run.clear();
         self.velocity_run.clear();
+        self.refused_reset_m = None;
     }
+}
+
+/// How far (m, horizontally) a reset to `obs` would move the position.
+pub fn reset_distance_m(filter: &Filter, obs: &GpsObservation) -> f64 {
+    (obs.pos_ned_m.xy() - filter.state.pos_ned_m.xy()).norm()
 }
 
 /// Whether a fix is good enough to use at all.
@@ -189,6 +229,7 @@ mod tests {
     use crate::state::{ImuDelta, State};
     use kestrel_proto::units::GRAVITY_M_S2;
     use nalgebra::UnitQuaternion;
+    use proptest::prelude::*;
 
     const HOME: Geodetic = Geodetic { lat_deg: 6.7971, lon_deg: 79.9017, alt_m: 20.0 };
     const NOISE: ProcessNoise =
@@ -263,17 +304,83 @@ mod tests {
     }
 
     #[test]
-    fn a_jump_that_stays_past_the_reset_timeout_is_taken_once() {
+    fn a_jump_within_the_reset_limit_that_stays_past_the_reset_timeout_is_taken_once() {
         let mut b = Bench::new();
         b.run(10.0, |_| Some([0.0; 3]));
         let resets = b.gps.counters.resets;
-        b.run(6.9, |_| Some([50.0, 0.0, 0.0]));
+        assert!(30.0 < b.params.gps_reset_max_m);
+        b.run(6.9, |_| Some([30.0, 0.0, 0.0]));
         assert!(b.north_m().abs() < 0.5, "before the timeout: {} m", b.north_m());
-        b.run(1.0, |_| Some([50.0, 0.0, 0.0]));
-        assert!((b.north_m() - 50.0).abs() < 1.0, "after the timeout: {} m", b.north_m());
+        b.run(1.0, |_| Some([30.0, 0.0, 0.0]));
+        assert!((b.north_m() - 30.0).abs() < 1.0, "after the timeout: {} m", b.north_m());
         assert_eq!(b.gps.counters.resets, resets + 1);
-        b.run(5.0, |_| Some([50.0, 0.0, 0.0]));
+        assert_eq!(b.gps.reset_refused(), None);
+        b.run(5.0, |_| Some([30.0, 0.0, 0.0]));
         assert_eq!(b.gps.counters.resets, resets + 1, "consistent again: fused, not reset");
+    }
+
+    #[test]
+    fn a_2_km_offset_held_is_refused_reported_and_never_followed_until_gps_comes_back() {
+        let mut b = Bench::new();
+        b.run(10.0, |_| Some([0.0; 3]));
+        let resets = b.gps.counters.resets;
+        b.run(6.9, |_| Some([2000.0, 0.0, 0.0]));
+        assert_eq!(b.gps.reset_refused(), None, "not before the reset timeout");
+        b.run(30.0, |_| Some([2000.0, 0.0, 0.0]));
+        assert!(b.north_m().abs() < 0.5, "followed the offset to {} m", b.north_m());
+        assert_eq!(b.gps.counters.resets, resets, "no reset");
+        let refused = b.gps.reset_refused().expect("the reset was refused and is reported");
+        assert!((refused - 2000.0).abs() < 1.0, "{refused} m");
+        let now = b.filter.state.time;
+        assert!(!b.gps.position_aiding(now, &b.params), "GPS position not fused");
+        assert!(b.gps.velocity_aiding(now, &b.params), "GPS velocity, which did not jump, still fused");
+        // GPS back where the vehicle is: fused again, the refusal over.
+        b.run(1.0, |_| Some([0.0; 3]));
+        assert_eq!(b.gps.reset_refused(), None);
+        assert!(b.gps.position_aiding(b.filter.state.time, &b.params));
+    }
+
+    #[test]
+    fn the_reset_limit_is_a_live_parameter_a_refusal_honours_at_the_next_timeout() {
+        let mut b = Bench::new();
+        b.run(10.0, |_| Some([0.0; 3]));
+        b.params.gps_reset_max_m = 20.0;
+        b.run(7.4, |_| Some([30.0, 0.0, 0.0]));
+        assert!(b.gps.reset_refused().is_some_and(|m| (m - 30.0).abs() < 1.0));
+        assert!(b.north_m().abs() < 0.5);
+        // Raised past the offset: the next timeout (7 s on) takes it.
+        b.params.gps_reset_max_m = 50.0;
+        b.run(7.4, |_| Some([30.0, 0.0, 0.0]));
+        assert_eq!(b.gps.reset_refused(), None);
+        assert!((b.north_m() - 30.0).abs() < 1.0, "{} m", b.north_m());
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(16))]
+
+        /// A GPS step longer than the reset limit, in any direction and held for any time,
+        /// never moves the estimate of a still vehicle by more than the limit.
+        #[test]
+        fn a_step_beyond_the_limit_never_moves_the_estimate_by_more_than_the_limit(
+            length_m in 51.0f64..5000.0,
+            bearing_rad in 0.0f64..std::f64::consts::TAU,
+            held_s in 6.0f64..25.0,
+        ) {
+            let mut b = Bench::new();
+            b.run(10.0, |_| Some([0.0; 3]));
+            let before = b.filter.state.pos_ned_m.xy();
+            let step = [length_m * bearing_rad.cos(), length_m * bearing_rad.sin(), 0.0];
+            let mut worst_m = 0.0f64;
+            let halves = (held_s / 0.5) as usize;
+            for _ in 0..halves {
+                b.run(0.5, |_| Some(step));
+                worst_m = worst_m.max((b.filter.state.pos_ned_m.xy() - before).norm());
+            }
+            prop_assert!(worst_m <= b.params.gps_reset_max_m, "moved {} m", worst_m);
+            // Refused from the fix past the reset timeout (the first rejected fix 0.2 s in).
+            let held = 0.5 * halves as f64;
+            prop_assert_eq!(b.gps.reset_refused().is_some(), held > b.params.gps_reset_timeout_s + 0.2);
+        }
     }
 
     #[test]

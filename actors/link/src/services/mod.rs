@@ -4,6 +4,7 @@
 
 pub mod calibration;
 pub mod command;
+pub mod estimator_text;
 pub mod events;
 pub mod failure;
 pub mod ftp;
