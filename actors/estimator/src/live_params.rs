@@ -160,6 +160,7 @@ pub const LIVE_PARAMS: &[ParamDef<EkfParams>] = &[
         min: 5.0,
         max: 1000.0,
         description: "Longest GPS position reset taken; a longer one is refused and the position invalid",
+        while_armed: WhileArmed::Tunable,
         get: |p| p.gps_reset_max_m,
         set: |p, v| p.gps_reset_max_m = v,
     },
