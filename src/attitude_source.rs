@@ -121,8 +121,8 @@ mod tests {
         assert_eq!(s.section(), None);
         s.on_estimator(&nav(1.0, 0.0));
         assert_eq!(s.section().expect("seen").flown, "estimator");
-        let mut truth = GroundTruth::default();
-        truth.attitude = quaternion_from_euler(0.0, 0.0, 0.0);
+        let mut truth =
+            GroundTruth { attitude: quaternion_from_euler(0.0, 0.0, 0.0), ..GroundTruth::default() };
         for k in 0..=100 {
             let t = 2.0 + k as f64 * 0.01;
             truth.time = Time::from_micros((t * 1e6) as u64);
