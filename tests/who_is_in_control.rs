@@ -14,10 +14,9 @@
 #[allow(dead_code, reason = "shared by the test binaries that run `kestrel run`; this one uses part of it")]
 mod sim_vehicle;
 
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use sim_vehicle::{Proc, python_client, sim_config, stop, tail, temp_dir};
+use sim_vehicle::{kestrel_at_5x, python_client, sim_config, stop, tail, temp_dir, transcript_until_exit};
 
 /// Wall-clock bound on one client.
 const CLIENT_LIMIT: Duration = Duration::from_secs(70);
@@ -39,34 +38,10 @@ fn session(scenario: &str, stations: usize) -> serde_json::Value {
     let config_path = dir.join("graph.toml");
     std::fs::write(&config_path, sim_config(&link)).expect("config");
     let log_path = dir.join("kestrel.log");
-    let mut kestrel = Proc(
-        Command::new(env!("CARGO_BIN_EXE_kestrel"))
-            .current_dir(&dir)
-            .env_remove("RUST_LOG")
-            .args(["run", "--quiet", "--speedup", "5", "--duration", "400", "--config"])
-            .arg(&config_path)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log_path).expect("log"))
-            .spawn()
-            .expect("start kestrel run"),
-    );
+    let mut kestrel = kestrel_at_5x(&dir, &config_path, &log_path, "400");
     println!("── {scenario}: stations on ports {ports:?} ──");
     let started = Instant::now();
-    let mut transcript = Vec::new();
-    let exit = loop {
-        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
-            println!("  {line}");
-            transcript.push(line);
-        }
-        if let Some(status) = client.0.try_wait().expect("client status") {
-            transcript.extend(lines.try_iter());
-            break Some(status);
-        }
-        if started.elapsed() > CLIENT_LIMIT {
-            break None;
-        }
-    };
+    let (exit, transcript) = transcript_until_exit(&mut client, &lines, || started.elapsed() > CLIENT_LIMIT);
     let log = || tail(&std::fs::read_to_string(&log_path).unwrap_or_default(), 30);
     assert!(exit.is_some_and(|s| s.success()), "{scenario}: client {exit:?}\n{transcript:#?}\n{}", log());
     assert!(stop(&mut kestrel, scenario).success(), "{scenario}: kestrel failed\n{}", log());

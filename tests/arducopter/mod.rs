@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::sim_vehicle::{Proc, python_client, tail};
+use crate::sim_vehicle::{Proc, python_client, tail, transcript_until_exit};
 
 /// The environment variable naming the ArduCopter SITL binary.
 pub const ENV: &str = "KESTREL_ARDUCOPTER";
@@ -141,20 +141,8 @@ pub fn scripted_session(binary: &Path, script: &str, env: &[(&str, String)]) -> 
     let started = Instant::now();
     let mut sitl = ArduCopter::start(binary, port);
     println!("── {script} against ArduCopter SITL (instance {}, speed-up {SPEEDUP}) ──", sitl.instance);
-    let mut transcript = Vec::new();
-    let exit = loop {
-        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
-            println!("  {line}");
-            transcript.push(line);
-        }
-        if let Some(status) = client.0.try_wait().expect("client status") {
-            transcript.extend(lines.try_iter());
-            break Some(status);
-        }
-        if started.elapsed() > CLIENT_LIMIT || !sitl.running() {
-            break None;
-        }
-    };
+    let (exit, transcript) =
+        transcript_until_exit(&mut client, &lines, || started.elapsed() > CLIENT_LIMIT || !sitl.running());
     assert!(
         exit.is_some_and(|s| s.success()),
         "{script} against ArduCopter: client {exit:?}\nSITL:\n{}",

@@ -126,34 +126,10 @@ pub fn scripted_session(
     let config_path = dir.join(format!("{scenario}.toml"));
     std::fs::write(&config_path, config(port)).expect("config");
     let log_path = dir.join(format!("{scenario}.log"));
-    let mut kestrel = Proc(
-        Command::new(env!("CARGO_BIN_EXE_kestrel"))
-            .current_dir(dir)
-            .env_remove("RUST_LOG")
-            .args(["run", "--quiet", "--speedup", "5", "--duration", "600", "--config"])
-            .arg(&config_path)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log_path).expect("log"))
-            .spawn()
-            .expect("start kestrel run"),
-    );
+    let mut kestrel = kestrel_at_5x(dir, &config_path, &log_path, "600");
     println!("── {scenario} ──");
     let started = Instant::now();
-    let mut transcript = Vec::new();
-    let exit = loop {
-        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
-            println!("  {line}");
-            transcript.push(line);
-        }
-        if let Some(status) = client.0.try_wait().expect("client status") {
-            transcript.extend(lines.try_iter());
-            break Some(status);
-        }
-        if started.elapsed() > CLIENT_LIMIT {
-            break None;
-        }
-    };
+    let (exit, transcript) = transcript_until_exit(&mut client, &lines, || started.elapsed() > CLIENT_LIMIT);
     let log = || tail(&std::fs::read_to_string(&log_path).unwrap_or_default(), 30);
     assert!(exit.is_some_and(|s| s.success()), "{scenario}: client {exit:?}\n{}", log());
     assert!(stop(&mut kestrel, scenario).success(), "{scenario}: kestrel failed\n{}", log());
@@ -161,6 +137,46 @@ pub fn scripted_session(
     let last = transcript.last().expect("a result line");
     serde_json::from_str(last)
         .unwrap_or_else(|e| panic!("{scenario}: the last line is no JSON result ({e}): {last}"))
+}
+
+/// `kestrel run` of `config_path` at 5× speed-up from `dir` for at most `duration_s` of vehicle
+/// time, its log in `log_path`.
+pub fn kestrel_at_5x(dir: &Path, config_path: &Path, log_path: &Path, duration_s: &str) -> Proc {
+    Proc(
+        Command::new(env!("CARGO_BIN_EXE_kestrel"))
+            .current_dir(dir)
+            .env_remove("RUST_LOG")
+            .args(["run", "--quiet", "--speedup", "5", "--duration", duration_s, "--config"])
+            .arg(config_path)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(log_path).expect("log"))
+            .spawn()
+            .expect("start kestrel run"),
+    )
+}
+
+/// Prints and keeps each line the client writes until it exits (its status), or until
+/// `give_up()` (`None`).
+pub fn transcript_until_exit(
+    client: &mut Proc,
+    lines: &std::sync::mpsc::Receiver<String>,
+    mut give_up: impl FnMut() -> bool,
+) -> (Option<ExitStatus>, Vec<String>) {
+    let mut transcript = Vec::new();
+    loop {
+        while let Ok(line) = lines.recv_timeout(Duration::from_millis(50)) {
+            println!("  {line}");
+            transcript.push(line);
+        }
+        if let Some(status) = client.0.try_wait().expect("client status") {
+            transcript.extend(lines.try_iter());
+            return (Some(status), transcript);
+        }
+        if give_up() {
+            return (None, transcript);
+        }
+    }
 }
 
 /// Flies config/missions/square.plan in-process in lockstep on `vehicle` over the empty world
