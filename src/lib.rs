@@ -1,5 +1,23 @@
 //! Kestrel's runtime: mailboxes, topics, the router that wires actors from the config, the
 //! supervisor, clocks (monotonic and lockstep), the flight-log recorder, and the CLI's pieces.
+//!
+//! Where to look — what runs in flight:
+//! * a run from start to end — [`run`](mod@run) (build the graph, spawn every actor under its supervisor,
+//!   drive the clock, shut down), [`shutdown`] (a signal lands an armed vehicle before the run
+//!   ends), [`service_manager`] (systemd's notify protocol), [`locks`] (one process per
+//!   instance and per device);
+//! * wiring — [`config`] and [`compose`] (TOML graphs with `extends`), [`registry`] (actor type
+//!   names), [`graph`] (topics, mailboxes, the ports each actor declares), [`topic`] and
+//!   [`mailbox`] (`queue` and `latest`), [`activity`] (what lockstep waits for);
+//! * time and failure — [`clock`] (monotonic and lockstep), [`supervisor`] (restarts, escalation
+//!   to the commander), [`fault_injection`] (`actor_panic` faults), [`hil`] (`--hil`: the Navio2
+//!   graph on emulated devices);
+//! * what a flight leaves — [`recorder`] (MCAP), [`flight_report`] with [`estimator_events`],
+//!   [`attitude_source`] and [`frame_latency`] (the `--report` JSON), [`status`] (the 1 Hz line).
+//!
+//! And the tools around it: [`replay`] and [`log_replay`] (the estimator over a recorded log),
+//! [`flight_log`] (reading our MCAP and PX4 ULog), [`flight_plots`] (`kestrel report`),
+//! [`serde_name`] (names for display). The command line itself is `src/main.rs` and `src/cmd/`.
 
 pub mod activity;
 pub mod attitude_source;
