@@ -255,7 +255,7 @@ pub struct AvoidanceSection {
     #[serde(default)]
     pub realtime_factor: Option<f64>,
     /// Simulated seconds the commander's forward speed cap held the vehicle below what the
-    /// leg or the sticks asked for (issue 20), in all and per reason (`ClearRangeReason`'s
+    /// leg or the sticks asked for, in all and per reason (`ClearRangeReason`'s
     /// names: what the range ahead was taken from).
     #[serde(default)]
     pub speed_capped_s: f64,

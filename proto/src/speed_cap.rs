@@ -1,5 +1,5 @@
 //! The fastest a vehicle may fly towards what it cannot see past: it must still stop, with a
-//! margin, inside the range its camera vouches for (issue 20). Shared by the avoider (its
+//! margin, inside the range its camera vouches for. Shared by the avoider (its
 //! forward cap on the correction) and the commander (its cap on the flown demand), so the
 //! braking model is written once.
 //!

@@ -1,4 +1,4 @@
-//! The flown path over the obstacle map (issue 8, after thesis Fig. 3.41–3.42):
+//! The flown path over the obstacle map (after thesis Fig. 3.41–3.42):
 //! `path_top.png`, east against north at one scale with every obstacle to scale, and
 //! `path_side.png`, height against the distance flown with the obstacles beside the path.
 //! Both mark where the vehicle collided.

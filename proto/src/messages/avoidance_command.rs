@@ -121,7 +121,7 @@ impl ClearRangeReason {
 
 /// The distance straight ahead (along the body's forward axis, from the camera) that the
 /// view vouches for at the grid's capture time, and why: the commander caps the forward speed
-/// so that the vehicle can stop inside it (issue 20).
+/// so that the vehicle can stop inside it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct ClearRange {
     /// Distance (m), finite and ≥ 0.

@@ -1,4 +1,4 @@
-//! A sensor calibration driven from the ground station (issue 19), between the link, the
+//! A sensor calibration driven from the ground station, between the link, the
 //! calibration actor that owns the session, the sensor source that feeds it raw samples and moves
 //! the vehicle (the simulator; a person on hardware), and the commander's pre-arm check.
 //!

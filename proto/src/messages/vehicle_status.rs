@@ -121,7 +121,7 @@ pub struct Home {
     pub revision: u32,
 }
 
-/// The forward speed cap the camera's view sets on a leg flown with the avoider (issue 20):
+/// The forward speed cap the camera's view sets on a leg flown with the avoider:
 /// the vehicle must be able to stop inside the distance ahead the view vouches for.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct SpeedCapStatus {
@@ -134,7 +134,7 @@ pub struct SpeedCapStatus {
     pub limiting: bool,
 }
 
-/// What a rangefinder made the commander do vertically (issue 20: TAKEOFF's climb and LAND's
+/// What a rangefinder made the commander do vertically (TAKEOFF's climb and LAND's
 /// descent, which the forward camera cannot see).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]

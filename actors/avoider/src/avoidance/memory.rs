@@ -14,8 +14,8 @@
 //! neighbours), nearer than their range plus [`CARVE_TOLERANCE_M`], is either seen again or
 //! proven gone, and is dropped; points behind the measured range (occluded) and outside the view stay. Points are
 //! forgotten `memory_time_s` after they were last seen or last within `keep_within_m` of the
-//! vehicle (a trunk the vehicle hovers beside is not forgotten while it hovers: forest seed 8
-//! dithered 19 s beside one, forgot it after 30 s and slid into it), beyond `memory_range_m`,
+//! vehicle (a trunk the vehicle hovers beside is not forgotten while it hovers: one forgotten
+//! during a long hover is slid into; decision 0038), beyond `memory_range_m`,
 //! and are ignored while the vehicle flies more than `memory_height_m` above or below the
 //! height it saw them from (after a climb over a wall, the wall is below).
 //!
@@ -156,7 +156,7 @@ impl ObstacleMemory {
         // neighbours, and nothing unless all three were measured. A sector at the edge of the
         // view is measured only in part (the matcher finds no disparity in the left image's
         // first columns), so a point that has slid out of the measured part must not be taken
-        // as seen through (a trunk was forgotten that way and hit, forest seed 8).
+        // as seen through (a trunk forgotten that way is flown into).
         let vouched = |index: usize| -> Option<f64> {
             let ahead = angle_between(offset + index as f64 * increment, 0.0) <= AHEAD_HALF_WIDTH_RAD;
             measured(index)

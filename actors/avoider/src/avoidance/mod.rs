@@ -19,10 +19,10 @@
 //!    * boxed in: a sidestep that has turned back to a side it gave up (each side closed in
 //!      turn, by what is in view or remembered) climbs as if every region were blocked, until
 //!      the path clears — sliding on between the two would dither in front of the obstacle
-//!      until the memory forgot one side (forest seed 8 turned 12 times in 19 s); so does a
+//!      until the memory forgot one side (decision 0039); so does a
 //!      sidestep that has slid `sidestep_max_m` from where it began: the camera does not see
 //!      sideways, and a long slide runs into what nearer trunks hid while it was in view
-//!      (thin forest seed 2 slid 4.4 m into such a trunk);
+//!      (a slide of a few metres reaches such a trunk);
 //!    * view ahead unknown (the textureless wall of §4.2.3, [`View::unknown_ahead`]): the
 //!      vehicle keeps at most `unknown_speed_share` of its desired speed (0 by default: stop);
 //!      not above `ground_match_height_m`, where the ground below the path is out of the
@@ -357,7 +357,7 @@ impl Avoider {
         let boxed_in = self.boxed_in && (view.centre_near() >= p.climb_exit_share || near_ahead);
         if (self.climb_latched && !latched) || (self.boxed_in && !boxed_in) {
             // The centre band clears with the obstacle's top still a few decimetres below the
-            // camera, and the airframe reaches below it (forest seed 4 clipped a trunk's top).
+            // camera, and the airframe reaches below it: without the margin it clips the top.
             let margin_us = (p.climb_margin_m / p.climb_speed_m_s * 1e6).round() as u64;
             self.climb_margin_until = Some(Time(grid.time.0.saturating_add(margin_us)));
         }

@@ -89,34 +89,31 @@ pub struct AvoiderParams {
     /// by the rule base (table 3.1 has no row for an obstacle only straight ahead, and none for
     /// a whole blocked centre column), the vehicle slides sideways until the path clears. 0
     /// turns the sidestep off (the thesis's behaviour: stop in front of the obstacle). The
-    /// camera does not see sideways; the obstacle memory limits the slide towards what it saw.
-    /// Before the memory, in the forest of `config/worlds/forest.toml`: at 1.5 m/s seed 1
-    /// collided; at 1.0 m/s 7 of seeds 1–10 flew clean; at 0.75 m/s 2 of the first 4 collided.
+    /// camera does not see sideways; the obstacle memory limits the slide towards what it saw
+    /// (the speeds tried: decision 0038).
     pub sidestep_speed_m_s: f64,
     /// A sidestep that has slid this far (m, horizontally, from where it began; known only
     /// with the estimator's poses) with the path still blocked climbs instead, as when boxed
     /// in: the camera does not see sideways, and farther on lies what nearer trunks hid while
-    /// it was in view. Thin forest seed 2 slid 4.4 m into a trunk that had stood behind
-    /// others. With 3 m, 100 m forest seed 9 climbed to 17.6 m instead, and on the way back
-    /// down to the leg's 5 m, flying on at 2.5 m/s, met a trunk below the camera's centre band
-    /// (the speed cap reads only that band); both fly clean with 3.5 m. Since the commander
-    /// keeps a leg's descent inside that band (`DESCENT_SLOPE`), seed 9 flies clean with 3 m
-    /// too.
+    /// it was in view: an unlimited slide of 4.4 m reached a trunk that had stood behind
+    /// others. The climb it takes instead is safe to come down from only because the commander
+    /// keeps a leg's descent inside the camera's centre band (`DESCENT_SLOPE`; decisions 0039
+    /// and 0040).
     pub sidestep_max_m: f64,
     /// A depth nearer than this in the centre region (m) blocks the path even when its near
     /// share is small (a thin trunk), so the vehicle sidesteps rather than waits in front of it.
     pub sidestep_distance_m: f64,
     /// Obstacle points are remembered this long (s) after they were last seen or last within
     /// `sidestep_distance_m` of the vehicle; 0 turns the memory off. What the vehicle stays
-    /// beside is kept however long it stays (forest seed 8 hovered 19 s beside a trunk and
-    /// forgot it after 30 s from its last sight); what it left behind goes after this long
-    /// (with 10 s a trunk abeam was forgotten during a hover a little farther off and hit on
-    /// the next sidestep, forest seed 6); what the camera sees again replaces it sooner, and
+    /// beside is kept however long it stays (a long hover must not forget the trunk beside
+    /// it); what it left behind goes after this long (with 10 s a trunk abeam was forgotten
+    /// during a hover a little farther off and hit on the next sidestep; decision 0038); what
+    /// the camera sees again replaces it sooner, and
     /// `memory_range_m` drops what is left behind.
     pub memory_time_s: f64,
     /// Sector ranges up to this are remembered, and points farther from the vehicle are
     /// forgotten (m). A trunk 3 m beside the path leaves the 110° view about 6 m away, so 6 m
-    /// missed one that a sidestep then ran into (forest seed 8); beyond 10 m the camera sees
+    /// missed one that a sidestep then ran into; beyond 10 m the camera sees
     /// again before the vehicle gets there.
     pub memory_range_m: f64,
     /// Remembered points count only while the vehicle is within this height of where it saw

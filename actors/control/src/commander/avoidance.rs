@@ -69,7 +69,7 @@ const CAP_MARGIN_M: f64 = 1.0;
 const LEASH_M: f64 = 0.3;
 /// While the demand is zero the setpoint holds still, at most this far from the vehicle (m),
 /// so that a gust cannot drag the held position along (a leash of [`LEASH_M`] did: the
-/// vehicle drifted onto a trunk while climbing beside it, forest seed 4).
+/// vehicle drifted onto a trunk while climbing beside it).
 const HOLD_LEASH_M: f64 = 1.0;
 /// A vertical correction above this (m/s) takes the altitude over from the leg.
 const VERTICAL_TAKEOVER_M_S: f64 = 0.1;
@@ -82,7 +82,7 @@ const TURN_MIN_DISTANCE_M: f64 = 2.0;
 /// An AUTO, GUIDED or RTL leg is flown only while the nose points within this of it (rad);
 /// farther off the vehicle stops and turns first, so that the forward camera (±55°) looks
 /// where it goes. Flying while turning, an RTL started facing away from home reached 3.8 m/s
-/// backwards into trees before the camera faced them (forest round trip, seed 10).
+/// backwards into trees before the camera faced them (decision 0044).
 const LEG_IN_VIEW_RAD: f64 = 30.0 * std::f64::consts::PI / 180.0;
 /// Descending along an AUTO, GUIDED or RTL leg, at most this far down per metre forward: the
 /// path stays inside the image's centre row band, which is all the speed cap reads (its
@@ -90,7 +90,7 @@ const LEG_IN_VIEW_RAD: f64 = 30.0 * std::f64::consts::PI / 180.0;
 /// that band to tan 19.6° = 0.357 below its axis; the quad's 0.35 m collision radius takes
 /// 0.04 of it at the 9.25 m stopping reach from 5 m/s, and a 3° nose-up pitch while braking
 /// 0.05, leaving 0.27. Steeper, a descent after a climb over trees went at 2 m/s while
-/// flying on at 2.5 m/s (39°) and met a trunk below the band (forest seed 9).
+/// flying on at 2.5 m/s (39°) and met a trunk below the band (decision 0040).
 pub(crate) const DESCENT_SLOPE: f64 = 0.25;
 
 /// What the leg wants, before the avoider.
@@ -299,7 +299,7 @@ impl AvoidanceLoop {
         // The ramp's acceleration goes to the controller as feed-forward, as PX4's trajectory
         // generator does: without it the velocity loop (MPC_XY_VEL_P_ACC = 1.8/s) trails the
         // ramp by about half a second, and a vehicle braking for a trunk decelerated at about
-        // 1.2 m/s² where the avoider planned on 2 (forest seed 9).
+        // 1.2 m/s² where the avoider planned on 2.
         let acceleration = step / dt_s.max(1e-6);
         if v_cmd.x.hypot(v_cmd.y) > 0.0 {
             // A velocity is flown, as in PX4's position mode: while the demand moves the

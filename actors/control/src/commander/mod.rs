@@ -62,7 +62,7 @@ const AIRBORNE_HEIGHT_M: f64 = 0.5;
 /// detector's still threshold, so standing still against it means the ground is there. A
 /// slower descent is followed too slowly to tell from standing (the detector's still speed is
 /// 0.2 m/s): a vehicle stalled 3.4 m up in front of trunks, sinking at a few cm/s under the
-/// avoider's small downward corrections, was disarmed as if on the ground (forest seed 8).
+/// avoider's small downward corrections, was disarmed as if on the ground (decision 0044).
 const DESCENT_DEMAND_M: f64 = 1.0;
 const DESCENT_DEMAND_M_S: f64 = 0.5;
 
