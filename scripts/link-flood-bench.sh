@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 7's flood benchmark: the control loop's period p50/p99 while the vehicle flies the square
+# The flood benchmark: the control loop's period p50/p99 while the vehicle flies the square
 # mission on the wall clock, quiet and under a 5000 msg/s inbound MAVLink flood, and their p99
 # ratio (scripts/link_flood_bench.py says how). Extra arguments go to that script, e.g.
 # `--rate 10000 --duration 60`. Builds `kestrel` in release mode and the Python venv first.

@@ -1,4 +1,4 @@
-"""Issue 7's flood benchmark: does 5000 inbound MAVLink messages per second slow the control loop?
+"""The flood benchmark: does 5000 inbound MAVLink messages per second slow the control loop?
 
 Usage: link_flood_bench.py KESTREL [--rate 5000] [--duration 40] [--plan config/missions/square.plan]
 (scripts/link-flood-bench.sh builds KESTREL in release mode and calls this.)

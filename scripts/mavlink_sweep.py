@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Throws bad MAVLink at a running `kestrel run` over UDP loopback and checks it shrugged it off
-(issue 14, "The sweep, kept"; run in CI by tests/mavlink_sweep.rs).
+(run in CI by tests/mavlink_sweep.rs).
 
 Usage:
     .venv/bin/python scripts/mavlink_sweep.py --frames N --seed S [--target udp:127.0.0.1:PORT]
@@ -68,7 +68,7 @@ forwards frames untouched):
     params_unchanged    the full list after equals the one before, bit for bit
     never_armed         no HEARTBEAT with MAV_MODE_FLAG_SAFETY_ARMED from the vehicle's id, as a
                         ground station sees it (genuine and forged counted apart)
-    own_sysid_dropped   no frame claiming the vehicle's id forwarded back (issue 14 item 5)
+    own_sysid_dropped   no frame claiming the vehicle's id forwarded back
     process_up          with `--pid`: the process still exists after the sweep
     pace                with `--min-pace X`: vehicle seconds per wall second during the sweep ≥ X
                         (lockstep paced at --speedup 1 falls behind when the graph cannot keep up)

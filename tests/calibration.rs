@@ -1,4 +1,4 @@
-//! Issue 19's acceptance: a pymavlink ground station (tests/python/gcs_calibration.py) calibrates
+//! A pymavlink ground station (tests/python/gcs_calibration.py) calibrates
 //! a simulated vehicle with sensor errors (config/vehicles/quad_x_miscalibrated.toml: hard iron
 //! (0.15, −0.1, 0.2) G, soft iron with 10 % scale and 5 % cross terms, accelerometer offsets
 //! 0.3 m/s² and 2 % scale, the board tilted 3°) over MAVLink — accelerometer, level, compass —

@@ -1,6 +1,6 @@
 //! Flight logs cut short (the recorder killed, the disk full) or damaged: read as far as they
 //! are readable by the reader, `kestrel report` and `kestrel replay`, which say how much was
-//! lost; any bytes at all give a result or an error, never a panic (issue 14, item 7).
+//! lost; any bytes at all give a result or an error, never a panic.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

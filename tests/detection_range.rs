@@ -1,5 +1,5 @@
 //! How far out the camera chain first reports a plain wall, a textured wall, a 10 cm pole, a
-//! 0.3 m trunk and a 10 cm pole in front of a textured wall (issue 20), against the simulator's
+//! 0.3 m trunk and a 10 cm pole in front of a textured wall, against the simulator's
 //! ground truth, and whether the range it vouches for ever runs ahead of the truth: the
 //! simulated stereo camera renders the target from a vehicle flying straight at it, level,
 //! 5.5 m up (the POSHOLD flights' height); the stereo pipeline makes the depth grid and the

@@ -1,4 +1,4 @@
-//! Issue 19's last item: the ESC range calibration over MAVLink. A pymavlink ground station
+//! The ESC range calibration over MAVLink. A pymavlink ground station
 //! (tests/python/gcs_esc_calibration.py) sends PREFLIGHT_CALIBRATION param7 = 1 to `kestrel run`
 //! (a child process) on a simulated vehicle whose four ESCs have ranges of their own
 //! (config/vehicles/quad_x_unequal_escs.toml); it is refused while armed, cancelled by the

@@ -1,5 +1,5 @@
 //! Closed-loop lockstep flights of the default graph (`config/sim.toml`) with faults injected
-//! from the world file's `[[faults]]` (issue 18, first part): the process does not crash, the
+//! from the world file's `[[faults]]`: the process does not crash, the
 //! lockstep clock runs on, and the vehicle stays controlled. What the commander did (the
 //! report's `failsafes`) is printed and pinned, so a change of failsafe policy shows here; the
 //! policy itself is another task's.

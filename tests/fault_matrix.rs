@@ -1,4 +1,4 @@
-//! The fault matrix (issue 18): one lockstep flight per case, each a test of its own so that
+//! The fault matrix: one lockstep flight per case, each a test of its own so that
 //! they run in parallel, each checking its expected outcome (what the commander did, or that the
 //! estimator coped and the mission went on), 0 collisions, the vehicle intact on the ground, and
 //! the cause reported (a failsafe, an `estimator_events` entry of the flight report, a

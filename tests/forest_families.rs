@@ -1,4 +1,4 @@
-//! Forests of our own that generalise (issue 20): three families of random forests, each flown
+//! Forests of our own that generalise: three families of random forests, each flown
 //! closed loop at 5 m/s cruise with seeds 1 to 10, each asking at least 9 of 10 seeds completed,
 //! landed and without a collision: thin trunks close together, legs at several headings, and
 //! round trips whose RETURN_TO_LAUNCH flies home through trees taller than the RTL altitude.

@@ -1,4 +1,4 @@
-//! Issue 7's acceptance against the real vehicle: independent ground stations (pymavlink and
+//! Against the real vehicle: independent ground stations (pymavlink and
 //! MAVProxy, from the venv made by `scripts/python-env.sh`) talk to `kestrel run` on the
 //! simulator over UDP loopback, and pymavlink flies it again over a serial link (two
 //! pseudo-terminals joined by `socat`, 57600 baud).
@@ -214,7 +214,7 @@ fn a_ground_station_reads_back_the_wind_it_set_in_the_simulator() {
 
 /// The upward and downward rangefinders as a ground station reads them (DISTANCE_SENSOR,
 /// orientations 24 and 25) on a take-off under a slab 6 m up, and the STATUSTEXT that says the
-/// climb is held 2 m below it (issue 20).
+/// climb is held 2 m below it.
 #[test]
 fn a_ground_station_sees_a_takeoff_held_under_a_slab_and_both_rangefinders() {
     let dir = temp_dir("rangefinder");

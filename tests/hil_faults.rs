@@ -1,4 +1,4 @@
-//! Hardware-in-the-loop faults at start-up (issue 17): the Navio2 graph on an emulated board
+//! Hardware-in-the-loop faults at start-up: the Navio2 graph on an emulated board
 //! whose IMU is the wrong part refuses to start, and the error names the device and what it read.
 //! Each test binary is a process of its own, so the board plugged in here is this test's alone.
 

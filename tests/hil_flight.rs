@@ -1,4 +1,4 @@
-//! Issue 17's acceptance: the Navio2 graph (`config/navio2.toml`, realtime clock, the
+//! The Navio2 graph (`config/navio2.toml`, realtime clock, the
 //! controller's `thread` loop, the real MPU-9250/MS5611/u-blox/RCIO/PWM drivers) flies
 //! `config/missions/square.plan` with `--hil` against the simulator-driven device emulators,
 //! and its estimator is compared with the same mission flown by the lockstep graph

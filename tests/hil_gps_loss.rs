@@ -1,4 +1,4 @@
-//! Issue 17's GPS fault on the hardware-in-the-loop graph: in flight the u-blox receiver's line
+//! A GPS fault on the hardware-in-the-loop graph: in flight the u-blox receiver's line
 //! (the emulated board's pseudo-terminal) goes away for 10 s, as a connector shaken loose, and
 //! comes back as a receiver that lost power (at its 9600 baud factory rate). The GPS driver
 //! keeps trying its device and sets the receiver up again when it reappears, without failing;

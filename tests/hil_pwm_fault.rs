@@ -1,4 +1,4 @@
-//! Issue 17's PWM fault on the hardware-in-the-loop graph: in flight, every write to the
+//! A PWM fault on the hardware-in-the-loop graph: in flight, every write to the
 //! emulated RCIO's `duty_cycle` files fails with EIO for 50 ms (the bench's fault switch, as the
 //! co-processor's SPI link fails on a real board). The vehicle keeps flying — the motors keep
 //! their last pulses while the output thread retries — finishes the square, lands, and the

@@ -1,4 +1,4 @@
-//! Issue 14's sweep, kept: `scripts/mavlink_sweep.py` throws 10⁵ datagrams of bad MAVLink
+//! A sweep of bad input: `scripts/mavlink_sweep.py` throws 10⁵ datagrams of bad MAVLink
 //! (random bytes; valid-CRC v1, v2 and signed frames of every message id with random and extreme
 //! fields; truncated and oversized frames; frames claiming the vehicle's own system id; every
 //! COMMAND_LONG and COMMAND_INT id with random and extreme parameters) at `kestrel run` on the

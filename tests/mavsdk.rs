@@ -1,4 +1,4 @@
-//! Issue 16's acceptance with a client we did not write: MAVSDK (PyPI `mavsdk`, whose wheel
+//! With a client we did not write: MAVSDK (PyPI `mavsdk`, whose wheel
 //! carries the C++ MAVSDK core) flies `kestrel run` on the default config, unchanged, over
 //! MAVSDK's default connection `udpin://0.0.0.0:14540` (tests/python/mavsdk_flight.py).
 //!

@@ -1,4 +1,4 @@
-//! POSHOLD with the avoider in the loop (issue 8), flown closed loop in lockstep by the
+//! POSHOLD with the avoider in the loop, flown closed loop in lockstep by the
 //! `kestrel` binary: a scripted pilot (the `pilot_script` actor, whose sticks and commands
 //! arrive at the same simulated times in every run) arms in POSHOLD, climbs on the throttle to
 //! about 5.5 m and then holds full forward pitch stick — 5 m/s (`stick_speed_m_s`) north — at
@@ -7,7 +7,7 @@
 //! The graph is `config/sim-forest.toml` with the world swapped, the MAVLink link on an
 //! ephemeral local port and the pilot added. The control flights leave the camera, stereo and
 //! avoider out: the same pilot then hits the obstacle, so the avoided flights can fail; the
-//! plain (textureless) wall was hit with the avoider too before the speed cap (issue 20).
+//! plain (textureless) wall was hit with the avoider too before the speed cap.
 
 mod flights;
 mod merged_config;
@@ -122,7 +122,7 @@ fn poshold_full_forward_at_a_textured_wall_stops_short_and_climbs_over_without_c
 #[test]
 fn poshold_full_forward_at_a_plain_wall_stops_short_without_collision() {
     // The same wall without texture (thesis §4.2.3): no disparity on it, so the view ahead is
-    // only called unknown a few metres out (about 4.4 m at 5 m/s, issue 20). Without a speed
+    // only called unknown a few metres out (about 4.4 m at 5 m/s). Without a speed
     // cap that matches the sight distance the vehicle could not stop in time and hit it.
     let report = fly("wall-plain.toml", true);
     let avoidance = &report["avoidance"];

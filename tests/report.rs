@@ -1,7 +1,7 @@
 //! `kestrel report` on a flight recorded in-process from the default graph (`config/sim.toml`,
 //! lockstep clock): the plots are real PNGs with content, the summary's numbers are plausible,
 //! and bad input is refused with an error that says what was wrong. A synthetic flight past
-//! obstacles, written through the recorder, gets the path and avoider figures (issue 8).
+//! obstacles, written through the recorder, gets the path and avoider figures.
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;

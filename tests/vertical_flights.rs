@@ -1,5 +1,5 @@
 //! Vertical avoidance in closed-loop lockstep flights of the default graph (`config/sim.toml`,
-//! whose vehicle carries an up- and a downward rangefinder; issue 20): a take-off under a slab
+//! whose vehicle carries an up- and a downward rangefinder): a take-off under a slab
 //! stops below it and the mission goes on from there, and a landing onto a roof moves off the
 //! roof and lands on the ground beside it. Each scenario is also flown by the same vehicle
 //! without rangefinders, which must hit the slab or land on the roof: the test's own proof that

@@ -1,4 +1,4 @@
-//! A forest world flown once per seed (issue 20: at least 9 of 10 seeds clean), two flights at a
+//! A forest world flown once per seed (at least 9 of 10 seeds clean), two flights at a
 //! time (the machine has 2 cores), with a `figure:` line per seed. Shared by
 //! tests/avoidance_flights.rs (the 100 m forest) and tests/forest_families.rs (thin trunks, legs
 //! at several headings, round trips ending in RTL).

@@ -57,7 +57,7 @@ impl Item {
 }
 
 /// A straight leg of `metres` along the bearing `heading_deg` at `alt_m`, written into `dir`:
-/// take off, one waypoint, land there, at `write`'s 5 m/s cruise (issue 20: the avoider's
+/// take off, one waypoint, land there, at `write`'s 5 m/s cruise (the avoider's
 /// `max_speed_m_s`).
 pub fn leg(dir: &Path, heading_deg: f64, metres: f64, alt_m: f64) -> PathBuf {
     write(

@@ -1,5 +1,5 @@
 //! Closed-loop flights on the simulator: accuracy against ground truth, lag compensation,
-//! faults, and the alignment on the ground and in flight (issue 3's acceptance figures). Run
+//! faults, and the alignment on the ground and in flight. Run
 //! with `--nocapture` to see the figures.
 //!
 //! The alignment tests use the thesis's sensor noise: a magnetometer at 0.05 gauss per axis

@@ -1,4 +1,4 @@
-//! The ground-station calibration session closed around the simulator (issue 19): the
+//! The ground-station calibration session closed around the simulator: the
 //! [`Session`] asks for a motion, the simulator's person handles the vehicle so, its raw samples
 //! go back to the session. Careful handling gives parameters; bad data — the vehicle held in one
 //! orientation, shaken while it should stand still, a field 3× the Earth's — is refused with a

@@ -1,4 +1,4 @@
-//! The person who handles the vehicle during a calibration (issue 19): while it is disarmed on
+//! The person who handles the vehicle during a calibration: while it is disarmed on
 //! the ground and a calibration asks for a [`Motion`], the simulator stops its physics and
 //! holds the airframe in the pose a careful person would — turned slowly through every
 //! orientation for the compass, set down still in each of ArduPilot's six accelerometer

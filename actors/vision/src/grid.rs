@@ -224,7 +224,7 @@ impl DepthGridder {
     /// convert it to, without one. Depth falls as the code rises, so each region counts its
     /// codes and converts the counts, and each column keeps its largest code in the centre
     /// band for the sectors: two table lookups per code instead of one per pixel, and the
-    /// per-pixel work is one increment (the frame → grid path of issue 20's overhead budget).
+    /// per-pixel work is one increment (the frame → grid path of the stereo overhead budget).
     #[allow(clippy::too_many_arguments)]
     pub fn grid_fixed_point(
         &mut self,

@@ -8,7 +8,7 @@
 //! The check is OpenCV's `Sobel` (1×3 central difference, scale ½, rounded to `CV_16S`),
 //! `convertScaleAbs`, a normalised `boxFilter` to `CV_32F` and `compare(CMP_LT)`, all with
 //! replicated borders, done here in integers in one pass over the image: that chain cost as much
-//! as a third of the whole pipeline's overhead over the bare matcher (issue 20). The OpenCV
+//! as a third of the whole pipeline's overhead over the bare matcher. The OpenCV
 //! chain stays as the reference the tests hold this one to, pixel for pixel.
 
 use opencv::core::{CV_8UC1, Mat, MatTraitConst, MatTraitConstManual};

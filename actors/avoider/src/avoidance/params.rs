@@ -48,8 +48,8 @@ pub struct AvoiderParams {
     /// The distance ahead the view vouches for while the centre region is mostly invalid but
     /// the view ahead is not yet unknown (m): in level flight the centre is mostly sky, and a
     /// textureless wall looks the same until it hides the ground below the path. The plain
-    /// wall of `config/worlds/wall-plain.toml` is first called unknown about 4.4 m out
-    /// (issue 20), so the commander's speed cap keeps the vehicle able to stop within less.
+    /// wall of `config/worlds/wall-plain.toml` is first called unknown about 4.4 m out, so the
+    /// commander's speed cap keeps the vehicle able to stop within less.
     pub unknown_range_m: f64,
     /// Height above the estimator's origin (the take-off ground; m) up to which the stereo pair
     /// matches the ground below the flight path. Above it that ground is too far for a

@@ -1,5 +1,5 @@
 //! What stands in the vehicle's own path, from the full-resolution `OBSTACLE_DISTANCE` sectors
-//! rather than the 3×3 grid (issue 20, thin objects).
+//! rather than the 3×3 grid (thin objects).
 //!
 //! Why: a region's nearest depth is a low percentile of its pixels (so a speckle cannot define
 //! it), and a 10 cm pole is too few pixels of the centre region to reach that percentile

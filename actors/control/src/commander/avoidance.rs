@@ -16,7 +16,7 @@
 //!    region is blocked) the leg's own altitude demand is dropped, so the climb is honoured;
 //!    The forward part of the horizontal demand (along the heading: what the camera sees) is
 //!    then capped so that the vehicle can stop inside the distance ahead the avoider's view
-//!    vouches for (`AvoidanceCommand::clear_range`, issue 20), braking at `CAP_DECEL_M_S2`
+//!    vouches for (`AvoidanceCommand::clear_range`), braking at `CAP_DECEL_M_S2`
 //!    after the grid's age plus `CAP_REACTION_S`, `CAP_MARGIN_M` short of it
 //!    ([`kestrel_proto::speed_cap`]); [`AvoidanceLoop::speed_cap`] says the cap, the range and
 //!    the reason for the status;

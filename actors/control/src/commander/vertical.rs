@@ -1,4 +1,4 @@
-//! Vertical avoidance from single-beam rangefinders (issue 20): the forward camera sees
+//! Vertical avoidance from single-beam rangefinders: the forward camera sees
 //! nothing above or below the vehicle, so TAKEOFF's and RTL's climbs and LAND's descent were
 //! flown blind.
 //!

@@ -1,4 +1,4 @@
-//! Sensor calibration over MAVLink as ArduCopter speaks it (issue 19), between the ground station
+//! Sensor calibration over MAVLink as ArduCopter speaks it, between the ground station
 //! and the calibration actor: MAV_CMD_PREFLIGHT_CALIBRATION (gyro param1 = 1, accelerometer
 //! param5 = 1, level param5 = 2, ESC range param7 = 1 as the MAVLink spec names it, every
 //! parameter 0 cancels the running one as in ArduPilot), MAV_CMD_DO_START_MAG_CAL / DO_ACCEPT_MAG_CAL /

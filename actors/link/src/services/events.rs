@@ -80,7 +80,7 @@ pub fn status_changes(old: Option<&VehicleStatus>, new: &VehicleStatus) -> Vec<M
     out
 }
 
-/// What a ground station is told of the forward speed cap (issue 20): when it starts to hold
+/// What a ground station is told of the forward speed cap: when it starts to hold
 /// the vehicle back or the reason changes while it does, the cap, the range and the reason;
 /// when it stops, that it has. Its figures alone moving is no news.
 fn speed_cap_change(old: Option<SpeedCapStatus>, new: Option<SpeedCapStatus>) -> Option<String> {
@@ -99,7 +99,7 @@ fn speed_cap_change(old: Option<SpeedCapStatus>, new: Option<SpeedCapStatus>) ->
 }
 
 /// What a ground station is told when a rangefinder starts or stops holding the vehicle
-/// vertically (issue 20): the kind and the distance when it starts or changes kind, and that it
+/// vertically: the kind and the distance when it starts or changes kind, and that it
 /// ended; the distance alone moving is no news.
 fn vertical_limit_change(
     old: Option<VerticalLimitStatus>,

@@ -1,6 +1,6 @@
 //! Sensor calibration cores: pure fits from recorded samples to the calibrations of
 //! `kestrel_proto::calibration`, each with its quality figures or a typed refusal saying why
-//! the data cannot support it (issue 19). No I/O: the ground-station-driven shell feeds them.
+//! the data cannot support it. No I/O: the ground-station-driven shell feeds them.
 //!
 //! * [`mag`] — compass hard and soft iron by ellipsoid fit, with [`coverage`] of the sphere;
 //! * [`accel`] — six-orientation offsets and scales;

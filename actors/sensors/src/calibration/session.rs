@@ -1,4 +1,4 @@
-//! One calibration at a time, as the ground station drives it (issue 19): the pure state machine
+//! One calibration at a time, as the ground station drives it: the pure state machine
 //! between the link's requests, the raw board-frame samples of the sensor source and the fits of
 //! this module's siblings. It says how the vehicle must be handled ([`Motion`]), what to tell the
 //! operator (the STATUSTEXT, MAG_CAL_* and ACCELCAL_VEHICLE_POS lines ArduPilot sends, so

@@ -1,4 +1,4 @@
-//! Device emulators for hardware-in-the-loop runs (issue 17): the chips of a Navio2 answering
+//! Device emulators for hardware-in-the-loop runs: the chips of a Navio2 answering
 //! their own bus protocols with the simulated world, so the real drivers of `kestrel-sensors`
 //! read simulated values through the same code paths they run on a board.
 //!
