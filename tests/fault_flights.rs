@@ -240,16 +240,6 @@ fn the_estimator_panicking_once_in_hover_is_restarted_and_the_vehicle_lands() {
     );
 }
 
-/// A QGroundControl plan: take off to 12 m, 100 m north at 12 m, land there.
-fn forward_plan(dir: &Path) -> PathBuf {
-    let items = [
-        Item::north(qgc_plan::TAKEOFF, 0.0, 12.0),
-        Item::north(qgc_plan::WAYPOINT, 100.0, 12.0),
-        Item::north(qgc_plan::LAND, 100.0, 0.0),
-    ];
-    qgc_plan::write(dir, "forward.plan", &items)
-}
-
 /// The estimator panics from 20 s on, for good (the supervisor gives up on it), while the
 /// vehicle flies north at 12 m: the controller's backup attitude takes over, the commander
 /// announces it and lands, level, on the backup's height and climb rate, drifting (no
@@ -259,7 +249,7 @@ fn the_estimator_failing_for_good_in_forward_flight_lands_level_on_the_backup_at
     let dir = scratch("estimator-gone");
     let graph =
         graph_with_faults(&dir, "[[faults]]\nat_s = 20.0\nkind = \"actor_panic\"\nactor = \"estimator\"\n");
-    let report = fly("estimator_gone", &graph, &forward_plan(&dir), None);
+    let report = fly("estimator_gone", &graph, &qgc_plan::leg(&dir, 0.0, 100.0, 12.0), None);
     assert_landed_intact("estimator_gone", &report);
     let fired = failsafes(&report);
     assert!(fired.iter().all(|(_, _, action)| action == "land"), "{fired:?}");

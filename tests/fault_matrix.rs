@@ -487,7 +487,8 @@ fn prepare(case: &Case) -> (PathBuf, PathBuf) {
         Flight::OutAndBack | Flight::OutAndBackWithGcs => out_and_back_plan(&dir),
         Flight::PerceptionLeg => perception_leg_plan(&dir),
         Flight::ForestLeg => forest_leg_plan(&dir),
-        Flight::ForwardAt12m => forward_plan(&dir),
+        // Take off to 12 m, 100 m north, land there.
+        Flight::ForwardAt12m => qgc_plan::leg(&dir, 0.0, 100.0, 12.0),
     };
     (graph, plan)
 }
@@ -523,16 +524,6 @@ fn out_and_back_plan(dir: &Path) -> PathBuf {
         Item::north(qgc_plan::LAND, 0.0, 0.0),
     ];
     qgc_plan::write(dir, "out-and-back.plan", &items)
-}
-
-/// A QGroundControl plan: take off to 12 m, 100 m north, land there.
-fn forward_plan(dir: &Path) -> PathBuf {
-    let items = [
-        Item::north(qgc_plan::TAKEOFF, 0.0, 12.0),
-        Item::north(qgc_plan::WAYPOINT, 100.0, 12.0),
-        Item::north(qgc_plan::LAND, 100.0, 0.0),
-    ];
-    qgc_plan::write(dir, "forward.plan", &items)
 }
 
 /// A QGroundControl plan: take off to 5 m, 12 m north, land there.
