@@ -23,7 +23,10 @@ pub struct EstimatorEvent {
 #[derive(Clone, Debug, Default)]
 pub struct EstimatorEvents {
     previous: Option<EstimatorStatus>,
-    /// Per source (GPS, baro, mag): whether the previous status showed new rejections.
+    /// Per source (GPS, baro, mag): inside a run of rejections, which ends only when the source
+    /// fuses again or is reset to. A status without new rejections does not end it: statuses
+    /// come at 10 Hz and GPS samples at 5 Hz, so every other status of a rejection carries none
+    /// (`a_run_of_rejections_ends_when_the_source_fuses_again`).
     rejecting: [bool; 3],
     pub log: Vec<EstimatorEvent>,
 }
@@ -37,16 +40,20 @@ impl EstimatorEvents {
         let Some(p) = self.previous.replace(s.clone()) else { return };
         let t_s = s.time.as_secs_f64();
         let mut push = |event: &str| self.log.push(EstimatorEvent { t_s, event: event.to_owned() });
-        let rejected = [
-            (s.gps.rejected > p.gps.rejected, "gps_rejected"),
-            (s.baro.rejected > p.baro.rejected, "baro_rejected"),
-            (s.mag.rejected > p.mag.rejected, "mag_rejected"),
+        let sources = [
+            (&s.gps, &p.gps, "gps_rejected"),
+            (&s.baro, &p.baro, "baro_rejected"),
+            (&s.mag, &p.mag, "mag_rejected"),
         ];
-        for (i, (now, name)) in rejected.into_iter().enumerate() {
-            if now && !self.rejecting[i] {
+        for (i, (now, before, name)) in sources.into_iter().enumerate() {
+            let rejected = now.rejected > before.rejected;
+            let recovered = now.fused > before.fused || now.resets > before.resets;
+            if rejected && !self.rejecting[i] {
                 push(name);
+                self.rejecting[i] = true;
+            } else if recovered && !rejected {
+                self.rejecting[i] = false;
             }
-            self.rejecting[i] = now;
         }
         let (h, ph) = (&s.health, &p.health);
         let edges = [
@@ -83,24 +90,54 @@ mod tests {
         s
     }
 
+    fn events(e: &EstimatorEvents) -> Vec<(f64, &str)> {
+        e.log.iter().map(|v| (v.t_s, v.event.as_str())).collect()
+    }
+
     #[test]
     fn a_run_of_rejections_is_one_event_and_edges_are_events() {
         let mut e = EstimatorEvents::default();
-        for (t, rejected, fusing, faulty) in [
-            (1.0, 0, true, false),
-            (1.5, 1, true, false),
-            (2.0, 3, true, false),
-            (2.5, 3, true, false),
-            (3.0, 4, false, true),
-            (3.5, 4, false, true),
+        for (t, rejected, fused, fusing, faulty) in [
+            (1.0, 0, 10, true, false),
+            (1.5, 1, 10, true, false),
+            (2.0, 3, 10, true, false),
+            (2.5, 3, 11, true, false),
+            (3.0, 4, 11, false, true),
+            (3.5, 4, 11, false, true),
         ] {
-            e.on_status(&status(t, rejected, fusing, faulty));
+            let mut s = status(t, rejected, fusing, faulty);
+            s.gps.fused = fused;
+            e.on_status(&s);
         }
-        let got: Vec<(f64, &str)> = e.log.iter().map(|v| (v.t_s, v.event.as_str())).collect();
         assert_eq!(
-            got,
+            events(&e),
             [(1.5, "gps_rejected"), (3.0, "gps_rejected"), (3.0, "gps_lost"), (3.0, "baro_faulty")]
         );
+    }
+
+    #[test]
+    fn a_run_of_rejections_ends_when_the_source_fuses_again() {
+        // GPS at half the status rate: a long rejection shows new rejections in every
+        // other status only, and stays one run until a sample is fused or the state is reset.
+        let mut e = EstimatorEvents::default();
+        let mut rejected = 0;
+        for k in 0..40u32 {
+            rejected += u64::from(k % 2);
+            e.on_status(&status(1.0 + 0.25 * f64::from(k), rejected, true, false));
+        }
+        let mut fused = status(11.0, rejected, true, false);
+        fused.gps.fused = 1;
+        e.on_status(&fused);
+        e.on_status(&status(11.25, rejected + 1, true, false));
+        let mut reset = status(11.5, rejected + 1, true, false);
+        reset.gps.fused = 1;
+        reset.gps.resets = 1;
+        e.on_status(&reset);
+        let mut after_reset = reset.clone();
+        after_reset.time = Time::from_secs_f64(11.75);
+        after_reset.gps.rejected += 1;
+        e.on_status(&after_reset);
+        assert_eq!(events(&e), [(1.25, "gps_rejected"), (11.25, "gps_rejected"), (11.75, "gps_rejected")]);
     }
 
     #[test]
