@@ -16,9 +16,10 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 # each in a network namespace of its own (tests/mavsdk.rs, tests/instances.rs).
 packages=(build-essential pkg-config python3 python3-venv clang libclang-dev libopencv-dev socat util-linux iproute2)
 # The tests also check the shipped systemd unit with `systemd-analyze verify`
-# (tests/service_manager.rs).
+# (tests/service_manager.rs), and redraw the guide's graph pictures with Graphviz's `dot`
+# (tests/docs_graphs.rs, under KESTREL_UPDATE_DOCS=1).
 if [[ "${1:-}" == "--tests" ]]; then
-    packages+=(systemd)
+    packages+=(systemd graphviz)
 fi
 
 missing=()

@@ -82,6 +82,12 @@ pub struct RunArgs {
     #[arg(long)]
     pub print_config: bool,
 
+    /// Print the graph's wiring as a Graphviz DOT picture (each actor a box, each arrow the
+    /// topics one actor reads from another), and exit: `kestrel run --print-graph | dot -Tsvg`.
+    /// With `--hil`, the graph as it runs on the emulated board.
+    #[arg(long)]
+    pub print_graph: bool,
+
     /// Which of several vehicles on this machine to be, 0..=254 (PX4's multi-vehicle SITL):
     /// system id N+1, local ports 18570+N and 14580+N, API port 14540+N, the ground station
     /// still at 14550, and the simulated vehicle spawned 5·N m east of the others.

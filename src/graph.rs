@@ -48,6 +48,16 @@ pub struct Graph {
     device_locks: Vec<crate::locks::Lock>,
 }
 
+/// One topic's wiring: `actor.port` of each publisher and each subscriber ("runtime" for a
+/// publisher the runtime itself holds).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TopicWiring {
+    pub name: String,
+    pub type_name: &'static str,
+    pub publishers: Vec<String>,
+    pub subscribers: Vec<String>,
+}
+
 /// What a topic looks like once the graph is wired, for status lines and reports.
 #[derive(Clone)]
 pub struct TopicHandle {
@@ -121,6 +131,20 @@ impl Graph {
     /// ends.
     pub fn take_device_locks(&mut self) -> Vec<crate::locks::Lock> {
         std::mem::take(&mut self.device_locks)
+    }
+
+    /// Who publishes and who reads each topic, in topic-name order: the wiring a config made,
+    /// for drawing it (`crate::graph_drawing`).
+    pub fn topic_wiring(&self) -> Vec<TopicWiring> {
+        self.topics
+            .iter()
+            .map(|(name, slot)| TopicWiring {
+                name: name.clone(),
+                type_name: slot.type_name,
+                publishers: slot.publishers.clone(),
+                subscribers: slot.subscribers.iter().map(|(port, _)| port.clone()).collect(),
+            })
+            .collect()
     }
 
     /// Whether some actor reads topic `name` carrying `type_name`.

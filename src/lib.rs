@@ -31,6 +31,7 @@ pub mod flight_plots;
 pub mod flight_report;
 pub mod frame_latency;
 pub mod graph;
+pub mod graph_drawing;
 pub mod hil;
 pub mod locks;
 pub mod log_replay;
@@ -48,4 +49,4 @@ pub mod topic;
 
 pub use config::LoadedConfig;
 pub use registry::Registry;
-pub use run::{RunError, RunOptions, RunReport, run, unwired_parameters};
+pub use run::{RunError, RunOptions, RunReport, run, topic_wiring, unwired_parameters};

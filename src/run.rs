@@ -130,6 +130,24 @@ pub fn unwired_parameters(config: &LoadedConfig, registry: &Registry) -> Vec<Str
     graph.unwired_parameters()
 }
 
+/// Who publishes and who reads each topic of `config`, found as [`unwired_parameters`] finds
+/// its answer: every actor built once on a lockstep clock, none run. Drivers are built inside a
+/// Tokio runtime, as in a run (a serial port registers with its reactor); `Err` when that
+/// runtime cannot be made. A driver whose device is missing counts with the ports it declared
+/// before it stopped.
+pub fn topic_wiring(
+    config: &LoadedConfig,
+    registry: &Registry,
+) -> std::io::Result<Vec<crate::graph::TopicWiring>> {
+    let runtime = tokio::runtime::Builder::new_current_thread().enable_all().build()?;
+    let _inside = runtime.enter();
+    let activity = Activity::new();
+    let clock: Arc<dyn Clock> = Arc::new(LockstepClock::new(Arc::clone(&activity)));
+    let mut graph = Graph::new(clock, activity);
+    let _ = prepare_actors(config, registry, &mut graph);
+    Ok(graph.topic_wiring())
+}
+
 /// Runs the graph described by `config` until its duration passes or a signal arrives.
 pub fn run(config: &LoadedConfig, registry: &Registry, options: RunOptions) -> Result<RunReport, RunError> {
     let runtime = match config.graph.run.clock {

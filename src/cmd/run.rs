@@ -16,6 +16,21 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         print!("{text}");
         return Ok(());
     }
+    if args.print_graph {
+        let hil = kestrel::hil::HilOptions::new();
+        // The emulated board lives while the drivers are built against it.
+        let bench = args.hil.then(|| kestrel::hil::apply_hil(&mut config, &hil)).transpose()?;
+        let title = config_path.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let wiring = kestrel::topic_wiring(&config, &Registry::standard())
+            .map_err(|e| format!("cannot build the graph to draw it: {e}"));
+        if let Ok(wiring) = &wiring {
+            print!("{}", kestrel::graph_drawing::to_dot(&title, wiring));
+        }
+        if bench.is_some() {
+            std::fs::remove_dir_all(&hil.dir).ok();
+        }
+        return wiring.map(|_| ());
+    }
     // Before anything is built: a second run of this instance must not touch the first's
     // devices or ports (kestrel::locks).
     let _instance = kestrel::locks::claim_instance(&config_path, args.instance.unwrap_or(0))
