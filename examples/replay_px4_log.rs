@@ -99,7 +99,8 @@ fn main() -> Result<(), Box<dyn Error>> {
             Replayed::Mag(mag) => ekf.push_mag(mag),
             Replayed::Battery(_) => Ok(()),
         };
-        // A refused sample (a stale one, a NaN) is counted, as the estimator actor does.
+        // A sample the filter refuses (not finite, out of order, too old to fuse: the
+        // `InputError` says which) changes nothing; the replay counts it and goes on.
         if pushed.is_err() {
             refused += 1;
         }
@@ -142,10 +143,9 @@ fn main() -> Result<(), Box<dyn Error>> {
         });
     }
 
-    println!(
-        "\n  time   roll (ours / {0})  pitch (ours / {0})  yaw (ours / {0})  height (ours / {0})",
-        reference.label
-    );
+    let ours_theirs = format!("ours / {}", reference.label);
+    println!("\n{:>8}  {:^17}  {:^17}  {:^17}  {:^15}", "time", "roll °", "pitch °", "yaw °", "height m");
+    println!("{:>8}  {ours_theirs:^17}  {ours_theirs:^17}  {ours_theirs:^17}  {ours_theirs:^15}", "s");
     let mut next_s = f64::NEG_INFINITY;
     for row in &rows {
         if row.t_s >= next_s {
@@ -158,7 +158,7 @@ fn main() -> Result<(), Box<dyn Error>> {
                 Some(d) => format!("{:6.2} / {:6.2}", -row.ours[3], -d),
                 None => format!("{:6.2} /    n/a", -row.ours[3]),
             };
-            println!("{:6.1} s {}°  {}°  {}°  {height} m", row.t_s, cell(0), cell(1), cell(2));
+            println!("{:8.1}  {}  {}  {}  {height}", row.t_s, cell(0), cell(1), cell(2));
             next_s = row.t_s + args.every_s;
         }
     }
