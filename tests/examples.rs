@@ -23,6 +23,10 @@ fn example(name: &str) -> PathBuf {
     let mut build = Command::new(cargo);
     build.current_dir(root()).args(["build", "--quiet", "--locked", "-p", "kestrel", "--example", name]);
     build.arg("--target-dir").arg(target_dir);
+    // Tests built with --release look for their examples under release/: build them so too.
+    if profile_dir.ends_with("release") {
+        build.arg("--release");
+    }
     if cfg!(feature = "zenoh") {
         build.args(["--features", "zenoh"]);
     }
