@@ -144,7 +144,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     // The stock simulated vehicle (config/sim.toml), flying config/missions/square.plan on its
     // own (`auto`: arm and fly as soon as the pre-arm checks pass, as `kestrel run --auto`),
     // with one more actor. Its link listens on a free local port and sends nowhere, so the
-    // example runs beside a `kestrel run` on the same machine.
+    // example runs beside a `kestrel run` on the same machine; without the `[actors.link]`
+    // table below, QGroundControl on this machine sees the flight as it sees `kestrel run`'s.
     let graph = format!(
         r#"
 extends = "sim.toml"
@@ -163,6 +164,7 @@ params.endpoints = [{{ type = "udp_in", bind = "127.0.0.1:0" }}]
 [actors.box_watch]
 type = "box_watch"
 params = {{ half_width_m = {half_width_m:?}, ceiling_m = {ceiling_m:?} }}
+# Only the newest state matters to a watcher: "latest" skips any it had no time for.
 inputs.nav_state = {{ topic = "nav_state", mailbox = "latest" }}
 "#,
         half_width_m = args.half_width_m,
