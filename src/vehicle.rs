@@ -17,6 +17,9 @@
 //! quad is refused at start, naming both, instead of flown into the ground. A hardware graph
 //! (`config/navio2.toml`) names its vehicle for the controller alone. The design and what it
 //! replaced: docs/src/decisions/0047-one-vehicle-file-for-the-simulator-and-the-controller.md.
+//! The tests below hold each hand-on and each refusal; `tests/vehicle_frames.rs` flies the hexa
+//! and the octo on `config/sim.toml` with only its `vehicle` changed, and sees both refusals
+//! stop `kestrel run` at start.
 
 use std::collections::BTreeMap;
 use std::fmt;
@@ -380,6 +383,15 @@ mod tests {
             graph("vehicle = \"vehicles/octo_x.toml\"\n[actors.controller]\ntype = \"controller\"\n");
         let controller: ControllerActorParams = params_of(&resolve(&config).unwrap(), "controller");
         assert_eq!(controller.control.airframe, airframe_of(&shipped("octo_x.toml")));
+    }
+
+    #[test]
+    fn the_navio2_graph_names_its_vehicle_for_the_controller_alone() {
+        let config = LoadedConfig::load(&config_dir().join("navio2.toml")).expect("config/navio2.toml");
+        let actors = resolve(&config).expect("one vehicle");
+        assert!(actors.values().all(|d| !VEHICLE_ACTORS.contains(&d.kind.get_ref().as_str())));
+        let controller: ControllerActorParams = params_of(&actors, "controller");
+        assert_eq!(controller.control.airframe, airframe_of(&shipped("quad_x.toml")));
     }
 
     #[test]
