@@ -1,6 +1,8 @@
 //! The graph config: which actors run, their parameters, and how their ports are wired.
 //!
 //! ```toml
+//! vehicle = "vehicles/quad_x.toml"   # what the simulator flies and the controller controls
+//!
 //! [run]
 //! clock = "lockstep"          # or "realtime" (hardware)
 //! speedup = 1.0               # lockstep pacing: simulated seconds per second; 0 = flat out
@@ -13,7 +15,7 @@
 //! critical = false            # a failure past the restart limit escalates to the commander
 //! priority = 60               # realtime clock: a runtime thread of its own at SCHED_FIFO 60
 //! restart = { policy = "transient", max_restarts = 5, window_s = 60.0, backoff_initial_s = 0.1, backoff_max_s = 5.0 }
-//! params = { vehicle = "vehicles/quad_x.toml", world = "worlds/empty.toml" }
+//! params = { world = "worlds/empty.toml" }
 //! inputs.actuators = { topic = "actuator_outputs", mailbox = "latest" }
 //! outputs.imu = "imu"         # optional renames; an output publishes on its port's name
 //! ```
@@ -372,6 +374,11 @@ pub struct ActorDecl {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GraphConfig {
+    /// The vehicle file (relative to the graph's directory) that the simulator flies and the
+    /// controller controls: mass, inertia, frame, motors and sensors written once
+    /// ([`crate::vehicle`]). None: each actor's own parameters, which must agree.
+    #[serde(default)]
+    pub vehicle: Option<Spanned<String>>,
     #[serde(default)]
     pub run: RunConfig,
     #[serde(default)]

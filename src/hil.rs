@@ -26,20 +26,19 @@ pub const HIL_SIM_ACTOR: &str = "sim";
 pub struct HilOptions {
     /// The bench's directory (the GPS pty's link and the sysfs trees).
     pub dir: PathBuf,
-    /// Vehicle and world files, relative to the config's directory.
-    pub vehicle: PathBuf,
+    /// The world file, relative to the config's directory. The vehicle is the graph's own
+    /// (its top-level `vehicle`, `crate::vehicle`), which the simulator flies.
     pub world: PathBuf,
     /// What the IMU answers to WHO_AM_I (a wrong part: anything but 0x71).
     pub imu_who_am_i: u8,
 }
 
 impl HilOptions {
-    /// The default vehicle in the empty world, the bench in a directory of this process's own
+    /// The graph's vehicle in the empty world, the bench in a directory of this process's own
     /// on a memory filesystem ([`bench_dir`]).
     pub fn new() -> HilOptions {
         HilOptions {
             dir: bench_dir(),
-            vehicle: PathBuf::from("vehicles/quad_x.toml"),
             world: PathBuf::from("worlds/empty.toml"),
             imu_who_am_i: kestrel_sim::hil::mpu9250::MPU9250_WHO_AM_I,
         }
@@ -143,8 +142,7 @@ pub fn apply_hil(config: &mut LoadedConfig, options: &HilOptions) -> Result<Arc<
         ));
     }
     let decl = format!(
-        "type = \"hil_sim\"\nparams = {{ vehicle = {:?}, world = {:?}, seed = 1 }}\n",
-        options.vehicle.display().to_string(),
+        "type = \"hil_sim\"\nparams = {{ world = {:?}, seed = 1 }}\n",
         options.world.display().to_string()
     );
     let decl: ActorDecl = toml::from_str(&decl).map_err(|e| format!("--hil simulator: {e}"))?;

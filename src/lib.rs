@@ -6,7 +6,8 @@
 //!   drive the clock, shut down), [`shutdown`] (a signal lands an armed vehicle before the run
 //!   ends), [`service_manager`] (systemd's notify protocol), [`locks`] (one process per
 //!   instance and per device);
-//! * wiring — [`config`] and [`compose`] (TOML graphs with `extends`), [`registry`] (actor type
+//! * wiring — [`config`] and [`compose`] (TOML graphs with `extends`), [`vehicle`] (the one
+//!   vehicle file the simulator flies and the controller controls), [`registry`] (actor type
 //!   names), [`graph`] (topics, mailboxes, the ports each actor declares), [`topic`] and
 //!   [`mailbox`] (`queue` and `latest`), [`activity`] (what lockstep waits for);
 //! * time and failure — [`clock`] (monotonic and lockstep), [`supervisor`] (restarts, escalation
@@ -46,6 +47,7 @@ pub mod shutdown;
 pub mod status;
 pub mod supervisor;
 pub mod topic;
+pub mod vehicle;
 
 pub use config::LoadedConfig;
 pub use registry::Registry;

@@ -84,16 +84,21 @@ pub struct RunReport {
     pub recording: Option<RecordingSummary>,
 }
 
-/// Builds every actor of `config` once into `graph`: the prepared actors and every error.
+/// Builds every actor of `config` once into `graph`, the graph's vehicle handed on
+/// ([`crate::vehicle::resolve`]): the prepared actors and every error.
 fn prepare_actors(
     config: &LoadedConfig,
     registry: &Registry,
     graph: &mut Graph,
 ) -> (Vec<Box<dyn Supervised>>, Vec<ConfigError>) {
     let source = &config.source;
+    let actors = match crate::vehicle::resolve(config) {
+        Ok(actors) => actors,
+        Err(e) => return (Vec::new(), vec![e.locate(source)]),
+    };
     let mut errors = Vec::new();
     let mut prepared = Vec::new();
-    for (name, decl) in &config.graph.actors {
+    for (name, decl) in &actors {
         let Some(kind) = registry.get(decl.kind.get_ref()) else {
             errors.push(source.error_at(
                 decl.kind.span(),

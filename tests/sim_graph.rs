@@ -71,7 +71,7 @@ fn the_sim_graphs_estimator_drag_model_is_its_vehicles_drag_per_unit_mass() {
     let actors = &config.merged["actors"];
     let estimator: kestrel_estimator::EkfParams =
         actors["estimator"]["params"].clone().try_into().expect("estimator params");
-    let vehicle_file = actors["sim"]["params"]["vehicle"].as_str().expect("the sim names its vehicle file");
+    let vehicle_file = config.merged["vehicle"].as_str().expect("the graph names its vehicle file");
     let vehicle = kestrel_sim::VehicleParams::load(&path.parent().expect("config dir").join(vehicle_file))
         .expect("the vehicle file loads");
     let linear = vehicle.drag.linear_n_per_m_s / vehicle.mass_kg;

@@ -98,8 +98,8 @@ pub fn session_link(port: u16, dir: &Path) -> String {
     )
 }
 
-/// `graph` (from [`sim_config`]) flying `vehicle` (a path in the repository) instead of
-/// config/vehicles/quad_x.toml.
+/// `graph` (from [`sim_config`]) with `vehicle` (a path in the repository) as the graph's vehicle
+/// instead of config/vehicles/quad_x.toml: the simulator flies it, the controller controls it.
 pub fn on_vehicle(graph: &str, vehicle: &str) -> String {
     let default = format!("vehicle = \"{}\"", root().join("config/vehicles/quad_x.toml").display());
     assert!(graph.contains(&default), "config/sim.toml names vehicles/quad_x.toml");
@@ -194,6 +194,8 @@ pub fn square_in_process(
     let table = |pairs: Vec<(&str, toml::Value)>| -> toml::Table {
         pairs.into_iter().map(|(k, v)| (k.to_owned(), v)).collect()
     };
+    // The graph's vehicle: the simulator flies it and the controller controls its airframe.
+    config.graph.vehicle = Some(toml::Spanned::new(0..0, root().join(vehicle).display().to_string()));
     for actor in config.graph.actors.values_mut() {
         let params = match actor.kind.get_ref().as_str() {
             "commander" => table(vec![
@@ -202,7 +204,6 @@ pub fn square_in_process(
                 ("exit_on_land", true.into()),
             ]),
             "sim" => table(vec![
-                ("vehicle", root().join(vehicle).display().to_string().into()),
                 ("world", config_dir.join("worlds/empty.toml").display().to_string().into()),
                 ("seed", 1.into()),
             ]),

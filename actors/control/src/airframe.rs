@@ -2,7 +2,9 @@
 //!
 //! Motor order, bearings and spins are `kestrel_proto::frame_layout` (ArduPilot/PX4
 //! numbering), the table the simulator builds its motors from too.
-//! Defaults are `config/vehicles/quad_x.toml`.
+//! Defaults are `config/vehicles/quad_x.toml`. In a graph that names its vehicle file (the
+//! top-level `vehicle`), the runtime derives this from that file, the one the simulator flies
+//! (`src/vehicle.rs`), and refuses at start a graph that writes it otherwise.
 
 use kestrel_proto::frame_layout::FrameLayout;
 use kestrel_proto::messages::MAX_MOTORS;

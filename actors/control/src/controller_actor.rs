@@ -80,7 +80,8 @@ pub struct ControllerActorParams {
     pub lock_memory: bool,
     /// Pin the loop thread to this CPU (0-based; ArduPilot's `--cpu-affinity`); none: unpinned.
     pub cpu: Option<usize>,
-    /// Gains, limits and airframe; defaults fly `config/vehicles/quad_x.toml`.
+    /// Gains, limits and airframe; defaults fly `config/vehicles/quad_x.toml`. The airframe
+    /// comes from the graph's vehicle file where the graph names one (`src/vehicle.rs`).
     pub control: ControlParams,
 }
 
