@@ -46,7 +46,8 @@ impl Commander {
     /// Whether `mode` can be flown with what the commander knows now.
     pub(crate) fn mode_allowed(&self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
         if let Some(f) = self
-            .failsafes
+            .faults
+            .monitor
             .worst()
             .filter(|f| f.action >= kestrel_proto::messages::FailsafeAction::ReturnToLaunch)
             && self.armed
@@ -65,14 +66,14 @@ impl Commander {
         if mode == FlightMode::AltHold && !nav.is_some_and(|n| n.valid.vertical_position) {
             return refuse("AltHold needs a height estimate");
         }
-        if mode == FlightMode::Auto && self.mission.is_none() {
+        if mode == FlightMode::Auto && self.mission.uploaded.is_none() {
             return refuse("Auto needs a mission");
         }
         if needs_sticks(mode) && self.sticks(now).is_none() {
             return refuse(format!("{mode:?} needs manual control input"));
         }
         if mode == FlightMode::Auto
-            && let Some(mission) = &self.mission
+            && let Some(mission) = &self.mission.uploaded
         {
             self.mission_feasible(mission).map_err(|r| Refusal(format!("Auto refused: {r}")))?;
         }
@@ -144,11 +145,11 @@ impl Commander {
         if self.tilt_rad(nav) > MAX_ARM_TILT_RAD {
             return refuse("arming refused: vehicle not level");
         }
-        if self.landed != LandedState::OnGround {
+        if self.landing.state() != LandedState::OnGround {
             return refuse("arming refused: not on the ground");
         }
         if self.params.require_battery {
-            match &self.battery {
+            match self.battery.report() {
                 Some(b) if now.saturating_since(b.time).as_secs_f64() <= BATTERY_FRESH_S => {
                     if b.remaining <= self.params.failsafe.battery_low {
                         return refuse(format!("arming refused: battery at {:.0} %", b.remaining * 100.0));
@@ -157,7 +158,7 @@ impl Commander {
                 _ => return refuse("arming refused: no battery report"),
             }
         }
-        if let Some(f) = self.failsafes.worst() {
+        if let Some(f) = self.faults.monitor.worst() {
             return refuse(format!("arming refused: failsafe {:?} active", f.cause));
         }
         // ArduPilot's pre-arm calibration checks; which steps are required is the calibration
@@ -170,7 +171,9 @@ impl Commander {
                 return refuse(step.prearm_text());
             }
         }
-        if self.geofence_enabled && self.outside_geofence(nav, &self.home_or(nav)) {
+        if self.geofence.enabled()
+            && self.geofence.outside(nav, &self.home.or_here(nav), &self.params.geofence)
+        {
             return refuse("arming refused: outside the geofence");
         }
         Ok(())

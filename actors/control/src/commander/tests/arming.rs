@@ -5,7 +5,7 @@ use kestrel_proto::messages::{
     BatteryStatus, Command, FlightMode, ManualControl, SetpointTarget, VehicleCommand,
 };
 
-use super::fixtures::{cmd, nav, ready, sticks, trajectory};
+use super::fixtures::{cmd, nav, ready};
 use crate::commander::{Commander, CommanderParams};
 
 #[test]

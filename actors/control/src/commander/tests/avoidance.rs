@@ -6,7 +6,7 @@ use kestrel_proto::messages::{
     NavState, TrajectorySetpoint,
 };
 
-use super::fixtures::{at, avoidance, cmd, hovering, mission, nav_heading, ready, trajectory, velocity};
+use super::fixtures::{at, avoidance, cmd, hovering, nav_heading, ready, trajectory, velocity};
 use crate::commander::{Commander, CommanderParams};
 
 #[test]

@@ -1,7 +1,7 @@
 //! Failsafes: latching, clearing on disarm, the actions set live, and the battery's voltage.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{BatteryStatus, Command, FailsafeAction, FailsafeCause, FlightMode};
+use kestrel_proto::messages::{BatteryStatus, Command, FailsafeCause, FlightMode};
 
 use super::fixtures::{at, cmd, full_battery, nav, ready};
 use crate::commander::{Commander, CommanderParams};

@@ -1,9 +1,9 @@
 //! The land detector and ground contact: what counts as a touchdown and what never does.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{Command, FlightMode, LandedState, NavState};
+use kestrel_proto::messages::{Command, FlightMode, LandedState};
 
-use super::fixtures::{at, cmd, full_battery, hovering, nav, ready, velocity};
+use super::fixtures::{at, cmd, full_battery, hovering, nav, ready};
 use crate::commander::{Commander, CommanderParams};
 
 #[test]

@@ -5,7 +5,7 @@ use kestrel_proto::messages::{
     AltitudeFrame, Command, FlightMode, Mission, MissionItem, MissionPoint, SetpointTarget,
 };
 
-use super::fixtures::{at, cmd, hover_at, mission, nav, point_north, ready, three_waypoints, trajectory};
+use super::fixtures::{at, cmd, hover_at, nav, point_north, ready, three_waypoints, trajectory};
 use crate::commander::Commander;
 
 #[test]

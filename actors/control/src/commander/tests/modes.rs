@@ -109,13 +109,13 @@ fn re_sending_the_active_mode_does_not_re_enter_it() {
     // RTL in its landing phase stays there when RTL is sent again.
     let mut c = hovering();
     at(&mut c, 2000, Command::ReturnToLaunch).expect("rtl");
-    c.rtl = crate::commander::RtlPhase::Land;
+    c.latched.rtl = crate::commander::modes::RtlPhase::Land;
     c.on_nav(&nav(Time(4500), -5.0, true));
     c.update(Time(4500));
     assert_eq!(c.landed(), LandedState::Landing);
     assert_eq!(at(&mut c, 4500, Command::SetMode(FlightMode::ReturnToLaunch)), Ok(()));
     c.on_nav(&nav(Time(7000), -5.0, true));
     c.update(Time(7000));
-    assert_eq!(c.rtl, crate::commander::RtlPhase::Land, "RTL climbed again");
+    assert_eq!(c.latched.rtl, crate::commander::modes::RtlPhase::Land, "RTL climbed again");
     assert_eq!(c.landed(), LandedState::Landing);
 }

@@ -3,7 +3,7 @@
 use kestrel_proto::Time;
 use kestrel_proto::messages::{AvoidanceCommand, AvoidanceHealth, FlightMode, NavState, TrajectorySetpoint};
 
-use super::fixtures::{at, at_north, avoidance, nav_heading, rtl_from_the_north, trajectory, velocity};
+use super::fixtures::{at_north, avoidance, nav_heading, rtl_from_the_north, trajectory, velocity};
 use crate::commander::{Commander, CommanderParams};
 
 /// In RTL's return leg, 20 m north of home at the RTL altitude, with the avoider streaming

@@ -6,7 +6,7 @@ use kestrel_proto::messages::{
     VerticalLimitKind,
 };
 
-use super::fixtures::{at, cmd, hovering, nav, ready, trajectory};
+use super::fixtures::{at, cmd, hovering, nav, ready};
 
 fn rangefinder(t: u64, orientation: RangefinderOrientation, distance_m: Option<f64>) -> RangefinderSample {
     RangefinderSample { time: Time(t), orientation, distance_m, min_range_m: 0.1, max_range_m: 12.0 }
