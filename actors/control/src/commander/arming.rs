@@ -2,6 +2,7 @@
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{FailsafeAction, FlightMode, LandedState};
+use nalgebra::Vector3;
 
 use super::pilot_input::PilotLimits;
 use super::{Commander, flown_from_sticks};
@@ -43,6 +44,39 @@ const MAX_ARM_TILT_RAD: f64 = 0.5;
 pub(crate) const LOW_THROTTLE: f64 = 0.1;
 
 impl Commander {
+    pub(super) fn arm(&mut self, now: Time) -> Result<(), Refusal> {
+        if self.armed {
+            // Already armed is done, as in ArduPilot and PX4: a ground station whose ACK was lost
+            // retries, and must hear ACCEPTED, not a refusal of what it asked for.
+            return Ok(());
+        }
+        self.prearm(now)?;
+        let nav = self.fresh_nav(now).cloned();
+        self.armed = true;
+        self.home.on_arming(nav.map(|n| Vector3::from(n.position_ned_m)));
+        self.landing.on_arming_change(true);
+        self.faults.on_arming();
+        self.enter(self.mode);
+        if self.mode == FlightMode::Auto {
+            self.mission.start_run();
+        }
+        tracing::info!(mode = ?self.mode, "armed");
+        Ok(())
+    }
+
+    pub(super) fn disarm(&mut self, why: &str) {
+        if self.armed {
+            tracing::info!(why, "disarmed");
+        }
+        self.armed = false;
+        self.landing.on_arming_change(false);
+        self.latched.flip = None;
+        self.vertical.reset_landing_search();
+        // As PX4: failsafes belong to a flight. Latched causes (battery, estimator, critical
+        // actor) would otherwise refuse every later arming; the pre-arm checks judge afresh.
+        self.faults.monitor.clear();
+    }
+
     /// Whether `mode` can be flown with what the commander knows now.
     pub(crate) fn mode_allowed(&self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
         if let Some(f) = self

@@ -7,11 +7,26 @@
 //! its cause is reported in `VehicleStatus`, and while an RTL-or-stronger failsafe is active
 //! the pilot may only switch to LAND (PX4 lets the pilot take over in some cases; we are
 //! conservative here). On the ground, a failsafe of RTL or stronger disarms.
+//!
+//! Where to look: each piece of state is a struct in the file named after it, which changes it
+//! and tests it; `impl Commander` blocks beside them join the pieces.
+//! * what comes in: `commands` (a ground station's commands and missions), `pilot_input`
+//!   (sticks, who is in control), `nav_source` (estimator or backup attitude), `battery`,
+//!   `live_params`;
+//! * what is flown: `modes` (each mode's setpoint, and what it latched), `guided` (GUIDED's
+//!   target, the nose's aim), `mission` and `mission_runner`, `avoidance`, `vertical` and
+//!   `vertical_limit` (the rangefinders), `crate::flip`;
+//! * where: `home` (home and the NED frame), `geofence`, `feasibility` (what may be flown to);
+//! * what ends a flight or starts a failsafe: `arming`, `landing` and `land_detector`, `faults`
+//!   (the causes and the action applied), `failsafe`, `failsafe_actions`, `motor_check`,
+//!   `shutdown`;
+//! * what is said: `announcements` (refusals and notices, as STATUSTEXT).
 
 mod announcements;
 mod arming;
 mod avoidance;
 mod battery;
+mod commands;
 mod failsafe;
 mod failsafe_actions;
 mod faults;
@@ -36,9 +51,9 @@ mod vertical_limit;
 use kestrel_proto::Time;
 use kestrel_proto::attitude::{tilt_rad, unit_quaternion};
 use kestrel_proto::messages::{
-    ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, EscTelemetry, FlightMode,
-    LandedState, ManualControl, Mission, NavState, ParamDecl, RangefinderSample, Setpoint, SetpointTarget,
-    SupervisorEvent, SupervisorEventKind, VehicleCommand, VehicleStatus,
+    ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, EscTelemetry, FlightMode,
+    LandedState, ManualControl, NavState, ParamDecl, RangefinderSample, Setpoint, SetpointTarget,
+    SupervisorEvent, SupervisorEventKind, VehicleStatus,
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
@@ -54,11 +69,8 @@ pub use pilot_input::{PilotInput, PilotLimits, SticksHeard};
 pub use vertical::VerticalParams;
 
 use crate::error::InvalidParam;
-use crate::flip::Flip;
 use crate::position::yaw_of;
-use arming::refuse;
-use guided::GuidedTarget;
-use modes::{Hold, ModeLatches};
+use modes::ModeLatches;
 
 /// A height target this far below the vehicle (m), or a descent faster than this (m/s), is a
 /// demand to go down: the position loop turns 1 m of error into a descent well above the land
@@ -105,7 +117,9 @@ pub struct Commander {
     faults: faults::Faults,
     /// Refusals and notices for the status and its STATUSTEXT (`announcements`).
     announcements: announcements::Announcements,
+    /// The time of the last `update`, for its time step.
     last_update: Option<Time>,
+    /// The avoider's corrections and their freshness (`avoidance`).
     avoidance: avoidance::AvoidanceLoop,
     /// The rangefinders, a landing moving off an obstacle's top, and the vertical limit
     /// reported (`vertical_limit`).
@@ -314,143 +328,6 @@ impl Commander {
         }
     }
 
-    /// A new mission; replaces the old one, and one of no items clears it. Refused when a field
-    /// is not a number or there are too many items (`Mission::check_fields`, which the link runs
-    /// before it acknowledges an upload). One that is well-formed but cannot be flown from here
-    /// (below home, outside the fence, too far: `feasibility`) is kept — the ground station holds
-    /// it, and flying an older one instead would be worse — and refused, by item, when AUTO is
-    /// asked for; the reason is reported at once as well.
-    ///
-    /// While AUTO flies the old one, the new one is flown from the same item index (its last
-    /// item when it is shorter: `MissionRunner::replace`), as ArduCopter restarts its current
-    /// command; one that cannot be flown from here pauses the mission where the vehicle is (as
-    /// DO_PAUSE_CONTINUE does), the reason said, until a ground station continues it or sends
-    /// another. Held by `tests::a_mission_uploaded_in_auto_is_flown_from_the_same_item`.
-    pub fn on_mission(&mut self, mission: Mission) -> Result<(), Refusal> {
-        let flying = self.armed && self.mode == FlightMode::Auto && self.mission.runner.is_some();
-        if mission.items.is_empty() {
-            // No items: the ground station cleared its mission (MISSION_CLEAR_ALL, or home
-            // alone uploaded). Not while it is flown: the link refuses that clear as well.
-            if flying {
-                return self.refused(refuse("mission clear refused while flying AUTO"));
-            }
-            self.mission.clear();
-            return Ok(());
-        }
-        let fields = feasibility::check_fields(&mission);
-        self.refused(fields)?;
-        let feasible = self.mission_feasible(&mission);
-        let infeasible = self.refused(feasible).is_err();
-        if self.mission.upload(mission, flying) {
-            // Drop what AUTO latched for the old item (a landing under way, a held position).
-            let paused = self.mission.paused || infeasible;
-            self.enter(FlightMode::Auto);
-            self.mission.paused = paused;
-        }
-        Ok(())
-    }
-
-    /// A command; refused ones say why (also in the next status).
-    pub fn on_command(&mut self, cmd: &VehicleCommand) -> Result<(), Refusal> {
-        let now = cmd.time;
-        let result = match cmd.command {
-            Command::Heartbeat { system_id } => {
-                // Another system's heartbeat is answered by the link and holds off nothing here.
-                self.pilot.on_heartbeat(system_id, now, &PilotLimits::of(&self.params));
-                Ok(())
-            }
-            Command::Arm => self.arm(now),
-            Command::Disarm { force } => {
-                if self.landing.state() == LandedState::OnGround || force {
-                    self.disarm("commanded");
-                    Ok(())
-                } else {
-                    refuse("disarm refused in flight (use force)")
-                }
-            }
-            Command::SetMode(mode) => self.set_mode(now, mode),
-            Command::Takeoff { altitude_m } => {
-                if !(altitude_m.is_finite()
-                    && altitude_m > 1.0
-                    && altitude_m <= self.params.geofence.max_altitude_m)
-                {
-                    refuse(format!("take-off altitude {altitude_m} m out of range"))
-                } else if !self.armed {
-                    refuse("take-off refused: not armed")
-                } else {
-                    self.guided.set_takeoff_height_m(altitude_m);
-                    self.set_mode(now, FlightMode::Takeoff)
-                }
-            }
-            Command::Land => self.set_mode(now, FlightMode::Land),
-            Command::Shutdown => {
-                self.on_shutdown(now);
-                Ok(())
-            }
-            Command::ReturnToLaunch => self.set_mode(now, FlightMode::ReturnToLaunch),
-            Command::MissionStart => self.mode_allowed(now, FlightMode::Auto).and_then(|()| {
-                // MISSION_START in AUTO restarts the mission from its first item (or the one a
-                // ground station made current since): a fresh run replaces the one flying.
-                let restart = self.mode == FlightMode::Auto;
-                if restart {
-                    self.mission.runner = None;
-                }
-                let r = self.set_mode(now, FlightMode::Auto);
-                if restart {
-                    self.enter(FlightMode::Auto);
-                }
-                r
-            }),
-            Command::Flip => self.start_flip(now),
-            Command::GotoNed { position_ned_m } => {
-                self.guided_command(now, GuidedTarget::Position(position_ned_m))
-            }
-            Command::VelocityNed { velocity_ned_m_s } => {
-                self.guided_command(now, GuidedTarget::Velocity(velocity_ned_m_s))
-            }
-            Command::SetHome { point } => self.set_home(now, point),
-            Command::SetGeofence { enabled } => {
-                self.geofence.set_enabled(enabled);
-                Ok(())
-            }
-            Command::SetMissionCurrent { index } => self.set_mission_current(index),
-            Command::ChangeSpeed { speed_m_s } => self.change_speed(speed_m_s),
-            Command::Yaw { .. } | Command::RegionOfInterest { .. }
-                if !matches!(self.mode, FlightMode::Guided | FlightMode::Auto) =>
-            {
-                refuse("yaw and region of interest are flown in GUIDED and AUTO only")
-            }
-            Command::Yaw { heading_deg, relative_deg } => {
-                let current = self.nav.latest().map_or(0.0, heading);
-                self.guided.set_yaw(heading_deg, relative_deg, current)
-            }
-            Command::RegionOfInterest { position_ned_m } => {
-                self.guided.set_region_of_interest(position_ned_m)
-            }
-            Command::PauseMission | Command::ContinueMission
-                if self.mode != FlightMode::Auto || self.mission.runner.is_none() =>
-            {
-                refuse("pause/continue refused: no mission is being flown in AUTO")
-            }
-            Command::PauseMission => {
-                if !self.mission.paused {
-                    tracing::info!("mission paused");
-                    self.latched.hold = Hold::default();
-                }
-                self.mission.paused = true;
-                Ok(())
-            }
-            Command::ContinueMission => {
-                if self.mission.paused {
-                    tracing::info!("mission continued");
-                }
-                self.mission.paused = false;
-                Ok(())
-            }
-        };
-        self.refused(result)
-    }
-
     /// Records `text` as the newest refusal (or notice) for the status and its STATUSTEXT.
     pub(crate) fn announce(&mut self, text: String) {
         self.announcements.announce(text);
@@ -462,128 +339,6 @@ impl Commander {
             self.announce(r.0.clone());
         }
         result
-    }
-
-    fn arm(&mut self, now: Time) -> Result<(), Refusal> {
-        if self.armed {
-            // Already armed is done, as in ArduPilot and PX4: a ground station whose ACK was lost
-            // retries, and must hear ACCEPTED, not a refusal of what it asked for.
-            return Ok(());
-        }
-        self.prearm(now)?;
-        let nav = self.fresh_nav(now).cloned();
-        self.armed = true;
-        self.home.on_arming(nav.map(|n| Vector3::from(n.position_ned_m)));
-        self.landing.on_arming_change(true);
-        self.faults.on_arming();
-        self.enter(self.mode);
-        if self.mode == FlightMode::Auto {
-            self.mission.start_run();
-        }
-        tracing::info!(mode = ?self.mode, "armed");
-        Ok(())
-    }
-
-    fn disarm(&mut self, why: &str) {
-        if self.armed {
-            tracing::info!(why, "disarmed");
-        }
-        self.armed = false;
-        self.landing.on_arming_change(false);
-        self.latched.flip = None;
-        self.vertical.reset_landing_search();
-        // As PX4: failsafes belong to a flight. Latched causes (battery, estimator, critical
-        // actor) would otherwise refuse every later arming; the pre-arm checks judge afresh.
-        self.faults.monitor.clear();
-    }
-
-    fn set_mode(&mut self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
-        self.mode_allowed(now, mode)?;
-        self.boot_mode = false;
-        if mode == FlightMode::Auto && (self.mission.runner.is_none() || self.mode != FlightMode::Auto) {
-            self.mission.start_run();
-        }
-        // The mode already active is accepted without re-entering it: RTL must not climb again
-        // from its landing phase, nor LAND restart the land detector.
-        if mode != self.mode {
-            self.enter(mode);
-        }
-        Ok(())
-    }
-
-    /// Switches mode and resets what the new mode latches.
-    fn enter(&mut self, mode: FlightMode) {
-        if mode != self.mode {
-            tracing::info!(from = ?self.mode, to = ?mode, "mode");
-        }
-        self.mode = mode;
-        self.latched = ModeLatches::default();
-        self.mission.paused = false;
-        self.guided.on_mode_change();
-        self.landing.on_mode_change();
-        self.avoidance.reset();
-        self.vertical.reset_landing_search();
-    }
-
-    fn start_flip(&mut self, now: Time) -> Result<(), Refusal> {
-        if self.mode != FlightMode::Acro {
-            return refuse("flip refused: only in ACRO");
-        }
-        if self.landing.state() != LandedState::InAir {
-            return refuse("flip refused: not flying");
-        }
-        let Some(nav) = self.fresh_nav(now).cloned() else {
-            return refuse("flip refused: no navigation state");
-        };
-        if self.home.height_m(&nav) < self.params.flip_min_height_m {
-            return refuse(format!("flip refused: below {} m", self.params.flip_min_height_m));
-        }
-        self.latched.flip = Some(Flip::start(&nav, self.params.hover_thrust));
-        Ok(())
-    }
-
-    /// DO_CHANGE_SPEED: the running mission's leg speed (m/s), within the feasibility limit.
-    fn change_speed(&mut self, speed_m_s: f64) -> Result<(), Refusal> {
-        let max = self.params.feasibility.max_velocity_m_s;
-        if !(speed_m_s.is_finite() && speed_m_s > 0.0 && speed_m_s <= max) {
-            return refuse(format!("speed {speed_m_s} m/s refused: 0 < speed <= {max} m/s"));
-        }
-        match (&mut self.mission.runner, self.mode) {
-            (Some(runner), FlightMode::Auto) => {
-                runner.set_cruise(speed_m_s);
-                Ok(())
-            }
-            _ => refuse("DO_CHANGE_SPEED refused: flown in AUTO only"),
-        }
-    }
-
-    fn guided_command(&mut self, now: Time, target: GuidedTarget) -> Result<(), Refusal> {
-        if self.mode != FlightMode::Guided {
-            return refuse("position/velocity targets are accepted in GUIDED only");
-        }
-        let finite = match target {
-            GuidedTarget::Position(v) | GuidedTarget::Velocity(v) => v.iter().all(|x| x.is_finite()),
-            GuidedTarget::Hold => true,
-        };
-        if !finite {
-            return refuse("guided target is not finite");
-        }
-        match target {
-            GuidedTarget::Position(p) => {
-                if let Some(why) = self.guided_position_refused(&Vector3::from(p)) {
-                    return refuse(format!("guided target refused: {why}"));
-                }
-            }
-            GuidedTarget::Velocity(v) => {
-                let (speed, max) = (Vector3::from(v).norm(), self.params.feasibility.max_velocity_m_s);
-                if speed > max {
-                    return refuse(format!("guided velocity refused: {speed:.1} m/s, at most {max:.1} m/s"));
-                }
-            }
-            GuidedTarget::Hold => {}
-        }
-        self.guided.set_target(target, now);
-        Ok(())
     }
 
     /// The pilot's sticks if they are fresh at `now` (`pilot_input`: the receiver's while it is

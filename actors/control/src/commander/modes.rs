@@ -6,6 +6,7 @@ use kestrel_proto::messages::{
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
+use super::arming::Refusal;
 use super::avoidance::{Blend, Leg, Limits};
 use super::guided::GuidedTarget;
 use super::mission_runner::MissionStep;
@@ -79,6 +80,34 @@ fn at(p: &Vector3<f64>) -> [Option<f64>; 3] {
 }
 
 impl Commander {
+    pub(super) fn set_mode(&mut self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
+        self.mode_allowed(now, mode)?;
+        self.boot_mode = false;
+        if mode == FlightMode::Auto && (self.mission.runner.is_none() || self.mode != FlightMode::Auto) {
+            self.mission.start_run();
+        }
+        // The mode already active is accepted without re-entering it: RTL must not climb again
+        // from its landing phase, nor LAND restart the land detector.
+        if mode != self.mode {
+            self.enter(mode);
+        }
+        Ok(())
+    }
+
+    /// Switches mode and resets what the new mode latches.
+    pub(super) fn enter(&mut self, mode: FlightMode) {
+        if mode != self.mode {
+            tracing::info!(from = ?self.mode, to = ?mode, "mode");
+        }
+        self.mode = mode;
+        self.latched = ModeLatches::default();
+        self.mission.paused = false;
+        self.guided.on_mode_change();
+        self.landing.on_mode_change();
+        self.avoidance.reset();
+        self.vertical.reset_landing_search();
+    }
+
     /// The setpoint of the current mode (armed only).
     pub(super) fn fly(&mut self, now: Time, dt_s: f64) -> SetpointTarget {
         let Some(nav) = self.nav.latest().cloned() else {
