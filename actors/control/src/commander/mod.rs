@@ -202,7 +202,7 @@ impl Commander {
     /// A new navigation state (non-finite ones, and attitudes that are no rotation, are
     /// ignored: the loop rejects them too).
     pub fn on_nav(&mut self, nav: &NavState) {
-        if self.nav.from_estimator(nav) {
+        if self.nav.on_estimator(nav) {
             self.take_nav(nav);
         }
     }
@@ -212,7 +212,7 @@ impl Commander {
     /// detector have an attitude, a height and a climb rate (no horizontal position). The
     /// switch is announced. The estimator's staleness stays a failsafe (`check_failsafes`).
     pub fn on_backup_nav(&mut self, nav: &NavState) {
-        let Some(switched) = self.nav.from_backup(nav, self.params.nav_timeout_s) else { return };
+        let Some(switched) = self.nav.on_backup(nav, self.params.nav_timeout_s) else { return };
         if switched {
             self.announce("EKF failed: backup attitude".to_owned());
         }
@@ -221,7 +221,7 @@ impl Commander {
 
     /// The state flown on is the backup attitude's.
     pub fn on_backup_attitude(&self) -> bool {
-        self.nav.on_backup()
+        self.nav.backup_flown()
     }
 
     fn take_nav(&mut self, nav: &NavState) {

@@ -45,13 +45,13 @@ impl NavSource {
     }
 
     /// The state flown on is the backup attitude's.
-    pub fn on_backup(&self) -> bool {
+    pub fn backup_flown(&self) -> bool {
         self.on_backup
     }
 
     /// A state of the estimator: whether to fly on it (a usable one, unless the backup flies
     /// and the estimator is still aligning).
-    pub fn from_estimator(&mut self, nav: &NavState) -> bool {
+    pub fn on_estimator(&mut self, nav: &NavState) -> bool {
         if !usable(nav) {
             return false;
         }
@@ -71,7 +71,7 @@ impl NavSource {
     /// A state of the backup attitude: `None` when it is not flown on (unusable, or the
     /// estimator is fresh with a valid attitude at its time, `timeout_s` old at most),
     /// otherwise whether the backup takes over now.
-    pub fn from_backup(&mut self, nav: &NavState, timeout_s: f64) -> Option<bool> {
+    pub fn on_backup(&mut self, nav: &NavState, timeout_s: f64) -> Option<bool> {
         if !usable(nav) || (self.estimator_fresh(nav.time, timeout_s) && self.estimator_attitude_valid) {
             return None;
         }
@@ -120,26 +120,26 @@ mod tests {
         let mut s = NavSource::default();
         let mut n = at(1.0, true);
         n.position_ned_m[0] = f64::NAN;
-        assert!(!s.from_estimator(&n));
+        assert!(!s.on_estimator(&n));
         let mut n = at(1.0, true);
         n.attitude = [0.0; 4];
-        assert!(!s.from_estimator(&n));
-        assert_eq!(s.from_backup(&n, 0.5), None);
+        assert!(!s.on_estimator(&n));
+        assert_eq!(s.on_backup(&n, 0.5), None);
         assert!(!s.estimator_fresh(Time::from_secs_f64(1.0), 0.5), "not counted as the estimator's");
     }
 
     #[test]
     fn the_backup_flies_while_the_estimator_is_stale_until_it_is_back_and_aligned() {
         let mut s = NavSource::default();
-        assert!(s.from_estimator(&at(1.0, true)));
-        assert_eq!(s.from_backup(&at(1.2, true), 0.5), None, "the estimator is fresh");
-        assert_eq!(s.from_backup(&at(2.0, true), 0.5), Some(true), "stale: the backup takes over");
-        assert_eq!(s.from_backup(&at(2.1, true), 0.5), Some(false), "and flies on");
-        assert!(s.on_backup());
-        assert!(!s.from_estimator(&at(2.2, false)), "a restarted estimator still aligning");
-        assert!(s.on_backup());
-        assert!(s.from_estimator(&at(2.3, true)));
-        assert!(!s.on_backup());
+        assert!(s.on_estimator(&at(1.0, true)));
+        assert_eq!(s.on_backup(&at(1.2, true), 0.5), None, "the estimator is fresh");
+        assert_eq!(s.on_backup(&at(2.0, true), 0.5), Some(true), "stale: the backup takes over");
+        assert_eq!(s.on_backup(&at(2.1, true), 0.5), Some(false), "and flies on");
+        assert!(s.backup_flown());
+        assert!(!s.on_estimator(&at(2.2, false)), "a restarted estimator still aligning");
+        assert!(s.backup_flown());
+        assert!(s.on_estimator(&at(2.3, true)));
+        assert!(!s.backup_flown());
     }
 
     #[test]
