@@ -2,6 +2,7 @@
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{FailsafeAction, FlightMode, LandedState};
+use nalgebra::Vector3;
 
 use super::pilot_input::PilotLimits;
 use super::{Commander, flown_from_sticks};
@@ -43,10 +44,44 @@ const MAX_ARM_TILT_RAD: f64 = 0.5;
 pub(crate) const LOW_THROTTLE: f64 = 0.1;
 
 impl Commander {
+    pub(super) fn arm(&mut self, now: Time) -> Result<(), Refusal> {
+        if self.armed {
+            // Already armed is done, as in ArduPilot and PX4: a ground station whose ACK was lost
+            // retries, and must hear ACCEPTED, not a refusal of what it asked for.
+            return Ok(());
+        }
+        self.prearm(now)?;
+        let nav = self.fresh_nav(now).cloned();
+        self.armed = true;
+        self.home.on_arming(nav.map(|n| Vector3::from(n.position_ned_m)));
+        self.landing.on_arming_change(true);
+        self.faults.on_arming();
+        self.enter(self.mode);
+        if self.mode == FlightMode::Auto {
+            self.mission.start_run();
+        }
+        tracing::info!(mode = ?self.mode, "armed");
+        Ok(())
+    }
+
+    pub(super) fn disarm(&mut self, why: &str) {
+        if self.armed {
+            tracing::info!(why, "disarmed");
+        }
+        self.armed = false;
+        self.landing.on_arming_change(false);
+        self.latched.flip = None;
+        self.vertical.reset_landing_search();
+        // As PX4: failsafes belong to a flight. Latched causes (battery, estimator, critical
+        // actor) would otherwise refuse every later arming; the pre-arm checks judge afresh.
+        self.faults.monitor.clear();
+    }
+
     /// Whether `mode` can be flown with what the commander knows now.
     pub(crate) fn mode_allowed(&self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
         if let Some(f) = self
-            .failsafes
+            .faults
+            .monitor
             .worst()
             .filter(|f| f.action >= kestrel_proto::messages::FailsafeAction::ReturnToLaunch)
             && self.armed
@@ -65,14 +100,14 @@ impl Commander {
         if mode == FlightMode::AltHold && !nav.is_some_and(|n| n.valid.vertical_position) {
             return refuse("AltHold needs a height estimate");
         }
-        if mode == FlightMode::Auto && self.mission.is_none() {
+        if mode == FlightMode::Auto && self.mission.uploaded.is_none() {
             return refuse("Auto needs a mission");
         }
         if needs_sticks(mode) && self.sticks(now).is_none() {
             return refuse(format!("{mode:?} needs manual control input"));
         }
         if mode == FlightMode::Auto
-            && let Some(mission) = &self.mission
+            && let Some(mission) = &self.mission.uploaded
         {
             self.mission_feasible(mission).map_err(|r| Refusal(format!("Auto refused: {r}")))?;
         }
@@ -144,11 +179,11 @@ impl Commander {
         if self.tilt_rad(nav) > MAX_ARM_TILT_RAD {
             return refuse("arming refused: vehicle not level");
         }
-        if self.landed != LandedState::OnGround {
+        if self.landing.state() != LandedState::OnGround {
             return refuse("arming refused: not on the ground");
         }
         if self.params.require_battery {
-            match &self.battery {
+            match self.battery.report() {
                 Some(b) if now.saturating_since(b.time).as_secs_f64() <= BATTERY_FRESH_S => {
                     if b.remaining <= self.params.failsafe.battery_low {
                         return refuse(format!("arming refused: battery at {:.0} %", b.remaining * 100.0));
@@ -157,7 +192,7 @@ impl Commander {
                 _ => return refuse("arming refused: no battery report"),
             }
         }
-        if let Some(f) = self.failsafes.worst() {
+        if let Some(f) = self.faults.monitor.worst() {
             return refuse(format!("arming refused: failsafe {:?} active", f.cause));
         }
         // ArduPilot's pre-arm calibration checks; which steps are required is the calibration
@@ -170,7 +205,9 @@ impl Commander {
                 return refuse(step.prearm_text());
             }
         }
-        if self.geofence_enabled && self.outside_geofence(nav, &self.home_or(nav)) {
+        if self.geofence.enabled()
+            && self.geofence.outside(nav, &self.home.or_here(nav), &self.params.geofence)
+        {
             return refuse("arming refused: outside the geofence");
         }
         Ok(())

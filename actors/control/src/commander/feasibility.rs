@@ -8,14 +8,15 @@ use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{Mission, MissionItem};
 use nalgebra::Vector3;
 
+use super::Commander;
 use super::arming::Refusal;
+use super::geofence::inside_polygon;
 use super::mission_runner::resolve;
 use super::params::{FeasibilityParams, GeofenceParams};
-use super::{Commander, inside_polygon};
 
 /// Where the checks measure from, in NED metres from the estimator's origin.
 pub(crate) struct Place<'a> {
-    pub frame: &'a LocalFrame,
+    pub frame: LocalFrame,
     pub home: Vector3<f64>,
     pub vehicle: Vector3<f64>,
     /// The fence's polygon in NED north/east (m), empty for none.
@@ -47,7 +48,7 @@ pub(crate) fn check_mission(
             MissionItem::Land { point } => (point, false),
             _ => continue,
         };
-        let ned = resolve(point, place.frame, &place.home, &place.vehicle);
+        let ned = resolve(point, &place.frame, &place.home, &place.vehicle);
         let has_xy = point.lat_deg.is_finite() && point.lon_deg.is_finite();
         let why = check_point(&ned, flown_height, place, limits, fence).or_else(|| {
             let from_vehicle = (ned.x - place.vehicle.x).hypot(ned.y - place.vehicle.y);
@@ -113,14 +114,14 @@ impl Commander {
     /// Home, the frame and the vehicle's position, once the estimator has an origin and a
     /// position (before that nothing can be placed and a mission waits for its start check).
     pub(crate) fn place(&self) -> Option<Place<'_>> {
-        let (frame, nav) = (self.frame.as_ref()?, self.nav.as_ref()?);
+        let (frame, nav) = (self.home.frame()?, self.nav.latest()?);
         let vehicle = Vector3::from(nav.position_ned_m);
         Some(Place {
             frame,
-            home: self.home_ned.unwrap_or(vehicle),
+            home: self.home.ned().unwrap_or(vehicle),
             vehicle,
-            fence_ned: &self.fence_ned,
-            fence_enabled: self.geofence_enabled,
+            fence_ned: self.geofence.polygon_ned(),
+            fence_enabled: self.geofence.enabled(),
         })
     }
 
@@ -165,13 +166,8 @@ mod tests {
 
     fn check(items: Vec<MissionItem>, fence_enabled: bool) -> Result<(), Refusal> {
         let frame = LocalFrame::new(HOME);
-        let place = Place {
-            frame: &frame,
-            home: Vector3::zeros(),
-            vehicle: Vector3::zeros(),
-            fence_ned: &[],
-            fence_enabled,
-        };
+        let place =
+            Place { frame, home: Vector3::zeros(), vehicle: Vector3::zeros(), fence_ned: &[], fence_enabled };
         check_mission(&mission(items), &place, &FeasibilityParams::default(), &GeofenceParams::default())
     }
 

@@ -6,9 +6,12 @@ use kestrel_proto::messages::{
 };
 use nalgebra::{UnitQuaternion, Vector3};
 
+use super::arming::Refusal;
 use super::avoidance::{Blend, Leg, Limits};
+use super::guided::GuidedTarget;
 use super::mission_runner::MissionStep;
 use super::{Commander, heading};
+use crate::flip::Flip;
 use kestrel_proto::units::GRAVITY_M_S2;
 
 /// A landing target closer than this is descended onto directly (m); farther, flown to first.
@@ -39,6 +42,21 @@ pub(crate) struct Hold {
     pub landing: bool,
 }
 
+/// What the current mode latched; a mode change starts it afresh.
+#[derive(Clone, Debug)]
+pub(crate) struct ModeLatches {
+    pub hold: Hold,
+    pub rtl: RtlPhase,
+    /// A flip under way (ACRO).
+    pub flip: Option<Flip>,
+}
+
+impl Default for ModeLatches {
+    fn default() -> ModeLatches {
+        ModeLatches { hold: Hold::default(), rtl: RtlPhase::Climb, flip: None }
+    }
+}
+
 /// Where RTL is.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum RtlPhase {
@@ -46,23 +64,6 @@ pub(crate) enum RtlPhase {
     Return { down_m: f64 },
     Loiter { down_m: f64, until: Time },
     Land,
-}
-
-/// Where GUIDED and AUTO point the nose instead of holding the heading they have.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum YawTarget {
-    /// A heading (rad, from north, clockwise).
-    Heading(f64),
-    /// A region of interest, NED from the estimator's origin (m).
-    Towards([f64; 3]),
-}
-
-/// GUIDED's target.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) enum GuidedTarget {
-    Hold,
-    Position([f64; 3]),
-    Velocity([f64; 3]),
 }
 
 fn traj(position: [Option<f64>; 3], velocity: [Option<f64>; 3], yaw_rad: Option<f64>) -> SetpointTarget {
@@ -79,15 +80,43 @@ fn at(p: &Vector3<f64>) -> [Option<f64>; 3] {
 }
 
 impl Commander {
+    pub(super) fn set_mode(&mut self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
+        self.mode_allowed(now, mode)?;
+        self.boot_mode = false;
+        if mode == FlightMode::Auto && (self.mission.runner.is_none() || self.mode != FlightMode::Auto) {
+            self.mission.start_run();
+        }
+        // The mode already active is accepted without re-entering it: RTL must not climb again
+        // from its landing phase, nor LAND restart the land detector.
+        if mode != self.mode {
+            self.enter(mode);
+        }
+        Ok(())
+    }
+
+    /// Switches mode and resets what the new mode latches.
+    pub(super) fn enter(&mut self, mode: FlightMode) {
+        if mode != self.mode {
+            tracing::info!(from = ?self.mode, to = ?mode, "mode");
+        }
+        self.mode = mode;
+        self.latched = ModeLatches::default();
+        self.mission.paused = false;
+        self.guided.on_mode_change();
+        self.landing.on_mode_change();
+        self.avoidance.reset();
+        self.vertical.reset_landing_search();
+    }
+
     /// The setpoint of the current mode (armed only).
     pub(super) fn fly(&mut self, now: Time, dt_s: f64) -> SetpointTarget {
-        let Some(nav) = self.nav.clone() else {
+        let Some(nav) = self.nav.latest().cloned() else {
             return traj([None; 3], [None, None, Some(self.params.land_slow_m_s)], None);
         };
-        if let Some(flip) = &mut self.flip {
+        if let Some(flip) = &mut self.latched.flip {
             let target = flip.update(&nav);
             if flip.done() {
-                self.flip = None;
+                self.latched.flip = None;
             }
             return target;
         }
@@ -95,12 +124,12 @@ impl Commander {
         // remembered from seconds ago (the `ManualControlLost` failsafe acts on the loss).
         let sticks =
             self.sticks(now).copied().unwrap_or(ManualControl { throttle: 0.5, ..ManualControl::default() });
-        let on_ground = self.landed == LandedState::OnGround;
+        let on_ground = self.landing.state() == LandedState::OnGround;
         if matches!(self.mode, FlightMode::Guided | FlightMode::Auto)
             && !self.avoidance.active()
-            && let Some(yaw) = self.aimed_yaw(&nav)
+            && let Some(yaw) = self.guided.aimed_yaw(&nav, self.latched.hold.yaw_rad)
         {
-            self.hold.yaw_rad = Some(yaw);
+            self.latched.hold.yaw_rad = Some(yaw);
         }
         match self.mode {
             FlightMode::Stabilize => self.stabilize(&nav, &sticks, dt_s),
@@ -113,63 +142,42 @@ impl Commander {
             FlightMode::Guided => self.guided(now, dt_s, &nav, on_ground),
             FlightMode::Auto => self.auto(now, dt_s, &nav),
             FlightMode::Takeoff => {
-                let home = self.home_or(&nav);
-                let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
-                let yaw = *self.hold.yaw_rad.get_or_insert(heading(&nav));
+                let home = self.home.or_here(&nav);
+                let p = *self.latched.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+                let yaw = *self.latched.hold.yaw_rad.get_or_insert(heading(&nav));
                 // Under something the upward rangefinder sees, the take-off ends below it; with
                 // less than a metre of room it does not leave the ground (and DISARM_DELAY
                 // disarms), and it never counts as done on the ground.
-                let down = self.under_ceiling(now, &nav, home.z - self.takeoff_height_m);
-                if self.landed == LandedState::OnGround && home.z - down < MIN_TAKEOFF_ROOM_M {
+                let down = self.vertical.under_ceiling(
+                    now,
+                    &nav,
+                    home.z - self.guided.takeoff_height_m(),
+                    &self.params.vertical,
+                );
+                if self.landing.state() == LandedState::OnGround && home.z - down < MIN_TAKEOFF_ROOM_M {
                     return SetpointTarget::MotorsOff;
                 }
-                let done_at = self.under_steady_ceiling(now, &nav, home.z - self.takeoff_height_m);
-                if self.landed != LandedState::OnGround
+                let done_at = self.vertical.under_steady_ceiling(
+                    now,
+                    &nav,
+                    home.z - self.guided.takeoff_height_m(),
+                    &self.params.vertical,
+                );
+                if self.landing.state() != LandedState::OnGround
                     && (nav.position_ned_m[2] - done_at).abs() < ALTITUDE_TOLERANCE_M
                 {
                     // Up: hold there in GUIDED, as ArduCopter's take-off ends, so targets are
                     // taken at once instead of refused until the mode is set again.
                     self.enter(FlightMode::Guided);
-                    self.hold.position = Some(Vector3::new(p.x, p.y, down));
-                    self.hold.yaw_rad = Some(yaw);
+                    self.latched.hold.position = Some(Vector3::new(p.x, p.y, down));
+                    self.latched.hold.yaw_rad = Some(yaw);
                 }
                 traj([Some(p.x), Some(p.y), Some(down)], [None; 3], Some(yaw))
             }
             FlightMode::ReturnToLaunch => self.rtl(now, dt_s, &nav),
             FlightMode::Land => {
-                let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+                let p = *self.latched.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
                 self.land_at(now, dt_s, &nav, Some([p.x, p.y]))
-            }
-        }
-    }
-
-    /// `down` (NED, m), or the steady ceiling the upward rangefinder sets if that is lower down:
-    /// where a climb towards `down` ends.
-    fn under_steady_ceiling(&self, now: Time, nav: &NavState, down: f64) -> f64 {
-        let ceiling = self.rangefinders.steady_ceiling_down_m(now, nav, &self.params.vertical);
-        ceiling.map_or(down, |c| down.max(c))
-    }
-
-    /// `down` (NED, m), or the ceiling the upward rangefinder sets if that is lower down (which
-    /// the status then reports).
-    fn under_ceiling(&mut self, now: Time, nav: &NavState, down: f64) -> f64 {
-        match self.ceiling_down_m(now, nav) {
-            Some(ceiling) if ceiling > down => {
-                self.ceiling_held = true;
-                ceiling
-            }
-            _ => down,
-        }
-    }
-
-    /// The heading CONDITION_YAW or DO_SET_ROI_LOCATION asks for (rad), if any: a fixed one, or
-    /// towards the region of interest (kept while the vehicle is within a metre of it).
-    fn aimed_yaw(&self, nav: &NavState) -> Option<f64> {
-        match self.yaw_target? {
-            YawTarget::Heading(yaw_rad) => Some(yaw_rad),
-            YawTarget::Towards(roi) => {
-                let (north, east) = (roi[0] - nav.position_ned_m[0], roi[1] - nav.position_ned_m[1]);
-                (north.hypot(east) > 1.0).then(|| east.atan2(north)).or(self.hold.yaw_rad)
             }
         }
     }
@@ -181,8 +189,8 @@ impl Commander {
     }
 
     fn held_yaw(&mut self, nav: &NavState, rate_rad_s: f64, dt_s: f64) -> f64 {
-        let yaw = self.hold.yaw_rad.unwrap_or_else(|| heading(nav)) + rate_rad_s * dt_s;
-        self.hold.yaw_rad = Some(yaw);
+        let yaw = self.latched.hold.yaw_rad.unwrap_or_else(|| heading(nav)) + rate_rad_s * dt_s;
+        self.latched.hold.yaw_rad = Some(yaw);
         yaw
     }
 
@@ -220,9 +228,9 @@ impl Commander {
         let stick = (s.throttle - 0.5) * 2.0;
         let band = self.params.throttle_deadband;
         if stick.abs() <= band {
-            (Some(*self.hold.down_m.get_or_insert(nav.position_ned_m[2])), None)
+            (Some(*self.latched.hold.down_m.get_or_insert(nav.position_ned_m[2])), None)
         } else {
-            self.hold.down_m = None;
+            self.latched.hold.down_m = None;
             let scaled = (stick.abs() - band) / (1.0 - band) * stick.signum();
             (None, Some(-scaled * self.params.stick_climb_m_s))
         }
@@ -261,10 +269,10 @@ impl Commander {
         let centred = s.roll.abs() < STICK_CENTRED && s.pitch.abs() < STICK_CENTRED;
         let (pn, pe, vn, ve) = if centred {
             self.avoidance.reset();
-            let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+            let p = *self.latched.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
             (Some(p.x), Some(p.y), None, None)
         } else {
-            self.hold.position = None;
+            self.latched.hold.position = None;
             let v = self.params.stick_speed_m_s;
             let (sin, cos) = yaw.sin_cos();
             let (fwd, right) = (s.pitch * v, s.roll * v);
@@ -275,7 +283,7 @@ impl Commander {
                 let blend = self.avoiding(now, dt_s, nav, leg);
                 if blend.vertical_takeover {
                     // Re-latched at the height reached once the avoider lets go.
-                    self.hold.down_m = None;
+                    self.latched.hold.down_m = None;
                 }
                 let sp = TrajectorySetpoint { yaw_rate_rad_s: yaw_rate, ..blend.setpoint };
                 return SetpointTarget::Trajectory(sp);
@@ -292,23 +300,17 @@ impl Commander {
     }
 
     fn guided(&mut self, now: Time, dt_s: f64, nav: &NavState, on_ground: bool) -> SetpointTarget {
-        if matches!(self.guided, GuidedTarget::Velocity(_))
-            && self
-                .guided_at
-                .is_some_and(|t| now.saturating_since(t).as_secs_f64() > self.params.guided_timeout_s)
-        {
-            // ArduCopter's GUIDED_TIMEOUT, PX4's COM_OF_LOSS_T: a velocity nobody repeats is not
-            // flown on for ever; hold where the stream stopped.
-            self.guided = GuidedTarget::Hold;
-            self.hold = Hold::default();
+        if self.guided.drop_stale_velocity(now, self.params.guided_timeout_s) {
+            // A velocity nobody repeats is not flown on for ever: hold where the stream stopped.
+            self.latched.hold = Hold::default();
             self.announce(format!(
                 "GUIDED: no velocity target for {} s, holding",
                 self.params.guided_timeout_s
             ));
         }
-        let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        let yaw = *self.latched.hold.yaw_rad.get_or_insert(heading(nav));
         if self.avoidance.active() {
-            let leg = match self.guided {
+            let leg = match self.guided.target() {
                 GuidedTarget::Hold => None,
                 GuidedTarget::Position(p) => {
                     Some(Leg::To { target: Vector3::from(p), speed_m_s: self.params.guided_speed_m_s })
@@ -320,7 +322,7 @@ impl Commander {
                 None => self.avoidance.reset(),
             }
         }
-        match self.guided {
+        match self.guided.target() {
             GuidedTarget::Hold if on_ground => SetpointTarget::MotorsOff,
             GuidedTarget::Hold => self.hold_here(nav),
             GuidedTarget::Position(p) => traj(p.map(Some), [None; 3], Some(yaw)),
@@ -329,17 +331,17 @@ impl Commander {
     }
 
     fn auto(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
-        if self.paused {
+        if self.mission.paused {
             self.avoidance.reset();
             return self.hold_here(nav);
         }
-        let ceiling = self.rangefinders.steady_ceiling_down_m(now, nav, &self.params.vertical);
-        let (Some(frame), Some(runner)) = (self.frame, self.runner.as_mut()) else {
+        let ceiling = self.vertical.rangefinders().steady_ceiling_down_m(now, nav, &self.params.vertical);
+        let (Some(frame), Some(runner)) = (self.home.frame(), self.mission.runner.as_mut()) else {
             self.avoidance.reset();
             return self.hold_here(nav);
         };
         let pos = Vector3::from(nav.position_ned_m);
-        let home = self.home_ned.unwrap_or(pos);
+        let home = self.home.ned().unwrap_or(pos);
         let step = runner.update(now, &pos, &frame, &home, ceiling);
         if !matches!(step, MissionStep::Fly(_) | MissionStep::Land { .. }) {
             self.avoidance.reset();
@@ -353,12 +355,12 @@ impl Commander {
                 SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint)
             }
             MissionStep::Fly(mut sp) => {
-                sp.yaw_rad = Some(*self.hold.yaw_rad.get_or_insert(heading(nav)));
+                sp.yaw_rad = Some(*self.latched.hold.yaw_rad.get_or_insert(heading(nav)));
                 SetpointTarget::Trajectory(sp)
             }
             MissionStep::Land { north_m, east_m } => self.land_at(now, dt_s, nav, Some([north_m, east_m])),
             MissionStep::ReturnToLaunch => {
-                self.last_progress = runner.progress();
+                self.mission.last_progress = runner.progress();
                 self.enter(FlightMode::ReturnToLaunch);
                 self.rtl(now, dt_s, nav)
             }
@@ -369,13 +371,13 @@ impl Commander {
     /// A leg flown with the avoider in the loop (`avoidance` module); a stale stream holds and
     /// says so once in the status (→ STATUSTEXT) and the log.
     fn avoiding(&mut self, now: Time, dt_s: f64, nav: &NavState, leg: Leg) -> Blend {
-        let mut yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        let mut yaw = *self.latched.hold.yaw_rad.get_or_insert(heading(nav));
         let limits = Limits {
             timeout_s: self.params.avoidance_timeout_s,
             yaw_rate_rad_s: self.params.yaw_rate_deg_s.to_radians(),
         };
         let blend = self.avoidance.step(now, dt_s, nav, leg, &mut yaw, limits);
-        self.hold.yaw_rad = Some(yaw);
+        self.latched.hold.yaw_rad = Some(yaw);
         match blend.hold_changed {
             Some(true) => {
                 let why = "avoidance stale: slowing and holding position";
@@ -389,8 +391,8 @@ impl Commander {
     }
 
     fn hold_here(&mut self, nav: &NavState) -> SetpointTarget {
-        let p = *self.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
-        let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
+        let p = *self.latched.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));
+        let yaw = *self.latched.hold.yaw_rad.get_or_insert(heading(nav));
         traj(at(&p), [None; 3], Some(yaw))
     }
 
@@ -405,37 +407,39 @@ impl Commander {
     /// moved obstacle has changed it. The climb and the descent are vertical, where the forward
     /// camera sees nothing: the rangefinders hold them (`vertical`).
     fn rtl(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
-        let Some(home) = self.home_ned else { return self.land_at(now, dt_s, nav, None) };
+        let Some(home) = self.home.ned() else { return self.land_at(now, dt_s, nav, None) };
         let pos = Vector3::from(nav.position_ned_m);
-        let yaw = *self.hold.yaw_rad.get_or_insert(heading(nav));
-        match self.rtl {
+        let yaw = *self.latched.hold.yaw_rad.get_or_insert(heading(nav));
+        match self.latched.rtl {
             RtlPhase::Climb => {
                 let down = pos.z.min(home.z - self.params.rtl_altitude_m);
-                let start = *self.hold.position.get_or_insert(pos);
-                let down = *self.hold.down_m.get_or_insert(down);
+                let start = *self.latched.hold.position.get_or_insert(pos);
+                let down = *self.latched.hold.down_m.get_or_insert(down);
                 // Held under something overhead, the climb ends there and the return sets off
                 // at it, climbing the rest once out from under.
-                if (pos.z - self.under_steady_ceiling(now, nav, down)).abs() < ALTITUDE_TOLERANCE_M {
-                    self.rtl = RtlPhase::Return { down_m: down };
+                if (pos.z - self.vertical.under_steady_ceiling(now, nav, down, &self.params.vertical)).abs()
+                    < ALTITUDE_TOLERANCE_M
+                {
+                    self.latched.rtl = RtlPhase::Return { down_m: down };
                 }
                 traj([Some(start.x), Some(start.y), Some(down)], [None; 3], Some(yaw))
             }
             RtlPhase::Return { down_m } | RtlPhase::Loiter { down_m, .. } => {
                 let distance = (pos.x - home.x).hypot(pos.y - home.y);
                 let speed = nav.velocity_ned_m_s[0].hypot(nav.velocity_ned_m_s[1]);
-                match self.rtl {
+                match self.latched.rtl {
                     RtlPhase::Return { .. } if distance < HOME_RADIUS_M && speed < HOME_SPEED_M_S => {
                         let loiter = std::time::Duration::from_secs_f64(self.params.rtl_loiter_s);
-                        self.rtl = RtlPhase::Loiter { down_m, until: now + loiter };
+                        self.latched.rtl = RtlPhase::Loiter { down_m, until: now + loiter };
                         self.avoidance.reset();
                     }
                     RtlPhase::Loiter { until, .. } if now >= until => {
-                        self.rtl = RtlPhase::Land;
-                        self.hold.down_m = None;
+                        self.latched.rtl = RtlPhase::Land;
+                        self.latched.hold.down_m = None;
                     }
                     _ => {}
                 }
-                if matches!(self.rtl, RtlPhase::Return { .. }) && self.avoidance.active() {
+                if matches!(self.latched.rtl, RtlPhase::Return { .. }) && self.avoidance.active() {
                     let leg = Leg::To {
                         target: Vector3::new(home.x, home.y, down_m),
                         speed_m_s: self.params.rtl_speed_m_s,
@@ -446,7 +450,7 @@ impl Commander {
                         // not back down at the RTL altitude onto what was climbed over (the
                         // forward camera cannot see below), as PX4 (`RTL_RETURN_ALT`) and
                         // ArduPilot (`RTL_ALT`) return at the current altitude when above theirs.
-                        self.rtl = RtlPhase::Return { down_m: pos.z };
+                        self.latched.rtl = RtlPhase::Return { down_m: pos.z };
                     }
                     return SetpointTarget::Trajectory(blend.setpoint);
                 }
@@ -476,20 +480,20 @@ impl Commander {
     ) -> SetpointTarget {
         // The nearer of the height above home and the rangefinder's distance to what is below:
         // ground higher than home, or a top, slows the descent in time.
-        let below = self.rangefinders.below_m(now, nav, &self.params.vertical);
-        let height = below.map_or(self.height_m(nav), |b| b.min(self.height_m(nav)));
+        let below = self.vertical.rangefinders().below_m(now, nav, &self.params.vertical);
+        let height = below.map_or(self.home.height_m(nav), |b| b.min(self.home.height_m(nav)));
         let rate = if height > self.params.land_slow_height_m {
             self.params.land_fast_m_s
         } else {
             self.params.land_slow_m_s
         };
-        let yaw = self.hold.yaw_rad;
+        let yaw = self.latched.hold.yaw_rad;
         match xy.filter(|_| nav.valid.horizontal_position) {
             Some([n, e]) => {
                 let far =
                     (nav.position_ned_m[0] - n).hypot(nav.position_ned_m[1] - e) > LAND_APPROACH_RADIUS_M;
-                if far && !self.hold.landing {
-                    let down = *self.hold.down_m.get_or_insert(nav.position_ned_m[2]);
+                if far && !self.latched.hold.landing {
+                    let down = *self.latched.hold.down_m.get_or_insert(nav.position_ned_m[2]);
                     if self.avoidance.active() {
                         let leg = Leg::To {
                             target: Vector3::new(n, e, down),
@@ -499,26 +503,38 @@ impl Commander {
                     }
                     return traj([Some(n), Some(e), Some(down)], [None; 3], yaw);
                 }
-                self.hold.landing = true;
+                self.latched.hold.landing = true;
                 self.avoidance.reset();
-                let reading = self.rangefinders.below(now, nav, &self.params.vertical);
+                let reading = self.vertical.rangefinders().below(now, nav, &self.params.vertical);
                 // Without a downward rangefinder there is nothing to search with: land as before.
-                if reading.is_some() || self.landing_search.searching() {
-                    let home_down = self.home_or(nav).z;
+                if reading.is_some() || self.vertical.landing_search.searching() {
+                    let home_down = self.home.or_here(nav).z;
                     let facing = yaw.unwrap_or_else(|| heading(nav));
-                    self.landing_search.step(nav, [n, e], reading, home_down, facing, &self.params.vertical);
+                    self.vertical.landing_search.step(
+                        nav,
+                        [n, e],
+                        reading,
+                        home_down,
+                        facing,
+                        &self.params.vertical,
+                    );
                 }
-                let [sn, se] = self.landing_search.spot_ne_m.unwrap_or([n, e]);
-                let [dn, de] = self.landing_search.offset_ne_m;
+                let [sn, se] = self.vertical.landing_search.spot_ne_m.unwrap_or([n, e]);
+                let [dn, de] = self.vertical.landing_search.offset_ne_m;
                 let (n, e) = (sn + dn, se + de);
-                match self.landing_search.hold_down_m.filter(|_| self.landing_search.searching()) {
+                match self
+                    .vertical
+                    .landing_search
+                    .hold_down_m
+                    .filter(|_| self.vertical.landing_search.searching())
+                {
                     // Over an obstacle's top: hold above it and move off it (`vertical`).
                     Some(down) => traj([Some(n), Some(e), Some(down)], [None; 3], yaw),
                     None => traj([Some(n), Some(e), None], [None, None, Some(rate)], yaw),
                 }
             }
             None => {
-                self.hold.landing = true;
+                self.latched.hold.landing = true;
                 self.avoidance.reset();
                 let v = nav.valid.horizontal_velocity.then_some(0.0);
                 traj([None; 3], [v, v, Some(rate)], yaw)

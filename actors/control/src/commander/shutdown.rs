@@ -24,7 +24,7 @@ impl Commander {
         if !self.armed {
             return;
         }
-        if self.landed == LandedState::OnGround {
+        if self.landing.state() == LandedState::OnGround {
             self.disarm("shutdown");
             self.announce(SHUTDOWN_DISARMED.into());
             return;

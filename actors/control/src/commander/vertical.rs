@@ -93,7 +93,7 @@ struct Reading {
 
 /// What the downward beam says now.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Below {
+pub(crate) struct Below {
     /// Vertical distance to the surface it sees (m); `None`: nothing within its range.
     pub distance_m: Option<f64>,
     /// The sensor's longest distance (m).
@@ -105,7 +105,7 @@ pub(super) struct Below {
 
 /// The up- and downward rangefinders' newest readings.
 #[derive(Clone, Debug, Default)]
-pub(super) struct Rangefinders {
+pub(crate) struct Rangefinders {
     up: Option<Reading>,
     down: Option<Reading>,
     /// Since when the upward beam has seen a surface in every reading.
@@ -205,7 +205,7 @@ fn cos_tilt(nav: &NavState) -> f64 {
 /// target no higher than the ceiling (nor, inside the margin, than where the vehicle is), a
 /// climb no faster than stops in the gap and none inside the margin. Whether it changed
 /// anything.
-pub(super) fn hold_below(
+pub(crate) fn hold_below(
     sp: &mut TrajectorySetpoint,
     down_m: f64,
     ceiling_down_m: f64,
@@ -232,7 +232,7 @@ pub(super) fn hold_below(
 
 /// A landing moving off an obstacle's top.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub(super) struct LandingSearch {
+pub(crate) struct LandingSearch {
     /// The landing spot (north, east, m), taken when the search first reads the beam: a
     /// mission's LAND item without a place resolves to wherever the vehicle is, which must not
     /// move with it.

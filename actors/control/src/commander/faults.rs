@@ -1,0 +1,197 @@
+//! What fails and what the commander does about it: the failsafe causes judged every update
+//! (`FailsafeMonitor` keeps them and their log), a flight-critical actor's failure, the motor
+//! check, and the strongest action applied so far this flight. An action is applied once, when
+//! it is stronger than the one before (PX4's precedence: warn < hold < RTL < land < disarm); the
+//! pilot may then only switch to LAND while it is RTL or stronger (`arming::mode_allowed`). On
+//! the ground, an RTL or a landing disarms.
+
+use kestrel_proto::Time;
+use kestrel_proto::messages::{FailsafeAction, FailsafeCause, FlightMode};
+
+use super::arming::needs_position;
+use super::pilot_input::PilotLimits;
+use super::{Commander, FailsafeMonitor, MotorCheck, flown_from_sticks};
+
+/// The failures watched for and the failsafe they started.
+#[derive(Debug)]
+pub(crate) struct Faults {
+    /// The active failsafe causes and every one that fired while armed.
+    pub monitor: FailsafeMonitor,
+    /// ESC telemetry against the motor commands: a motor that stopped.
+    pub motors: MotorCheck,
+    /// The strongest action applied since the causes were last all clear.
+    applied: Option<FailsafeAction>,
+    /// A flight-critical actor failed (the supervisor said so) since arming.
+    critical_actor_failed: bool,
+}
+
+impl Faults {
+    pub fn new(motors: MotorCheck) -> Faults {
+        Faults { monitor: FailsafeMonitor::default(), motors, applied: None, critical_actor_failed: false }
+    }
+
+    /// A new flight: no cause, no action, every actor and motor healthy again.
+    pub fn on_arming(&mut self) {
+        self.monitor.clear();
+        self.applied = None;
+        self.critical_actor_failed = false;
+        self.motors.reset();
+    }
+
+    /// The supervisor reported a flight-critical actor failed.
+    pub fn on_critical_actor_failed(&mut self) {
+        self.critical_actor_failed = true;
+    }
+
+    pub fn critical_actor_failed(&self) -> bool {
+        self.critical_actor_failed
+    }
+
+    /// A motor stopped and the others cannot hold every axis.
+    pub fn motor_failed(&self) -> bool {
+        self.motors.failed().is_some() && !self.motors.others_hold_all_axes()
+    }
+
+    /// The action to apply now, if any: the strongest active one while `armed`, when it is
+    /// stronger than the one applied before. With no cause active, the next one applies anew.
+    pub fn escalation(&mut self, armed: bool) -> Option<FailsafeAction> {
+        let Some(worst) = self.monitor.worst() else {
+            self.applied = None;
+            return None;
+        };
+        if !armed || self.applied.is_some_and(|a| a >= worst.action) {
+            return None;
+        }
+        self.applied = Some(worst.action);
+        Some(worst.action)
+    }
+}
+
+impl Commander {
+    /// Judges every failsafe cause at `now` and acts on the strongest action (PX4's
+    /// precedence: warn < hold < RTL < land < disarm).
+    pub(super) fn check_failsafes(&mut self, now: Time) {
+        let fs = self.params.failsafe.clone();
+        let armed = self.armed;
+        let nav = self.nav.latest().cloned();
+        // The estimator's own freshness: the backup attitude lands the vehicle, it does not
+        // stand in for the estimator's health.
+        let fresh = self.nav.estimator_fresh(now, self.params.nav_timeout_s);
+        let limits = PilotLimits::of(&self.params);
+        // Each loss on its own source's silence (`pilot_input`): the receiver never holds off
+        // the ground station's, nor MAVLink sticks the receiver's.
+        let link_lost = self.pilot.gcs_lost(now, &limits);
+        let battery = self.battery.failsafes(now, armed, &fs);
+        let nav_stale = self.nav.stale_for(now, armed, fresh, fs.nav_stale_s);
+        let unhealthy = nav.as_ref().is_some_and(|n| {
+            fresh && (!n.valid.attitude || (needs_position(self.mode) && !n.valid.horizontal_position))
+        });
+        let avoidance_lost = self.avoidance.silent_for_s(now).is_some_and(|s| s > fs.avoidance_lost_s);
+        let sticks_lost = flown_from_sticks(self.mode) && self.pilot.sticks_lost(now, &limits);
+        let fence = self.geofence.enabled()
+            && nav
+                .as_ref()
+                .is_some_and(|n| self.geofence.outside(n, &self.home.or_here(n), &self.params.geofence));
+        let critical_actor_failed = self.faults.critical_actor_failed();
+        let motor_failed = self.faults.motor_failed();
+        let m = &mut self.faults.monitor;
+        m.set(now, FailsafeCause::DataLinkLost, armed && link_lost, fs.link_action);
+        m.set(now, FailsafeCause::BatteryLow, battery.low, fs.battery_low_action);
+        m.set(now, FailsafeCause::BatteryCritical, battery.critical, fs.battery_critical_action);
+        m.set(now, FailsafeCause::GeofenceBreach, armed && fence, fs.geofence_action);
+        m.set(now, FailsafeCause::EstimatorUnhealthy, armed && unhealthy, fs.estimator_action);
+        m.set(now, FailsafeCause::NavStateStale, nav_stale, FailsafeAction::Land);
+        m.set(
+            now,
+            FailsafeCause::CriticalActorFailed,
+            armed && critical_actor_failed,
+            fs.critical_actor_action,
+        );
+        m.set(now, FailsafeCause::ManualControlLost, armed && sticks_lost, fs.manual_action);
+        m.set(now, FailsafeCause::AvoidanceLost, armed && avoidance_lost, fs.avoidance_action);
+        m.set(now, FailsafeCause::MotorFailure, armed && motor_failed, fs.motor_failure_action);
+        self.apply_failsafe(now);
+    }
+
+    fn apply_failsafe(&mut self, now: Time) {
+        let Some(action) = self.faults.escalation(self.armed) else { return };
+        let on_ground = self.landing.on_ground();
+        let position_ok = self.mode_allowed_ignoring_failsafe(now, FlightMode::ReturnToLaunch);
+        match action {
+            FailsafeAction::Warn => {}
+            FailsafeAction::Disarm => self.disarm("failsafe"),
+            FailsafeAction::ReturnToLaunch | FailsafeAction::Land if on_ground => {
+                self.disarm("failsafe on the ground")
+            }
+            FailsafeAction::Hold => {
+                let mode = if position_ok { FlightMode::PosHold } else { FlightMode::AltHold };
+                self.enter(mode);
+            }
+            FailsafeAction::ReturnToLaunch if position_ok && self.home.ned().is_some() => {
+                if self.mode != FlightMode::ReturnToLaunch {
+                    self.enter(FlightMode::ReturnToLaunch);
+                }
+            }
+            FailsafeAction::ReturnToLaunch | FailsafeAction::Land => {
+                if self.mode != FlightMode::Land {
+                    self.enter(FlightMode::Land);
+                }
+            }
+        }
+    }
+
+    pub(super) fn mode_allowed_ignoring_failsafe(&self, now: Time, mode: FlightMode) -> bool {
+        let nav = self.fresh_nav(now);
+        !needs_position(mode)
+            || nav.is_some_and(|n| {
+                n.valid.horizontal_position && n.valid.vertical_position && n.origin.is_some()
+            })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::commander::params::FailsafeParams;
+
+    fn faults() -> Faults {
+        Faults::new(MotorCheck::new(FailsafeParams::default().motor_failure).expect("valid"))
+    }
+
+    #[test]
+    fn an_action_is_applied_once_and_only_a_stronger_one_escalates() {
+        let (mut f, t) = (faults(), Time(1000));
+        assert_eq!(f.escalation(true), None, "nothing active");
+        f.monitor.set(t, FailsafeCause::DataLinkLost, true, FailsafeAction::ReturnToLaunch);
+        assert_eq!(f.escalation(true), Some(FailsafeAction::ReturnToLaunch));
+        assert_eq!(f.escalation(true), None, "applied already");
+        f.monitor.set(t, FailsafeCause::GeofenceBreach, true, FailsafeAction::Hold);
+        assert_eq!(f.escalation(true), None, "weaker");
+        f.monitor.set(t, FailsafeCause::BatteryCritical, true, FailsafeAction::Land);
+        assert_eq!(f.escalation(true), Some(FailsafeAction::Land), "stronger");
+    }
+
+    #[test]
+    fn disarmed_nothing_is_applied_and_all_clear_starts_over() {
+        let (mut f, t) = (faults(), Time(1000));
+        f.monitor.set(t, FailsafeCause::DataLinkLost, true, FailsafeAction::ReturnToLaunch);
+        assert_eq!(f.escalation(false), None);
+        assert_eq!(f.escalation(true), Some(FailsafeAction::ReturnToLaunch));
+        f.monitor.set(t, FailsafeCause::DataLinkLost, false, FailsafeAction::ReturnToLaunch);
+        assert_eq!(f.escalation(true), None);
+        f.monitor.set(t, FailsafeCause::DataLinkLost, true, FailsafeAction::ReturnToLaunch);
+        assert_eq!(f.escalation(true), Some(FailsafeAction::ReturnToLaunch), "applies anew");
+    }
+
+    #[test]
+    fn arming_clears_a_failed_actor_and_the_causes() {
+        let mut f = faults();
+        f.on_critical_actor_failed();
+        f.monitor.set(Time(1000), FailsafeCause::CriticalActorFailed, true, FailsafeAction::Land);
+        assert!(f.critical_actor_failed());
+        f.on_arming();
+        assert!(!f.critical_actor_failed());
+        assert!(f.monitor.worst().is_none());
+        assert!(!f.motor_failed());
+    }
+}
