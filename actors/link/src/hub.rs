@@ -10,13 +10,14 @@ use std::sync::Arc;
 
 use kestrel_proto::Time;
 use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavMessage};
-use mavlink::{MavHeader, Message, MessageData, SigningData};
+use mavlink::{MavHeader, Message, MessageData};
 use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
 
 use crate::frame::{Frame, encode};
 use crate::router::{LinkId, Router};
 use crate::services::{Outputs, Sender, ToGraph};
+use crate::transport::{LinkSigning, SigningStats, Verdict, setup_signing};
 use crate::vehicle::{COMPONENT_ID, Vehicle};
 
 /// How a link sends.
@@ -42,8 +43,8 @@ impl Tx {
 pub struct LinkStats {
     pub frames_in: u64,
     pub frames_out: u64,
-    /// Unsigned (or wrongly signed) frames refused while signing is on.
-    pub unsigned_refused: u64,
+    /// What the signature check made of inbound frames (all zero when the link does not sign).
+    pub signing: SigningStats,
     /// Frames the link could not take (full queue, socket not ready).
     pub send_dropped: u64,
     /// Telemetry skipped because the radio reported a filling buffer.
@@ -53,7 +54,7 @@ pub struct LinkStats {
 struct LinkState {
     name: String,
     tx: Tx,
-    signing: Option<Arc<SigningData>>,
+    signing: Option<LinkSigning>,
     sequence: u8,
     /// Free transmit buffer (%) from the last RADIO_STATUS heard on this link.
     txbuf: Option<u8>,
@@ -117,7 +118,7 @@ impl Hub {
     }
 
     /// Adds a link; `signing` on means signed output and only validly signed input.
-    pub fn add_link(&mut self, name: String, tx: Tx, signing: Option<Arc<SigningData>>) -> LinkId {
+    pub fn add_link(&mut self, name: String, tx: Tx, signing: Option<LinkSigning>) -> LinkId {
         let id = self.next_id;
         self.next_id += 1;
         tracing::info!(link = %name, "MAVLink link up");
@@ -160,14 +161,27 @@ impl Hub {
         }
     }
 
-    /// A frame arrived on `link`: verify, route, and handle it if it is for us.
+    /// A frame arrived on `link`: check its signature, route, and handle it if it is for us.
     pub fn on_frame(&mut self, link: LinkId, frame: &Frame, now: Time) -> Vec<ToGraph> {
+        let verdict = self.links.get(&link).and_then(|l| l.signing.as_ref()).map(|s| s.check(frame));
+        self.on_checked_frame(link, frame, verdict, now)
+    }
+
+    /// [`Hub::on_frame`] for a frame whose signature was already checked (`verdict`; `None`
+    /// when the link does not sign).
+    pub fn on_checked_frame(
+        &mut self,
+        link: LinkId,
+        frame: &Frame,
+        verdict: Option<Verdict>,
+        now: Time,
+    ) -> Vec<ToGraph> {
         let Some(state) = self.links.get_mut(&link) else { return Vec::new() };
-        if let Some(signing) = &state.signing
-            && !frame.verify(signing)
-        {
-            state.stats.unsigned_refused += 1;
-            return Vec::new();
+        if let Some(verdict) = verdict {
+            state.stats.signing.count(verdict);
+            if !verdict.accepted() {
+                return Vec::new();
+            }
         }
         state.stats.frames_in += 1;
         // Only this process speaks with our system id: a frame that claims it is a loop, a
@@ -209,6 +223,12 @@ impl Hub {
         if !self.vehicle.is_for_us(&msg) {
             return Vec::new();
         }
+        if let MavMessage::SETUP_SIGNING(setup) = &msg {
+            let signing = self.links.get(&link).and_then(|l| l.signing.as_ref());
+            let answer = setup_signing::handle(signing, setup);
+            self.send_own(&answer, false);
+            return Vec::new();
+        }
         let sender = Sender { system_id: frame.system_id, component_id: frame.component_id };
         let out = self.vehicle.on_message(sender, &msg, now);
         self.dispatch(out)
@@ -247,7 +267,7 @@ impl Hub {
             }
             let header = MavHeader { system_id, component_id: COMPONENT_ID, sequence: state.sequence };
             state.sequence = state.sequence.wrapping_add(1);
-            let bytes = encode(header, msg, state.signing.as_deref());
+            let bytes = encode(header, msg, state.signing.as_ref());
             if state.tx.send(bytes) {
                 state.stats.frames_out += 1;
             } else {

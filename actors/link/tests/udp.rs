@@ -395,7 +395,7 @@ async fn with_signing_on_unsigned_commands_are_refused_and_signed_ones_served() 
     gcs.send(vehicle, &long).await;
     assert!(gcs.recv_until(WAIT, ack).await.is_some(), "signed command answered");
     let stats = link.hub.lock().expect("hub").link_stats();
-    assert_eq!(stats[0].1.unsigned_refused, 1, "{stats:?}");
+    assert_eq!(stats[0].1.signing.unsigned_refused, 1, "{stats:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
