@@ -379,6 +379,8 @@ async fn with_signing_on_unsigned_commands_are_refused_and_signed_ones_served() 
     std::fs::create_dir_all(&dir).expect("temp dir");
     let key = [0x5a_u8; 32];
     std::fs::write(dir.join("key.bin"), key).expect("key file");
+    std::fs::set_permissions(dir.join("key.bin"), std::os::unix::fs::PermissionsExt::from_mode(0o600))
+        .expect("chmod 600 the key file");
     let mut gcs = Peer::bind(255).await;
     let endpoint = EndpointConfig {
         kind: EndpointKind::UdpOut { address: gcs.addr(), bind: None, per_instance: false },
