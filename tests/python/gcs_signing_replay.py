@@ -50,18 +50,20 @@ def no_ack(gcs, label, seconds=1.5):
 
 
 def replay_elsewhere(gcs, raw):
-    """Sends `raw` from a new socket to the vehicle's other endpoint: nothing may come back."""
+    """Sends `raw` from a new socket to the vehicle's other endpoint: nothing may come back.
+    The ground station keeps reading meanwhile, or its socket's buffer would fill and drop what
+    the vehicle says next."""
     attacker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     attacker.bind(("127.0.0.1", 0))
-    attacker.settimeout(0.1)
+    attacker.setblocking(False)
     attacker.sendto(raw, ("127.0.0.1", REPLAY_PORT))
     end = time.monotonic() + 1.5
     while time.monotonic() < end:
-        gcs.send_heartbeat_if_due()
+        gcs.quiet(0.05)
         try:
             data, _ = attacker.recvfrom(65536)
             raise Failed("replay on the other endpoint", f"the vehicle answered ({len(data)} bytes)")
-        except socket.timeout:
+        except BlockingIOError:
             pass
     attacker.close()
     gcs.log(f"replay to the udp_in endpoint on {REPLAY_PORT}: nothing came back in 1.5 s")
@@ -85,7 +87,8 @@ def unsigned_radio_status(gcs, txbuf):
     the vehicle's frames come from."""
     radio = mav.MAVLink(None, srcSystem=51, srcComponent=68)
     msg = radio.radio_status_encode(200, 190, txbuf, 0, 0, 0, 0)
-    gcs.conn.port.sendto(msg.pack(radio), gcs.conn.last_address)
+    for vehicle in gcs.conn.clients:  # the addresses this udpin socket has heard from
+        gcs.conn.port.sendto(msg.pack(radio), vehicle)
 
 
 def before(gcs):
