@@ -346,7 +346,8 @@ fn signed_frames_replayed_on_another_endpoint_or_after_a_restart_are_refused() {
     std::fs::write(dir.join("gcs.key"), format!("{key}\n")).expect("key file");
     std::fs::set_permissions(dir.join("gcs.key"), std::os::unix::fs::PermissionsExt::from_mode(0o600))
         .expect("chmod 600 the key file");
-    let replay_port = std::net::UdpSocket::bind("127.0.0.1:0").and_then(|s| s.local_addr()).expect("a free port").port();
+    let replay_port =
+        std::net::UdpSocket::bind("127.0.0.1:0").and_then(|s| s.local_addr()).expect("a free port").port();
     let capture = dir.join("captured.hex");
     let capture = capture.to_str().expect("utf-8 path");
     let port_arg = replay_port.to_string();
@@ -359,8 +360,10 @@ fn signed_frames_replayed_on_another_endpoint_or_after_a_restart_are_refused() {
         link_params(port, &second, "")
     };
     let started = Instant::now();
-    let before = fly(&dir, "signing-before", "gcs_signing_replay.py", &[&key, "before", capture, &port_arg], link);
-    let after = fly(&dir, "signing-after", "gcs_signing_replay.py", &[&key, "after", capture, &port_arg], link);
+    let before =
+        fly(&dir, "signing-before", "gcs_signing_replay.py", &[&key, "before", capture, &port_arg], link);
+    let after =
+        fly(&dir, "signing-after", "gcs_signing_replay.py", &[&key, "after", capture, &port_arg], link);
     for (run, flight) in [("before", &before), ("after", &after)] {
         let counters: Vec<&str> =
             flight.kestrel_log.lines().filter(|l| l.contains("MAVLink link counters")).collect();

@@ -121,7 +121,8 @@ async fn first_answer(gcs: &mut SerialStream, limit: Duration) -> Option<Duratio
 
 fn open_gcs(path: &std::path::Path) -> SerialStream {
     let path = path.to_string_lossy().into_owned();
-    tokio_serial::SerialPortBuilderExt::open_native_async(tokio_serial::new(path, 57_600)).expect("open the gcs side")
+    tokio_serial::SerialPortBuilderExt::open_native_async(tokio_serial::new(path, 57_600))
+        .expect("open the gcs side")
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -155,6 +156,9 @@ async fn a_serial_link_that_disappears_carries_traffic_again_when_it_returns() {
     second.wait().ok();
     std::fs::remove_dir_all(&dir).ok();
     let back = back.expect("the link carries traffic again");
-    println!("figure: serial link carried traffic again {:.2} s after the device returned", back.as_secs_f64());
+    println!(
+        "figure: serial link carried traffic again {:.2} s after the device returned",
+        back.as_secs_f64()
+    );
     assert!(back < Duration::from_secs(2), "{back:?}");
 }

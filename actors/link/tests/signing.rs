@@ -3,6 +3,7 @@
 //! signed frame served, unsigned RADIO_STATUS taken (and nothing else unsigned), SETUP_SIGNING
 //! refused off serial, and key files others may read refused.
 
+#[allow(dead_code, reason = "shared with the other test binaries; this one reads no graph output")]
 mod common;
 #[path = "common/peer.rs"]
 #[allow(dead_code, reason = "shared with the other test binaries")]
@@ -63,7 +64,8 @@ fn parachute() -> MavMessage {
 fn gcs_bytes(signer: &SigningData, seq: u8, msg: &MavMessage) -> Vec<u8> {
     let header = MavHeader { system_id: 255, component_id: 190, sequence: seq };
     let mut buf = Vec::new();
-    mavlink::write_versioned_msg_signed(&mut buf, MavlinkVersion::V2, header, msg, Some(signer)).expect("sign");
+    mavlink::write_versioned_msg_signed(&mut buf, MavlinkVersion::V2, header, msg, Some(signer))
+        .expect("sign");
     buf
 }
 
@@ -73,7 +75,10 @@ fn ack(_: &MavHeader, m: &MavMessage) -> Option<()> {
 
 fn stats_of(link: &Harness, prefix: &str) -> LinkStats {
     let all = link.hub.lock().expect("hub").link_stats();
-    all.iter().find(|(n, _)| n.starts_with(prefix)).map(|(_, s)| *s).unwrap_or_else(|| panic!("{prefix}: {all:?}"))
+    all.iter()
+        .find(|(n, _)| n.starts_with(prefix))
+        .map(|(_, s)| *s)
+        .unwrap_or_else(|| panic!("{prefix}: {all:?}"))
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -96,7 +101,8 @@ async fn a_signed_frame_captured_on_one_endpoint_is_a_replay_on_another() {
     let dir = key_dir("replay", 0o600);
     let gcs = Peer::bind(255).await;
     let attacker = Peer::bind(77).await;
-    let link = Harness::start(&[signed(udp_out(gcs.addr())), signed(udp_out(attacker.addr()))], 0, &dir).await;
+    let link =
+        Harness::start(&[signed(udp_out(gcs.addr())), signed(udp_out(attacker.addr()))], 0, &dir).await;
     let to_gcs = link.endpoints[0].local_addr.expect("bound");
     let to_attacker = link.endpoints[1].local_addr.expect("bound");
     let signer = SigningData::from_config(SigningConfig::new(KEY, 0, true, false));
@@ -128,7 +134,11 @@ async fn on_a_signed_link_unsigned_radio_status_thins_telemetry_and_other_unsign
         mavlink::write_versioned_msg(&mut buf, MavlinkVersion::V2, header, &msg).expect("serialise");
         buf
     };
-    radio.socket.send_to(&send(MavMessage::HEARTBEAT(HEARTBEAT_DATA::default())), to_radio).await.expect("send");
+    radio
+        .socket
+        .send_to(&send(MavMessage::HEARTBEAT(HEARTBEAT_DATA::default())), to_radio)
+        .await
+        .expect("send");
     let status = MavMessage::RADIO_STATUS(RADIO_STATUS_DATA { txbuf: 10, rssi: 200, ..Default::default() });
     radio.socket.send_to(&send(status), to_radio).await.expect("send");
     tokio::time::sleep(Duration::from_millis(300)).await;
