@@ -9,7 +9,7 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 
 use kestrel_proto::Time;
-use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavMessage};
+use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavMessage, SETUP_SIGNING_DATA};
 use mavlink::{MavHeader, Message, MessageData};
 use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
@@ -202,7 +202,13 @@ impl Hub {
             self.undecodable += 1;
         }
         let target = msg.as_ref().ok().and_then(|m| m.target_system_id());
-        for dest in self.router.destinations(Some(link), target) {
+        // SETUP_SIGNING carries a secret key: it goes no further than the link it came on, even
+        // broadcast (held by `setup_signing_is_never_forwarded`).
+        let dests = match frame.message_id {
+            SETUP_SIGNING_DATA::ID => Vec::new(),
+            _ => self.router.destinations(Some(link), target),
+        };
+        for dest in dests {
             self.send_raw(dest, frame.bytes().to_vec());
         }
         let Ok(msg) = msg else {
@@ -366,6 +372,41 @@ mod tests {
         // A real ground station is still served and routed.
         feed(&mut hub, gcs, &mut FrameParser::new(), &read_p());
         assert!(gcs_rx.try_recv().is_ok(), "PARAM_VALUE for the ground station");
+    }
+
+    #[test]
+    fn setup_signing_is_never_forwarded() {
+        let (mut hub, gcs, mut gcs_rx) = hub();
+        let (tx, mut other_rx) = mpsc::channel(100);
+        let other = hub.add_link("other".into(), Tx::Stream(tx), None);
+        let mut parser = FrameParser::new();
+        // The other link has a peer, so broadcasts would reach it.
+        let hb =
+            MavMessage::HEARTBEAT(HEARTBEAT_DATA { mavtype: MavType::MAV_TYPE_GCS, ..Default::default() });
+        feed(
+            &mut hub,
+            other,
+            &mut parser,
+            &encode_v1(MavHeader { system_id: 200, component_id: 1, sequence: 0 }, &hb),
+        );
+        while gcs_rx.try_recv().is_ok() {}
+        let setup = MavMessage::SETUP_SIGNING(mavlink::dialects::ardupilotmega::SETUP_SIGNING_DATA {
+            initial_timestamp: 1,
+            target_system: 0,
+            target_component: 0,
+            secret_key: [3; 32],
+        });
+        let bytes = encode(MavHeader { system_id: 255, component_id: 190, sequence: 0 }, &setup, None);
+        feed(&mut hub, gcs, &mut FrameParser::new(), &bytes);
+        while let Ok(b) = other_rx.try_recv() {
+            let mut frames = Vec::new();
+            FrameParser::new().push(&b, &mut frames);
+            assert!(frames.iter().all(|f| f.message_id != SETUP_SIGNING_DATA::ID), "the key left its link");
+        }
+        let answer = gcs_rx.try_recv().expect("a STATUSTEXT");
+        let mut frames = Vec::new();
+        FrameParser::new().push(&answer, &mut frames);
+        assert!(matches!(frames[0].decode(), Ok(MavMessage::STATUSTEXT(_))), "{:?}", frames[0].decode());
     }
 
     proptest! {
