@@ -205,3 +205,84 @@ async fn a_key_file_others_may_read_is_refused_naming_the_file_and_its_mode() {
     assert!(text.contains(&dir.join("key.bin").display().to_string()) && text.contains("0644"), "{text}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The text of every STATUSTEXT in `bytes`.
+fn statustexts(bytes: &[u8]) -> Vec<String> {
+    let mut frames = Vec::new();
+    kestrel_link::frame::FrameParser::new().push(bytes, &mut frames);
+    frames
+        .iter()
+        .filter_map(|f| match f.decode() {
+            Ok(MavMessage::STATUSTEXT(s)) => {
+                Some(s.text.to_str().unwrap_or_default().trim_end_matches('\0').to_owned())
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// Reads `port` until a frame satisfies `pick` or `window` passes.
+async fn read_until<T>(
+    port: &mut tokio_serial::SerialStream,
+    window: Duration,
+    mut pick: impl FnMut(&[u8]) -> Option<T>,
+) -> Option<T> {
+    use tokio::io::AsyncReadExt;
+    let deadline = tokio::time::Instant::now() + window;
+    let mut seen = Vec::new();
+    let mut buf = [0u8; 1024];
+    while let Ok(Ok(n)) = tokio::time::timeout_at(deadline, port.read(&mut buf)).await {
+        seen.extend_from_slice(&buf[..n]);
+        if let Some(t) = pick(&seen) {
+            return Some(t);
+        }
+    }
+    None
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn setup_signing_over_serial_installs_the_key_for_good_and_the_old_key_stops_working() {
+    use tokio::io::AsyncWriteExt;
+    use tokio_serial::SerialPort;
+    let dir = key_dir("setup-serial", 0o600);
+    let (mut radio, slave) = tokio_serial::SerialStream::pair().expect("pseudo-terminal pair");
+    let device = slave.name().expect("the slave side has a path");
+    drop(slave);
+    let endpoint = signed(EndpointKind::Serial { device: device.into(), baud: 57_600, flow_control: false });
+    let link = Harness::start(&[endpoint], 0, &dir).await;
+    let old = SigningData::from_config(SigningConfig::new(KEY, 0, true, false));
+    let new_key = [0x3c; 32];
+    let setup = MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
+        initial_timestamp: 0,
+        target_system: 1,
+        target_component: 1,
+        secret_key: new_key,
+    });
+    radio.write_all(&gcs_bytes(&old, 0, &setup)).await.expect("write");
+    let installed =
+        read_until(&mut radio, WAIT, |b| statustexts(b).into_iter().find(|t| t.contains("Signing key")))
+            .await;
+    assert_eq!(installed.as_deref(), Some("Signing key installed"));
+    let stored = std::fs::read_to_string(dir.join("key.bin")).expect("key file");
+    assert_eq!(stored.trim(), "3c".repeat(32), "the new key is in the key file");
+    let mode = std::fs::metadata(dir.join("key.bin")).expect("meta").permissions().mode() & 0o777;
+    assert_eq!(mode, 0o600);
+
+    let is_ack = |b: &[u8]| {
+        let mut frames = Vec::new();
+        kestrel_link::frame::FrameParser::new().push(b, &mut frames);
+        frames.iter().any(|f| matches!(f.decode(), Ok(MavMessage::COMMAND_ACK(_)))).then_some(())
+    };
+    radio.write_all(&gcs_bytes(&old, 1, &parachute())).await.expect("write");
+    assert!(
+        read_until(&mut radio, Duration::from_millis(700), is_ack).await.is_none(),
+        "the old key is refused"
+    );
+    let new = SigningData::from_config(SigningConfig::new(new_key, 0, true, false));
+    radio.write_all(&gcs_bytes(&new, 2, &parachute())).await.expect("write");
+    assert!(read_until(&mut radio, WAIT, is_ack).await.is_some(), "the new key commands the vehicle");
+    let stats = stats_of(&link, "serial");
+    println!("figure: SETUP_SIGNING over serial: {:?}", stats.signing);
+    assert_eq!(stats.signing.bad_signature, 1, "{stats:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
