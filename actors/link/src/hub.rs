@@ -163,12 +163,11 @@ impl Hub {
 
     /// A frame arrived on `link`: check its signature, route, and handle it if it is for us.
     pub fn on_frame(&mut self, link: LinkId, frame: &Frame, now: Time) -> Vec<ToGraph> {
-        let verdict = self.links.get(&link).and_then(|l| l.signing.as_ref()).map(|s| s.check(frame));
-        self.on_checked_frame(link, frame, verdict, now)
+        self.on_checked_frame(link, frame, None, now)
     }
 
-    /// [`Hub::on_frame`] for a frame whose signature was already checked (`verdict`; `None`
-    /// when the link does not sign).
+    /// [`Hub::on_frame`] for a frame whose signature the caller already checked (`verdict`);
+    /// with `None`, a signing link checks it here.
     pub fn on_checked_frame(
         &mut self,
         link: LinkId,
@@ -177,7 +176,7 @@ impl Hub {
         now: Time,
     ) -> Vec<ToGraph> {
         let Some(state) = self.links.get_mut(&link) else { return Vec::new() };
-        if let Some(verdict) = verdict {
+        if let Some(verdict) = verdict.or_else(|| state.signing.as_ref().map(|s| s.check(frame))) {
             state.stats.signing.count(verdict);
             if !verdict.accepted() {
                 return Vec::new();

@@ -98,10 +98,7 @@ impl Shared {
             let out: Vec<ToGraph> = frames
                 .iter()
                 .enumerate()
-                .flat_map(|(i, f)| match verdicts.and_then(|v| v.get(i)) {
-                    Some(&verdict) => hub.on_checked_frame(id, f, Some(verdict), now),
-                    None => hub.on_frame(id, f, now),
-                })
+                .flat_map(|(i, f)| hub.on_checked_frame(id, f, verdicts.and_then(|v| v.get(i)).copied(), now))
                 .collect();
             let vehicle = hub.vehicle();
             let params = (vehicle.take_params_changed() && self.param_writer.is_some())
