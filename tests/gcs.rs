@@ -317,6 +317,9 @@ fn with_signing_on_only_a_client_holding_the_key_can_arm() {
     let dir = temp_dir("signing");
     let key: String = (0u8..32).map(|i| format!("{:02x}", i.wrapping_mul(37).wrapping_add(11))).collect();
     std::fs::write(dir.join("gcs.key"), format!("{key}\n")).expect("key file");
+    // A key file group or others may read is refused (as ssh refuses such a private key).
+    std::fs::set_permissions(dir.join("gcs.key"), std::os::unix::fs::PermissionsExt::from_mode(0o600))
+        .expect("chmod 600 the key file");
     let flight = fly(&dir, "signing", "gcs_signing.py", &[&key], |port| {
         link_params(port, ", signing_key_file = \"gcs.key\"", "")
     });
@@ -330,6 +333,48 @@ fn with_signing_on_only_a_client_holding_the_key_can_arm() {
         .and_then(|s| s.split(|c: char| !c.is_ascii_digit()).next())
         .and_then(|n| n.parse::<u64>().ok());
     println!("kestrel counted {} refused frames", refused.unwrap_or(0));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// One replay table and a stored timestamp (tests/python/gcs_signing_replay.py): a signed
+/// frame captured on the `udp_out` endpoint and sent to the `udp_in` one is refused, and so is
+/// it after `kestrel run` restarts; an unsigned RADIO_STATUS on the signed link thins telemetry.
+#[test]
+fn signed_frames_replayed_on_another_endpoint_or_after_a_restart_are_refused() {
+    let dir = temp_dir("signing-replay");
+    let key: String = (0u8..32).map(|i| format!("{:02x}", i.wrapping_mul(53).wrapping_add(7))).collect();
+    std::fs::write(dir.join("gcs.key"), format!("{key}\n")).expect("key file");
+    std::fs::set_permissions(dir.join("gcs.key"), std::os::unix::fs::PermissionsExt::from_mode(0o600))
+        .expect("chmod 600 the key file");
+    let replay_port =
+        std::net::UdpSocket::bind("127.0.0.1:0").and_then(|s| s.local_addr()).expect("a free port").port();
+    let capture = dir.join("captured.hex");
+    let capture = capture.to_str().expect("utf-8 path");
+    let port_arg = replay_port.to_string();
+    let link = |port| {
+        // The second endpoint closes the template's braces: a signed `udp_in` on `replay_port`.
+        let second = format!(
+            ", signing_key_file = \"gcs.key\" }}, {{ type = \"udp_in\", bind = \"127.0.0.1:{replay_port}\", \
+             max_peers = 2, signing_key_file = \"gcs.key\""
+        );
+        link_params(port, &second, "")
+    };
+    let started = Instant::now();
+    let before =
+        fly(&dir, "signing-before", "gcs_signing_replay.py", &[&key, "before", capture, &port_arg], link);
+    let after =
+        fly(&dir, "signing-after", "gcs_signing_replay.py", &[&key, "after", capture, &port_arg], link);
+    for (run, flight) in [("before", &before), ("after", &after)] {
+        let counters: Vec<&str> =
+            flight.kestrel_log.lines().filter(|l| l.contains("MAVLink link counters")).collect();
+        println!("figure: {run} the restart, the vehicle's link counters: {counters:#?}");
+        assert!(
+            flight.kestrel_log.contains("signing timestamp stored at shutdown"),
+            "{run}: {}",
+            tail(&flight.kestrel_log, 20)
+        );
+    }
+    println!("figure: both runs took {:.1} s", started.elapsed().as_secs_f64());
     std::fs::remove_dir_all(&dir).ok();
 }
 

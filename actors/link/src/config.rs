@@ -143,8 +143,10 @@ fn default_endpoints() -> Vec<EndpointConfig> {
 pub struct EndpointConfig {
     #[serde(flatten)]
     pub kind: EndpointKind,
-    /// MAVLink 2 signing key for this endpoint: a file holding 32 raw bytes or 64 hex digits.
-    /// When set, outgoing frames are signed and unsigned inbound frames are refused and counted.
+    /// MAVLink 2 signing key for this endpoint: a file holding 32 raw bytes or 64 hex digits,
+    /// readable by its owner alone (mode 0600; otherwise refused). When set, outgoing frames are
+    /// signed and unsigned inbound frames (but RADIO_STATUS) are refused and counted; see
+    /// `transport::signing`.
     #[serde(default)]
     pub signing_key_file: Option<PathBuf>,
 }

@@ -1,10 +1,12 @@
 //! MAVLink frames on the wire: a streaming parser that accepts MAVLink 1 and 2 (resynchronising
 //! after garbage and counting every frame it refuses), and the encoder for what we send.
 
-use mavlink::consts::{CHECKSUM_SIZE, MAX_FRAME_SIZE, v2};
+use mavlink::consts::{CHECKSUM_SIZE, v2};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::error::ParserError;
-use mavlink::{MAV_STX, MAV_STX_V2, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, Message, SigningData};
+use mavlink::{MAV_STX, MAV_STX_V2, MAVLinkV2MessageRaw, MavHeader, MavlinkVersion, Message};
+
+use crate::transport::LinkSigning;
 
 /// MAVLink 1 header length after the start byte: len, seq, sysid, compid, msgid.
 const V1_HEADER: usize = 5;
@@ -40,17 +42,6 @@ impl Frame {
     /// The message this frame carries.
     pub fn decode(&self) -> Result<MavMessage, ParserError> {
         MavMessage::parse(self.version, self.message_id, self.payload())
-    }
-
-    /// Whether `signing` accepts this frame (unsigned and MAVLink 1 frames only when the
-    /// signing configuration allows unsigned ones).
-    pub fn verify(&self, signing: &SigningData) -> bool {
-        if self.version == MavlinkVersion::V1 {
-            return false;
-        }
-        let mut raw = [0u8; MAX_FRAME_SIZE];
-        raw[..self.bytes.len()].copy_from_slice(&self.bytes);
-        signing.verify_signature(&MAVLinkV2MessageRaw::from_bytes_unparsed(raw))
     }
 }
 
@@ -181,12 +172,12 @@ enum Step {
 }
 
 /// Serialises `msg` as a MAVLink 2 frame from `header`, signed when `signing` is given.
-pub fn encode(header: MavHeader, msg: &MavMessage, signing: Option<&SigningData>) -> Vec<u8> {
+pub fn encode(header: MavHeader, msg: &MavMessage, signing: Option<&LinkSigning>) -> Vec<u8> {
     let mut raw = MAVLinkV2MessageRaw::new();
     match signing {
         Some(signing) => {
             raw.serialize_message_for_signing(header, msg);
-            signing.sign_message(&mut raw);
+            signing.sign(&mut raw);
         }
         None => raw.serialize_message(header, msg),
     }
@@ -203,7 +194,6 @@ pub fn encode_v1(header: MavHeader, msg: &MavMessage) -> Vec<u8> {
 #[cfg(test)]
 mod tests {
     use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, PARAM_REQUEST_LIST_DATA};
-    use mavlink::{SigningConfig, SigningData};
     use proptest::prelude::*;
 
     use super::*;
@@ -259,19 +249,6 @@ mod tests {
         assert_eq!(frames.len(), 1);
         assert_eq!(frames[0].sequence, 2);
         assert_eq!(stats.bad_crc, 1);
-    }
-
-    #[test]
-    fn signed_frames_verify_only_with_the_right_key() {
-        let key = SigningData::from_config(SigningConfig::new([7; 32], 0, true, false));
-        let other = SigningData::from_config(SigningConfig::new([8; 32], 0, true, false));
-        let (frames, _) = parse_all(&encode(header(1), &heartbeat(), Some(&key)));
-        assert!(frames[0].signed);
-        let receiver = SigningData::from_config(SigningConfig::new([7; 32], 0, true, false));
-        assert!(frames[0].verify(&receiver));
-        assert!(!frames[0].verify(&other));
-        let (unsigned, _) = parse_all(&encode(header(2), &heartbeat(), None));
-        assert!(!unsigned[0].verify(&receiver));
     }
 
     proptest! {

@@ -9,14 +9,15 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 
 use kestrel_proto::Time;
-use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavMessage};
-use mavlink::{MavHeader, Message, MessageData, SigningData};
+use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavMessage, SETUP_SIGNING_DATA};
+use mavlink::{MavHeader, Message, MessageData};
 use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
 
 use crate::frame::{Frame, encode};
 use crate::router::{LinkId, Router};
 use crate::services::{Outputs, Sender, ToGraph};
+use crate::transport::{LinkSigning, SigningStats, Verdict, setup_signing};
 use crate::vehicle::{COMPONENT_ID, Vehicle};
 
 /// How a link sends.
@@ -42,8 +43,8 @@ impl Tx {
 pub struct LinkStats {
     pub frames_in: u64,
     pub frames_out: u64,
-    /// Unsigned (or wrongly signed) frames refused while signing is on.
-    pub unsigned_refused: u64,
+    /// What the signature check made of inbound frames (all zero when the link does not sign).
+    pub signing: SigningStats,
     /// Frames the link could not take (full queue, socket not ready).
     pub send_dropped: u64,
     /// Telemetry skipped because the radio reported a filling buffer.
@@ -53,7 +54,7 @@ pub struct LinkStats {
 struct LinkState {
     name: String,
     tx: Tx,
-    signing: Option<Arc<SigningData>>,
+    signing: Option<LinkSigning>,
     sequence: u8,
     /// Free transmit buffer (%) from the last RADIO_STATUS heard on this link.
     txbuf: Option<u8>,
@@ -117,7 +118,7 @@ impl Hub {
     }
 
     /// Adds a link; `signing` on means signed output and only validly signed input.
-    pub fn add_link(&mut self, name: String, tx: Tx, signing: Option<Arc<SigningData>>) -> LinkId {
+    pub fn add_link(&mut self, name: String, tx: Tx, signing: Option<LinkSigning>) -> LinkId {
         let id = self.next_id;
         self.next_id += 1;
         tracing::info!(link = %name, "MAVLink link up");
@@ -160,14 +161,26 @@ impl Hub {
         }
     }
 
-    /// A frame arrived on `link`: verify, route, and handle it if it is for us.
+    /// A frame arrived on `link`: check its signature, route, and handle it if it is for us.
     pub fn on_frame(&mut self, link: LinkId, frame: &Frame, now: Time) -> Vec<ToGraph> {
+        self.on_checked_frame(link, frame, None, now)
+    }
+
+    /// [`Hub::on_frame`] for a frame whose signature the caller already checked (`verdict`);
+    /// with `None`, a signing link checks it here.
+    pub fn on_checked_frame(
+        &mut self,
+        link: LinkId,
+        frame: &Frame,
+        verdict: Option<Verdict>,
+        now: Time,
+    ) -> Vec<ToGraph> {
         let Some(state) = self.links.get_mut(&link) else { return Vec::new() };
-        if let Some(signing) = &state.signing
-            && !frame.verify(signing)
-        {
-            state.stats.unsigned_refused += 1;
-            return Vec::new();
+        if let Some(verdict) = verdict.or_else(|| state.signing.as_ref().map(|s| s.check(frame))) {
+            state.stats.signing.count(verdict);
+            if !verdict.accepted() {
+                return Vec::new();
+            }
         }
         state.stats.frames_in += 1;
         // Only this process speaks with our system id: a frame that claims it is a loop, a
@@ -188,7 +201,13 @@ impl Hub {
             self.undecodable += 1;
         }
         let target = msg.as_ref().ok().and_then(|m| m.target_system_id());
-        for dest in self.router.destinations(Some(link), target) {
+        // SETUP_SIGNING carries a secret key: it goes no further than the link it came on, even
+        // broadcast (held by `setup_signing_is_never_forwarded`).
+        let dests = match frame.message_id {
+            SETUP_SIGNING_DATA::ID => Vec::new(),
+            _ => self.router.destinations(Some(link), target),
+        };
+        for dest in dests {
             self.send_raw(dest, frame.bytes().to_vec());
         }
         let Ok(msg) = msg else {
@@ -207,6 +226,12 @@ impl Hub {
             state.txbuf = Some(r.txbuf);
         }
         if !self.vehicle.is_for_us(&msg) {
+            return Vec::new();
+        }
+        if let MavMessage::SETUP_SIGNING(setup) = &msg {
+            let signing = self.links.get(&link).and_then(|l| l.signing.as_ref());
+            let answer = setup_signing::handle(signing, setup);
+            self.send_own(&answer, false);
             return Vec::new();
         }
         let sender = Sender { system_id: frame.system_id, component_id: frame.component_id };
@@ -247,7 +272,7 @@ impl Hub {
             }
             let header = MavHeader { system_id, component_id: COMPONENT_ID, sequence: state.sequence };
             state.sequence = state.sequence.wrapping_add(1);
-            let bytes = encode(header, msg, state.signing.as_deref());
+            let bytes = encode(header, msg, state.signing.as_ref());
             if state.tx.send(bytes) {
                 state.stats.frames_out += 1;
             } else {
@@ -346,6 +371,41 @@ mod tests {
         // A real ground station is still served and routed.
         feed(&mut hub, gcs, &mut FrameParser::new(), &read_p());
         assert!(gcs_rx.try_recv().is_ok(), "PARAM_VALUE for the ground station");
+    }
+
+    #[test]
+    fn setup_signing_is_never_forwarded() {
+        let (mut hub, gcs, mut gcs_rx) = hub();
+        let (tx, mut other_rx) = mpsc::channel(100);
+        let other = hub.add_link("other".into(), Tx::Stream(tx), None);
+        let mut parser = FrameParser::new();
+        // The other link has a peer, so broadcasts would reach it.
+        let hb =
+            MavMessage::HEARTBEAT(HEARTBEAT_DATA { mavtype: MavType::MAV_TYPE_GCS, ..Default::default() });
+        feed(
+            &mut hub,
+            other,
+            &mut parser,
+            &encode_v1(MavHeader { system_id: 200, component_id: 1, sequence: 0 }, &hb),
+        );
+        while gcs_rx.try_recv().is_ok() {}
+        let setup = MavMessage::SETUP_SIGNING(mavlink::dialects::ardupilotmega::SETUP_SIGNING_DATA {
+            initial_timestamp: 1,
+            target_system: 0,
+            target_component: 0,
+            secret_key: [3; 32],
+        });
+        let bytes = encode(MavHeader { system_id: 255, component_id: 190, sequence: 0 }, &setup, None);
+        feed(&mut hub, gcs, &mut FrameParser::new(), &bytes);
+        while let Ok(b) = other_rx.try_recv() {
+            let mut frames = Vec::new();
+            FrameParser::new().push(&b, &mut frames);
+            assert!(frames.iter().all(|f| f.message_id != SETUP_SIGNING_DATA::ID), "the key left its link");
+        }
+        let answer = gcs_rx.try_recv().expect("a STATUSTEXT");
+        let mut frames = Vec::new();
+        FrameParser::new().push(&answer, &mut frames);
+        assert!(matches!(frames[0].decode(), Ok(MavMessage::STATUSTEXT(_))), "{:?}", frames[0].decode());
     }
 
     proptest! {

@@ -8,7 +8,10 @@
 //!   parameters, missions, telemetry, offboard control, status text.
 //! * [`vehicle`] — dispatches what is addressed to us to the services.
 //! * [`hub`] — links + router + vehicle: signatures, routing, per-link encoding, radio thinning.
-//! * [`transport`] — UDP client/server, TCP server and serial tasks feeding the hub.
+//! * [`transport`] — UDP client/server, TCP server and serial tasks feeding the hub, and
+//!   MAVLink 2 signing: one replay table for every link (`transport/signing.rs`), owner-only key
+//!   files (`signing_key.rs`), the timestamp kept across restarts (`signing_store.rs`) and
+//!   SETUP_SIGNING (`setup_signing.rs`).
 //! * [`actor`] — [`LinkActor`], the graph's side.
 //! * [`sim_gcs`] — [`SimGcsActor`], a ground station's heartbeats on the graph clock for
 //!   simulated flights (silenced by the simulator's `link_lost` fault); no vehicle runs it.

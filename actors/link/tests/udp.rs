@@ -379,6 +379,8 @@ async fn with_signing_on_unsigned_commands_are_refused_and_signed_ones_served() 
     std::fs::create_dir_all(&dir).expect("temp dir");
     let key = [0x5a_u8; 32];
     std::fs::write(dir.join("key.bin"), key).expect("key file");
+    std::fs::set_permissions(dir.join("key.bin"), std::os::unix::fs::PermissionsExt::from_mode(0o600))
+        .expect("chmod 600 the key file");
     let mut gcs = Peer::bind(255).await;
     let endpoint = EndpointConfig {
         kind: EndpointKind::UdpOut { address: gcs.addr(), bind: None, per_instance: false },
@@ -395,7 +397,7 @@ async fn with_signing_on_unsigned_commands_are_refused_and_signed_ones_served() 
     gcs.send(vehicle, &long).await;
     assert!(gcs.recv_until(WAIT, ack).await.is_some(), "signed command answered");
     let stats = link.hub.lock().expect("hub").link_stats();
-    assert_eq!(stats[0].1.unsigned_refused, 1, "{stats:?}");
+    assert_eq!(stats[0].1.signing.unsigned_refused, 1, "{stats:?}");
     std::fs::remove_dir_all(&dir).ok();
 }
 

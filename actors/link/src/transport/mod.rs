@@ -3,12 +3,16 @@
 
 mod param_writer;
 mod serial;
-mod signing;
+pub mod setup_signing;
+pub mod signing;
+pub mod signing_key;
+pub mod signing_store;
 mod stream;
 mod tcp;
 mod udp;
 mod udp_peers;
 
+use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -24,6 +28,8 @@ use crate::services::ToGraph;
 use crate::services::params::render_param_file;
 
 pub use param_writer::{ParamWriter, WriterStats, write_atomically};
+pub use signing::{LinkSigning, SigningStats, Streams, Verdict};
+pub use signing_key::{KeyError, SigningKey};
 pub use udp_peers::{EVICTABLE_AFTER, PeerStats};
 
 /// Where messages for the graph go (the actor's publishers, or a test's collector).
@@ -48,8 +54,8 @@ pub enum EndpointError {
     },
     #[error("UDP server on {bind}: max_peers must be at least 1")]
     NoPeers { bind: SocketAddr },
-    #[error("signing key {path}: {reason}")]
-    SigningKey { path: PathBuf, reason: String },
+    #[error(transparent)]
+    SigningKey(#[from] KeyError),
 }
 
 /// What every endpoint task shares.
@@ -72,13 +78,28 @@ impl Shared {
     /// Hands frames from link `id` to the hub, then publishes what it produced and queues
     /// changed parameters for the writer thread (never waiting for the disk).
     pub fn handle_frames(&self, id: LinkId, frames: &[Frame]) {
+        self.handle(id, frames, None);
+    }
+
+    /// [`Shared::handle_frames`] for frames whose signatures the caller already checked
+    /// (`verdicts[i]` is `frames[i]`'s): each frame is checked once, as a second check of the
+    /// same frame would find it a replay.
+    pub fn handle_checked_frames(&self, id: LinkId, frames: &[Frame], verdicts: &[Verdict]) {
+        self.handle(id, frames, Some(verdicts));
+    }
+
+    fn handle(&self, id: LinkId, frames: &[Frame], verdicts: Option<&[Verdict]>) {
         if frames.is_empty() {
             return;
         }
         let now = self.clock.now();
         let (out, params) = {
             let mut hub = self.hub();
-            let out: Vec<ToGraph> = frames.iter().flat_map(|f| hub.on_frame(id, f, now)).collect();
+            let out: Vec<ToGraph> = frames
+                .iter()
+                .enumerate()
+                .flat_map(|(i, f)| hub.on_checked_frame(id, f, verdicts.and_then(|v| v.get(i)).copied(), now))
+                .collect();
             let vehicle = hub.vehicle();
             let params = (vehicle.take_params_changed() && self.param_writer.is_some())
                 .then(|| render_param_file(vehicle.params()));
@@ -102,23 +123,47 @@ pub struct OpenEndpoint {
     pub peer_stats: Option<Arc<Mutex<PeerStats>>>,
 }
 
-/// Opens every endpoint and spawns its tasks; `config_dir` resolves relative key paths.
+/// Opens every endpoint and spawns its tasks; `config_dir` resolves relative key paths and
+/// holds the stored signing timestamp. Every signing endpoint shares one [`Streams`] (one
+/// replay table, one timestamp), and endpoints naming the same key file share its key.
 pub async fn open_all(
     endpoints: &[EndpointConfig],
     config_dir: &Path,
     shared: &Shared,
 ) -> Result<Vec<OpenEndpoint>, EndpointError> {
+    let streams = endpoints.iter().any(|e| e.signing_key_file.is_some()).then(|| {
+        let system_id = shared.hub().vehicle().system_id();
+        start_signing_clock(config_dir, system_id, &shared.shutdown)
+    });
+    let mut keys: HashMap<PathBuf, Arc<SigningKey>> = HashMap::new();
     let mut open = Vec::new();
     let mut failed = None;
     for e in endpoints {
-        match open_one(e, u8::try_from(open.len()).unwrap_or(0), config_dir, shared).await {
-            Ok(opened) => open.push(opened),
-            // One endpoint that cannot open (a radio unplugged, a port in use) must not take
-            // the others down: the vehicle stays reachable on what did open.
-            Err(error) => {
-                tracing::error!(endpoint = ?e.kind, %error, "MAVLink endpoint not opened; the others stay up");
-                failed = Some(error);
+        let link_id = u8::try_from(open.len()).unwrap_or(0);
+        let signing = match (&e.signing_key_file, &streams) {
+            (Some(file), Some(streams)) => {
+                let path = config_dir.join(file);
+                let key = match keys.get(&path) {
+                    Some(key) => Ok(Arc::clone(key)),
+                    None => SigningKey::load(&path).map(Arc::new),
+                };
+                match key {
+                    Ok(key) => {
+                        keys.insert(path, Arc::clone(&key));
+                        let secure = matches!(e.kind, EndpointKind::Serial { .. });
+                        Ok(Some(LinkSigning { streams: Arc::clone(streams), key, link_id, secure }))
+                    }
+                    Err(error) => Err(EndpointError::from(error)),
+                }
             }
+            _ => Ok(None),
+        };
+        match signing {
+            Ok(signing) => match open_one(e, signing, shared).await {
+                Ok(opened) => open.push(opened),
+                Err(error) => failed = Some(not_opened(e, error)),
+            },
+            Err(error) => failed = Some(not_opened(e, error)),
         }
     }
     match failed {
@@ -127,16 +172,38 @@ pub async fn open_all(
     }
 }
 
+/// One endpoint that cannot open (a radio unplugged, a port in use, a key file others may read)
+/// must not take the others down: the vehicle stays reachable on what did open.
+fn not_opened(e: &EndpointConfig, error: EndpointError) -> EndpointError {
+    tracing::error!(endpoint = ?e.kind, %error, "MAVLink endpoint not opened; the others stay up");
+    error
+}
+
+/// The shared signing state, restored from the stored timestamp, with its saver task.
+fn start_signing_clock(config_dir: &Path, system_id: u8, shutdown: &CancellationToken) -> Arc<Streams> {
+    let file = signing_store::TimestampFile::in_dir(config_dir, system_id);
+    let stored = file.load().unwrap_or_else(|error| {
+        // Without it, replay protection across this restart rests on the system clock alone.
+        tracing::error!(%error, "stored signing timestamp unreadable; starting from the system clock");
+        None
+    });
+    let streams = Arc::new(Streams::new(stored, signing::wall_timestamp()));
+    tracing::info!(path = %file.path().display(), ?stored, timestamp = streams.timestamp(), "MAVLink signing clock");
+    signing_store::spawn_saver(
+        file,
+        Arc::clone(&streams),
+        stored,
+        signing_store::SAVE_PERIOD,
+        shutdown.clone(),
+    );
+    streams
+}
+
 async fn open_one(
     e: &EndpointConfig,
-    link_id: u8,
-    config_dir: &Path,
+    signing: Option<LinkSigning>,
     shared: &Shared,
 ) -> Result<OpenEndpoint, EndpointError> {
-    let signing = match &e.signing_key_file {
-        Some(p) => Some(signing::load(&config_dir.join(p), link_id)?),
-        None => None,
-    };
     match &e.kind {
         EndpointKind::UdpOut { address, bind, .. } => {
             udp::open_client(*address, *bind, signing, shared).await

@@ -1,17 +1,15 @@
 //! TCP server endpoint: every accepted connection is its own link.
 
 use std::net::SocketAddr;
-use std::sync::Arc;
 
-use mavlink::SigningData;
 use tokio::net::TcpListener;
 
-use super::{EndpointError, OpenEndpoint, Shared, stream};
+use super::{EndpointError, LinkSigning, OpenEndpoint, Shared, stream};
 
 /// Listens on `bind` and serves connections until shutdown.
 pub async fn open_server(
     bind: SocketAddr,
-    signing: Option<Arc<SigningData>>,
+    signing: Option<LinkSigning>,
     shared: &Shared,
 ) -> Result<OpenEndpoint, EndpointError> {
     let listener = TcpListener::bind(bind).await.map_err(|source| EndpointError::Bind {

@@ -8,11 +8,10 @@ use std::net::{Ipv4Addr, SocketAddr};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use mavlink::SigningData;
 use tokio::net::UdpSocket;
 
 use super::udp_peers::{Admission, PeerStats, PeerTable};
-use super::{EndpointError, OpenEndpoint, Shared};
+use super::{EndpointError, LinkSigning, OpenEndpoint, Shared, Verdict};
 use crate::frame::FrameParser;
 use crate::hub::Tx;
 use crate::router::LinkId;
@@ -32,7 +31,7 @@ const CLIENT_EXTRA_PEERS: usize = 8;
 pub async fn open_client(
     address: SocketAddr,
     bind: Option<SocketAddr>,
-    signing: Option<Arc<SigningData>>,
+    signing: Option<LinkSigning>,
     shared: &Shared,
 ) -> Result<OpenEndpoint, EndpointError> {
     if let Some(bind) = bind {
@@ -71,7 +70,7 @@ pub async fn open_client(
 pub async fn open_server(
     bind: SocketAddr,
     max_peers: usize,
-    signing: Option<Arc<SigningData>>,
+    signing: Option<LinkSigning>,
     shared: &Shared,
 ) -> Result<OpenEndpoint, EndpointError> {
     if max_peers == 0 {
@@ -86,7 +85,7 @@ async fn serve(
     bind: SocketAddr,
     max_peers: usize,
     fixed: Option<SocketAddr>,
-    signing: Option<Arc<SigningData>>,
+    signing: Option<LinkSigning>,
     shared: &Shared,
 ) -> Result<OpenEndpoint, EndpointError> {
     let socket = bind_socket(bind, "UDP server").await?;
@@ -137,8 +136,13 @@ async fn serve(
             let mut parser = FrameParser::new();
             let mut frames = Vec::new();
             parser.push(&buf[..n], &mut frames);
-            let acceptable = match &signing {
-                Some(signing) => frames.iter().any(|f| f.verify(signing)),
+            // Checked here, once: the hub takes these verdicts rather than check again (a second
+            // check of a signed frame would find it a replay). An unsigned RADIO_STATUS makes no
+            // peer: anyone can send one.
+            let verdicts: Option<Vec<Verdict>> =
+                signing.as_ref().map(|s| frames.iter().map(|f| s.check(f)).collect());
+            let acceptable = match &verdicts {
+                Some(v) => v.contains(&Verdict::Signed),
                 None => !frames.is_empty(),
             };
             if !acceptable {
@@ -159,7 +163,10 @@ async fn serve(
                     let id = hub.add_link(format!("udp peer {peer}"), tx, signing.clone());
                     drop(hub);
                     peers.insert(peer, id, parser, now);
-                    shared.handle_frames(id, &frames);
+                    match &verdicts {
+                        Some(v) => shared.handle_checked_frames(id, &frames, v),
+                        None => shared.handle_frames(id, &frames),
+                    }
                 }
             }
             publish(&peers);

@@ -15,7 +15,7 @@ use kestrel_proto::{Clock, Time};
 use tokio_util::sync::CancellationToken;
 
 /// Wall-clock time since the harness started.
-pub struct WallClock(Instant);
+pub struct WallClock(pub Instant);
 
 impl Clock for WallClock {
     fn now(&self) -> Time {
