@@ -66,12 +66,20 @@ impl ArduCopter {
     /// beside the binary) and a wiped EEPROM, its serial 0 sending MAVLink to
     /// 127.0.0.1:`gcs_port` (UDP).
     pub fn start(binary: &Path, gcs_port: u16) -> ArduCopter {
-        ArduCopter::start_model(binary, gcs_port, "+", &[])
+        ArduCopter::start_model(binary, gcs_port, "+", None, &[])
     }
 
-    /// As [`ArduCopter::start`], on SITL's physics `model` (`--model`, e.g. `x:FRAME.json`)
-    /// with `parms` after `copter.parm` in `--defaults`.
-    pub fn start_model(binary: &Path, gcs_port: u16, model: &str, parms: &[&Path]) -> ArduCopter {
+    /// As [`ArduCopter::start`], on SITL's built-in physics for `frame` (`--model`, e.g. `x`)
+    /// with the frame's mass, thrust and inertia from `frame_json` (SIM_Frame's model file,
+    /// copied into SITL's directory: it loads the file by a relative path only) and `parms` after
+    /// `copter.parm` in `--defaults`.
+    pub fn start_model(
+        binary: &Path,
+        gcs_port: u16,
+        frame: &str,
+        frame_json: Option<&Path>,
+        parms: &[&Path],
+    ) -> ArduCopter {
         let copter_parm = binary.with_file_name("copter.parm");
         assert!(copter_parm.is_file(), "no {} beside the ArduCopter binary", copter_parm.display());
         let defaults = std::iter::once(copter_parm.as_path())
@@ -83,11 +91,18 @@ impl ArduCopter {
         let dir = std::env::temp_dir().join(format!("kestrel-arducopter-{}-{instance}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("SITL's scratch dir");
+        let model = match frame_json {
+            Some(json) => {
+                std::fs::copy(json, dir.join("frame.json")).expect("copy the frame model");
+                format!("{frame}:frame.json")
+            }
+            None => frame.to_string(),
+        };
         let log = File::create(dir.join("arducopter.log")).expect("SITL log");
         let process = Proc(
             Command::new(binary)
                 .current_dir(&dir)
-                .args(["--model", model, "--speedup", &SPEEDUP.to_string(), "--defaults"])
+                .args(["--model", &model, "--speedup", &SPEEDUP.to_string(), "--defaults"])
                 .arg(&defaults)
                 .args(["--home", HOME, "-w", "-I", &instance.to_string(), "--serial0"])
                 .arg(format!("udpclient:127.0.0.1:{gcs_port}"))

@@ -3,8 +3,7 @@ ArduCopter says it did. Run against ArduCopter SITL on Kestrel's physics (`kestr
 ardupilot`) and on its own `--model +` physics (tests/ardupilot_sitl.rs).
 
 Usage: ardupilot_square.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
-Environment: PLAN (the .plan file), SKIP_MISSION=1 to only take off, hover and land (the
-hover-throttle comparison).
+Environment: PLAN (the .plan file), DEADLINE_S (wall seconds the session may take).
 
 1. identify the vehicle, ask for its telemetry streams (ArduCopter sends only what is asked for);
 2. upload the plan (home as item 0, as ArduPilot numbers it);
@@ -97,7 +96,6 @@ def flight(gcs):
     # 4 Hz of ArduCopter's time: at ten times real time and more, faster streams overrun a Python
     # client's socket and lose COMMAND_ACKs.
     gcs.conn.mav.request_data_stream_send(*VEHICLE, mav.MAV_DATA_STREAM_ALL, 4, 1)
-    skip_mission = os.environ.get("SKIP_MISSION") == "1"
     items = plan_items(os.environ["PLAN"])
     gcs.results["items"] = upload(gcs, items)
     arm_in_guided(gcs)
@@ -107,18 +105,11 @@ def flight(gcs):
             break
     gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 0.5, 40.0, "take-off")
     gcs.results["takeoff_s"] = round(gcs.boot_s - armed_at, 2)
-    if skip_mission:
-        # 30 s of ArduCopter's time in GUIDED hover: three time constants of its hover-throttle
-        # learning (MOT_HOVER_LEARN).
-        hover_from = gcs.boot_s
-        gcs.pump(lambda m: gcs.boot_s >= hover_from + 30.0, 60.0, "hover")
-        until_mode(gcs, "LAND")
-    else:
-        until_mode(gcs, "AUTO")
-        auto_at = gcs.boot_s
-        last = len(items) - 2  # the last waypoint; the final item is the RTL
-        gcs.pump(lambda m: last in gcs.reached, 60.0, "square")
-        gcs.results["square_s"] = round(gcs.boot_s - auto_at, 2)
+    until_mode(gcs, "AUTO")
+    auto_at = gcs.boot_s
+    last = len(items) - 2  # the last waypoint; the final item is the RTL
+    gcs.pump(lambda m: last in gcs.reached, 60.0, "square")
+    gcs.results["square_s"] = round(gcs.boot_s - auto_at, 2)
     gcs.pump(lambda m: gcs.heartbeat is not None and not gcs.armed, 60.0, "landed and disarmed")
     gcs.quiet(0.5)
     gcs.results["flight_s"] = round(gcs.boot_s - armed_at, 2)
