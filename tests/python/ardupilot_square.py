@@ -12,6 +12,7 @@ Environment: PLAN (the .plan file), DEADLINE_S (wall seconds the session may tak
 5. read MOT_THST_HOVER, the hover throttle ArduCopter learned in flight.
 
 The last line's `results` hold `max_rel_alt_m`, `reached` (MISSION_ITEM_REACHED seqs),
+`mission_currents` (each new MISSION_CURRENT seq),
 `landed_from_home_m` (GLOBAL_POSITION_INT against HOME_POSITION once disarmed), `modes`,
 `hover_throttle` and the simulated seconds each phase took.
 """
@@ -108,13 +109,16 @@ def flight(gcs):
     until_mode(gcs, "AUTO")
     auto_at = gcs.boot_s
     last = len(items) - 2  # the last waypoint; the final item is the RTL
-    gcs.pump(lambda m: last in gcs.reached, 60.0, "square")
+    # Reached, or MISSION_CURRENT past it: at many times real time a UDP datagram to a Python
+    # client can be lost, MISSION_ITEM_REACHED as well as any other.
+    gcs.pump(lambda m: last in gcs.reached or (gcs.mission_current or 0) > last, 60.0, "square")
     gcs.results["square_s"] = round(gcs.boot_s - auto_at, 2)
     gcs.pump(lambda m: gcs.heartbeat is not None and not gcs.armed, 60.0, "landed and disarmed")
     gcs.quiet(0.5)
     gcs.results["flight_s"] = round(gcs.boot_s - armed_at, 2)
     gcs.results["max_rel_alt_m"] = round(gcs.max_rel_alt_m, 2)
     gcs.results["reached"] = gcs.reached
+    gcs.results["mission_currents"] = gcs.mission_currents
     gcs.results["modes"] = [m for m in gcs.modes_seen if m in ACM_MODES]
     home = gcs.home or (items[0]["lat"], items[0]["lon"])
     gcs.results["landed_from_home_m"] = round(distance_m(gcs.position, home), 2)

@@ -51,7 +51,12 @@ impl JsonServer {
             match self.socket.recv_from(&mut buf) {
                 Ok((len, from)) => match self.backend.answer(&buf[..len]) {
                     Ok(reply) => {
-                        self.socket.send_to(reply.as_bytes(), from)?;
+                        // A signal (the one that stops the run) may interrupt the send: send again.
+                        while let Err(e) = self.socket.send_to(reply.as_bytes(), from) {
+                            if e.kind() != io::ErrorKind::Interrupted {
+                                return Err(e);
+                            }
+                        }
                         since_check += 1;
                         if since_check >= 1200 {
                             since_check = 0;
@@ -68,7 +73,13 @@ impl JsonServer {
                         self.backend.count_refused_packet();
                     }
                 },
-                Err(e) if matches!(e.kind(), io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut) => {
+                // No packet within POLL, or a signal arrived (SIGTERM ends a run): ask `stop`.
+                Err(e)
+                    if matches!(
+                        e.kind(),
+                        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+                    ) =>
+                {
                     if stop(&self.backend.summary()) {
                         break;
                     }
