@@ -37,6 +37,8 @@ pub enum Command {
     Stereo(StereoArgs),
     /// Plots (PNG) and an error summary of a recorded flight (`kestrel run --record`).
     Report(crate::cmd::report::ReportArgs),
+    /// Fly another flight stack's SITL on Kestrel's simulator (`kestrel sitl ardupilot`).
+    Sitl(crate::cmd::sitl::SitlArgs),
 }
 
 #[derive(Debug, clap::Args)]

@@ -34,6 +34,7 @@ fn main() -> ExitCode {
         Command::Disparity(args) => cmd::disparity::run(args),
         Command::Stereo(args) => cmd::stereo::run(args),
         Command::Report(args) => cmd::report::run(args),
+        Command::Sitl(args) => cmd::sitl::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

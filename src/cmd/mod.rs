@@ -6,4 +6,5 @@ pub mod fuzzy;
 pub mod replay;
 pub mod report;
 pub mod run;
+pub mod sitl;
 pub mod stereo;

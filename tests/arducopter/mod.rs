@@ -66,17 +66,43 @@ impl ArduCopter {
     /// beside the binary) and a wiped EEPROM, its serial 0 sending MAVLink to
     /// 127.0.0.1:`gcs_port` (UDP).
     pub fn start(binary: &Path, gcs_port: u16) -> ArduCopter {
-        let defaults = binary.with_file_name("copter.parm");
-        assert!(defaults.is_file(), "no {} beside the ArduCopter binary", defaults.display());
+        ArduCopter::start_model(binary, gcs_port, "+", None, &[])
+    }
+
+    /// As [`ArduCopter::start`], on SITL's built-in physics for `frame` (`--model`, e.g. `x`)
+    /// with the frame's mass, thrust and inertia from `frame_json` (SIM_Frame's model file,
+    /// copied into SITL's directory: it loads the file by a relative path only) and `parms` after
+    /// `copter.parm` in `--defaults`.
+    pub fn start_model(
+        binary: &Path,
+        gcs_port: u16,
+        frame: &str,
+        frame_json: Option<&Path>,
+        parms: &[&Path],
+    ) -> ArduCopter {
+        let copter_parm = binary.with_file_name("copter.parm");
+        assert!(copter_parm.is_file(), "no {} beside the ArduCopter binary", copter_parm.display());
+        let defaults = std::iter::once(copter_parm.as_path())
+            .chain(parms.iter().copied())
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(",");
         let (instance, lock) = free_instance();
         let dir = std::env::temp_dir().join(format!("kestrel-arducopter-{}-{instance}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).expect("SITL's scratch dir");
+        let model = match frame_json {
+            Some(json) => {
+                std::fs::copy(json, dir.join("frame.json")).expect("copy the frame model");
+                format!("{frame}:frame.json")
+            }
+            None => frame.to_string(),
+        };
         let log = File::create(dir.join("arducopter.log")).expect("SITL log");
         let process = Proc(
             Command::new(binary)
                 .current_dir(&dir)
-                .args(["--model", "+", "--speedup", &SPEEDUP.to_string(), "--defaults"])
+                .args(["--model", &model, "--speedup", &SPEEDUP.to_string(), "--defaults"])
                 .arg(&defaults)
                 .args(["--home", HOME, "-w", "-I", &instance.to_string(), "--serial0"])
                 .arg(format!("udpclient:127.0.0.1:{gcs_port}"))
@@ -108,8 +134,9 @@ impl Drop for ArduCopter {
     }
 }
 
-/// An instance number whose lock this process now holds and whose ports are free.
-fn free_instance() -> (u16, File) {
+/// An instance number whose lock this process now holds and whose ports are free (its JSON
+/// physics port, UDP 9002 + 10·N, included).
+pub fn free_instance() -> (u16, File) {
     for n in INSTANCES {
         let path = std::env::temp_dir().join(format!("kestrel-arducopter-instance-{n}.lock"));
         let Ok(file) = File::create(&path) else { continue };
@@ -118,7 +145,8 @@ fn free_instance() -> (u16, File) {
         }
         let tcp_free =
             [5762, 5763].iter().all(|p| std::net::TcpListener::bind(("0.0.0.0", p + 10 * n)).is_ok());
-        let udp_free = std::net::UdpSocket::bind(("0.0.0.0", 5501 + 10 * n)).is_ok();
+        let udp_free =
+            [5501, 9002].iter().all(|p| std::net::UdpSocket::bind(("0.0.0.0", p + 10 * n)).is_ok());
         if tcp_free && udp_free {
             return (n, file);
         }

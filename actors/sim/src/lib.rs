@@ -14,6 +14,7 @@
 //! the file and field, never a panic.
 
 mod actor;
+pub mod ardupilot;
 mod battery;
 pub mod camera;
 mod camera_actor;

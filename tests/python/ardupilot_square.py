@@ -1,0 +1,129 @@
+"""Flies config/missions/square.plan with ArduCopter as a ground station would, and reports what
+ArduCopter says it did. Run against ArduCopter SITL on Kestrel's physics (`kestrel sitl
+ardupilot`) and on its own `--model +` physics (tests/ardupilot_sitl.rs).
+
+Usage: ardupilot_square.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
+Environment: PLAN (the .plan file), DEADLINE_S (wall seconds the session may take).
+
+1. identify the vehicle, ask for its telemetry streams (ArduCopter sends only what is asked for);
+2. upload the plan (home as item 0, as ArduPilot numbers it);
+3. GUIDED and arm (each retried until ArduCopter's checks pass), take off to 10 m;
+4. AUTO: the square, then the plan's RTL, which lands at home and disarms;
+5. read MOT_THST_HOVER, the hover throttle ArduCopter learned in flight.
+
+The last line's `results` hold `max_rel_alt_m`, `reached` (MISSION_ITEM_REACHED seqs),
+`mission_currents` (each new MISSION_CURRENT seq),
+`landed_from_home_m` (GLOBAL_POSITION_INT against HOME_POSITION once disarmed), `modes`,
+`hover_throttle` and the simulated seconds each phase took.
+"""
+
+import os
+import time
+
+from gcs_common import (ACM_MODES, Failed, distance_m, enum_name, main, mav, mavutil, plan_items,
+                        VEHICLE)
+
+TAKEOFF_M = 10.0
+
+
+def upload(gcs, items):
+    """MISSION_COUNT, then each item ArduCopter asks for (MISSION_REQUEST_INT, or the legacy
+    MISSION_REQUEST it uses with a client it has not heard ask for INT) as MISSION_ITEM_INT."""
+    gcs.log(f"-> MISSION_COUNT {len(items)}")
+    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mav.MAV_MISSION_TYPE_MISSION)
+    while True:
+        m = gcs.pump(lambda m: gcs.from_vehicle(m)
+                     and m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"),
+                     5.0, "mission upload")
+        if m.get_type() == "MISSION_ACK":
+            if m.type != mav.MAV_MISSION_ACCEPTED:
+                raise Failed("mission upload", enum_name("MAV_MISSION_RESULT", m.type))
+            gcs.log("MISSION_ACK ACCEPTED")
+            return len(items)
+        it = items[m.seq]
+        gcs.conn.mav.mission_item_int_send(
+            *VEHICLE, m.seq, it["frame"], it["command"], 0, it["autocontinue"],
+            *it["params"], it["x"], it["y"], it["alt"], mav.MAV_MISSION_TYPE_MISSION)
+
+
+def accepted(gcs, cmd, params, step):
+    """COMMAND_LONG once; whether its COMMAND_ACK says ACCEPTED (no answer within 3 s: no)."""
+    p = list(params) + [0.0] * (7 - len(params))
+    gcs.conn.mav.command_long_send(*VEHICLE, cmd, 0, *p)
+    try:
+        ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == cmd)
+    except Failed:
+        return False
+    return ack.result == mav.MAV_RESULT_ACCEPTED
+
+
+def until_mode(gcs, name, timeout_s=20.0):
+    """DO_SET_MODE until HEARTBEAT shows `name` (a lost COMMAND_ACK is asked again)."""
+    end = time.monotonic() + timeout_s
+    gcs.log(f"-> mode {name}")
+    while gcs.mode != name:
+        if time.monotonic() > end:
+            raise Failed(name, f"not in {name} after {timeout_s} s: {gcs.statustexts[-3:]}")
+        if accepted(gcs, mav.MAV_CMD_DO_SET_MODE,
+                    [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES[name]], name):
+            try:
+                gcs.wait_type("HEARTBEAT", 3.0, name, lambda m: mavutil.mode_string_v10(m) == name)
+            except Failed:
+                pass
+
+
+def arm_in_guided(gcs, timeout_s=40.0):
+    """GUIDED, then armed, asked for every half second until the vehicle takes both: ArduCopter
+    refuses to arm until EKF3 uses GPS, about 40 s of its time after boot, and may leave GUIDED
+    while it has no position."""
+    end = time.monotonic() + timeout_s
+    guided = [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]]
+    while not (gcs.mode == "GUIDED" and gcs.armed):
+        if time.monotonic() > end:
+            raise Failed("arm", f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
+        if gcs.mode != "GUIDED":
+            accepted(gcs, mav.MAV_CMD_DO_SET_MODE, guided, "guided")
+        elif accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm") or gcs.armed:
+            try:
+                gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+            except Failed:
+                pass
+            continue
+        gcs.quiet(0.5)
+
+
+def flight(gcs):
+    gcs.identify(timeout_s=30.0)
+    # 4 Hz of ArduCopter's time: at ten times real time and more, faster streams overrun a Python
+    # client's socket and lose COMMAND_ACKs.
+    gcs.conn.mav.request_data_stream_send(*VEHICLE, mav.MAV_DATA_STREAM_ALL, 4, 1)
+    items = plan_items(os.environ["PLAN"])
+    gcs.results["items"] = upload(gcs, items)
+    arm_in_guided(gcs)
+    armed_at = gcs.boot_s
+    while not accepted(gcs, mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, TAKEOFF_M], "take-off"):
+        if not gcs.armed or (gcs.rel_alt_m or 0.0) > 1.0:
+            break
+    gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 0.5, 40.0, "take-off")
+    gcs.results["takeoff_s"] = round(gcs.boot_s - armed_at, 2)
+    until_mode(gcs, "AUTO")
+    auto_at = gcs.boot_s
+    last = len(items) - 2  # the last waypoint; the final item is the RTL
+    # Reached, or MISSION_CURRENT past it: at many times real time a UDP datagram to a Python
+    # client can be lost, MISSION_ITEM_REACHED as well as any other.
+    gcs.pump(lambda m: last in gcs.reached or (gcs.mission_current or 0) > last, 60.0, "square")
+    gcs.results["square_s"] = round(gcs.boot_s - auto_at, 2)
+    gcs.pump(lambda m: gcs.heartbeat is not None and not gcs.armed, 60.0, "landed and disarmed")
+    gcs.quiet(0.5)
+    gcs.results["flight_s"] = round(gcs.boot_s - armed_at, 2)
+    gcs.results["max_rel_alt_m"] = round(gcs.max_rel_alt_m, 2)
+    gcs.results["reached"] = gcs.reached
+    gcs.results["mission_currents"] = gcs.mission_currents
+    gcs.results["modes"] = [m for m in gcs.modes_seen if m in ACM_MODES]
+    home = gcs.home or (items[0]["lat"], items[0]["lon"])
+    gcs.results["landed_from_home_m"] = round(distance_m(gcs.position, home), 2)
+    gcs.results["landed_rel_alt_m"] = gcs.rel_alt_m
+    gcs.results["hover_throttle"] = round(gcs.read_param("MOT_THST_HOVER", "hover throttle"), 4)
+
+
+main(flight, deadline_s=float(os.environ.get("DEADLINE_S", "110")))
