@@ -179,7 +179,7 @@ async fn commands_are_acknowledged_and_unknown_ones_unsupported_at_once() {
         .expect("AUTOPILOT_VERSION on request");
     assert!(caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT));
     assert!(caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2));
-    assert!(!caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
+    assert!(caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
