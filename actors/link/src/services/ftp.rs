@@ -5,7 +5,8 @@
 //!
 //! * ListDirectory: `F<name>\t<size>\0` per file, `D<name>\0` per directory, as many whole
 //!   entries as fit in 239 bytes, from the entry `offset`; past the last one a NAK EndOfFile.
-//!   `/` lists `@PARAM` and `logs`.
+//!   `/` lists `logs`; `@PARAM` is not listed there but is reached by name, as on ArduCopter
+//!   (whose root lists `@ROMFS`, `@SYS` and its SD card's directories).
 //! * OpenFileRO: an ACK with the file's size (4 bytes); a second open on a session a NAK Fail.
 //!   `@PARAM/param.pck` may carry a query (`?withdefaults=1`), ignored: the file has no defaults
 //!   (its magic says so) and readers take the values as their own defaults.
@@ -359,13 +360,7 @@ impl FtpServer {
 
     fn list(&self, reply: Reply, path: &str, offset: u32, params: &ParamTable) -> [u8; 251] {
         let entries: Vec<String> = match self.resolve(path) {
-            Some(Node::Root) => {
-                let mut dirs = vec![format!("D{PARAM_DIR}")];
-                if self.logs.is_some() {
-                    dirs.push(format!("D{LOGS}"));
-                }
-                dirs
-            }
+            Some(Node::Root) => self.logs.iter().map(|_| format!("D{LOGS}")).collect(),
             Some(Node::ParamDir) => {
                 vec![format!("F{PARAM_FILE}\t{}", param_pack::encode(&params.list()).len())]
             }
@@ -603,9 +598,9 @@ mod tests {
     }
 
     #[test]
-    fn the_root_lists_params_and_logs_and_the_log_directory_only_logs() {
+    fn the_root_lists_the_logs_and_the_log_directory_only_logs() {
         let mut f = fixture("list", &[(2, 500), (1, 10)]);
-        assert_eq!(entries(&f.path(LIST_DIRECTORY, "/")), vec!["D@PARAM", "Dlogs"]);
+        assert_eq!(entries(&f.path(LIST_DIRECTORY, "/")), vec!["Dlogs"]);
         assert_eq!(entries(&f.path(LIST_DIRECTORY, "/logs/")), vec!["F00000001.mcap\t10", "F00000002.mcap\t500"]);
         let params = entries(&f.path(LIST_DIRECTORY, "@PARAM"));
         assert_eq!(params.len(), 1);
