@@ -276,7 +276,9 @@ async fn run_graph(
     drop(device_locks);
     let end_time = clock.now();
     let recording = recorder.map(Recorder::finish).transpose()?;
-    if let Some(error) = onboard_status.and_then(|s| s.lock().unwrap_or_else(|e| e.into_inner()).last_error.clone()) {
+    if let Some(error) =
+        onboard_status.and_then(|s| s.lock().unwrap_or_else(|e| e.into_inner()).last_error.clone())
+    {
         tracing::error!("the vehicle's log: {error}");
     }
     let supervisor_events = log.lock().unwrap_or_else(|e| e.into_inner()).clone();
@@ -309,7 +311,9 @@ fn check_status_recorded(config: &LoadedConfig) -> Result<(), String> {
     if record.log_disarmed || record.topics.iter().any(|t| t.get_ref() == "*" || t.get_ref() == status) {
         return Ok(());
     }
-    Err(format!("[record] dir needs '{status}' among the recorded topics (it starts and ends each log), or log_disarmed = true"))
+    Err(format!(
+        "[record] dir needs '{status}' among the recorded topics (it starts and ends each log), or log_disarmed = true"
+    ))
 }
 
 /// The report actor, subscribed to whichever of its topics this graph publishes.

@@ -62,7 +62,10 @@ fn a_flights_log_lists_downloads_byte_for_byte_and_ftp_serves_logs_and_params_as
     let entries = ours["entries"].as_array().expect("entries");
     assert_eq!(entries.len(), 1, "{entries:?}");
     let entry = &entries[0];
-    assert_eq!((entry["id"].as_u64(), entry["num_logs"].as_u64(), entry["last_log_num"].as_u64()), (Some(1), Some(1), Some(1)));
+    assert_eq!(
+        (entry["id"].as_u64(), entry["num_logs"].as_u64(), entry["last_log_num"].as_u64()),
+        (Some(1), Some(1), Some(1))
+    );
     assert_eq!(entry["time_utc_set"], true);
     let size = entry["size"].as_u64().expect("size");
     assert!(size > 10_000, "a flight's log is more than a header: {size} bytes");
@@ -73,13 +76,22 @@ fn a_flights_log_lists_downloads_byte_for_byte_and_ftp_serves_logs_and_params_as
     assert_eq!(download["chunk_sizes_max"], 90);
     assert_eq!(download["past_end"], serde_json::json!([size, 0]), "one zero-length chunk at the end");
     let disk = &ours["on_disk"];
-    assert_eq!((disk["file"].as_str(), disk["logs"].as_u64(), &disk["equal"]), (Some("00000001.mcap"), Some(1), &Value::Bool(true)), "{disk:#}");
+    assert_eq!(
+        (disk["file"].as_str(), disk["logs"].as_u64(), &disk["equal"]),
+        (Some("00000001.mcap"), Some(1), &Value::Bool(true)),
+        "{disk:#}"
+    );
     assert!(disk["topics"].as_u64().is_some_and(|n| n > 10), "{disk:#}");
-    assert_eq!((&disk["first_armed"], &disk["last_armed"]), (&Value::Bool(true), &Value::Bool(false)), "the log is the armed flight: {disk:#}");
+    assert_eq!(
+        (&disk["first_armed"], &disk["last_armed"]),
+        (&Value::Bool(true), &Value::Bool(false)),
+        "the log is the armed flight: {disk:#}"
+    );
 
     // FTP: the two directories, the log, every parameter as PARAM_REQUEST_LIST gives it.
     let ftp = &ours["ftp"];
-    let root: Vec<&str> = ftp["/"]["entries"].as_array().expect("root").iter().filter_map(|e| e[0].as_str()).collect();
+    let root: Vec<&str> =
+        ftp["/"]["entries"].as_array().expect("root").iter().filter_map(|e| e[0].as_str()).collect();
     assert_eq!(root, ["logs"], "{ftp:#}");
     let logs = ftp["/logs"]["entries"].as_array().expect("logs");
     assert_eq!(logs.len(), 1, "{ftp:#}");
@@ -87,7 +99,11 @@ fn a_flights_log_lists_downloads_byte_for_byte_and_ftp_serves_logs_and_params_as
     let pck = &ftp["param_pck"];
     assert_eq!(pck["count"], ours["params"]["count"], "{ftp:#}");
     assert!(pck["count"].as_u64().is_some_and(|n| n > 50), "the graph's parameters: {ftp:#}");
-    assert_eq!((&pck["same_names"], &pck["same_values"]), (&Value::Bool(true), &Value::Bool(true)), "{ftp:#}");
+    assert_eq!(
+        (&pck["same_names"], &pck["same_values"]),
+        (&Value::Bool(true), &Value::Bool(true)),
+        "{ftp:#}"
+    );
     assert_eq!(ftp["crc_equal"], true, "{ftp:#}");
     assert_eq!(ftp["create_file"], serde_json::json!(["NAK", READ_ONLY_NAK]), "{ftp:#}");
     assert!(!log_dir.join("kestrel-write-test.txt").exists());
@@ -99,7 +115,14 @@ fn a_flights_log_lists_downloads_byte_for_byte_and_ftp_serves_logs_and_params_as
     let theirs = results(&ardu);
     // The same refusal while armed, the same LOG_ENTRY and LOG_DATA shapes.
     assert_eq!(theirs["armed_list"]["entries"], ours["armed_list"]["entries"], "{theirs:#}");
-    assert!(theirs["armed_list"]["said"].as_array().expect("texts").iter().any(|t| t == "Disarm for log download"), "{theirs:#}");
+    assert!(
+        theirs["armed_list"]["said"]
+            .as_array()
+            .expect("texts")
+            .iter()
+            .any(|t| t == "Disarm for log download"),
+        "{theirs:#}"
+    );
     let last = theirs["entries"].as_array().and_then(|e| e.last()).expect("ArduCopter's entries");
     assert_eq!(last["id"], last["last_log_num"], "{theirs:#}");
     assert_eq!(last["time_utc_set"], entry["time_utc_set"], "{theirs:#}");

@@ -145,7 +145,12 @@ fn mavsdk_goto_location_hold_and_return_to_launch() {
 #[test]
 fn mavsdk_log_files_lists_and_downloads_the_flights_log_as_it_is_on_the_vehicle() {
     let t = fly("log_files", &[]);
-    println!("entries: {}; download: {}; mcap: {}", detail(&t, "entries"), detail(&t, "download"), detail(&t, "mcap"));
+    println!(
+        "entries: {}; download: {}; mcap: {}",
+        detail(&t, "entries"),
+        detail(&t, "download"),
+        detail(&t, "mcap")
+    );
 }
 
 #[test]

@@ -24,6 +24,6 @@ mod reader;
 mod writer;
 
 pub use error::RecorderError;
-pub use reader::{LogDamage, LogReader, RawRecord, Recorded, TopicInfo};
 pub use onboard::{OnboardLog, OnboardStatus};
+pub use reader::{LogDamage, LogReader, RawRecord, Recorded, TopicInfo};
 pub use writer::{RecordChannel, Recorder, RecordingSummary};

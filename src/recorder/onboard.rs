@@ -200,7 +200,10 @@ impl Segments {
     }
 
     /// Runs `f` on the open log; an error ends the log.
-    fn with_log(&mut self, f: impl FnOnce(&mut mcap::Writer<BufWriter<File>>) -> Result<(), mcap::McapError>) -> bool {
+    fn with_log(
+        &mut self,
+        f: impl FnOnce(&mut mcap::Writer<BufWriter<File>>) -> Result<(), mcap::McapError>,
+    ) -> bool {
         let Some((path, writer)) = self.current.as_mut() else { return false };
         match f(writer) {
             Ok(()) => true,
@@ -284,7 +287,12 @@ mod tests {
 
     fn armed_in(log: &LogFile) -> Vec<bool> {
         let reader = LogReader::open(&log.path).expect("a whole MCAP log");
-        reader.read::<VehicleStatus>(STATUS_TOPIC).expect("statuses").iter().map(|r| r.message.armed).collect()
+        reader
+            .read::<VehicleStatus>(STATUS_TOPIC)
+            .expect("statuses")
+            .iter()
+            .map(|r| r.message.armed)
+            .collect()
     }
 
     #[test]
@@ -319,7 +327,8 @@ mod tests {
     fn a_log_directory_that_cannot_be_made_is_an_error_naming_it() {
         let file = scratch("not-a-dir");
         std::fs::write(&file, "a file").expect("write");
-        let config = OnboardLog { dir: file.join("logs"), log_disarmed: false, budget_bytes: 1, max_files: 2 };
+        let config =
+            OnboardLog { dir: file.join("logs"), log_disarmed: false, budget_bytes: 1, max_files: 2 };
         let error = Recorder::onboard(config).err().expect("refused").to_string();
         assert!(error.contains("not-a-dir"), "{error}");
         let _ = std::fs::remove_file(&file);

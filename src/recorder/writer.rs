@@ -415,11 +415,7 @@ impl ChannelState {
 /// The writer thread: applies commands in order until told to finish, then closes the file.
 /// After a write failure it keeps draining the queue, counting what it could not write, so
 /// callers never block and memory stays bounded.
-fn run_writer(
-    mut writer: Box<dyn Sink>,
-    commands: &Receiver<Command>,
-    queue: &Queue,
-) -> WriterOutcome {
+fn run_writer(mut writer: Box<dyn Sink>, commands: &Receiver<Command>, queue: &Queue) -> WriterOutcome {
     let mut written: BTreeMap<u16, u64> = BTreeMap::new();
     let mut unwritten: BTreeMap<u16, u64> = BTreeMap::new();
     let mut failure: Option<mcap::McapError> = None;

@@ -316,12 +316,11 @@ async def log_files(v):
     if data != on_disk:
         raise Failed(f"download: {len(data)} B differ from the vehicle's {names[-1]} ({len(on_disk)} B)")
     sys.path.insert(0, os.path.dirname(__file__))
-    from read_mcap import summarise
-    topics = summarise(path)["topics"]
-    status = topics["vehicle_status"]
-    log("mcap", f"{len(topics)} topics, vehicle_status armed {status['first']['armed']} .. "
-                f"{status['last']['armed']}")
-    if (status["first"]["armed"], status["last"]["armed"]) != (True, False):
+    from read_mcap import topic_span
+    span = topic_span(path, "vehicle_status")
+    log("mcap", f"{len(span['topics'])} topics, vehicle_status armed {span['first']['armed']} .. "
+                f"{span['last']['armed']}")
+    if (span["first"]["armed"], span["last"]["armed"]) != (True, False):
         raise Failed("mcap: the log is not the flight from arming to disarming")
 
 

@@ -22,8 +22,8 @@ use mavlink::{Message, MessageData};
 use crate::services::command::{self, CommandRequest, CommandService};
 use crate::services::events::{status_changes, statustext};
 use crate::services::ftp::FtpServer;
-use crate::services::log_download::{LogDirectory, LogDownload};
 use crate::services::heartbeat::{GcsEvent, GcsWatch, vehicle_heartbeat};
+use crate::services::log_download::{LogDirectory, LogDownload};
 use crate::services::mission::MissionService;
 use crate::services::offboard::{
     OffboardRejects, global_echo, global_target, local_echo, local_target, manual_control,

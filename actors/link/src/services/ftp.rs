@@ -214,7 +214,10 @@ impl FtpServer {
         if let Some((to, last)) = &self.last_reply {
             let seq = u16::from_le_bytes([p[SEQ], p[SEQ + 1]]);
             let last_seq = u16::from_le_bytes([last[SEQ], last[SEQ + 1]]);
-            if *to == from && last[SESSION] == p[SESSION] && seq.wrapping_add(1) == last_seq && last[REQ_OPCODE] == opcode
+            if *to == from
+                && last[SESSION] == p[SESSION]
+                && seq.wrapping_add(1) == last_seq
+                && last[REQ_OPCODE] == opcode
             {
                 return vec![message(from, *last)];
             }
@@ -248,7 +251,9 @@ impl FtpServer {
                 Some(path) => self.list(reply, &path, offset, params),
             }),
             OPEN_FILE_RO => {
-                let Some(path) = path() else { return one(reply.nak(MavFtpErr::MAV_FTP_ERR_INVALIDDATASIZE)) };
+                let Some(path) = path() else {
+                    return one(reply.nak(MavFtpErr::MAV_FTP_ERR_INVALIDDATASIZE));
+                };
                 let session = self.session(from, session_id, now);
                 if session.file.is_some() {
                     return one(reply.nak(MavFtpErr::MAV_FTP_ERR_FAIL));
@@ -282,7 +287,9 @@ impl FtpServer {
                 burst(content, Reply::to(p), offset, max)
             }
             CALC_FILE_CRC32 => {
-                let Some(path) = path() else { return one(reply.nak(MavFtpErr::MAV_FTP_ERR_INVALIDDATASIZE)) };
+                let Some(path) = path() else {
+                    return one(reply.nak(MavFtpErr::MAV_FTP_ERR_INVALIDDATASIZE));
+                };
                 one(match self.open(&path, params).and_then(|c| crc_of(&c).map_err(OpenError::Io)) {
                     Ok(crc) => reply.ack(0, &crc.to_le_bytes()),
                     Err(e) => e.nak(reply),
@@ -541,7 +548,14 @@ mod tests {
         Fixture { server: FtpServer::new(Some(LogDirectory::new(&dir))), dir, params, seq: 0 }
     }
 
-    fn request(seq: u16, session: u8, opcode: u8, offset: u32, size: u8, data: &[u8]) -> FILE_TRANSFER_PROTOCOL_DATA {
+    fn request(
+        seq: u16,
+        session: u8,
+        opcode: u8,
+        offset: u32,
+        size: u8,
+        data: &[u8],
+    ) -> FILE_TRANSFER_PROTOCOL_DATA {
         let mut payload = [0u8; 251];
         payload[SEQ..SEQ + 2].copy_from_slice(&seq.to_le_bytes());
         payload[SESSION] = session;
@@ -594,14 +608,20 @@ mod tests {
 
     fn entries(r: &[u8; 251]) -> Vec<String> {
         let data = &r[DATA..DATA + usize::from(r[SIZE])];
-        data.split(|&b| b == 0).filter(|e| !e.is_empty()).map(|e| String::from_utf8_lossy(e).into_owned()).collect()
+        data.split(|&b| b == 0)
+            .filter(|e| !e.is_empty())
+            .map(|e| String::from_utf8_lossy(e).into_owned())
+            .collect()
     }
 
     #[test]
     fn the_root_lists_the_logs_and_the_log_directory_only_logs() {
         let mut f = fixture("list", &[(2, 500), (1, 10)]);
         assert_eq!(entries(&f.path(LIST_DIRECTORY, "/")), vec!["Dlogs"]);
-        assert_eq!(entries(&f.path(LIST_DIRECTORY, "/logs/")), vec!["F00000001.mcap\t10", "F00000002.mcap\t500"]);
+        assert_eq!(
+            entries(&f.path(LIST_DIRECTORY, "/logs/")),
+            vec!["F00000001.mcap\t10", "F00000002.mcap\t500"]
+        );
         let params = entries(&f.path(LIST_DIRECTORY, "@PARAM"));
         assert_eq!(params.len(), 1);
         assert!(params[0].starts_with("Fparam.pck\t"));
@@ -622,11 +642,17 @@ mod tests {
         let mut bytes = Vec::new();
         for r in &burst[..burst.len() - 1] {
             assert_eq!(r[OPCODE], ACK);
-            assert_eq!(u32::from_le_bytes([r[OFFSET], r[OFFSET + 1], r[OFFSET + 2], r[OFFSET + 3]]) as usize, bytes.len());
+            assert_eq!(
+                u32::from_le_bytes([r[OFFSET], r[OFFSET + 1], r[OFFSET + 2], r[OFFSET + 3]]) as usize,
+                bytes.len()
+            );
             bytes.extend_from_slice(&r[DATA..DATA + usize::from(r[SIZE])]);
         }
         let last = burst.last().expect("replies");
-        assert_eq!((last[OPCODE], last[DATA], last[BURST_COMPLETE]), (NAK, MavFtpErr::MAV_FTP_ERR_EOF as u8, 1));
+        assert_eq!(
+            (last[OPCODE], last[DATA], last[BURST_COMPLETE]),
+            (NAK, MavFtpErr::MAV_FTP_ERR_EOF as u8, 1)
+        );
         assert_eq!(bytes, want);
         let seqs: Vec<u16> = burst.iter().map(|r| u16::from_le_bytes([r[SEQ], r[SEQ + 1]])).collect();
         assert!(seqs.windows(2).all(|w| w[1] == w[0].wrapping_add(1)), "each reply its own sequence number");
@@ -655,7 +681,9 @@ mod tests {
     #[test]
     fn nothing_outside_the_two_directories_opens_and_a_second_open_fails() {
         let mut f = fixture("paths", &[(1, 10)]);
-        for path in ["/logs/secret.txt", "/logs/../logs/00000001.mcap", "/etc/passwd", "logs/00000002.mcap", ""] {
+        for path in
+            ["/logs/secret.txt", "/logs/../logs/00000001.mcap", "/etc/passwd", "logs/00000002.mcap", ""]
+        {
             let r = f.send(OPEN_FILE_RO, 0, path.len() as u8, path.as_bytes())[0];
             assert_eq!(r[OPCODE], NAK, "{path}");
         }
@@ -678,7 +706,10 @@ mod tests {
         let mut f = fixture("ro", &[(1, 10)]);
         for op in [CREATE_FILE, OPEN_FILE_WO, CREATE_DIRECTORY, REMOVE_FILE, REMOVE_DIRECTORY, RENAME] {
             let r = f.path(op, "/logs/00000001.mcap");
-            assert_eq!((r[OPCODE], r[SIZE], r[DATA], r[DATA + 1]), (NAK, 2, MavFtpErr::MAV_FTP_ERR_FAILERRNO as u8, EROFS));
+            assert_eq!(
+                (r[OPCODE], r[SIZE], r[DATA], r[DATA + 1]),
+                (NAK, 2, MavFtpErr::MAV_FTP_ERR_FAILERRNO as u8, EROFS)
+            );
         }
         assert!(f.dir.join(log_file_name(1)).exists());
         let w = f.send(WRITE_FILE, 0, 1, b"x")[0];

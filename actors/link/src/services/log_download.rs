@@ -277,7 +277,10 @@ impl Service for LogDownload {
             if std::mem::replace(&mut self.warned_armed, true) {
                 return Some(Outputs::none());
             }
-            return Some(Outputs::send(statustext(MavSeverity::MAV_SEVERITY_ERROR, "Disarm for log download")));
+            return Some(Outputs::send(statustext(
+                MavSeverity::MAV_SEVERITY_ERROR,
+                "Disarm for log download",
+            )));
         }
         self.warned_armed = false;
         Some(match msg {
@@ -347,7 +350,12 @@ mod tests {
     }
 
     fn list(s: &mut LogDownload, start: u16, end: u16) -> Vec<LOG_ENTRY_DATA> {
-        let msg = MavMessage::LOG_REQUEST_LIST(LOG_REQUEST_LIST_DATA { start, end, target_system: 1, target_component: 1 });
+        let msg = MavMessage::LOG_REQUEST_LIST(LOG_REQUEST_LIST_DATA {
+            start,
+            end,
+            target_system: 1,
+            target_component: 1,
+        });
         let out = s.on_message(GCS, &msg, Time::ZERO).expect("a log message");
         out.mav
             .into_iter()
@@ -359,7 +367,13 @@ mod tests {
     }
 
     fn download(s: &mut LogDownload, id: u16, ofs: u32, count: u32) -> Vec<LOG_DATA_DATA> {
-        let msg = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA { ofs, count, id, target_system: 1, target_component: 1 });
+        let msg = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA {
+            ofs,
+            count,
+            id,
+            target_system: 1,
+            target_component: 1,
+        });
         let mut mav = s.on_message(GCS, &msg, Time::ZERO).expect("a log message").mav;
         for _ in 0..1000 {
             if s.sending.is_none() {
@@ -436,11 +450,18 @@ mod tests {
     fn armed_every_request_is_ignored_with_one_disarm_text_and_a_transfer_pauses() {
         let (_tmp, dir) = dir_with(&[(1, 10_000)]);
         let mut s = LogDownload::new(Some(dir));
-        let req = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA { ofs: 0, count: u32::MAX, id: 1, target_system: 1, target_component: 1 });
+        let req = MavMessage::LOG_REQUEST_DATA(LOG_REQUEST_DATA_DATA {
+            ofs: 0,
+            count: u32::MAX,
+            id: 1,
+            target_system: 1,
+            target_component: 1,
+        });
         assert_eq!(s.on_message(GCS, &req, Time::ZERO).expect("log").mav.len(), LOG_DATA_PER_TICK);
         s.set_armed(true);
         assert!(s.on_tick(Time::ZERO).mav.is_empty(), "no data while armed");
-        let texts: Vec<_> = (0..3).map(|_| s.on_message(GCS, &req, Time::ZERO).expect("log").mav.len()).collect();
+        let texts: Vec<_> =
+            (0..3).map(|_| s.on_message(GCS, &req, Time::ZERO).expect("log").mav.len()).collect();
         assert_eq!(texts, vec![1, 0, 0], "one STATUSTEXT");
         s.set_armed(false);
         assert_eq!(s.on_tick(Time::ZERO).mav.len(), LOG_DATA_PER_TICK, "resumes disarmed");

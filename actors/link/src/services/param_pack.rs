@@ -98,7 +98,13 @@ mod tests {
     fn value(name: &str, v: f32, kind: MavParamType) -> MavMessage {
         let mut param_id = [0u8; 16];
         param_id[..name.len()].copy_from_slice(name.as_bytes());
-        MavMessage::PARAM_VALUE(PARAM_VALUE_DATA { param_value: v, param_count: 0, param_index: 0, param_id: param_id.into(), param_type: kind })
+        MavMessage::PARAM_VALUE(PARAM_VALUE_DATA {
+            param_value: v,
+            param_count: 0,
+            param_index: 0,
+            param_id: param_id.into(),
+            param_type: kind,
+        })
     }
 
     /// An independent reader, written from the format as MAVProxy decodes it.
@@ -171,7 +177,13 @@ mod tests {
     #[test]
     fn no_entry_crosses_a_256_byte_boundary() {
         let values: Vec<_> = (0..200)
-            .map(|i| value(&format!("P{i:03}_LONG_NAME_{}", i % 10), i as f32 * 0.5, MavParamType::MAV_PARAM_TYPE_REAL32))
+            .map(|i| {
+                value(
+                    &format!("P{i:03}_LONG_NAME_{}", i % 10),
+                    i as f32 * 0.5,
+                    MavParamType::MAV_PARAM_TYPE_REAL32,
+                )
+            })
             .collect();
         let data = encode(&values);
         let (num, _, got) = decode(&data);
