@@ -12,7 +12,8 @@
 //! A write error ends that log (its file stays, incomplete), is logged and kept in
 //! [`OnboardStatus`] for the status line; the next arming starts a new log. The flight goes on.
 //!
-//! Held by `recorder::onboard::tests` and `tests/log_download.rs`.
+//! Held by `recorder::onboard::tests`, `tests/log_download.rs` and `tests/mavsdk.rs` (the log of
+//! a flight, downloaded, equals the file and starts armed and ends disarmed).
 
 use std::fs::{File, OpenOptions};
 use std::io::{self, BufWriter};

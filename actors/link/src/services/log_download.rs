@@ -17,7 +17,8 @@
 //! Unlike ArduPilot, a read error is said as a STATUSTEXT (the transfer then ends as at the end
 //! of the file) rather than only ending the transfer.
 //!
-//! Held by the tests in this file and by `tests/log_download.rs` (pymavlink, MAVSDK, ArduCopter).
+//! Held by the tests in this file, `tests/log_download.rs` (pymavlink, against ArduCopter too)
+//! and `tests/mavsdk.rs` (MAVSDK's LogFiles on its defaults).
 
 use std::fs::File;
 use std::io;
