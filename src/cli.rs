@@ -59,6 +59,11 @@ pub struct RunArgs {
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
 
+    /// The vehicle's log directory (overrides `[record] dir`): a numbered log per arming,
+    /// served to ground stations by MAVLink log download and FTP.
+    #[arg(long, value_name = "DIR")]
+    pub log_dir: Option<PathBuf>,
+
     /// Load this QGroundControl mission (`.plan`) into the commander.
     #[arg(long, value_name = "FILE.plan")]
     pub mission: Option<PathBuf>,

@@ -8,7 +8,8 @@
 //! speedup = 1.0               # lockstep pacing: simulated seconds per second; 0 = flat out
 //!
 //! [record]
-//! topics = ["*"]              # what `--record` writes: every topic, or a list of names
+//! topics = ["*"]              # what the logs hold: every topic, or a list of names
+//! dir = "sim/logs"            # the vehicle's numbered logs (relative: to the state directory)
 //!
 //! [actors.sim]
 //! type = "sim"                # which actor implementation (see `kestrel actors`)
@@ -249,12 +250,64 @@ pub struct RecordConfig {
     pub path: Option<PathBuf>,
     /// Topic names to record; `"*"` records every topic.
     pub topics: Vec<Spanned<String>>,
+    /// The vehicle's log directory: each arming-to-disarming writes its own numbered log there
+    /// (`recorder::onboard`), which ground stations download over MAVLink. Relative to the
+    /// state directory ([`state_dir`]); `--instance N` (N > 0) adds `instance-N`. Unused while
+    /// `path` or `--record` names one file. `None`: no logs on the vehicle.
+    pub dir: Option<PathBuf>,
+    /// One log for the whole run, armed or not (ArduPilot's LOG_DISARMED=1).
+    pub log_disarmed: bool,
+    /// Most megabytes (10^6 bytes) the logs may hold when a new one starts, 1..=10^6; the oldest
+    /// are removed first.
+    pub budget_mb: u64,
+    /// Most logs kept, 2..=65535 (ArduPilot's LOG_MAX_FILES, default 500).
+    pub max_files: usize,
 }
 
 impl Default for RecordConfig {
     fn default() -> Self {
-        RecordConfig { path: None, topics: vec![Spanned::new(0..0, "*".to_owned())] }
+        RecordConfig {
+            path: None,
+            topics: vec![Spanned::new(0..0, "*".to_owned())],
+            dir: None,
+            log_disarmed: false,
+            budget_mb: 1000,
+            max_files: 500,
+        }
     }
+}
+
+impl RecordConfig {
+    /// The onboard log's settings with `dir` resolved, or why they are out of range.
+    pub fn onboard(&self) -> Result<Option<crate::recorder::OnboardLog>, String> {
+        let Some(dir) = &self.dir else { return Ok(None) };
+        if !(1..=1_000_000).contains(&self.budget_mb) {
+            return Err(format!("[record] budget_mb = {} is outside 1..=1000000", self.budget_mb));
+        }
+        if !(2..=65535).contains(&self.max_files) {
+            return Err(format!("[record] max_files = {} is outside 2..=65535", self.max_files));
+        }
+        let dir = state_dir().join(dir);
+        Ok(Some(crate::recorder::OnboardLog {
+            dir,
+            log_disarmed: self.log_disarmed,
+            budget_bytes: self.budget_mb * 1_000_000,
+            max_files: self.max_files,
+        }))
+    }
+}
+
+/// Where a run keeps what outlives it (logs): `$KESTREL_STATE_DIR`, else systemd's
+/// `$STATE_DIRECTORY` (`/var/lib/kestrel` under packaging/kestrel.service), else
+/// `$XDG_STATE_HOME/kestrel`, else `$HOME/.local/state/kestrel` (the XDG default), else the temp
+/// dir's `kestrel-state`.
+pub fn state_dir() -> PathBuf {
+    let var = |name| std::env::var_os(name).filter(|v| !v.is_empty()).map(PathBuf::from);
+    var("KESTREL_STATE_DIR")
+        .or_else(|| var("STATE_DIRECTORY"))
+        .or_else(|| var("XDG_STATE_HOME").map(|d| d.join("kestrel")))
+        .or_else(|| var("HOME").map(|d| d.join(".local/state/kestrel")))
+        .unwrap_or_else(|| std::env::temp_dir().join("kestrel-state"))
 }
 
 /// When the supervisor restarts an actor, in Erlang's and kameo's words.

@@ -37,6 +37,9 @@ pub struct RunOptions {
     pub speedup: Option<f64>,
     /// Record to this MCAP file (overrides `[record] path`).
     pub record: Option<PathBuf>,
+    /// Keep the vehicle's numbered logs in `[record] dir` when no file is recorded to. `kestrel
+    /// run` does; an embedder (an in-process test flight) opts in.
+    pub onboard_log: bool,
     /// Print the 1 Hz status line.
     pub status: bool,
     /// Write the flight report (JSON) here when the run ends.
@@ -207,7 +210,19 @@ async fn run_graph(
     let vehicle = vehicle_handles(&mut graph).map_err(|m| RunError::Config(vec![source.error(m)]))?;
     let alive = graph.observe::<VehicleStatus>("vehicle_status", Doorbell::new());
     let record_path = options.record.clone().or_else(|| config.graph.record.path.clone());
-    let recorder = record_path.as_deref().map(Recorder::create).transpose()?;
+    // One file when one is named; else the vehicle's numbered logs when a log directory is set.
+    let (recorder, onboard_status) = match record_path.as_deref() {
+        Some(path) => (Some(Recorder::create(path)?), None),
+        None if !options.onboard_log => (None, None),
+        None => match config.graph.record.onboard().map_err(|m| RunError::Config(vec![source.error(m)]))? {
+            Some(onboard) => {
+                check_status_recorded(config).map_err(|m| RunError::Config(vec![source.error(m)]))?;
+                let (recorder, status) = Recorder::onboard(onboard)?;
+                (Some(recorder), Some(status))
+            }
+            None => (None, None),
+        },
+    };
     let truth = graph.observe::<GroundTruth>("ground_truth", Doorbell::new());
     let commander = graph.observe::<VehicleStatus>("vehicle_status", Doorbell::new());
     let topics = graph
@@ -251,6 +266,7 @@ async fn run_graph(
             topics.clone(),
             truth,
             commander,
+            onboard_status.clone(),
             shutdown.clone(),
         ));
     }
@@ -283,6 +299,11 @@ async fn run_graph(
     drop(device_locks);
     let end_time = clock.now();
     let recording = recorder.map(Recorder::finish).transpose()?;
+    if let Some(error) =
+        onboard_status.and_then(|s| s.lock().unwrap_or_else(|e| e.into_inner()).last_error.clone())
+    {
+        tracing::error!("the vehicle's log: {error}");
+    }
     let supervisor_events = log.lock().unwrap_or_else(|e| e.into_inner()).clone();
     Ok(RunReport {
         end_time,
@@ -303,6 +324,19 @@ async fn run_graph(
         supervisor_events,
         recording,
     })
+}
+
+/// Per-flight logs start and end on the recorded `vehicle_status`: it must be among the
+/// recorded topics unless one log covers the whole run.
+fn check_status_recorded(config: &LoadedConfig) -> Result<(), String> {
+    let record = &config.graph.record;
+    let status = crate::recorder::onboard::STATUS_TOPIC;
+    if record.log_disarmed || record.topics.iter().any(|t| t.get_ref() == "*" || t.get_ref() == status) {
+        return Ok(());
+    }
+    Err(format!(
+        "[record] dir needs '{status}' among the recorded topics (it starts and ends each log), or log_disarmed = true"
+    ))
 }
 
 /// The report actor, subscribed to whichever of its topics this graph publishes.

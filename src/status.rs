@@ -1,7 +1,7 @@
 //! The one-line status a person watching `kestrel run` sees every second: graph time, how
 //! fast it runs against the wall clock, what the vehicle is doing, and message rates.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use kestrel_proto::messages::{GroundTruth, VehicleStatus};
@@ -10,6 +10,7 @@ use tokio_util::sync::CancellationToken;
 
 use crate::graph::TopicHandle;
 use crate::mailbox::Mailbox;
+use crate::recorder::OnboardStatus;
 use crate::serde_name::serde_name;
 
 /// Topics whose rates the status line shows, in this order, when they exist.
@@ -22,6 +23,7 @@ pub async fn run(
     topics: Vec<TopicHandle>,
     truth: Option<Arc<Mailbox<GroundTruth>>>,
     commander: Option<Arc<Mailbox<VehicleStatus>>>,
+    onboard_log: Option<Arc<Mutex<OnboardStatus>>>,
     shutdown: CancellationToken,
 ) {
     let shown: Vec<&TopicHandle> =
@@ -58,16 +60,31 @@ pub async fn run(
             .collect();
         tracing::info!(
             target: "kestrel::status",
-            "t={} (x{:.1}) {}{} | {}",
+            "t={} (x{:.1}) {}{} | {}{}",
             seconds(now),
             if wall_dt > 0.0 { sim_dt / wall_dt } else { 0.0 },
             mode(latest_status.as_ref()),
             vehicle(latest_truth.as_ref()),
-            rates.join(" ")
+            rates.join(" "),
+            log_state(onboard_log.as_deref())
         );
         last_sim = now;
         last_wall = tokio::time::Instant::now();
     }
+}
+
+/// ` | log 00000003.mcap`, and the last log error, ` | LOG ERROR: …`.
+fn log_state(onboard: Option<&Mutex<OnboardStatus>>) -> String {
+    let Some(status) = onboard else { return String::new() };
+    let s = status.lock().unwrap_or_else(|e| e.into_inner());
+    let mut text = String::new();
+    if let Some(name) = s.current.as_ref().and_then(|p| p.file_name()) {
+        text += &format!(" | log {}", name.to_string_lossy());
+    }
+    if let Some(error) = &s.last_error {
+        text += &format!(" | LOG ERROR: {error}");
+    }
+    text
 }
 
 fn seconds(t: Time) -> String {

@@ -383,14 +383,17 @@ fn mavproxy_identifies_the_vehicle_fetches_parameters_and_flies_it() {
     let dir = temp_dir("mavproxy");
     let flight = fly(&dir, "mavproxy", "mavproxy_session.py", &[], |port| link_params(port, "", ""));
     let printed = |needle: &str| flight.transcript.iter().any(|l| l.contains(&format!("mavproxy| {needle}")));
-    // The config's table plus whatever the actors declare: at least the config's.
+    // The config's table plus whatever the actors declare: at least the config's, fetched as
+    // the packed parameter file over MAVLink FTP (MAVProxy says "Received N parameters (ftp)").
     let received = flight.transcript.iter().find_map(|l| {
-        l.split("mavproxy| Received ").nth(1)?.strip_suffix(" parameters")?.parse::<usize>().ok()
+        let rest = l.split("mavproxy| Received ").nth(1)?;
+        let (count, how) = rest.split_once(" parameters")?;
+        Some((count.parse::<usize>().ok()?, how.trim().to_owned()))
     });
     let listed = PARAM_TABLE.matches("name =").count();
     assert!(
-        received.is_some_and(|n| n >= listed),
-        "MAVProxy received {received:?} parameters, not ≥ {listed}"
+        received.as_ref().is_some_and(|(n, how)| *n >= listed && how == "(ftp)"),
+        "MAVProxy received {received:?} parameters, not ≥ {listed} over FTP"
     );
     for needed in [
         "Detected vehicle 1:1 on link 0",

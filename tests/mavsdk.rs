@@ -49,6 +49,8 @@ fn fly(scenario: &str, args: &[&str]) -> Vec<String> {
             .env("KESTREL", env!("CARGO_BIN_EXE_kestrel"))
             .env("KESTREL_LOG", &log)
             .env("KESTREL_SPEEDUP", SPEEDUP)
+            // The vehicle's own logs (config/sim.toml's `[record] dir`) stay in the scenario's dir.
+            .env("KESTREL_STATE_DIR", &dir)
             .env("PYTHON", python())
             .env("CLIENT", root().join("tests/python/mavsdk_flight.py"))
             .env("PYTHONUNBUFFERED", "1")
@@ -138,6 +140,17 @@ fn mavsdk_offboard_velocity_flies_a_10_m_square_and_ends_where_it_began() {
 fn mavsdk_goto_location_hold_and_return_to_launch() {
     let t = fly("goto_hold_rtl", &[]);
     println!("hold: {}; landed: {}", detail(&t, "hold"), detail(&t, "landed"));
+}
+
+#[test]
+fn mavsdk_log_files_lists_and_downloads_the_flights_log_as_it_is_on_the_vehicle() {
+    let t = fly("log_files", &[]);
+    println!(
+        "entries: {}; download: {}; mcap: {}",
+        detail(&t, "entries"),
+        detail(&t, "download"),
+        detail(&t, "mcap")
+    );
 }
 
 #[test]

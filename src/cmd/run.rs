@@ -39,6 +39,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     if let Some(n) = args.instance {
         apply_instance(&mut config, n)?;
     }
+    apply_log_dir(&mut config, args.log_dir.as_deref(), args.instance.unwrap_or(0))?;
     let hil = kestrel::hil::HilOptions::new();
     let hil = HilOptions { world: args.hil_world.clone().unwrap_or(hil.world.clone()), ..hil };
     let bench = args.hil.then(|| kestrel::hil::apply_hil(&mut config, &hil)).transpose()?;
@@ -55,6 +56,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         duration,
         speedup: args.speedup,
         record: args.record,
+        onboard_log: true,
         report: args.report.clone(),
         status: !args.quiet,
         escalate: None,
@@ -84,6 +86,28 @@ pub fn run(args: RunArgs) -> Result<(), String> {
             rec.messages_per_topic.len(),
             rec.path.display()
         );
+    }
+    Ok(())
+}
+
+/// Resolves the log directory (`--log-dir`, else `[record] dir`; `instance-N` added for
+/// `--instance N` > 0) to an absolute path for the recorder, and hands it to every link actor
+/// (`log_dir`), which serves it to ground stations.
+fn apply_log_dir(config: &mut LoadedConfig, flag: Option<&Path>, instance: u8) -> Result<(), String> {
+    if let Some(dir) = flag {
+        let absolute = std::path::absolute(dir).map_err(|e| format!("--log-dir {}: {e}", dir.display()))?;
+        config.graph.record.dir = Some(absolute);
+    } else if instance > 0
+        && let Some(dir) = &config.graph.record.dir
+    {
+        config.graph.record.dir = Some(dir.join(format!("instance-{instance}")));
+    }
+    let Some(onboard) = config.graph.record.onboard()? else { return Ok(()) };
+    config.graph.record.dir = Some(onboard.dir.clone());
+    for actor in config.graph.actors.values_mut().filter(|d| d.kind.get_ref() == "link") {
+        let params =
+            actor.params.get_or_insert_with(|| toml::Spanned::new(0..0, toml::Table::new())).get_mut();
+        params.entry("log_dir").or_insert_with(|| toml::Value::String(onboard.dir.display().to_string()));
     }
     Ok(())
 }

@@ -19,9 +19,11 @@
 
 mod error;
 mod format;
+pub mod onboard;
 mod reader;
 mod writer;
 
 pub use error::RecorderError;
+pub use onboard::{OnboardLog, OnboardStatus};
 pub use reader::{LogDamage, LogReader, RawRecord, Recorded, TopicInfo};
 pub use writer::{RecordChannel, Recorder, RecordingSummary};

@@ -21,6 +21,7 @@ use mcap::records::MessageHeader;
 
 use super::error::RecorderError;
 use super::format::{LIBRARY, MESSAGE_ENCODING, SCHEMA_ENCODING, to_mcap_ns};
+use super::onboard::{OnboardLog, OnboardStatus, Segments};
 
 /// Most JSON bytes that may wait for the writer thread. Beyond it `record` drops messages
 /// (counted per topic) rather than let a stalled disk eat the companion computer's memory;
@@ -114,9 +115,54 @@ struct WriterOutcome {
     result: Result<u64, WriterFailure>,
 }
 
-enum WriterFailure {
+pub(super) enum WriterFailure {
     Mcap(mcap::McapError),
     Io(std::io::Error),
+}
+
+/// Where the writer thread puts what it is given: one MCAP file ([`Recorder::create`]) or the
+/// vehicle's numbered logs ([`Recorder::onboard`], `onboard::Segments`).
+pub(super) trait Sink: Send {
+    fn schema(&mut self, id: u16, name: &'static str, data: &[u8]) -> Result<(), mcap::McapError>;
+    fn channel(&mut self, id: u16, schema_id: u16, topic: &str) -> Result<(), mcap::McapError>;
+    /// Writes one message; `Ok(false)` when no log is open to keep it (the onboard log between
+    /// flights), which is not a loss.
+    fn message(&mut self, header: &MessageHeader, data: &[u8]) -> Result<bool, mcap::McapError>;
+    /// Finishes what is open; the size of the file closed (0 if none).
+    fn close(self: Box<Self>) -> Result<u64, WriterFailure>;
+}
+
+/// One MCAP file for the whole run.
+struct SingleFile(mcap::Writer<BufWriter<File>>);
+
+impl Sink for SingleFile {
+    fn schema(&mut self, id: u16, name: &'static str, data: &[u8]) -> Result<(), mcap::McapError> {
+        self.0.add_schema_with_id(id, name, SCHEMA_ENCODING, data).map(drop)
+    }
+
+    fn channel(&mut self, id: u16, schema_id: u16, topic: &str) -> Result<(), mcap::McapError> {
+        self.0.add_channel_with_id(id, schema_id, topic, MESSAGE_ENCODING, &BTreeMap::new()).map(drop)
+    }
+
+    fn message(&mut self, header: &MessageHeader, data: &[u8]) -> Result<bool, mcap::McapError> {
+        self.0.write_to_known_channel(header, data).map(|()| true)
+    }
+
+    fn close(self: Box<Self>) -> Result<u64, WriterFailure> {
+        close_mcap(self.0)
+    }
+}
+
+/// An MCAP writer on `file` with everything that could differ between two identical runs
+/// pinned: the library string carries no build metadata, and compression is single-threaded
+/// (zstd's multi-threaded output depends on the worker count, i.e. on the machine).
+pub(super) fn mcap_writer(file: File) -> Result<mcap::Writer<BufWriter<File>>, mcap::McapError> {
+    mcap::WriteOptions::new()
+        .library(LIBRARY)
+        .compression(Some(mcap::Compression::Zstd))
+        .compression_threads(0)
+        .chunk_size(Some(CHUNK_SIZE_BYTES))
+        .create(BufWriter::new(file))
 }
 
 impl Recorder {
@@ -124,19 +170,29 @@ impl Recorder {
     pub fn create(path: &Path) -> Result<Recorder, RecorderError> {
         let file = File::create(path)
             .map_err(|source| RecorderError::Create { path: path.to_path_buf(), source })?;
-        // Everything that could differ between two identical runs is pinned: the library
-        // string carries no build metadata, and compression is single-threaded (zstd's
-        // multi-threaded output depends on the worker count, i.e. on the machine).
-        let options = mcap::WriteOptions::new()
-            .library(LIBRARY)
-            .compression(Some(mcap::Compression::Zstd))
-            .compression_threads(0)
-            .chunk_size(Some(CHUNK_SIZE_BYTES));
-        let writer = options.create(BufWriter::new(file)).map_err(|source| RecorderError::Write {
+        let writer = mcap_writer(file).map_err(|source| RecorderError::Write {
             path: path.to_path_buf(),
             source,
             lost: 0,
         })?;
+        Recorder::start(path, Box::new(SingleFile(writer)))
+    }
+
+    /// Records into the vehicle's numbered logs in `config.dir` (made if absent), one per
+    /// arming or one for the run (`onboard`); the status says which log is open and the last
+    /// error.
+    pub fn onboard(config: OnboardLog) -> Result<(Recorder, Arc<Mutex<OnboardStatus>>), RecorderError> {
+        std::fs::create_dir_all(&config.dir)
+            .map_err(|source| RecorderError::Create { path: config.dir.clone(), source })?;
+        let status = Arc::new(Mutex::new(OnboardStatus::default()));
+        let dir = config.dir.clone();
+        let recorder = Recorder::start(&dir, Box::new(Segments::new(config, Arc::clone(&status))))?;
+        Ok((recorder, status))
+    }
+
+    /// Starts the writer thread putting what it is given into `writer`; `path` names the
+    /// recording in errors and the summary.
+    fn start(path: &Path, writer: Box<dyn Sink>) -> Result<Recorder, RecorderError> {
         let (sender, receiver) = std::sync::mpsc::channel();
         let queue = Arc::new(Queue { path: path.to_path_buf(), sender, queued_bytes: AtomicUsize::new(0) });
         let thread_queue = Arc::clone(&queue);
@@ -359,11 +415,7 @@ impl ChannelState {
 /// The writer thread: applies commands in order until told to finish, then closes the file.
 /// After a write failure it keeps draining the queue, counting what it could not write, so
 /// callers never block and memory stays bounded.
-fn run_writer(
-    mut writer: mcap::Writer<BufWriter<File>>,
-    commands: &Receiver<Command>,
-    queue: &Queue,
-) -> WriterOutcome {
+fn run_writer(mut writer: Box<dyn Sink>, commands: &Receiver<Command>, queue: &Queue) -> WriterOutcome {
     let mut written: BTreeMap<u16, u64> = BTreeMap::new();
     let mut unwritten: BTreeMap<u16, u64> = BTreeMap::new();
     let mut failure: Option<mcap::McapError> = None;
@@ -378,12 +430,8 @@ fn run_writer(
                 continue;
             }
             _ if failure.is_some() => continue,
-            Command::Schema { id, name, data } => {
-                writer.add_schema_with_id(id, name, SCHEMA_ENCODING, &data).map(drop)
-            }
-            Command::Channel { id, schema_id, topic } => writer
-                .add_channel_with_id(id, schema_id, &topic, MESSAGE_ENCODING, &BTreeMap::new())
-                .map(drop),
+            Command::Schema { id, name, data } => writer.schema(id, name, &data),
+            Command::Channel { id, schema_id, topic } => writer.channel(id, schema_id, &topic),
             Command::Message { channel_id, log_time, publish_time, data } => {
                 queue.queued_bytes.fetch_sub(data.len(), Ordering::Relaxed);
                 let count = written.entry(channel_id).or_insert(0);
@@ -395,13 +443,17 @@ fn run_writer(
                     log_time: to_mcap_ns(log_time),
                     publish_time: to_mcap_ns(publish_time),
                 };
-                let result = writer.write_to_known_channel(&header, &data);
-                if result.is_ok() {
-                    *count += 1;
-                } else {
-                    *unwritten.entry(channel_id).or_insert(0) += 1;
+                match writer.message(&header, &data) {
+                    Ok(true) => {
+                        *count += 1;
+                        Ok(())
+                    }
+                    Ok(false) => Ok(()),
+                    Err(e) => {
+                        *unwritten.entry(channel_id).or_insert(0) += 1;
+                        Err(e)
+                    }
                 }
-                result
             }
         };
         if let Err(e) = applied {
@@ -416,13 +468,13 @@ fn run_writer(
     }
     let result = match failure {
         Some(e) => Err(WriterFailure::Mcap(e)),
-        None => close(writer),
+        None => writer.close(),
     };
     WriterOutcome { written, unwritten, result }
 }
 
 /// Writes the summary section and footer, flushes and syncs the file; returns its size.
-fn close(mut writer: mcap::Writer<BufWriter<File>>) -> Result<u64, WriterFailure> {
+pub(super) fn close_mcap(mut writer: mcap::Writer<BufWriter<File>>) -> Result<u64, WriterFailure> {
     writer.finish().map_err(WriterFailure::Mcap)?;
     let file = writer.into_inner().into_inner().map_err(|e| WriterFailure::Io(e.into_error()))?;
     file.sync_all().map_err(WriterFailure::Io)?;

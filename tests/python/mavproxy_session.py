@@ -117,8 +117,7 @@ def session(mp, results):
     results["vehicle"] = {"system": 1, "mode": mode}
 
     # MAVProxy fetches every parameter by itself once it sees the vehicle: it asks for the
-    # parameter file over MAVFTP first, the vehicle answers FileNotFound at once, and MAVProxy
-    # falls back to PARAM_REQUEST_LIST (unanswered, it waited ~12 s).
+    # parameter file (`@PARAM/param.pck`) over MAVFTP, as it does from ArduPilot.
     count = int(mp.expect(r"^Received (\d+) parameters", 20.0, "parameter download").group(1))
     mp.type("param show RTL_ALT_M")
     before = float(mp.expect(r"^RTL_ALT_M\s+(\S+)", 5.0, "param show").group(1))

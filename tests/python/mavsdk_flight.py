@@ -12,6 +12,9 @@ Usage: mavsdk_flight.py SCENARIO [PLAN.plan]   (run by tests/mavsdk.rs)
                    (Param plugin), take off to 8 m, inject GPS off: global position lost, LAND
                    (the fault matrix's "GPS lost" row: estimator_unhealthy → land), landed,
                    disarmed
+    log_files      take off to 5 m, land; LogFiles: the entries, the newest downloaded equal to
+                   the vehicle's file ($KESTREL_STATE_DIR/sim/logs, byte for byte) and read by the
+                   `mcap` reader (tests/python/read_mcap.py) from vehicle_status armed to disarmed
 
 Every check reads what MAVSDK reports (telemetry, action and mission results), never the
 vehicle's log. One line per step goes to stdout (`wall_s step: detail`); the exit code is 0
@@ -28,6 +31,7 @@ import time
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.action import ActionAsync
 from mavsdk.asyncio.plugins.failure import FailureAsync
+from mavsdk.asyncio.plugins.log_files import LogFilesAsync
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
 from mavsdk.asyncio.plugins.offboard import OffboardAsync
 from mavsdk.asyncio.plugins.param import ParamAsync
@@ -79,6 +83,7 @@ class Vehicle:
         self.offboard = OffboardAsync(system)
         self.failure = FailureAsync(system)
         self.param = ParamAsync(system)
+        self.log_files = LogFilesAsync(system)
 
     async def ready(self):
         health = await until("health: armable, global position, home",
@@ -282,8 +287,45 @@ async def failure_gps(v):
     log("landed", "on the ground, disarmed")
 
 
+async def log_files(v):
+    await v.ready()
+    await v.action.set_takeoff_altitude(5.0)
+    await v.arm()
+    await v.action.takeoff()
+    await until("in air", v.telemetry.in_air, 20.0)
+    await asyncio.sleep(1.0)
+    await v.action.land()
+    await v.landed_and_disarmed(60.0)
+    started = time.monotonic()
+    entries = await v.log_files.get_entries()
+    log("entries", ", ".join(f"{e.id}: {e.size_bytes} B {e.date}" for e in entries))
+    if not entries:
+        raise Failed("entries: none")
+    newest = entries[-1]
+    log_dir = os.path.join(os.environ["KESTREL_STATE_DIR"], "sim", "logs")
+    names = sorted(n for n in os.listdir(log_dir) if n.endswith(".mcap"))
+    on_disk = open(os.path.join(log_dir, names[-1]), "rb").read()
+    if (len(entries), newest.size_bytes) != (len(names), len(on_disk)):
+        raise Failed(f"entries: {len(entries)} entries, newest {newest.size_bytes} B; on disk {names}, "
+                     f"newest {len(on_disk)} B")
+    path = os.path.join(os.getcwd(), "downloaded.mcap")
+    async for result, progress in v.log_files.download_log_file(newest, path):
+        pass
+    data = open(path, "rb").read()
+    log("download", f"{len(data)} B in {time.monotonic() - started:.1f} s")
+    if data != on_disk:
+        raise Failed(f"download: {len(data)} B differ from the vehicle's {names[-1]} ({len(on_disk)} B)")
+    sys.path.insert(0, os.path.dirname(__file__))
+    from read_mcap import topic_span
+    span = topic_span(path, "vehicle_status")
+    log("mcap", f"{len(span['topics'])} topics, vehicle_status armed {span['first']['armed']} .. "
+                f"{span['last']['armed']}")
+    if (span["first"]["armed"], span["last"]["armed"]) != (True, False):
+        raise Failed("mcap: the log is not the flight from arming to disarming")
+
+
 SCENARIOS = {"takeoff_land": takeoff_land, "mission": mission, "offboard": offboard,
-             "goto_hold_rtl": goto_hold_rtl, "failure_gps": failure_gps}
+             "goto_hold_rtl": goto_hold_rtl, "failure_gps": failure_gps, "log_files": log_files}
 
 
 async def run(name, args):

@@ -45,6 +45,21 @@ def summarise(path):
     return {"topics": topics}
 
 
+def topic_span(path, topic):
+    """The topic names of the log and the first and last decoded message on `topic`, reading
+    only that topic's messages (a quick look at a long log)."""
+    with open(path, "rb") as stream:
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        names = sorted({c.topic for c in summary.channels.values()}) if summary is not None else []
+        first = last = None
+        for _, _, message in reader.iter_messages(topics=[topic]):
+            last = json.loads(message.data)
+            if first is None:
+                first = last
+    return {"topics": names, "first": first, "last": last}
+
+
 def main():
     if len(sys.argv) != 2:
         print("usage: read_mcap.py FILE.mcap", file=sys.stderr)

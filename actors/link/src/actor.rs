@@ -185,7 +185,8 @@ impl Actor for LinkActor {
             calibration: setup.output("calibration_command"),
             inject_failure: setup.output("inject_failure"),
         };
-        let vehicle = Vehicle::new(params.system_id, table, gcs_timeout);
+        let mut vehicle = Vehicle::new(params.system_id, table, gcs_timeout);
+        vehicle.serve_logs(params.log_dir.clone().map(crate::services::log_download::LogDirectory::new));
         Ok(LinkActor {
             params: params.clone(),
             config_dir,

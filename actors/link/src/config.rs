@@ -59,6 +59,10 @@ pub struct LinkParams {
     /// ground station sees every vehicle. See [`LinkParams::for_instance`].
     #[serde(default)]
     pub instance: u8,
+    /// The vehicle's log directory, served by log download and FTP (`services::log_download`,
+    /// `services::ftp`). The runtime sets it from `[record] dir`; `None`: no logs are served.
+    #[serde(default)]
+    pub log_dir: Option<PathBuf>,
 }
 
 impl Default for LinkParams {
@@ -70,6 +74,7 @@ impl Default for LinkParams {
             param_file: None,
             gcs_timeout_s: default_gcs_timeout_s(),
             instance: 0,
+            log_dir: None,
         }
     }
 }

@@ -21,8 +21,9 @@ use mavlink::{Message, MessageData};
 
 use crate::services::command::{self, CommandRequest, CommandService};
 use crate::services::events::{status_changes, statustext};
-use crate::services::ftp;
+use crate::services::ftp::FtpServer;
 use crate::services::heartbeat::{GcsEvent, GcsWatch, vehicle_heartbeat};
+use crate::services::log_download::{LogDirectory, LogDownload};
 use crate::services::mission::MissionService;
 use crate::services::offboard::{
     OffboardRejects, global_echo, global_target, local_echo, local_target, manual_control,
@@ -40,8 +41,8 @@ pub const COMPONENT_ID: u8 = 1;
 const GCS_SYSID_PARAM: &str = "MAV_GCS_SYSID";
 const DEFAULT_GCS_SYSID: u8 = 255;
 
-/// What we claim in AUTOPILOT_VERSION: only what this crate implements (not FTP: requests are
-/// only refused, see `services::ftp`).
+/// What we claim in AUTOPILOT_VERSION: only what this crate implements (FTP is read-only: the
+/// logs and `@PARAM/param.pck`, see `services::ftp`).
 pub fn capabilities() -> MavProtocolCapability {
     MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT
@@ -50,6 +51,7 @@ pub fn capabilities() -> MavProtocolCapability {
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP
 }
 
 /// The vehicle's side of every microservice.
@@ -69,6 +71,8 @@ pub struct Vehicle {
     text_id: u16,
     /// A ground station's COMMAND_ACK confirming an accelerometer calibration position.
     accelcal: calibration::AccelcalSnoop,
+    logs: LogDownload,
+    ftp: FtpServer,
 }
 
 impl Vehicle {
@@ -85,7 +89,15 @@ impl Vehicle {
             unhandled: 0,
             text_id: 0,
             accelcal: calibration::AccelcalSnoop::default(),
+            logs: LogDownload::new(None),
+            ftp: FtpServer::new(None),
         }
+    }
+
+    /// Serve the logs of `dir` by log download and FTP (`None`: serve none).
+    pub fn serve_logs(&mut self, dir: Option<LogDirectory>) {
+        self.logs = LogDownload::new(dir.clone());
+        self.ftp = FtpServer::new(dir);
     }
 
     /// Our system id.
@@ -147,7 +159,7 @@ impl Vehicle {
 
     /// Handles a message from `from` (already known to be for us).
     pub fn on_message(&mut self, from: Sender, msg: &MavMessage, now: Time) -> Outputs {
-        let services: [&mut dyn Service; 2] = [&mut self.params, &mut self.missions];
+        let services: [&mut dyn Service; 3] = [&mut self.params, &mut self.missions, &mut self.logs];
         for service in services {
             if let Some(out) = service.on_message(from, msg, now) {
                 return out;
@@ -193,7 +205,7 @@ impl Vehicle {
                 out
             }
             MavMessage::FILE_TRANSFER_PROTOCOL(m) => {
-                Outputs { mav: ftp::answer(from, m).into_iter().collect(), graph: Vec::new() }
+                Outputs { mav: self.ftp.on_request(from, m, &self.params, now), graph: Vec::new() }
             }
             MavMessage::MANUAL_CONTROL(m) => Outputs {
                 mav: Vec::new(),
@@ -251,6 +263,7 @@ impl Vehicle {
     /// goes to the parameter table, which refuses disarmed-only parameters while armed.
     pub fn on_status(&mut self, status: VehicleStatus) -> Outputs {
         self.params.set_armed(status.armed);
+        self.logs.set_armed(status.armed);
         let old = self.telemetry.snapshot.status.take();
         self.missions.set_flying(status.armed && status.mode == FlightMode::Auto);
         let mut mav = status_changes(old.as_ref(), &status);
@@ -382,6 +395,7 @@ impl Vehicle {
         let mut out = Outputs { mav: self.commands.on_tick(now), graph: Vec::new() };
         out.extend(self.params.on_tick(now));
         out.extend(self.missions.on_tick(now));
+        out.extend(self.logs.on_tick(now));
         if self.gcs.check(now) == Some(GcsEvent::Lost) {
             out.mav.push(statustext(MavSeverity::MAV_SEVERITY_CRITICAL, "GCS heartbeat lost"));
         }
@@ -719,27 +733,33 @@ mod tests {
     }
 
     #[test]
-    fn ftp_requests_are_refused_at_once_and_not_claimed() {
+    fn ftp_opens_the_parameter_file_for_its_sender_and_is_claimed() {
         use mavlink::dialects::ardupilotmega::FILE_TRANSFER_PROTOCOL_DATA;
         let mut v = vehicle(0);
         let mut payload = [0u8; 251];
         payload[0] = 5; // sequence number 5
         payload[2] = 9; // session 9
         payload[3] = 4; // OpenFileRO
+        let path = b"@PARAM/param.pck";
+        payload[4] = path.len() as u8;
+        payload[12..12 + path.len()].copy_from_slice(path);
         let request =
             FILE_TRANSFER_PROTOCOL_DATA { target_network: 0, target_system: 7, target_component: 1, payload };
         let out = v.on_message(GCS, &MavMessage::FILE_TRANSFER_PROTOCOL(request), Time::ZERO);
-        let [MavMessage::FILE_TRANSFER_PROTOCOL(nak)] = &out.mav[..] else {
+        let [MavMessage::FILE_TRANSFER_PROTOCOL(ack)] = &out.mav[..] else {
             panic!("no FTP answer: {out:?}")
         };
-        // NAK (129) to OpenFileRO (4), FileNotFound (10), sequence 6, session 9, to the sender.
-        assert_eq!((nak.payload[3], nak.payload[5], nak.payload[12]), (129, 4, 10));
+        // ACK (128) to OpenFileRO (4) with the file's size (4 bytes), sequence 6, session 9, to
+        // the sender.
+        let size = u32::from_le_bytes([ack.payload[12], ack.payload[13], ack.payload[14], ack.payload[15]]);
+        let want = crate::services::param_pack::encode(&v.params().list()).len();
+        assert_eq!((ack.payload[3], ack.payload[5], ack.payload[4], size as usize), (128, 4, 4, want));
         assert_eq!(
-            (nak.payload[0], nak.payload[2], nak.target_system, nak.target_component),
+            (ack.payload[0], ack.payload[2], ack.target_system, ack.target_component),
             (6, 9, 255, 190)
         );
         assert_eq!(v.unhandled, 0);
-        assert!(!capabilities().contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
+        assert!(capabilities().contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
     }
 
     #[test]

@@ -179,7 +179,7 @@ async fn commands_are_acknowledged_and_unknown_ones_unsupported_at_once() {
         .expect("AUTOPILOT_VERSION on request");
     assert!(caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT));
     assert!(caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2));
-    assert!(!caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
+    assert!(caps.contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -513,7 +513,7 @@ async fn a_full_udp_server_refuses_newcomers_while_its_peers_are_live() {
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-async fn ftp_requests_are_refused_at_once_so_ground_stations_fall_back() {
+async fn ftp_opens_the_parameter_file_for_the_requester_at_once() {
     let mut gcs = Peer::bind(255).await;
     let _link = Harness::start(&[udp_out(gcs.addr())], 0, std::path::Path::new(".")).await;
     let vehicle = vehicle_address(&gcs).await;
@@ -527,17 +527,19 @@ async fn ftp_requests_are_refused_at_once_so_ground_stations_fall_back() {
     let request =
         FILE_TRANSFER_PROTOCOL_DATA { target_network: 0, target_system: 1, target_component: 1, payload };
     gcs.send(vehicle, &MavMessage::FILE_TRANSFER_PROTOCOL(request)).await;
-    let (nak, _) = gcs
+    let (ack, _) = gcs
         .recv_until(WAIT, |_, m| match m {
             MavMessage::FILE_TRANSFER_PROTOCOL(f) => Some(f.clone()),
             _ => None,
         })
         .await
         .expect("an FTP answer");
-    // NAK (129) of OpenFileRO, size 1, FileNotFound (10), sequence 1, the session echoed.
-    let p = nak.payload;
-    assert_eq!((p[0], p[1], p[2], p[3], p[4], p[5], p[12]), (1, 0, 181, 129, 1, 4, 10));
-    assert_eq!((nak.target_system, nak.target_component), (255, 190), "to the requester");
+    // ACK (128) of OpenFileRO, size 4 (the file's size), sequence 1, the session echoed.
+    let p = ack.payload;
+    assert_eq!((p[0], p[1], p[2], p[3], p[4], p[5]), (1, 0, 181, 128, 4, 4));
+    let size = u32::from_le_bytes([p[12], p[13], p[14], p[15]]);
+    assert!(size >= 6, "at least param.pck's header: {size} bytes");
+    assert_eq!((ack.target_system, ack.target_component), (255, 190), "to the requester");
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -1,26 +1,46 @@
-//! MAVLink FTP (mavlink.io "File Transfer Protocol"), server side, for a vehicle that serves no
-//! files: every request is answered at once with the NAK the spec gives for it.
+//! MAVLink FTP (mavlink.io "File Transfer Protocol"), server side, read-only, over two
+//! directories: `logs/` (the vehicle's numbered MCAP logs, [`LogDirectory`]) and `@PARAM/`
+//! holding `param.pck` (every parameter, [`param_pack`]), answered as ArduCopter's `GCS_FTP`
+//! answers them.
 //!
-//! Why answer at all: MAVProxy and QGroundControl first try to fetch parameters (and missions)
-//! as files (`@PARAM/param.pck`) over FTP. Unanswered, they retry for ~12 s before falling back
-//! to PARAM_REQUEST_LIST; a `FileNotFound` NAK makes them fall back at once. AUTOPILOT_VERSION
-//! does not claim MAV_PROTOCOL_CAPABILITY_FTP, since no transfer can succeed.
+//! * ListDirectory: `F<name>\t<size>\0` per file, `D<name>\0` per directory, as many whole
+//!   entries as fit in 239 bytes, from the entry `offset`; past the last one a NAK EndOfFile.
+//!   `/` lists `logs`; `@PARAM` is not listed there but is reached by name, as on ArduCopter
+//!   (whose root lists `@ROMFS`, `@SYS` and its SD card's directories).
+//! * OpenFileRO: an ACK with the file's size (4 bytes); a second open on a session a NAK Fail.
+//!   `@PARAM/param.pck` may carry a query (`?withdefaults=1`), ignored: the file has no defaults
+//!   (its magic says so) and readers take the values as their own defaults.
+//! * ReadFile: up to `size` (≤ 239) bytes at `offset`; at or past the end a NAK EndOfFile.
+//! * BurstReadFile: ACKs of 239 bytes (or `size`) from `offset`, [`BURST_PACKETS`] per request,
+//!   the last flagged `burst_complete` so the client asks for the next burst; the end of the file
+//!   is a NAK EndOfFile flagged `burst_complete`. ArduPilot sends up to 2000 per request; ours
+//!   are shorter so a burst never overflows a ground station's socket buffer.
+//! * TerminateSession and ResetSessions close sessions and ACK; None ACKs.
+//! * CalcFileCRC32: ArduPilot's CRC-32 (reflected 0xEDB88320, seed 0, no final inversion).
+//! * Writes (CreateFile, OpenFileWO, CreateDirectory, RemoveFile, RemoveDirectory, Rename): a NAK
+//!   FailErrno with errno EROFS, as ArduPilot's file system answers for a read-only one;
+//!   WriteFile without a write session FileNotFound, as ArduPilot; TruncateFile and unknown
+//!   opcodes UnknownCommand.
+//! * A re-sent request (same session, sequence one before the last reply's) gets the last reply
+//!   again, so an OpenFileRO whose ACK was lost is not refused as a second open.
 //!
-//! The answers, stateless, so a re-sent request (same sequence number) gets the same one, as
-//! the spec wants:
-//! * `None` and `ResetSessions`: ACK (there is nothing to reset);
-//! * requests naming a path (open for reading, list, CRC, remove, truncate, rename):
-//!   `FileNotFound`;
-//! * requests creating something (create file/directory, open for writing): `FileProtected`,
-//!   the file system being read-only (and empty);
-//! * requests on a session (read, burst read, write, terminate): `InvalidSession`, as no
-//!   session is ever opened;
-//! * any other opcode: `UnknownCommand`. ACKs and NAKs (replies, not requests) get no answer,
-//!   so two servers can never ping-pong.
+//! Paths outside these two directories, and names in `logs/` that are not log names, are
+//! FileNotFound: nothing else of the companion computer's disk is reachable.
+//!
+//! Held by the tests in this file, `tests/log_download.rs` (pymavlink's mavftp, against
+//! ArduCopter too) and `tests/gcs.rs` (MAVProxy fetching its parameters as `param.pck`).
 
+use std::fs::File;
+use std::io;
+use std::os::unix::fs::FileExt;
+
+use kestrel_proto::Time;
 use mavlink::dialects::ardupilotmega::{FILE_TRANSFER_PROTOCOL_DATA, MavFtpErr, MavFtpOpcode, MavMessage};
 
 use super::Sender;
+use super::log_download::{LogDirectory, log_number};
+use super::param_pack;
+use super::params::ParamTable;
 
 /// Byte offsets in the FTP payload (mavlink.io FTP "Payload Format").
 const SEQ: usize = 0;
@@ -28,7 +48,20 @@ const SESSION: usize = 2;
 const OPCODE: usize = 3;
 const SIZE: usize = 4;
 const REQ_OPCODE: usize = 5;
+const BURST_COMPLETE: usize = 6;
+const OFFSET: usize = 8;
 const DATA: usize = 12;
+/// Bytes of data in one message.
+pub const DATA_BYTES: usize = 251 - DATA;
+
+/// ACKs per BurstReadFile request (56 kB).
+pub const BURST_PACKETS: usize = 240;
+
+/// Sessions kept at once; the least recently used one is reused beyond it.
+const MAX_SESSIONS: usize = 8;
+
+/// Linux's EROFS, "read-only file system": ArduPilot sends errno with FailErrno.
+const EROFS: u8 = 30;
 
 const NONE: u8 = MavFtpOpcode::MAV_FTP_OPCODE_NONE as u8;
 const TERMINATE_SESSION: u8 = MavFtpOpcode::MAV_FTP_OPCODE_TERMINATESESSION as u8;
@@ -42,124 +75,654 @@ const REMOVE_FILE: u8 = MavFtpOpcode::MAV_FTP_OPCODE_REMOVEFILE as u8;
 const CREATE_DIRECTORY: u8 = MavFtpOpcode::MAV_FTP_OPCODE_CREATEDIRECTORY as u8;
 const REMOVE_DIRECTORY: u8 = MavFtpOpcode::MAV_FTP_OPCODE_REMOVEDIRECTORY as u8;
 const OPEN_FILE_WO: u8 = MavFtpOpcode::MAV_FTP_OPCODE_OPENFILEWO as u8;
-const TRUNCATE_FILE: u8 = MavFtpOpcode::MAV_FTP_OPCODE_TRUNCATEFILE as u8;
 const RENAME: u8 = MavFtpOpcode::MAV_FTP_OPCODE_RENAME as u8;
 const CALC_FILE_CRC32: u8 = MavFtpOpcode::MAV_FTP_OPCODE_CALCFILECRC as u8;
 const BURST_READ_FILE: u8 = MavFtpOpcode::MAV_FTP_OPCODE_BURSTREADFILE as u8;
-const LIST_DIRECTORY_WITH_TIME: u8 = MavFtpOpcode::MAV_FTP_OPCODE_LISTDIRECTORYWITHTIME as u8;
 const ACK: u8 = MavFtpOpcode::MAV_FTP_OPCODE_ACK as u8;
 const NAK: u8 = MavFtpOpcode::MAV_FTP_OPCODE_NAK as u8;
 
-/// The answer to a FILE_TRANSFER_PROTOCOL request from `from`; `None` for replies (ACK/NAK).
-pub fn answer(from: Sender, request: &FILE_TRANSFER_PROTOCOL_DATA) -> Option<MavMessage> {
-    let p = &request.payload;
-    let opcode = p[OPCODE];
-    let error = match opcode {
-        ACK | NAK => return None,
-        NONE | RESET_SESSIONS => None,
-        LIST_DIRECTORY
-        | LIST_DIRECTORY_WITH_TIME
-        | OPEN_FILE_RO
-        | CALC_FILE_CRC32
-        | REMOVE_FILE
-        | REMOVE_DIRECTORY
-        | TRUNCATE_FILE
-        | RENAME => Some(MavFtpErr::MAV_FTP_ERR_FILENOTFOUND),
-        CREATE_FILE | CREATE_DIRECTORY | OPEN_FILE_WO => Some(MavFtpErr::MAV_FTP_ERR_FILEPROTECTED),
-        READ_FILE | BURST_READ_FILE | WRITE_FILE | TERMINATE_SESSION => {
-            Some(MavFtpErr::MAV_FTP_ERR_INVALIDSESSION)
-        }
-        _ => Some(MavFtpErr::MAV_FTP_ERR_UNKNOWNCOMMAND),
-    };
-    let mut payload = [0u8; 251];
-    // The reply's sequence number is the request's plus one; the session is echoed.
-    let seq = u16::from_le_bytes([p[SEQ], p[SEQ + 1]]).wrapping_add(1);
-    payload[SEQ..SEQ + 2].copy_from_slice(&seq.to_le_bytes());
-    payload[SESSION] = p[SESSION];
-    payload[REQ_OPCODE] = opcode;
-    match error {
-        None => payload[OPCODE] = ACK,
-        Some(e) => {
-            payload[OPCODE] = NAK;
-            payload[SIZE] = 1;
-            payload[DATA] = e as u8;
+/// The log directory's name under `/`.
+const LOGS: &str = "logs";
+const PARAM_DIR: &str = "@PARAM";
+const PARAM_FILE: &str = "param.pck";
+
+/// A file opened for reading.
+#[derive(Debug)]
+enum Content {
+    Disk { file: File, size: u32 },
+    Memory(Vec<u8>),
+}
+
+impl Content {
+    fn size(&self) -> u32 {
+        match self {
+            Content::Disk { size, .. } => *size,
+            Content::Memory(bytes) => u32::try_from(bytes.len()).unwrap_or(u32::MAX),
         }
     }
-    Some(MavMessage::FILE_TRANSFER_PROTOCOL(FILE_TRANSFER_PROTOCOL_DATA {
+
+    /// Up to `buf.len()` bytes at `offset` (fewer only at the end).
+    fn read_at(&self, buf: &mut [u8], offset: u32) -> io::Result<usize> {
+        match self {
+            Content::Memory(bytes) => {
+                let start = (offset as usize).min(bytes.len());
+                let n = buf.len().min(bytes.len() - start);
+                buf[..n].copy_from_slice(&bytes[start..start + n]);
+                Ok(n)
+            }
+            Content::Disk { file, .. } => {
+                let mut done = 0;
+                while done < buf.len() {
+                    match file.read_at(&mut buf[done..], u64::from(offset) + done as u64) {
+                        Ok(0) => break,
+                        Ok(n) => done += n,
+                        Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+                        Err(e) => return Err(e),
+                    }
+                }
+                Ok(done)
+            }
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Session {
+    owner: Sender,
+    id: u8,
+    file: Option<Content>,
+    last_used: Time,
+}
+
+/// What a path names.
+enum Node {
+    Root,
+    ParamDir,
+    LogDir,
+    ParamFile,
+    Log(LogDirectory, String),
+}
+
+/// The FTP server.
+#[derive(Debug)]
+pub struct FtpServer {
+    logs: Option<LogDirectory>,
+    sessions: Vec<Session>,
+    /// The last reply sent, with whom it went to: re-sent for a repeated request.
+    last_reply: Option<(Sender, [u8; 251])>,
+}
+
+/// A reply under construction: the request's header echoed, sequence + 1.
+struct Reply {
+    payload: [u8; 251],
+}
+
+impl Reply {
+    fn to(request: &[u8; 251]) -> Reply {
+        let mut payload = [0u8; 251];
+        let seq = u16::from_le_bytes([request[SEQ], request[SEQ + 1]]).wrapping_add(1);
+        payload[SEQ..SEQ + 2].copy_from_slice(&seq.to_le_bytes());
+        payload[SESSION] = request[SESSION];
+        payload[REQ_OPCODE] = request[OPCODE];
+        Reply { payload }
+    }
+
+    fn ack(mut self, offset: u32, data: &[u8]) -> [u8; 251] {
+        self.payload[OPCODE] = ACK;
+        self.payload[OFFSET..OFFSET + 4].copy_from_slice(&offset.to_le_bytes());
+        // `data` is at most DATA_BYTES (239) long.
+        self.payload[SIZE] = data.len() as u8;
+        self.payload[DATA..DATA + data.len()].copy_from_slice(data);
+        self.payload
+    }
+
+    fn nak(mut self, error: MavFtpErr) -> [u8; 251] {
+        self.payload[OPCODE] = NAK;
+        self.payload[SIZE] = 1;
+        self.payload[DATA] = error as u8;
+        self.payload
+    }
+
+    fn nak_errno(mut self, errno: u8) -> [u8; 251] {
+        self.payload[OPCODE] = NAK;
+        self.payload[SIZE] = 2;
+        self.payload[DATA] = MavFtpErr::MAV_FTP_ERR_FAILERRNO as u8;
+        self.payload[DATA + 1] = errno;
+        self.payload
+    }
+}
+
+impl FtpServer {
+    /// A server over `logs` (`None`: `/logs` is absent) and the parameters.
+    pub fn new(logs: Option<LogDirectory>) -> FtpServer {
+        FtpServer { logs, sessions: Vec::new(), last_reply: None }
+    }
+
+    /// The answers to a FILE_TRANSFER_PROTOCOL request from `from`; none to replies (ACK/NAK),
+    /// so two servers can never ping-pong.
+    pub fn on_request(
+        &mut self,
+        from: Sender,
+        request: &FILE_TRANSFER_PROTOCOL_DATA,
+        params: &ParamTable,
+        now: Time,
+    ) -> Vec<MavMessage> {
+        let p = &request.payload;
+        let opcode = p[OPCODE];
+        if opcode == ACK || opcode == NAK {
+            return Vec::new();
+        }
+        if let Some((to, last)) = &self.last_reply {
+            let seq = u16::from_le_bytes([p[SEQ], p[SEQ + 1]]);
+            let last_seq = u16::from_le_bytes([last[SEQ], last[SEQ + 1]]);
+            if *to == from
+                && last[SESSION] == p[SESSION]
+                && seq.wrapping_add(1) == last_seq
+                && last[REQ_OPCODE] == opcode
+            {
+                return vec![message(from, *last)];
+            }
+        }
+        let replies = self.answer(from, p, params, now);
+        if let Some(last) = replies.last() {
+            self.last_reply = Some((from, *last));
+        }
+        replies.into_iter().map(|r| message(from, r)).collect()
+    }
+
+    fn answer(&mut self, from: Sender, p: &[u8; 251], params: &ParamTable, now: Time) -> Vec<[u8; 251]> {
+        let reply = Reply::to(p);
+        let size = usize::from(p[SIZE]);
+        let offset = u32::from_le_bytes([p[OFFSET], p[OFFSET + 1], p[OFFSET + 2], p[OFFSET + 3]]);
+        let session_id = p[SESSION];
+        let path = || path_of(p, size);
+        let one = |r: [u8; 251]| vec![r];
+        match p[OPCODE] {
+            NONE => one(reply.ack(0, &[])),
+            RESET_SESSIONS => {
+                self.sessions.retain(|s| s.owner != from);
+                one(reply.ack(0, &[]))
+            }
+            TERMINATE_SESSION => {
+                self.sessions.retain(|s| !(s.owner == from && s.id == session_id));
+                one(reply.ack(0, &[]))
+            }
+            LIST_DIRECTORY => one(match path() {
+                None => reply.nak(MavFtpErr::MAV_FTP_ERR_INVALIDDATASIZE),
+                Some(path) => self.list(reply, &path, offset, params),
+            }),
+            OPEN_FILE_RO => {
+                let Some(path) = path() else {
+                    return one(reply.nak(MavFtpErr::MAV_FTP_ERR_INVALIDDATASIZE));
+                };
+                let session = self.session(from, session_id, now);
+                if session.file.is_some() {
+                    return one(reply.nak(MavFtpErr::MAV_FTP_ERR_FAIL));
+                }
+                match self.open(&path, params) {
+                    Ok(content) => {
+                        let size = content.size();
+                        self.session(from, session_id, now).file = Some(content);
+                        one(reply.ack(0, &size.to_le_bytes()))
+                    }
+                    Err(e) => one(e.nak(reply)),
+                }
+            }
+            READ_FILE => {
+                let Some(content) = self.open_file(from, session_id, now) else {
+                    return one(reply.nak(MavFtpErr::MAV_FTP_ERR_FILENOTFOUND));
+                };
+                let mut buf = [0u8; DATA_BYTES];
+                let want = size.clamp(1, DATA_BYTES);
+                match content.read_at(&mut buf[..want], offset) {
+                    Ok(0) => one(reply.nak(MavFtpErr::MAV_FTP_ERR_EOF)),
+                    Ok(n) => one(reply.ack(offset, &buf[..n])),
+                    Err(e) => one(reply.nak_errno(errno(&e))),
+                }
+            }
+            BURST_READ_FILE => {
+                let Some(content) = self.open_file(from, session_id, now) else {
+                    return one(reply.nak(MavFtpErr::MAV_FTP_ERR_FILENOTFOUND));
+                };
+                let max = if size == 0 { DATA_BYTES } else { size.min(DATA_BYTES) };
+                burst(content, Reply::to(p), offset, max)
+            }
+            CALC_FILE_CRC32 => {
+                let Some(path) = path() else {
+                    return one(reply.nak(MavFtpErr::MAV_FTP_ERR_INVALIDDATASIZE));
+                };
+                one(match self.open(&path, params).and_then(|c| crc_of(&c).map_err(OpenError::Io)) {
+                    Ok(crc) => reply.ack(0, &crc.to_le_bytes()),
+                    Err(e) => e.nak(reply),
+                })
+            }
+            CREATE_FILE | OPEN_FILE_WO | CREATE_DIRECTORY | REMOVE_FILE | REMOVE_DIRECTORY | RENAME => {
+                one(reply.nak_errno(EROFS))
+            }
+            WRITE_FILE => match self.open_file(from, session_id, now) {
+                // Open for reading, as in ArduPilot: the wrong mode.
+                Some(_) => one(reply.nak(MavFtpErr::MAV_FTP_ERR_FAIL)),
+                None => one(reply.nak(MavFtpErr::MAV_FTP_ERR_FILENOTFOUND)),
+            },
+            _ => one(reply.nak(MavFtpErr::MAV_FTP_ERR_UNKNOWNCOMMAND)),
+        }
+    }
+
+    /// The session `id` of `from`, made (reusing the least recently used beyond
+    /// [`MAX_SESSIONS`]) if new.
+    fn session(&mut self, from: Sender, id: u8, now: Time) -> &mut Session {
+        let index = match self.sessions.iter().position(|s| s.owner == from && s.id == id) {
+            Some(i) => i,
+            None => {
+                if self.sessions.len() >= MAX_SESSIONS
+                    && let Some(oldest) = (0..self.sessions.len()).min_by_key(|&i| self.sessions[i].last_used)
+                {
+                    self.sessions.remove(oldest);
+                }
+                self.sessions.push(Session { owner: from, id, file: None, last_used: now });
+                self.sessions.len() - 1
+            }
+        };
+        let session = &mut self.sessions[index];
+        session.last_used = now;
+        session
+    }
+
+    fn open_file(&mut self, from: Sender, id: u8, now: Time) -> Option<&Content> {
+        let session = self.sessions.iter_mut().find(|s| s.owner == from && s.id == id)?;
+        session.last_used = now;
+        session.file.as_ref()
+    }
+
+    fn resolve(&self, path: &str) -> Option<Node> {
+        let path = path.trim_start_matches('/').trim_end_matches('/');
+        let (dir, name) = match path.split_once('/') {
+            Some((dir, name)) => (dir, Some(name)),
+            None => (path, None),
+        };
+        match (dir, name) {
+            ("", None) => Some(Node::Root),
+            (PARAM_DIR, None) => Some(Node::ParamDir),
+            (PARAM_DIR, Some(file)) if file.split('?').next() == Some(PARAM_FILE) => Some(Node::ParamFile),
+            (LOGS, None) => self.logs.as_ref().map(|_| Node::LogDir),
+            (LOGS, Some(file)) => {
+                let logs = self.logs.as_ref()?;
+                log_number(file).map(|_| Node::Log(logs.clone(), file.to_owned()))
+            }
+            _ => None,
+        }
+    }
+
+    fn open(&self, path: &str, params: &ParamTable) -> Result<Content, OpenError> {
+        match self.resolve(path) {
+            Some(Node::ParamFile) => Ok(Content::Memory(param_pack::encode(&params.list()))),
+            Some(Node::Log(logs, name)) => {
+                let file = File::open(logs.path().join(name)).map_err(OpenError::Io)?;
+                let size = file.metadata().map_err(OpenError::Io)?.len();
+                Ok(Content::Disk { file, size: u32::try_from(size).unwrap_or(u32::MAX) })
+            }
+            Some(Node::Root | Node::ParamDir | Node::LogDir) => Err(OpenError::IsDirectory),
+            None => Err(OpenError::NotFound),
+        }
+    }
+
+    fn list(&self, reply: Reply, path: &str, offset: u32, params: &ParamTable) -> [u8; 251] {
+        let entries: Vec<String> = match self.resolve(path) {
+            Some(Node::Root) => self.logs.iter().map(|_| format!("D{LOGS}")).collect(),
+            Some(Node::ParamDir) => {
+                vec![format!("F{PARAM_FILE}\t{}", param_pack::encode(&params.list()).len())]
+            }
+            Some(Node::LogDir) => match self.logs.as_ref().map(LogDirectory::list) {
+                Some(Ok(logs)) => logs
+                    .iter()
+                    .filter_map(|l| Some(format!("F{}\t{}", l.path.file_name()?.to_str()?, l.size_bytes)))
+                    .collect(),
+                Some(Err(e)) => return reply.nak_errno(errno(&e)),
+                None => return reply.nak(MavFtpErr::MAV_FTP_ERR_FILENOTFOUND),
+            },
+            Some(Node::ParamFile | Node::Log(..)) => return reply.nak_errno(20), // ENOTDIR
+            None => return reply.nak(MavFtpErr::MAV_FTP_ERR_FILENOTFOUND),
+        };
+        let mut data = Vec::new();
+        for entry in entries.iter().skip(offset as usize) {
+            // Each entry ends with a NUL; only whole entries are sent.
+            if data.len() + entry.len() + 1 > DATA_BYTES {
+                break;
+            }
+            data.extend_from_slice(entry.as_bytes());
+            data.push(0);
+        }
+        if data.is_empty() {
+            return reply.nak(MavFtpErr::MAV_FTP_ERR_EOF);
+        }
+        reply.ack(offset, &data)
+    }
+}
+
+/// Why a path could not be opened.
+enum OpenError {
+    NotFound,
+    IsDirectory,
+    Io(io::Error),
+}
+
+impl OpenError {
+    fn nak(self, reply: Reply) -> [u8; 251] {
+        match self {
+            OpenError::NotFound => reply.nak(MavFtpErr::MAV_FTP_ERR_FILENOTFOUND),
+            OpenError::IsDirectory => reply.nak_errno(21), // EISDIR
+            OpenError::Io(e) if e.kind() == io::ErrorKind::NotFound => {
+                reply.nak(MavFtpErr::MAV_FTP_ERR_FILENOTFOUND)
+            }
+            OpenError::Io(e) => reply.nak_errno(errno(&e)),
+        }
+    }
+}
+
+/// The OS error number of `e` for a FailErrno NAK (EIO when it has none).
+fn errno(e: &io::Error) -> u8 {
+    e.raw_os_error().and_then(|n| u8::try_from(n).ok()).unwrap_or(5)
+}
+
+/// The path in a request's data: `size` bytes, or up to a NUL within them; `None` when the size
+/// is 0 or exceeds the data field, or the bytes are not UTF-8.
+fn path_of(p: &[u8; 251], size: usize) -> Option<String> {
+    if size == 0 || size > DATA_BYTES {
+        return None;
+    }
+    let bytes = &p[DATA..DATA + size];
+    let end = bytes.iter().position(|&b| b == 0).unwrap_or(size);
+    std::str::from_utf8(&bytes[..end]).ok().map(str::to_owned)
+}
+
+/// A BurstReadFile's replies from `offset`, `max` bytes each.
+fn burst(content: &Content, template: Reply, mut offset: u32, max: usize) -> Vec<[u8; 251]> {
+    let mut out = Vec::new();
+    let mut payload = template.payload;
+    for i in 0..BURST_PACKETS {
+        let reply = Reply { payload };
+        let mut buf = [0u8; DATA_BYTES];
+        match content.read_at(&mut buf[..max], offset) {
+            Ok(0) => {
+                let mut nak = reply.nak(MavFtpErr::MAV_FTP_ERR_EOF);
+                nak[BURST_COMPLETE] = 1;
+                out.push(nak);
+                break;
+            }
+            Ok(n) => {
+                let mut ack = reply.ack(offset, &buf[..n]);
+                ack[BURST_COMPLETE] = u8::from(i == BURST_PACKETS - 1);
+                out.push(ack);
+                offset = offset.saturating_add(n as u32);
+            }
+            Err(e) => {
+                let mut nak = reply.nak_errno(errno(&e));
+                nak[BURST_COMPLETE] = 1;
+                out.push(nak);
+                break;
+            }
+        }
+        // Every reply of a burst has its own sequence number.
+        let seq = u16::from_le_bytes([payload[SEQ], payload[SEQ + 1]]).wrapping_add(1);
+        payload[SEQ..SEQ + 2].copy_from_slice(&seq.to_le_bytes());
+    }
+    out
+}
+
+/// ArduPilot's file CRC-32: the reflected polynomial 0xEDB88320 from a zero seed, no final
+/// inversion (what `crc_crc32(0, …)` gives and pymavlink's mavftp compares against).
+pub fn crc32(mut crc: u32, data: &[u8]) -> u32 {
+    for &byte in data {
+        crc ^= u32::from(byte);
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+        }
+    }
+    crc
+}
+
+fn crc_of(content: &Content) -> io::Result<u32> {
+    let mut crc = 0;
+    let mut offset = 0u32;
+    let mut buf = vec![0u8; 64 * 1024];
+    loop {
+        let n = content.read_at(&mut buf, offset)?;
+        if n == 0 {
+            return Ok(crc);
+        }
+        crc = crc32(crc, &buf[..n]);
+        offset = offset.saturating_add(n as u32);
+    }
+}
+
+fn message(to: Sender, payload: [u8; 251]) -> MavMessage {
+    MavMessage::FILE_TRANSFER_PROTOCOL(FILE_TRANSFER_PROTOCOL_DATA {
         target_network: 0,
-        target_system: from.target_system(),
-        target_component: from.component_id,
+        target_system: to.target_system(),
+        target_component: to.component_id,
         payload,
-    }))
+    })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::ParamSpec;
+    use crate::services::log_download::log_file_name;
 
     const GCS: Sender = Sender { system_id: 255, component_id: 190 };
 
-    fn request(seq: u16, session: u8, opcode: u8, path: &str) -> FILE_TRANSFER_PROTOCOL_DATA {
+    struct Fixture {
+        dir: std::path::PathBuf,
+        server: FtpServer,
+        params: ParamTable,
+        seq: u16,
+    }
+
+    impl Drop for Fixture {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
+    }
+
+    fn fixture(name: &str, logs: &[(u32, usize)]) -> Fixture {
+        let dir = std::env::temp_dir().join(format!("kestrel-link-ftp-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("scratch dir");
+        for &(number, size) in logs {
+            let bytes: Vec<u8> = (0..size).map(|i| (i * 31 + 7) as u8).collect();
+            std::fs::write(dir.join(log_file_name(number)), bytes).expect("write");
+        }
+        std::fs::write(dir.join("secret.txt"), "not served").expect("write");
+        let specs = ["RTL_ALT_M", "WPNAV_SPEED"]
+            .iter()
+            .map(|n| ParamSpec {
+                name: (*n).into(),
+                value: 12.5,
+                min: f64::NEG_INFINITY,
+                max: f64::INFINITY,
+                kind: crate::config::ParamKind::Real32,
+                unit: String::new(),
+            })
+            .collect();
+        let params = ParamTable::new(specs).expect("params");
+        Fixture { server: FtpServer::new(Some(LogDirectory::new(&dir))), dir, params, seq: 0 }
+    }
+
+    fn request(
+        seq: u16,
+        session: u8,
+        opcode: u8,
+        offset: u32,
+        size: u8,
+        data: &[u8],
+    ) -> FILE_TRANSFER_PROTOCOL_DATA {
         let mut payload = [0u8; 251];
         payload[SEQ..SEQ + 2].copy_from_slice(&seq.to_le_bytes());
         payload[SESSION] = session;
         payload[OPCODE] = opcode;
-        payload[SIZE] = u8::try_from(path.len()).expect("short path");
-        payload[DATA..DATA + path.len()].copy_from_slice(path.as_bytes());
+        payload[SIZE] = size;
+        payload[OFFSET..OFFSET + 4].copy_from_slice(&offset.to_le_bytes());
+        payload[DATA..DATA + data.len()].copy_from_slice(data);
         FILE_TRANSFER_PROTOCOL_DATA { target_network: 0, target_system: 1, target_component: 1, payload }
     }
 
-    /// (opcode, size, req_opcode, data[0], seq, session, target) of the answer.
-    fn fields(msg: Option<MavMessage>) -> (u8, u8, u8, u8, u16, u8, (u8, u8)) {
-        let Some(MavMessage::FILE_TRANSFER_PROTOCOL(r)) = msg else { panic!("no FTP answer") };
-        let p = r.payload;
-        let seq = u16::from_le_bytes([p[SEQ], p[SEQ + 1]]);
-        (p[OPCODE], p[SIZE], p[REQ_OPCODE], p[DATA], seq, p[SESSION], (r.target_system, r.target_component))
-    }
-
-    #[test]
-    fn a_parameter_file_request_is_refused_as_not_found_echoing_session_and_sequence() {
-        let open = request(41, 181, OPEN_FILE_RO, "@PARAM/param.pck?withdefaults=1");
-        let nak = (NAK, 1, OPEN_FILE_RO, MavFtpErr::MAV_FTP_ERR_FILENOTFOUND as u8, 42, 181, (255, 190));
-        assert_eq!(fields(answer(GCS, &open)), nak);
-        // A re-sent request gets the same answer.
-        assert_eq!(fields(answer(GCS, &open)), nak);
-        let wrapped = fields(answer(GCS, &request(u16::MAX, 3, OPEN_FILE_RO, "/x")));
-        assert_eq!((wrapped.4, wrapped.5), (0, 3), "the sequence number wraps");
-    }
-
-    #[test]
-    fn every_opcode_gets_the_spec_answer_and_replies_get_none() {
-        use MavFtpErr::*;
-        let cases = [
-            (NONE, None),
-            (RESET_SESSIONS, None),
-            (LIST_DIRECTORY, Some(MAV_FTP_ERR_FILENOTFOUND)),
-            (LIST_DIRECTORY_WITH_TIME, Some(MAV_FTP_ERR_FILENOTFOUND)),
-            (CALC_FILE_CRC32, Some(MAV_FTP_ERR_FILENOTFOUND)),
-            (REMOVE_FILE, Some(MAV_FTP_ERR_FILENOTFOUND)),
-            (REMOVE_DIRECTORY, Some(MAV_FTP_ERR_FILENOTFOUND)),
-            (TRUNCATE_FILE, Some(MAV_FTP_ERR_FILENOTFOUND)),
-            (RENAME, Some(MAV_FTP_ERR_FILENOTFOUND)),
-            (CREATE_FILE, Some(MAV_FTP_ERR_FILEPROTECTED)),
-            (CREATE_DIRECTORY, Some(MAV_FTP_ERR_FILEPROTECTED)),
-            (OPEN_FILE_WO, Some(MAV_FTP_ERR_FILEPROTECTED)),
-            (READ_FILE, Some(MAV_FTP_ERR_INVALIDSESSION)),
-            (BURST_READ_FILE, Some(MAV_FTP_ERR_INVALIDSESSION)),
-            (WRITE_FILE, Some(MAV_FTP_ERR_INVALIDSESSION)),
-            (TERMINATE_SESSION, Some(MAV_FTP_ERR_INVALIDSESSION)),
-            (17, Some(MAV_FTP_ERR_UNKNOWNCOMMAND)),
-            (200, Some(MAV_FTP_ERR_UNKNOWNCOMMAND)),
-        ];
-        for (opcode, error) in cases {
-            let (op, size, req, data, seq, ..) = fields(answer(GCS, &request(7, 0, opcode, "/")));
-            assert_eq!((req, seq), (opcode, 8), "opcode {opcode}");
-            match error {
-                None => assert_eq!((op, size), (ACK, 0), "opcode {opcode}"),
-                Some(e) => assert_eq!((op, size, data), (NAK, 1, e as u8), "opcode {opcode}"),
-            }
+    impl Fixture {
+        fn send(&mut self, opcode: u8, offset: u32, size: u8, data: &[u8]) -> Vec<[u8; 251]> {
+            self.seq = self.seq.wrapping_add(2);
+            let r = request(self.seq, 3, opcode, offset, size, data);
+            self.server
+                .on_request(GCS, &r, &self.params, Time::ZERO)
+                .into_iter()
+                .map(|m| match m {
+                    MavMessage::FILE_TRANSFER_PROTOCOL(f) => f.payload,
+                    other => panic!("{other:?}"),
+                })
+                .collect()
         }
-        assert!(answer(GCS, &request(7, 0, ACK, "")).is_none());
-        assert!(answer(GCS, &request(7, 0, NAK, "")).is_none());
+
+        fn path(&mut self, opcode: u8, path: &str) -> [u8; 251] {
+            let replies = self.send(opcode, 0, path.len() as u8, path.as_bytes());
+            assert_eq!(replies.len(), 1);
+            replies[0]
+        }
+
+        /// The whole file at `path`, by ReadFile.
+        fn read(&mut self, path: &str) -> Vec<u8> {
+            let open = self.path(OPEN_FILE_RO, path);
+            assert_eq!(open[OPCODE], ACK, "open {path}");
+            let size = u32::from_le_bytes([open[DATA], open[DATA + 1], open[DATA + 2], open[DATA + 3]]);
+            let mut bytes = Vec::new();
+            loop {
+                let r = self.send(READ_FILE, bytes.len() as u32, DATA_BYTES as u8, &[])[0];
+                if r[OPCODE] == NAK {
+                    assert_eq!(r[DATA], MavFtpErr::MAV_FTP_ERR_EOF as u8);
+                    break;
+                }
+                bytes.extend_from_slice(&r[DATA..DATA + usize::from(r[SIZE])]);
+            }
+            assert_eq!(bytes.len() as u32, size);
+            assert_eq!(self.send(TERMINATE_SESSION, 0, 0, &[])[0][OPCODE], ACK);
+            bytes
+        }
+    }
+
+    fn entries(r: &[u8; 251]) -> Vec<String> {
+        let data = &r[DATA..DATA + usize::from(r[SIZE])];
+        data.split(|&b| b == 0)
+            .filter(|e| !e.is_empty())
+            .map(|e| String::from_utf8_lossy(e).into_owned())
+            .collect()
+    }
+
+    #[test]
+    fn the_root_lists_the_logs_and_the_log_directory_only_logs() {
+        let mut f = fixture("list", &[(2, 500), (1, 10)]);
+        assert_eq!(entries(&f.path(LIST_DIRECTORY, "/")), vec!["Dlogs"]);
+        assert_eq!(
+            entries(&f.path(LIST_DIRECTORY, "/logs/")),
+            vec!["F00000001.mcap\t10", "F00000002.mcap\t500"]
+        );
+        let params = entries(&f.path(LIST_DIRECTORY, "@PARAM"));
+        assert_eq!(params.len(), 1);
+        assert!(params[0].starts_with("Fparam.pck\t"));
+        // Past the last entry: EndOfFile.
+        let past = f.send(LIST_DIRECTORY, 2, 5, b"/logs")[0];
+        assert_eq!((past[OPCODE], past[DATA]), (NAK, MavFtpErr::MAV_FTP_ERR_EOF as u8));
+        let missing = f.path(LIST_DIRECTORY, "/etc");
+        assert_eq!((missing[OPCODE], missing[DATA]), (NAK, MavFtpErr::MAV_FTP_ERR_FILENOTFOUND as u8));
+    }
+
+    #[test]
+    fn a_log_reads_back_byte_for_byte_by_read_and_by_burst() {
+        let mut f = fixture("read", &[(1, 1000)]);
+        let want = std::fs::read(f.dir.join(log_file_name(1))).expect("read");
+        assert_eq!(f.read("/logs/00000001.mcap"), want);
+        assert_eq!(f.path(OPEN_FILE_RO, "logs/00000001.mcap")[OPCODE], ACK);
+        let burst = f.send(BURST_READ_FILE, 0, 0, &[]);
+        let mut bytes = Vec::new();
+        for r in &burst[..burst.len() - 1] {
+            assert_eq!(r[OPCODE], ACK);
+            assert_eq!(
+                u32::from_le_bytes([r[OFFSET], r[OFFSET + 1], r[OFFSET + 2], r[OFFSET + 3]]) as usize,
+                bytes.len()
+            );
+            bytes.extend_from_slice(&r[DATA..DATA + usize::from(r[SIZE])]);
+        }
+        let last = burst.last().expect("replies");
+        assert_eq!(
+            (last[OPCODE], last[DATA], last[BURST_COMPLETE]),
+            (NAK, MavFtpErr::MAV_FTP_ERR_EOF as u8, 1)
+        );
+        assert_eq!(bytes, want);
+        let seqs: Vec<u16> = burst.iter().map(|r| u16::from_le_bytes([r[SEQ], r[SEQ + 1]])).collect();
+        assert!(seqs.windows(2).all(|w| w[1] == w[0].wrapping_add(1)), "each reply its own sequence number");
+    }
+
+    #[test]
+    fn a_long_burst_ends_flagged_complete_for_the_next_request() {
+        let mut f = fixture("burst", &[(1, DATA_BYTES * BURST_PACKETS + 5)]);
+        assert_eq!(f.path(OPEN_FILE_RO, "/logs/00000001.mcap")[OPCODE], ACK);
+        let burst = f.send(BURST_READ_FILE, 0, 0, &[]);
+        assert_eq!(burst.len(), BURST_PACKETS);
+        assert!(burst[..BURST_PACKETS - 1].iter().all(|r| r[BURST_COMPLETE] == 0));
+        assert_eq!(burst[BURST_PACKETS - 1][BURST_COMPLETE], 1);
+        let rest = f.send(BURST_READ_FILE, (DATA_BYTES * BURST_PACKETS) as u32, 0, &[]);
+        assert_eq!(rest.iter().map(|r| (r[OPCODE], r[SIZE])).collect::<Vec<_>>(), vec![(ACK, 5), (NAK, 1)]);
+    }
+
+    #[test]
+    fn the_parameter_file_holds_every_parameter_and_ignores_its_query() {
+        let mut f = fixture("pck", &[]);
+        let bytes = f.read("@PARAM/param.pck?withdefaults=1");
+        assert_eq!(bytes, param_pack::encode(&f.params.list()));
+        assert_eq!(u16::from_le_bytes([bytes[2], bytes[3]]), 2);
+    }
+
+    #[test]
+    fn nothing_outside_the_two_directories_opens_and_a_second_open_fails() {
+        let mut f = fixture("paths", &[(1, 10)]);
+        for path in
+            ["/logs/secret.txt", "/logs/../logs/00000001.mcap", "/etc/passwd", "logs/00000002.mcap", ""]
+        {
+            let r = f.send(OPEN_FILE_RO, 0, path.len() as u8, path.as_bytes())[0];
+            assert_eq!(r[OPCODE], NAK, "{path}");
+        }
+        assert_eq!(f.path(OPEN_FILE_RO, "/logs/00000001.mcap")[OPCODE], ACK);
+        let again = f.path(OPEN_FILE_RO, "/logs/00000001.mcap");
+        assert_eq!((again[OPCODE], again[DATA]), (NAK, MavFtpErr::MAV_FTP_ERR_FAIL as u8));
+    }
+
+    #[test]
+    fn a_repeated_request_gets_the_same_reply_so_a_lost_open_ack_is_not_a_second_open() {
+        let mut f = fixture("resend", &[(1, 10)]);
+        let open = request(40, 9, OPEN_FILE_RO, 0, 19, b"/logs/00000001.mcap");
+        let first = f.server.on_request(GCS, &open, &f.params, Time::ZERO);
+        let again = f.server.on_request(GCS, &open, &f.params, Time::ZERO);
+        assert_eq!(first, again);
+    }
+
+    #[test]
+    fn writes_are_refused_as_a_read_only_file_system_and_crc_is_ardupilots() {
+        let mut f = fixture("ro", &[(1, 10)]);
+        for op in [CREATE_FILE, OPEN_FILE_WO, CREATE_DIRECTORY, REMOVE_FILE, REMOVE_DIRECTORY, RENAME] {
+            let r = f.path(op, "/logs/00000001.mcap");
+            assert_eq!(
+                (r[OPCODE], r[SIZE], r[DATA], r[DATA + 1]),
+                (NAK, 2, MavFtpErr::MAV_FTP_ERR_FAILERRNO as u8, EROFS)
+            );
+        }
+        assert!(f.dir.join(log_file_name(1)).exists());
+        let w = f.send(WRITE_FILE, 0, 1, b"x")[0];
+        assert_eq!((w[OPCODE], w[DATA]), (NAK, MavFtpErr::MAV_FTP_ERR_FILENOTFOUND as u8));
+        // zlib.crc32(b"123456789", 0xffffffff) ^ 0xffffffff, as MAVProxy computes the vehicle's CRC.
+        assert_eq!(crc32(0, b"123456789"), 0x2dfd_2d88);
+        let crc = f.path(CALC_FILE_CRC32, "/logs/00000001.mcap");
+        let want = crc32(0, &std::fs::read(f.dir.join(log_file_name(1))).expect("read"));
+        assert_eq!((crc[OPCODE], &crc[DATA..DATA + 4]), (ACK, &want.to_le_bytes()[..]));
+        assert_eq!(f.send(17, 0, 0, &[])[0][DATA], MavFtpErr::MAV_FTP_ERR_UNKNOWNCOMMAND as u8);
+        assert_eq!(f.send(NONE, 0, 0, &[])[0][OPCODE], ACK);
+        assert_eq!(f.send(RESET_SESSIONS, 0, 0, &[])[0][OPCODE], ACK);
+        assert!(f.send(ACK, 0, 0, &[]).is_empty() && f.send(NAK, 0, 0, &[]).is_empty());
     }
 }

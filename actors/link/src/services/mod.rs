@@ -9,8 +9,10 @@ pub mod events;
 pub mod failure;
 pub mod ftp;
 pub mod heartbeat;
+pub mod log_download;
 pub mod mission;
 pub mod offboard;
+pub mod param_pack;
 pub mod params;
 pub mod telemetry;
 
