@@ -6,6 +6,14 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 "$repo/scripts/setup.sh" --tests
 cd "$repo"
 
+# Every `kestrel run` keeps its flight logs in a state directory (src/config.rs, `[record] dir`);
+# the suite's many runs keep theirs in a scratch one, removed at the end, not in the user's.
+if [[ -z "${KESTREL_STATE_DIR:-}" ]]; then
+    KESTREL_STATE_DIR="$(mktemp -d -t kestrel-test-state.XXXXXX)"
+    export KESTREL_STATE_DIR
+    trap 'rm -rf "$KESTREL_STATE_DIR"' EXIT
+fi
+
 echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== mdbook build docs"
