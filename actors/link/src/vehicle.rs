@@ -9,9 +9,10 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, CalibrationEvent, CalibrationUpdate, Command, CommandResult, DepthGrid,
-    EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult, FlightMode, GpsFix, GroundTruth,
-    NavState, ParamDecl, RangefinderSample, SensorHealth, VehicleStatus,
+    ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, CalibrationEvent, CalibrationUpdate,
+    Command, CommandResult, DepthGrid, EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult,
+    FlightMode, GpsFix, GroundTruth, ImuSample, NavState, ParamDecl, RangefinderSample, SensorHealth,
+    VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -30,7 +31,7 @@ use crate::services::offboard::{
 use crate::services::params::ParamTable;
 use crate::services::telemetry::{Telemetry, home};
 use crate::services::{Outputs, Sender, Service, ToGraph};
-use crate::services::{calibration, estimator_text};
+use crate::services::{calibration, estimator_text, timesync};
 
 /// Our component id (MAV_COMP_ID_AUTOPILOT1).
 pub const COMPONENT_ID: u8 = 1;
@@ -167,6 +168,9 @@ impl Vehicle {
                 out
             }
             MavMessage::HEARTBEAT(_) | MavMessage::RADIO_STATUS(_) => Outputs::none(),
+            MavMessage::TIMESYNC(t) => {
+                Outputs { mav: timesync::answer(from, t, now).into_iter().collect(), graph: Vec::new() }
+            }
             MavMessage::COMMAND_ACK(_) => match self.accelcal.on_ack() {
                 Some(request) => {
                     Outputs { mav: Vec::new(), graph: vec![ToGraph::Calibration { id: 0, request }] }
@@ -374,6 +378,21 @@ impl Vehicle {
     /// The avoider's latest correction (for DEBUG_VECT "AVOID").
     pub fn on_avoidance(&mut self, avoidance: AvoidanceCommand) {
         self.telemetry.snapshot.avoidance = Some(avoidance);
+    }
+
+    /// The IMU's newest sample (for RAW_IMU, SCALED_IMU, HIGHRES_IMU).
+    pub fn on_imu(&mut self, imu: ImuSample) {
+        self.telemetry.snapshot.imu = Some(imu);
+    }
+
+    /// The barometer's newest sample (for SCALED_PRESSURE).
+    pub fn on_baro(&mut self, baro: BaroSample) {
+        self.telemetry.snapshot.baro = Some(baro);
+    }
+
+    /// The mixer's newest motor outputs (for SERVO_OUTPUT_RAW).
+    pub fn on_actuators(&mut self, actuators: ActuatorOutputs) {
+        self.telemetry.snapshot.actuators = Some(actuators);
     }
 
     /// Periodic work: command and mission timeouts, GCS loss; returns replies and the telemetry

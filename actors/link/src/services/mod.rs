@@ -13,6 +13,7 @@ pub mod mission;
 pub mod offboard;
 pub mod params;
 pub mod telemetry;
+pub mod timesync;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{

@@ -15,8 +15,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::geo::Geodetic;
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, DepthGrid, EstimatorStatus, GpsFix, GroundTruth, NavState,
-    RangefinderSample, VehicleStatus,
+    ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, DepthGrid, EstimatorStatus, GpsFix,
+    GroundTruth, ImuSample, NavState, RangefinderSample, VehicleStatus,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
@@ -45,6 +45,12 @@ pub struct Snapshot {
     /// Each rangefinder's newest usable sample (for DISTANCE_SENSOR), indexed by its
     /// [`distance_sensor_id`]: down, then up.
     pub rangefinders: [Option<RangefinderSample>; 2],
+    /// The IMU's newest sample (for RAW_IMU, SCALED_IMU, HIGHRES_IMU).
+    pub imu: Option<ImuSample>,
+    /// The barometer's newest sample (for SCALED_PRESSURE).
+    pub baro: Option<BaroSample>,
+    /// The mixer's newest motor outputs (for SERVO_OUTPUT_RAW).
+    pub actuators: Option<ActuatorOutputs>,
 }
 
 /// The telemetry scheduler and message builder.

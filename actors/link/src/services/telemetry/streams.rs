@@ -11,10 +11,11 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
-    ATTITUDE_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA, EKF_STATUS_REPORT_DATA,
-    EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, HOME_POSITION_DATA,
-    LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavDataStream, MavResult, OBSTACLE_DISTANCE_DATA,
-    SIMSTATE_DATA, SYS_STATUS_DATA, VFR_HUD_DATA, WIND_DATA,
+    ATTITUDE_DATA, ATTITUDE_QUATERNION_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA,
+    EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA,
+    HIGHRES_IMU_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavDataStream,
+    MavResult, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, RAW_IMU_DATA, SCALED_IMU_DATA, SCALED_PRESSURE_DATA,
+    SERVO_OUTPUT_RAW_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA, WIND_DATA,
 };
 
 #[derive(Clone, Copy, Debug)]
@@ -52,6 +53,18 @@ fn default_streams() -> Vec<Stream> {
         (DISTANCE_SENSOR_DATA::ID, hz(10.0)),
         // Only while the graph has a simulator's ground truth, as ArduPilot SITL sends it.
         (SIMSTATE_DATA::ID, hz(10.0)),
+        // ArduCopter's RAW_SENSORS, RC_CHANNELS and EXTRA3 members at the 4 Hz MAVProxy and
+        // QGroundControl ask it for (`tests/telemetry_frames.rs` measures both).
+        (RAW_IMU_DATA::ID, hz(4.0)),
+        (SCALED_PRESSURE_DATA::ID, hz(4.0)),
+        (SERVO_OUTPUT_RAW_DATA::ID, hz(4.0)),
+        (SYSTEM_TIME_DATA::ID, hz(4.0)),
+        // Sent on request only (SET_MESSAGE_INTERVAL, REQUEST_MESSAGE), as ArduCopter sends
+        // them; ODOMETRY, which ArduCopter refuses, as PX4 sends it to MAVSDK's `odometry`.
+        (ATTITUDE_QUATERNION_DATA::ID, None),
+        (SCALED_IMU_DATA::ID, None),
+        (HIGHRES_IMU_DATA::ID, None),
+        (ODOMETRY_DATA::ID, None),
     ]
     .into_iter()
     .map(|(id, default)| Stream { id, default, interval: default, next: Time::ZERO })
@@ -71,7 +84,13 @@ fn data_stream_ids(stream: MavDataStream) -> &'static [u32] {
             VFR_HUD_DATA::ID,
             BATTERY_STATUS_DATA::ID,
             EXTENDED_SYS_STATE_DATA::ID,
+            RAW_IMU_DATA::ID,
+            SCALED_PRESSURE_DATA::ID,
+            SERVO_OUTPUT_RAW_DATA::ID,
+            SYSTEM_TIME_DATA::ID,
         ],
+        MavDataStream::MAV_DATA_STREAM_RAW_SENSORS => &[RAW_IMU_DATA::ID, SCALED_PRESSURE_DATA::ID],
+        MavDataStream::MAV_DATA_STREAM_RC_CHANNELS => &[SERVO_OUTPUT_RAW_DATA::ID],
         MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS => {
             &[SYS_STATUS_DATA::ID, GPS_RAW_INT_DATA::ID, MISSION_CURRENT_DATA::ID]
         }
@@ -189,6 +208,27 @@ mod tests {
         assert_eq!(sent_in_a_second(&mut s, ATTITUDE_DATA::ID, 1000), 0);
         assert_eq!(s.set_interval(id, 0.0, Time::ZERO), MavResult::MAV_RESULT_ACCEPTED);
         assert_eq!(s.interval(ATTITUDE_DATA::ID), Some(Duration::from_millis(100)));
+    }
+
+    #[test]
+    fn arducopters_frames_stream_at_4_hz_in_its_groups_and_the_rest_on_request() {
+        let mut s = Streams::default();
+        for id in
+            [RAW_IMU_DATA::ID, SCALED_PRESSURE_DATA::ID, SERVO_OUTPUT_RAW_DATA::ID, SYSTEM_TIME_DATA::ID]
+        {
+            assert_eq!(s.interval(id), Some(Duration::from_millis(250)), "{id}");
+        }
+        for id in [ATTITUDE_QUATERNION_DATA::ID, SCALED_IMU_DATA::ID, HIGHRES_IMU_DATA::ID, ODOMETRY_DATA::ID]
+        {
+            assert_eq!(s.interval(id), None, "{id}: on request only");
+            assert_eq!(s.set_interval(f64::from(id), 50_000.0, Time::ZERO), MavResult::MAV_RESULT_ACCEPTED);
+            assert_eq!(s.interval(id), Some(Duration::from_millis(50)));
+        }
+        s.request_data_stream(MavDataStream::MAV_DATA_STREAM_RAW_SENSORS, 10, true, Time::ZERO);
+        s.request_data_stream(MavDataStream::MAV_DATA_STREAM_RC_CHANNELS, 10, true, Time::ZERO);
+        for id in [RAW_IMU_DATA::ID, SCALED_PRESSURE_DATA::ID, SERVO_OUTPUT_RAW_DATA::ID] {
+            assert_eq!(s.interval(id), Some(Duration::from_millis(100)), "{id}");
+        }
     }
 
     #[test]

@@ -7,15 +7,17 @@ use kestrel_proto::Time;
 use kestrel_proto::attitude::euler_rad;
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
-    ATTITUDE_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA, EKF_STATUS_REPORT_DATA,
-    EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA, HOME_POSITION_DATA,
-    LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavMessage, OBSTACLE_DISTANCE_DATA, SIMSTATE_DATA,
-    SYS_STATUS_DATA, VFR_HUD_DATA, WIND_DATA,
+    ATTITUDE_DATA, ATTITUDE_QUATERNION_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA,
+    EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA,
+    HIGHRES_IMU_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavMessage,
+    OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, RAW_IMU_DATA, SCALED_IMU_DATA, SCALED_PRESSURE_DATA,
+    SERVO_OUTPUT_RAW_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA, WIND_DATA,
 };
 
 use super::Snapshot;
 
 pub mod attitude;
+pub mod attitude_quaternion;
 pub mod battery_status;
 pub mod debug_vect;
 pub mod distance_sensor;
@@ -23,12 +25,20 @@ pub mod ekf_status_report;
 pub mod extended_sys_state;
 pub mod global_position_int;
 pub mod gps_raw_int;
+pub mod highres_imu;
 pub mod home_position;
+mod imu_units;
 pub mod local_position_ned;
 pub mod mission_current;
 pub mod obstacle_distance;
+pub mod odometry;
+pub mod raw_imu;
+pub mod scaled_imu;
+pub mod scaled_pressure;
+pub mod servo_output_raw;
 pub mod simstate;
 pub mod sys_status;
+pub mod system_time;
 pub mod vfr_hud;
 pub mod wind;
 
@@ -67,6 +77,20 @@ pub fn build(snap: &Snapshot, id: u32, now: Time) -> Option<MavMessage> {
             MavMessage::OBSTACLE_DISTANCE(obstacle_distance::obstacle_distance(depth.time, &depth.sectors))
         }
         DEBUG_VECT_DATA::ID => MavMessage::DEBUG_VECT(debug_vect::debug_vect(snap.avoidance.as_ref()?)),
+        ATTITUDE_QUATERNION_DATA::ID => MavMessage::ATTITUDE_QUATERNION(
+            attitude_quaternion::attitude_quaternion(snap.nav.as_ref()?, boot_ms)?,
+        ),
+        ODOMETRY_DATA::ID => MavMessage::ODOMETRY(odometry::odometry(snap.nav.as_ref()?)?),
+        SYSTEM_TIME_DATA::ID => MavMessage::SYSTEM_TIME(system_time::system_time(boot_ms)),
+        SCALED_PRESSURE_DATA::ID => {
+            MavMessage::SCALED_PRESSURE(scaled_pressure::scaled_pressure(snap.baro.as_ref()?))
+        }
+        RAW_IMU_DATA::ID => MavMessage::RAW_IMU(raw_imu::raw_imu(snap.imu.as_ref()?)),
+        SCALED_IMU_DATA::ID => MavMessage::SCALED_IMU(scaled_imu::scaled_imu(snap.imu.as_ref()?)),
+        HIGHRES_IMU_DATA::ID => MavMessage::HIGHRES_IMU(highres_imu::highres_imu(snap.imu.as_ref()?)),
+        SERVO_OUTPUT_RAW_DATA::ID => {
+            MavMessage::SERVO_OUTPUT_RAW(servo_output_raw::servo_output_raw(snap.actuators.as_ref()?))
+        }
         _ => return None,
     })
 }
@@ -94,6 +118,19 @@ pub(crate) fn nav_facing_east() -> kestrel_proto::messages::NavState {
         covariance_diagonal: [0.0; 16],
         origin: Some(Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
         valid: NavValidity { attitude: true, ..Default::default() },
+    }
+}
+
+/// An IMU sample at rest, level, at time zero: the IMU encoders' tests set what they need.
+#[cfg(test)]
+pub(crate) fn imu_at_rest() -> kestrel_proto::messages::ImuSample {
+    kestrel_proto::messages::ImuSample {
+        time: Time::ZERO,
+        gyro_rad_s: [0.0; 3],
+        accel_m_s2: [0.0, 0.0, -kestrel_proto::units::GRAVITY_M_S2],
+        dt_s: 0.0025,
+        gyro_clipped: [false; 3],
+        accel_clipped: [false; 3],
     }
 }
 
