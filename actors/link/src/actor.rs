@@ -7,9 +7,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 use kestrel_proto::messages::{
-    AvoidanceCommand, BatteryStatus, CalibrationCommand, CalibrationEvent, CommandResult, DepthGrid,
-    EstimatorStatus, FailureInjection, FailureInjectionResult, GpsFix, GroundTruth, ManualControl, Mission,
-    NavState, ParamDecl, ParamSet, RangefinderSample, SensorHealth, VehicleCommand, VehicleStatus,
+    ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, CalibrationCommand, CalibrationEvent,
+    CommandResult, DepthGrid, EstimatorStatus, FailureInjection, FailureInjectionResult, GpsFix, GroundTruth,
+    ImuSample, ManualControl, Mission, NavState, ParamDecl, ParamSet, RangefinderSample, SensorHealth,
+    VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -42,6 +43,12 @@ pub enum LinkInput {
     Rangefinder(RangefinderSample),
     /// The obstacle avoider's newest correction (port `avoidance`), sent as DEBUG_VECT.
     Avoidance(AvoidanceCommand),
+    /// The IMU's newest sample (port `imu`; optional, `latest`): RAW_IMU, SCALED_IMU, HIGHRES_IMU.
+    Imu(ImuSample),
+    /// The barometer's newest sample (port `baro`; optional): SCALED_PRESSURE.
+    Baro(BaroSample),
+    /// The mixer's newest motor outputs (port `actuator_outputs`; optional): SERVO_OUTPUT_RAW.
+    Actuators(ActuatorOutputs),
     /// A driver's health report (port `sensor_health`; hardware graphs): errors become a
     /// STATUSTEXT warning.
     SensorHealth(SensorHealth),
@@ -168,6 +175,9 @@ impl Actor for LinkActor {
         setup.input("estimator_status", |s| LinkInput::Estimator(Box::new(s)));
         setup.input("depth_grid", LinkInput::Depth);
         setup.input("avoidance", LinkInput::Avoidance);
+        setup.input("imu", LinkInput::Imu);
+        setup.input("baro", LinkInput::Baro);
+        setup.input("actuator_outputs", LinkInput::Actuators);
         setup.input("rangefinder_up", LinkInput::Rangefinder);
         setup.input("rangefinder_down", LinkInput::Rangefinder);
         setup.input("ground_truth", |t| LinkInput::Truth(Box::new(t)));
@@ -252,6 +262,18 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Avoidance(a) => {
                     hub.vehicle().on_avoidance(a);
+                    Vec::new()
+                }
+                LinkInput::Imu(imu) => {
+                    hub.vehicle().on_imu(imu);
+                    Vec::new()
+                }
+                LinkInput::Baro(baro) => {
+                    hub.vehicle().on_baro(baro);
+                    Vec::new()
+                }
+                LinkInput::Actuators(actuators) => {
+                    hub.vehicle().on_actuators(actuators);
                     Vec::new()
                 }
                 LinkInput::Rangefinder(r) => {

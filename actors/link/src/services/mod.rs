@@ -15,6 +15,7 @@ pub mod offboard;
 pub mod param_pack;
 pub mod params;
 pub mod telemetry;
+pub mod timesync;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{

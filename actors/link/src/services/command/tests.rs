@@ -1,0 +1,220 @@
+use super::*;
+
+const GCS: Sender = Sender { system_id: 255, component_id: 190 };
+
+fn request(command: MavCmd, params: [f64; 7]) -> CommandRequest {
+    CommandRequest { command, params, frame: None, sender: GCS }
+}
+
+fn result(m: &MavMessage) -> (MavCmd, MavResult, u8) {
+    match m {
+        MavMessage::COMMAND_ACK(a) => (a.command, a.result, a.target_system),
+        other => panic!("not an ack: {other:?}"),
+    }
+}
+
+fn answer(id: u32, command: Command, refusal: Option<&str>) -> CommandResult {
+    CommandResult { time: Time::ZERO, id, command, refusal: refusal.map(str::to_owned) }
+}
+
+const ARM: [f64; 7] = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+
+#[test]
+fn a_command_is_acknowledged_by_the_commanders_result_for_its_id() {
+    let mut s = CommandService::new();
+    let out = s.handle(request(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, ARM), Time::ZERO).expect("handled");
+    assert_eq!(out.graph, vec![ToGraph::Request { id: 1, command: Command::Arm }]);
+    assert!(out.mav.is_empty(), "no answer before the commander's");
+    assert!(s.on_result(&answer(7, Command::Arm, None)).is_none(), "not an id we wait for");
+    let ack = s.on_result(&answer(1, Command::Arm, None)).expect("ack");
+    assert_eq!(result(&ack), (MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, MavResult::MAV_RESULT_ACCEPTED, 255));
+    assert!(s.on_result(&answer(1, Command::Arm, None)).is_none(), "one ACK per command");
+}
+
+#[test]
+fn every_retry_of_a_refused_command_gets_its_own_denial_and_silence_times_out() {
+    let mut s = CommandService::new();
+    // MAVSDK resends after 0.5 s without an ACK; the commander refuses each alike.
+    for (n, t) in [(1, 0.0), (2, 0.5), (3, 1.0)] {
+        let out = s
+            .handle(request(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, ARM), Time::from_secs_f64(t))
+            .expect("handled");
+        assert_eq!(out.graph, vec![ToGraph::Request { id: n, command: Command::Arm }]);
+    }
+    for id in [1, 2, 3] {
+        let ack = s.on_result(&answer(id, Command::Arm, Some("arming refused: no GPS"))).expect("ack");
+        assert_eq!(result(&ack).1, MavResult::MAV_RESULT_DENIED);
+    }
+    s.handle(request(MavCmd::MAV_CMD_NAV_LAND, [0.0; 7]), Time::from_secs_f64(2.0));
+    assert!(s.on_tick(Time::from_secs_f64(3.0)).is_empty());
+    let acks = s.on_tick(Time::from_secs_f64(3.6));
+    assert_eq!(result(&acks[0]), (MavCmd::MAV_CMD_NAV_LAND, MavResult::MAV_RESULT_DENIED, 255));
+    assert!(s.on_tick(Time::from_secs_f64(9.0)).is_empty(), "answered once");
+}
+
+#[test]
+fn force_disarm_modes_and_bad_takeoff() {
+    let mut s = CommandService::new();
+    let out = s
+        .handle(
+            request(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0, 21196.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            Time::ZERO,
+        )
+        .unwrap();
+    assert_eq!(graph(&out), Some(Command::Disarm { force: true }));
+    let out = s
+        .handle(request(MavCmd::MAV_CMD_DO_SET_MODE, [1.0, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0]), Time::ZERO)
+        .unwrap();
+    assert_eq!(graph(&out), Some(Command::SetMode(FlightMode::Auto)));
+    let out = s
+        .handle(request(MavCmd::MAV_CMD_DO_SET_MODE, [1.0, 77.0, 0.0, 0.0, 0.0, 0.0, 0.0]), Time::ZERO)
+        .unwrap();
+    assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_FAILED);
+    let out = s
+        .handle(request(MavCmd::MAV_CMD_NAV_TAKEOFF, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, f64::NAN]), Time::ZERO)
+        .unwrap();
+    assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED);
+    assert!(out.graph.is_empty());
+    assert!(s.handle(request(MavCmd::MAV_CMD_DO_PARACHUTE, [0.0; 7]), Time::ZERO).is_none());
+}
+
+fn graph(out: &Outputs) -> Option<Command> {
+    out.graph.iter().find_map(|g| match g {
+        ToGraph::Request { command, .. } => Some(*command),
+        _ => None,
+    })
+}
+
+#[test]
+fn arm_disarm_takes_exactly_zero_or_one_and_refuses_the_rest() {
+    let mut s = CommandService::new();
+    for param1 in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.5, 0.9, 2.0, -1.0, 1e30] {
+        for param2 in [0.0, 21196.0] {
+            let out = s
+                .handle(
+                    request(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [param1, param2, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                    Time::ZERO,
+                )
+                .expect("handled");
+            assert!(out.graph.is_empty(), "param1 {param1} param2 {param2} reached the commander");
+            assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "param1 {param1}");
+        }
+    }
+    let disarm = s
+        .handle(
+            request(MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, [0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            Time::ZERO,
+        )
+        .expect("handled");
+    assert_eq!(graph(&disarm), Some(Command::Disarm { force: false }), "NaN is not the force code");
+}
+
+#[test]
+fn mode_and_mission_start_refuse_what_is_not_a_whole_number() {
+    let mut s = CommandService::new();
+    for params in [
+        [f64::NAN, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [1.0, f64::INFINITY, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [1.0, 3.5, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [1.0, -3.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [257.0, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        [1.0, 4_294_967_299.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+    ] {
+        let out = s.handle(request(MavCmd::MAV_CMD_DO_SET_MODE, params), Time::ZERO).expect("handled");
+        assert!(out.graph.is_empty(), "{params:?}");
+        assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{params:?}");
+    }
+    for first in [f64::NAN, f64::INFINITY, 2.0] {
+        let p = [first, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let out = s.handle(request(MavCmd::MAV_CMD_MISSION_START, p), Time::ZERO).expect("handled");
+        assert!(out.graph.is_empty(), "{first}");
+        assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED);
+    }
+    for param1 in [f64::NAN, 0.5, f64::NEG_INFINITY] {
+        let p = [param1, 0.0, 0.0, 0.0, 6.8, 79.9, 30.0];
+        let out = s.handle(request(MavCmd::MAV_CMD_DO_SET_HOME, p), Time::ZERO).expect("handled");
+        assert!(out.graph.is_empty(), "{param1}");
+        let p = [param1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let out = s.handle(request(MavCmd::MAV_CMD_DO_FENCE_ENABLE, p), Time::ZERO).expect("handled");
+        assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{param1}");
+    }
+}
+
+#[test]
+fn set_home_reads_long_and_int_forms_and_denies_what_is_not_a_position() {
+    let mut s = CommandService::new();
+    let here =
+        s.handle(request(MavCmd::MAV_CMD_DO_SET_HOME, [1.0, 0.0, 0.0, 0.0, 6.8, 79.9, 30.0]), Time::ZERO);
+    assert_eq!(graph(&here.expect("handled")), Some(Command::SetHome { point: None }));
+    let long =
+        s.handle(request(MavCmd::MAV_CMD_DO_SET_HOME, [0.0, 0.0, 0.0, 0.0, 6.8, 79.9, 30.0]), Time::ZERO);
+    let Some(Command::SetHome { point: Some(p) }) = graph(&long.expect("handled")) else {
+        panic!("no point")
+    };
+    assert_eq!((p.lat_deg, p.lon_deg, p.alt_m, p.frame), (6.8, 79.9, 30.0, AltitudeFrame::Amsl));
+    let int = CommandRequest {
+        frame: Some(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT),
+        ..request(MavCmd::MAV_CMD_DO_SET_HOME, [0.0, 0.0, 0.0, 0.0, 67_971_000.0, 799_017_000.0, 5.0])
+    };
+    let Some(Command::SetHome { point: Some(p) }) = graph(&s.handle(int, Time::ZERO).expect("handled"))
+    else {
+        panic!("no point")
+    };
+    assert!((p.lat_deg - 6.7971).abs() < 1e-9 && (p.lon_deg - 79.9017).abs() < 1e-9, "{p:?}");
+    assert_eq!(p.frame, AltitudeFrame::RelativeHome);
+    for (params, frame) in [
+        ([0.0, 0.0, 0.0, 0.0, 95.0, 79.9, 30.0], None),
+        ([0.0, 0.0, 0.0, 0.0, 6.8, 79.9, f64::NAN], None),
+        ([0.0, 0.0, 0.0, 0.0, 68e6, 799e6, 5.0], Some(MavFrame::MAV_FRAME_LOCAL_NED)),
+    ] {
+        let bad = CommandRequest { frame, ..request(MavCmd::MAV_CMD_DO_SET_HOME, params) };
+        let out = s.handle(bad, Time::ZERO).expect("handled");
+        assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{params:?}");
+        assert!(out.graph.is_empty());
+    }
+}
+
+#[test]
+fn fence_enable_switches_and_refuses_the_floor_and_nonsense() {
+    let mut s = CommandService::new();
+    let off = s.handle(request(MavCmd::MAV_CMD_DO_FENCE_ENABLE, [0.0; 7]), Time::ZERO).expect("handled");
+    assert_eq!(graph(&off), Some(Command::SetGeofence { enabled: false }));
+    for (param1, want) in [(2.0, MavResult::MAV_RESULT_UNSUPPORTED), (7.0, MavResult::MAV_RESULT_DENIED)] {
+        let p = [param1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let out = s.handle(request(MavCmd::MAV_CMD_DO_FENCE_ENABLE, p), Time::ZERO).expect("handled");
+        assert_eq!(result(&out.mav[0]).1, want);
+        assert!(out.graph.is_empty());
+    }
+}
+
+#[test]
+fn change_speed_and_pause_continue_take_their_parameters_exactly() {
+    let mut s = CommandService::new();
+    let speed = |s: &mut CommandService, p2: f64| {
+        s.handle(request(MavCmd::MAV_CMD_DO_CHANGE_SPEED, [1.0, p2, -1.0, 0.0, 0.0, 0.0, 0.0]), Time::ZERO)
+            .expect("handled")
+    };
+    assert_eq!(graph(&speed(&mut s, 3.5)), Some(Command::ChangeSpeed { speed_m_s: 3.5 }));
+    for bad in [-1.0, -2.0, 0.0, f64::NAN, f64::INFINITY] {
+        let out = speed(&mut s, bad);
+        assert!(out.graph.is_empty(), "{bad}");
+        assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{bad}");
+    }
+    let pause = |s: &mut CommandService, p1: f64| {
+        s.handle(request(MavCmd::MAV_CMD_DO_PAUSE_CONTINUE, [p1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), Time::ZERO)
+            .expect("handled")
+    };
+    assert_eq!(graph(&pause(&mut s, 0.0)), Some(Command::PauseMission));
+    assert_eq!(graph(&pause(&mut s, 1.0)), Some(Command::ContinueMission));
+    assert_eq!(result(&pause(&mut s, 0.5).mav[0]).1, MavResult::MAV_RESULT_DENIED);
+    let yaw = |s: &mut CommandService, p: [f64; 7]| {
+        s.handle(request(MavCmd::MAV_CMD_CONDITION_YAW, p), Time::ZERO).expect("handled")
+    };
+    let absolute = yaw(&mut s, [450.0, 20.0, 1.0, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(graph(&absolute), Some(Command::Yaw { heading_deg: Some(90.0), relative_deg: None }));
+    let left = yaw(&mut s, [30.0, 20.0, -1.0, 1.0, 0.0, 0.0, 0.0]);
+    assert_eq!(graph(&left), Some(Command::Yaw { heading_deg: None, relative_deg: Some(-30.0) }));
+    for bad in [[f64::NAN, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0], [10.0, 0.0, 1.0, 0.5, 0.0, 0.0, 0.0]] {
+        assert_eq!(result(&yaw(&mut s, bad).mav[0]).1, MavResult::MAV_RESULT_DENIED, "{bad:?}");
+    }
+}
