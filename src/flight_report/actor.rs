@@ -367,6 +367,8 @@ impl Actor for FlightReportActor {
 mod tests {
     use kestrel_proto::messages::NavValidity;
 
+    use super::super::schema::Touchdown;
+
     use super::*;
 
     const LEVEL: [f64; 4] = [1.0, 0.0, 0.0, 0.0];
