@@ -1,20 +1,28 @@
 //! The thesis's obstacle-avoidance flight tests (§4.2.3) and a forest, flown closed loop in
 //! lockstep by the `kestrel` binary: simulated stereo camera → stereo → fuzzy avoider →
-//! commander → controller → simulator. Each flight's `--report` JSON is the verdict.
+//! commander → controller → simulator. Each flight's `--report` JSON is the verdict, and the
+//! flights at 5 m/s check their rows of docs/src/results/avoidance.md against it
+//! ([`avoidance_page`]; `KESTREL_UPDATE_DOCS=1` rewrites them).
 //!
 //! The graph is `config/sim-forest.toml` with the world swapped and the MAVLink link on an
 //! ephemeral local port (tests run in parallel, and a flight needs no ground station).
 
 mod avoidance_flight;
+#[allow(dead_code, reason = "shared by the avoidance flights; this binary uses part of it")]
+mod avoidance_page;
 mod flights;
+#[allow(dead_code, reason = "shared by the avoidance flights; this binary uses part of it")]
 mod forest_seeds;
 mod qgc_plan;
+#[allow(dead_code, reason = "shared by the tests that generate results pages; this binary uses part of it")]
+mod results_page;
 
 use std::path::PathBuf;
 
 use avoidance_flight::fly;
+use avoidance_page::mission_row;
 use flights::{clearance_m, collisions, repo, run_for_report, scratch, sim_forest_graph};
-use forest_seeds::{Flight, HOME_LANDING_M, fly_seeds, set, template};
+use forest_seeds::{Flight, HOME_LANDING_M, fly_seeds, seed_rows, set, template};
 use serde_json::Value;
 
 fn world(name: &str) -> PathBuf {
@@ -59,6 +67,7 @@ fn rtl_flies_around_a_tree_taller_than_its_altitude() {
     assert_eq!(report["flight"]["landed"], Value::Bool(true), "{report:#}");
     let from_home = report["flight"]["landing_distance_from_home_m"].as_f64().expect("landing distance");
     assert!(from_home < HOME_LANDING_M, "landed {from_home} m from home: {report:#}");
+    avoidance_page::check(&[mission_row("RTL past a 25 m tree (RTL at 15 m)", "AUTO, RTL", "", &report)]);
 }
 
 #[test]
@@ -101,6 +110,7 @@ fn a_textured_wall_across_the_leg_at_5_m_s_is_flown_around() {
     assert_eq!(collisions(&report), 0, "{report:#}");
     assert!(clearance_m(&report) > 0.3, "{report:#}");
     assert!(completed(&report), "{report:#}");
+    avoidance_page::check(&[mission_row("textured wall", "AUTO", "flown around", &report)]);
 }
 
 #[test]
@@ -112,6 +122,7 @@ fn a_textureless_wall_at_5_m_s_stops_the_vehicle_short() {
     assert_eq!(collisions(&report), 0, "{report:#}");
     assert!(clearance_m(&report) > 1.0, "{report:#}");
     assert!(!completed(&report), "{report:#}");
+    avoidance_page::check(&[mission_row("plain wall", "AUTO", "stopped short", &report)]);
 }
 
 /// Flies the 40 m leg at 5 m/s past the 10 cm pole of `config/worlds/pole.toml`, with
@@ -133,6 +144,7 @@ fn a_10_cm_pole_on_the_leg_at_5_m_s_is_flown_around() {
     assert_eq!(collisions(&report), 0, "{report:#}");
     assert!(clearance_m(&report) > 0.3, "{report:#}");
     assert!(completed(&report), "{report:#}");
+    avoidance_page::check(&[mission_row("10 cm pole, open sky behind", "AUTO", "flown around", &report)]);
 }
 
 #[test]
@@ -145,6 +157,12 @@ fn a_10_cm_pole_before_a_textured_wall_at_5_m_s_is_flown_around() {
     assert_eq!(collisions(&report), 0, "{report:#}");
     assert!(clearance_m(&report) > 0.3, "{report:#}");
     assert!(completed(&report), "{report:#}");
+    avoidance_page::check(&[mission_row(
+        "10 cm pole, textured wall 35 m behind it",
+        "AUTO",
+        "flown around",
+        &report,
+    )]);
 }
 
 #[test]
@@ -196,4 +214,5 @@ fn a_forest_of_24_trees_on_a_100_m_leg_at_5_m_s_is_flown_through_without_collisi
     });
     let good = outcomes.iter().filter(|o| o.clean).count();
     assert!(good >= 9, "{good} of 10 seeds completed without a collision: {outcomes:?}");
+    avoidance_page::check(&seed_rows("forest seed", &outcomes));
 }

@@ -3,13 +3,20 @@
 //! landed and without a collision: thin trunks close together, legs at several headings, and
 //! round trips whose RETURN_TO_LAUNCH flies home through trees taller than the RTL altitude.
 //! Legs are 50 m, short in simulated time, as the whole suite must stay inside CI's budget.
+//! Each family's row of docs/src/results/avoidance.md is checked against what it flew
+//! ([`avoidance_page`]; `KESTREL_UPDATE_DOCS=1` rewrites it).
 
 mod avoidance_flight;
+#[allow(dead_code, reason = "shared by the avoidance flights; this binary uses part of it")]
+mod avoidance_page;
 mod flights;
+#[allow(dead_code, reason = "shared by the avoidance flights; this binary uses part of it")]
 mod forest_seeds;
 mod qgc_plan;
+#[allow(dead_code, reason = "shared by the tests that generate results pages; this binary uses part of it")]
+mod results_page;
 
-use forest_seeds::{Flight, Outcome, fly_seeds, set, template};
+use forest_seeds::{Flight, Outcome, family_row, fly_seeds, set, template};
 
 /// Seeds each family flies.
 const SEEDS: std::ops::RangeInclusive<u64> = 1..=10;
@@ -52,6 +59,7 @@ fn thin_trunks_2_5_m_apart_on_a_50_m_leg_are_flown_through_clean_for_nine_of_ten
         lands_home: false,
     });
     nine_of_ten("forest-thin", &outcomes);
+    avoidance_page::check(&[family_row("thin forest, seeds 1–10", "AUTO", &outcomes)]);
 }
 
 #[test]
@@ -68,6 +76,7 @@ fn legs_at_45_135_225_and_300_deg_through_a_forest_are_flown_clean_for_nine_of_t
         }
     });
     nine_of_ten("forest-headings", &outcomes);
+    avoidance_page::check(&[family_row("forest at headings 45/135/225/300°, seeds 1–10", "AUTO", &outcomes)]);
 }
 
 #[test]
@@ -90,4 +99,6 @@ fn a_round_trip_whose_rtl_flies_home_through_trees_above_the_rtl_altitude_lands_
         lands_home: true,
     });
     nine_of_ten("forest-rtl", &outcomes);
+    let scenario = "round trip, RTL home through trees above the RTL altitude, seeds 1–10";
+    avoidance_page::check(&[family_row(scenario, "AUTO, RTL", &outcomes)]);
 }

@@ -5,12 +5,18 @@
 //! an obstacle 20 m ahead until the run ends. The flight report is the verdict.
 //!
 //! The graph is `config/sim-forest.toml` with the world swapped, the MAVLink link on an
-//! ephemeral local port and the pilot added. The control flights leave the camera, stereo and
+//! ephemeral local port and the pilot added. The avoided flights check their rows of
+//! docs/src/results/avoidance.md against their reports ([`avoidance_page`];
+//! `KESTREL_UPDATE_DOCS=1` rewrites them). The control flights leave the camera, stereo and
 //! avoider out: the same pilot then hits the obstacle, so the avoided flights can fail; the
 //! plain (textureless) wall was hit with the avoider too before the speed cap.
 
+#[allow(dead_code, reason = "shared by the avoidance flights; this binary uses part of it")]
+mod avoidance_page;
 mod flights;
 mod merged_config;
+#[allow(dead_code, reason = "shared by the tests that generate results pages; this binary uses part of it")]
+mod results_page;
 
 use std::path::{Path, PathBuf};
 
@@ -106,6 +112,7 @@ fn poshold_full_forward_at_a_tree_goes_around_it_without_collision() {
     assert!(clearance_m(&report) > 0.5, "{report:#}");
     assert!(distance_m(&report) > 25.0, "stopped short instead of going around: {report:#}");
     assert!(no_failsafes(&report), "{report:#}");
+    avoidance_page::check(&[avoidance_page::pilot_row("tree", "around it", &report)]);
 }
 
 #[test]
@@ -117,6 +124,7 @@ fn poshold_full_forward_at_a_textured_wall_stops_short_and_climbs_over_without_c
     assert!(clearance_m(&report) > 0.3, "{report:#}");
     assert!(distance_m(&report) > 25.0, "{report:#}");
     assert!(no_failsafes(&report), "{report:#}");
+    avoidance_page::check(&[avoidance_page::pilot_row("textured wall", "climbed over", &report)]);
 }
 
 #[test]
@@ -140,4 +148,5 @@ fn poshold_full_forward_at_a_plain_wall_stops_short_without_collision() {
     assert!(by_reason["untextured"].as_f64().is_some_and(|s| s > 0.0), "{report:#}");
     assert!(by_reason["unknown_ahead"].as_f64().is_some_and(|s| s > 0.0), "{report:#}");
     assert!(no_failsafes(&report), "{report:#}");
+    avoidance_page::check(&[avoidance_page::pilot_row("plain wall", "stopped", &report)]);
 }

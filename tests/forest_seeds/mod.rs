@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 
 use crate::avoidance_flight::fly;
+use crate::avoidance_page::time_cell;
 use crate::flights::{clearance_m, collisions, repo, scratch, sim_forest_graph};
 
 /// One seed's flight, as its setup wrote it.
@@ -36,6 +37,8 @@ pub struct Outcome {
     pub landed: bool,
     /// Horizontal distance of the landing spot from home (m).
     pub landed_from_home_m: f64,
+    /// The plan ended in RETURN_TO_LAUNCH ([`Flight::lands_home`]).
+    pub lands_home: bool,
     /// Completed, landed (at home after an RTL) and never touched a tree: what the issue counts
     /// as clean.
     pub clean: bool,
@@ -135,6 +138,70 @@ fn outcome(seed: u64, report: &Value, lands_home: bool) -> Outcome {
         time_s: flight["duration_s"].as_f64().unwrap_or(f64::NAN),
         landed,
         landed_from_home_m,
+        lands_home,
         clean: completed && landed && at_home && collisions == 0,
     }
+}
+
+/// The avoidance page's row of each seed: `| {scenario} {seed} | AUTO | yes | 0 | 1.69 | 91.8 |`.
+pub fn seed_rows(scenario: &str, outcomes: &[Outcome]) -> Vec<String> {
+    outcomes
+        .iter()
+        .map(|o| {
+            format!(
+                "| {scenario} {} | AUTO | {} | {} | {:.2} | {} |",
+                o.seed,
+                if o.completed { "yes" } else { "no" },
+                o.collisions,
+                o.min_clearance_m,
+                time_cell(o.time_s, o.landed)
+            )
+        })
+        .collect()
+}
+
+/// The avoidance page's row of a family of seeds: how many were clean and what went wrong with
+/// the others, where an RTL landed, the collisions of all, the least clearance of all with each
+/// seed's in order, and the shortest and the longest flight (s).
+pub fn family_row(scenario: &str, mode: &str, outcomes: &[Outcome]) -> String {
+    let clean = outcomes.iter().filter(|o| o.clean).count();
+    let mut completed = format!("{clean} of {}", outcomes.len());
+    let unclean: Vec<String> = outcomes
+        .iter()
+        .filter(|o| !o.clean)
+        .map(|o| {
+            let mut what = Vec::new();
+            if !o.completed {
+                what.push("not completed".to_owned());
+            }
+            if o.collisions > 0 {
+                what.push(format!("{} collision{}", o.collisions, if o.collisions == 1 { "" } else { "s" }));
+            }
+            if !o.landed {
+                what.push("not landed".to_owned());
+            } else if o.lands_home && o.landed_from_home_m >= HOME_LANDING_M {
+                what.push(format!("landed {:.1} m from home", o.landed_from_home_m));
+            }
+            format!("seed {}: {}", o.seed, what.join(", "))
+        })
+        .collect();
+    let range = |values: &mut dyn Iterator<Item = f64>| {
+        let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        format!("{lo:.1}–{hi:.1}")
+    };
+    if outcomes.iter().any(|o| o.lands_home) {
+        let from_home = range(&mut outcomes.iter().filter(|o| o.landed).map(|o| o.landed_from_home_m));
+        completed.push_str(&format!(", landed {from_home} m from home"));
+    }
+    if !unclean.is_empty() {
+        completed.push_str(&format!(" ({})", unclean.join("; ")));
+    }
+    let collisions: u64 = outcomes.iter().map(|o| o.collisions).sum();
+    let least = outcomes.iter().map(|o| o.min_clearance_m).fold(f64::INFINITY, f64::min);
+    let each: Vec<String> = outcomes.iter().map(|o| format!("{:.2}", o.min_clearance_m)).collect();
+    format!(
+        "| {scenario} | {mode} | {completed} | {collisions} | {least:.2} ({}) | {} |",
+        each.join(", "),
+        range(&mut outcomes.iter().map(|o| o.time_s))
+    )
 }
