@@ -307,18 +307,13 @@ fn ftp_opens_the_parameter_file_for_its_sender_and_is_claimed() {
     let request =
         FILE_TRANSFER_PROTOCOL_DATA { target_network: 0, target_system: 7, target_component: 1, payload };
     let out = v.on_message(GCS, &MavMessage::FILE_TRANSFER_PROTOCOL(request), Time::ZERO);
-    let [MavMessage::FILE_TRANSFER_PROTOCOL(ack)] = &out.mav[..] else {
-        panic!("no FTP answer: {out:?}")
-    };
+    let [MavMessage::FILE_TRANSFER_PROTOCOL(ack)] = &out.mav[..] else { panic!("no FTP answer: {out:?}") };
     // ACK (128) to OpenFileRO (4) with the file's size (4 bytes), sequence 6, session 9, to
     // the sender.
     let size = u32::from_le_bytes([ack.payload[12], ack.payload[13], ack.payload[14], ack.payload[15]]);
     let want = crate::services::param_pack::encode(&v.params().list()).len();
     assert_eq!((ack.payload[3], ack.payload[5], ack.payload[4], size as usize), (128, 4, 4, want));
-    assert_eq!(
-        (ack.payload[0], ack.payload[2], ack.target_system, ack.target_component),
-        (6, 9, 255, 190)
-    );
+    assert_eq!((ack.payload[0], ack.payload[2], ack.target_system, ack.target_component), (6, 9, 255, 190));
     assert_eq!(v.unhandled, 0);
     assert!(capabilities().contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
 }
