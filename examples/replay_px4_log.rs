@@ -16,7 +16,7 @@
 //! 2.2 m and landing; source and licence in `tests/data/px4/README.md`). Attitude and height
 //! are compared here; `kestrel replay --log FILE --out FILE.csv` also compares horizontal
 //! position and ground truth, and its RMS figures for roll, pitch, yaw and height are the
-//! ones this example prints (tests/examples.rs holds them equal).
+//! ones this example prints (tests/docs_examples.rs holds them equal).
 
 use std::error::Error;
 use std::path::{Path, PathBuf};

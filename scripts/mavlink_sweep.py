@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Throws bad MAVLink at a running `kestrel run` over UDP loopback and checks it shrugged it off
-(run in CI by tests/mavlink_sweep.rs).
+(run in CI by tests/gcs_mavlink_sweep.rs).
 
 Usage:
     .venv/bin/python scripts/mavlink_sweep.py --frames N --seed S [--target udp:127.0.0.1:PORT]

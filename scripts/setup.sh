@@ -13,10 +13,10 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 # clang/libclang for the `opencv` crate's bindings (stereo vision), python3-venv for the test
 # references, socat for the serial-link tests (two joined pseudo-terminals), util-linux's
 # `unshare` and iproute2's `ip` for the tests that fly the default config on its fixed UDP ports,
-# each in a network namespace of its own (tests/mavsdk.rs, tests/instances.rs).
+# each in a network namespace of its own (tests/gcs_mavsdk.rs, tests/gcs_instances.rs).
 packages=(build-essential pkg-config python3 python3-venv clang libclang-dev libopencv-dev socat util-linux iproute2)
 # The tests also check the shipped systemd unit with `systemd-analyze verify`
-# (tests/service_manager.rs), and redraw the guide's graph pictures with Graphviz's `dot`
+# (tests/process_service_manager.rs), and redraw the guide's graph pictures with Graphviz's `dot`
 # (tests/docs_graphs.rs, under KESTREL_UPDATE_DOCS=1).
 if [[ "${1:-}" == "--tests" ]]; then
     packages+=(systemd graphviz)

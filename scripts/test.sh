@@ -18,7 +18,7 @@ echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== mdbook build docs"
 # The user guide, with warnings as errors: mdBook reports a broken chapter, an unclosed HTML tag
-# or a bad footnote as a WARN line and still exits 0. tests/doc_links.rs checks the links.
+# or a bad footnote as a WARN line and still exits 0. tests/docs_links.rs checks the links.
 mdbook_log="$(mdbook build docs 2>&1)" || { echo "$mdbook_log"; exit 1; }
 echo "$mdbook_log"
 if grep -qE '^ *(WARN|ERROR)' <<<"$mdbook_log"; then

@@ -9,7 +9,7 @@
 //! an error naming the holder's pid. The locks are `flock(2)` locks on files in [`lock_dir`],
 //! each holding its owner's pid: the kernel drops them when the process ends, however it ends,
 //! so a crashed run never leaves a stale lock behind.
-//! Held by tests/instance_lock.rs and the unit tests below.
+//! Held by tests/process_instance_lock.rs and the unit tests below.
 
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, Write};

@@ -2,7 +2,7 @@
 //! `READY=1` once every actor is running, `WATCHDOG=1` at half the unit's `WatchdogSec` while
 //! the graph is alive, `STOPPING=1` when a signal starts the shutdown, and `STATUS=` lines a
 //! person sees in `systemctl status`. Outside a service (`NOTIFY_SOCKET` unset) each call does
-//! nothing. The unit file is packaging/kestrel.service; tests/service_manager.rs reads what a
+//! nothing. The unit file is packaging/kestrel.service; tests/process_service_manager.rs reads what a
 //! run sends on a socket of its own.
 //!
 //! The watchdog is fed only while the commander's status keeps arriving (when the graph has a

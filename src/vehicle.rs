@@ -17,7 +17,7 @@
 //! quad is refused at start, naming both, instead of flown into the ground. A hardware graph
 //! (`config/navio2.toml`) names its vehicle for the controller alone. The design and what it
 //! replaced: docs/src/decisions/0047-one-vehicle-file-for-the-simulator-and-the-controller.md.
-//! The tests below hold each hand-on and each refusal; `tests/vehicle_frames.rs` flies the hexa
+//! The tests below hold each hand-on and each refusal; `tests/flight_vehicle_frames.rs` flies the hexa
 //! and the octo on `config/sim.toml` with only its `vehicle` changed, and sees both refusals
 //! stop `kestrel run` at start.
 

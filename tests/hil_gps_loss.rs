@@ -8,7 +8,8 @@
 //!
 //! Realtime, so it runs alone (`.config/nextest.toml`), like `tests/hil_flight.rs`.
 
-mod hil_square;
+mod support;
+use support::hil_square;
 
 use std::time::Duration;
 

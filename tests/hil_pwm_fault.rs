@@ -6,7 +6,8 @@
 //!
 //! Realtime, so it runs alone (`.config/nextest.toml`), like `tests/hil_flight.rs`.
 
-mod hil_square;
+mod support;
+use support::hil_square;
 
 use kestrel::recorder::LogReader;
 use kestrel_proto::messages::SensorHealth;

@@ -9,8 +9,8 @@
 //! namespace), so the fixed ports (Zenoh's 7447, the links' 14550, 18570 + N, 14580 + N) are the
 //! test's alone.
 
-#[allow(dead_code, reason = "shared by the test binaries that run `kestrel run`; this one uses part of it")]
-mod sim_vehicle;
+mod support;
+use support::sim_vehicle;
 
 use serde_json::Value;
 use sim_vehicle::{root, tail, temp_dir};

@@ -1,16 +1,15 @@
 //! The thesis's two-computer split flown as two `kestrel run` processes joined by Zenoh over
 //! loopback, on the wall clock: config/split-flight.toml (simulator, estimator, commander,
 //! controller, link) and config/split-vision.toml (simulated camera, stereo, avoider), in the
-//! worlds of tests/avoidance_flights.rs. Each pair runs in a network namespace of its own
+//! worlds of tests/flight_avoidance.rs. Each pair runs in a network namespace of its own
 //! (`unshare --net`), so Zenoh's port 7447 and the link's ports are the test's alone.
 //!
 //! Each flight prints the bridge's hop latency per topic (from both processes' logs) as a
 //! `figure:` line, and the flights around an obstacle its frame → setpoint latency beside the
-//! same world flown single-process (tests/avoidance_flights.rs's flight).
+//! same world flown single-process (tests/flight_avoidance.rs's flight).
 
-mod avoidance_flight;
-#[allow(dead_code, reason = "shared by the flight test binaries; this one flies two processes of its own")]
-mod flights;
+mod support;
+use support::{avoidance_flight, flights};
 
 use std::path::Path;
 use std::process::Command;

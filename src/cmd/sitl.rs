@@ -8,7 +8,7 @@
 //! physics then answers SITL frame by frame until SITL exits, `--duration` of physics time has
 //! passed, or SIGINT/SIGTERM/SIGHUP; then SITL is stopped and what the simulator saw (frames,
 //! collisions, least clearance, landed, where) is printed as one JSON line, and written to
-//! `--summary` if given. Held by tests/ardupilot_sitl.rs.
+//! `--summary` if given. Held by tests/sitl_ardupilot.rs.
 
 use std::fs::File;
 use std::os::unix::process::CommandExt;

@@ -12,7 +12,7 @@
 //! A write error ends that log (its file stays, incomplete), is logged and kept in
 //! [`OnboardStatus`] for the status line; the next arming starts a new log. The flight goes on.
 //!
-//! Held by `recorder::onboard::tests`, `tests/log_download.rs` and `tests/mavsdk.rs` (the log of
+//! Held by `recorder::onboard::tests`, `tests/gcs_log_download.rs` and `tests/gcs_mavsdk.rs` (the log of
 //! a flight, downloaded, equals the file and starts armed and ends disarmed).
 
 use std::fs::{File, OpenOptions};

@@ -1,6 +1,6 @@
 """Flies config/missions/square.plan with ArduCopter as a ground station would, and reports what
 ArduCopter says it did. Run against ArduCopter SITL on Kestrel's physics (`kestrel sitl
-ardupilot`) and on its own `--model +` physics (tests/ardupilot_sitl.rs).
+ardupilot`) and on its own `--model +` physics (tests/sitl_ardupilot.rs).
 
 Usage: ardupilot_square.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
 Environment: PLAN (the .plan file), DEADLINE_S (wall seconds the session may take).

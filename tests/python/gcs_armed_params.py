@@ -1,6 +1,6 @@
 """Disarmed-only parameters on `kestrel run`: refused in flight, taken on the ground.
 
-Usage: gcs_armed_params.py   (run by tests/gcs.rs; see gcs_common.py for the transcript)
+Usage: gcs_armed_params.py   (run by tests/gcs_pymavlink.rs; see gcs_common.py for the transcript)
 
 Takes off in GUIDED to 10 m and, hovering, sets what would move a motor's pulse range or a
 sensor's calibration under the estimator (SERVO1_MIN 800 then SERVO1_MAX 900, INS_GYROFFS_X,

@@ -1,4 +1,4 @@
-"""The sensor calibration over MAVLink (tests/calibration.rs): a pymavlink ground station runs the
+"""The sensor calibration over MAVLink (tests/gcs_calibration.rs): a pymavlink ground station runs the
 accelerometer, level and compass calibrations of a simulated vehicle with sensor errors as
 MAVProxy's `accelcal`, `calibrate level` and `magcal` drive ArduPilot, and checks the pre-arm.
 

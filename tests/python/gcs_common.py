@@ -1,4 +1,4 @@
-"""A pymavlink ground station for the `kestrel run` integration tests (tests/gcs.rs).
+"""A pymavlink ground station for the `kestrel run` integration tests (tests/gcs_pymavlink.rs).
 
 Listens on an ephemeral UDP port on 127.0.0.1 (as QGroundControl listens on 14550) and prints
 `PORT <n>` first so the test can point the vehicle's `udp_out` endpoint at it; with `GCS_SERIAL`

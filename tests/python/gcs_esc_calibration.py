@@ -1,4 +1,4 @@
-"""The ESC range calibration over MAVLink (tests/esc_calibration.rs): a pymavlink ground station runs
+"""The ESC range calibration over MAVLink (tests/gcs_esc_calibration.rs): a pymavlink ground station runs
 the ESC range calibration of a simulated vehicle whose four ESCs each have a range of their own
 (config/vehicles/quad_x_unequal_escs.toml), as the MAVLink spec defines it: PREFLIGHT_CALIBRATION
 param7 = 1.

@@ -1,7 +1,7 @@
 """One ground station, several vehicles: pymavlink listening where QGroundControl listens
 (`udpin:0.0.0.0:14550`) while `kestrel run --instance 0` and `--instance 1` fly their missions.
 
-Usage: gcs_fleet.py SECONDS   (run by tests/instances.rs)
+Usage: gcs_fleet.py SECONDS   (run by tests/gcs_instances.rs)
 
 Everything comes from what pymavlink hears on 14550: per system id, its HEARTBEATs (armed or
 not), its GLOBAL_POSITION_INT and its MISSION_ITEM_REACHED. A vehicle has landed when, after

@@ -1,6 +1,6 @@
 """Flies a QGroundControl .plan on `kestrel run` as a ground station does, seeing only telemetry.
 
-Usage: gcs_flight.py PLAN.plan [--mission-start]   (run by tests/gcs.rs; see gcs_common.py for
+Usage: gcs_flight.py PLAN.plan [--mission-start]   (run by tests/gcs_pymavlink.rs; see gcs_common.py for
 the transcript)
 
 1. identify the vehicle from its HEARTBEAT (and AUTOPILOT_VERSION);

@@ -1,6 +1,6 @@
 """The link-loss failsafe on `kestrel run`: take off in GUIDED, then fall silent.
 
-Usage: gcs_link_loss.py [land]   (run by tests/gcs.rs; see gcs_common.py for the transcript)
+Usage: gcs_link_loss.py [land]   (run by tests/gcs_pymavlink.rs; see gcs_common.py for the transcript)
 
 After GUIDED, arm and MAV_CMD_NAV_TAKEOFF, once the vehicle is above 8 m the ground station
 stops its heartbeats (and sends nothing else) and only listens: the vehicle must say so in a

@@ -1,6 +1,6 @@
 """Logs and files on the vehicle, as a ground station fetches them: a short flight, then the log
 list and download (LOG_* messages) and MAVLink FTP (pymavlink's mavftp). Written once, run
-against `kestrel run` and ArduCopter SITL (tests/log_download.rs), which compares the reports.
+against `kestrel run` and ArduCopter SITL (tests/gcs_log_download.rs), which compares the reports.
 
 Usage: gcs_logs.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
 Environment: LOG_DIR, the vehicle's log directory, when the test can read it (Kestrel): the

@@ -4,7 +4,7 @@ Usage: gcs_params.py set NAME VALUE      set it (PARAM_VALUE echo), as run 1
        gcs_params.py expect NAME VALUE   the list and a read by name show it, as run 2
        gcs_params.py unapplied NAME VALUE   the owner never gets the set (its param_set input
                                          unrouted): the echo and a read keep the old value
-(run by tests/gcs.rs; see gcs_common.py for the transcript)
+(run by tests/gcs_pymavlink.rs; see gcs_common.py for the transcript)
 """
 
 import math

@@ -1,7 +1,7 @@
 """A take-off under a slab, as a ground station sees it: DISTANCE_SENSOR up and down, and the
 STATUSTEXT that says the climb is held.
 
-Usage: gcs_rangefinder.py   (run by tests/gcs.rs on a world with a slab whose underside is 6 m
+Usage: gcs_rangefinder.py   (run by tests/gcs_pymavlink.rs on a world with a slab whose underside is 6 m
 above home; see gcs_common.py for the transcript)
 
 The ground station arms in GUIDED and asks for a 10 m take-off. The vehicle's upward rangefinder

@@ -1,6 +1,6 @@
 """MAVLink 2 signing on `kestrel run`: only a client holding the key can command the vehicle.
 
-Usage: gcs_signing.py KEY_HEX   (run by tests/gcs.rs; see gcs_common.py for the transcript)
+Usage: gcs_signing.py KEY_HEX   (run by tests/gcs_pymavlink.rs; see gcs_common.py for the transcript)
 
 On one socket: (1) unsigned, then (2) signed with a wrong key, GUIDED and ARM get no answer and
 the vehicle stays disarmed; (3) signed with the right key, the vehicle's own signed frames

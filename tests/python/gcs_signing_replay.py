@@ -1,7 +1,7 @@
 """Replays of signed frames on `kestrel run`, and unsigned RADIO_STATUS on a signed link.
 
 Usage: gcs_signing_replay.py KEY_HEX before|after CAPTURE_FILE REPLAY_PORT
-(run twice by tests/gcs.rs, with a restart of the vehicle between; see gcs_common.py for the
+(run twice by tests/gcs_pymavlink.rs, with a restart of the vehicle between; see gcs_common.py for the
 transcript). The vehicle signs with KEY on two endpoints: a `udp_out` to this client and a
 `udp_in` on REPLAY_PORT.
 

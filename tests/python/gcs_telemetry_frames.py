@@ -1,5 +1,5 @@
 """The telemetry frames SDKs and ground stations read, observed and asked for as they do, and
-reported so that tests/telemetry_frames.rs can compare ArduCopter SITL with `kestrel run`.
+reported so that tests/gcs_telemetry_frames.rs can compare ArduCopter SITL with `kestrel run`.
 
 Usage: gcs_telemetry_frames.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
 

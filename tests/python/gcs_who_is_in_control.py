@@ -1,5 +1,5 @@
 """Who is in control, seen from the ground: `kestrel run` with two ground stations (run by
-tests/who_is_in_control.rs; see gcs_common.py for the transcript).
+tests/gcs_who_is_in_control.rs; see gcs_common.py for the transcript).
 
 Usage: gcs_who_is_in_control.py two_stations | stale_sticks
 

@@ -1,6 +1,6 @@
 """The wind the vehicle learns, as a ground station reads it from ArduPilot's WIND message.
 
-Usage: gcs_wind.py   (run by tests/gcs.rs; see gcs_common.py for the transcript)
+Usage: gcs_wind.py   (run by tests/gcs_pymavlink.rs; see gcs_common.py for the transcript)
 
 As with ArduPilot SITL, the ground station sets the simulator's wind (SIM_WIND_SPD 3 m/s,
 SIM_WIND_DIR 225: from the south-west), takes off in GUIDED to 10 m and hovers. The estimator

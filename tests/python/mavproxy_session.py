@@ -1,7 +1,7 @@
 """Drives MAVProxy (mavproxy.py from the test venv) against `kestrel run`, as an operator types.
 
-Usage: mavproxy_session.py   (run by tests/gcs.rs; `MAVPROXY_SCENARIO=calibrate` by
-tests/calibration.rs: the sensor calibrations as an operator types them)
+Usage: mavproxy_session.py   (run by tests/gcs_pymavlink.rs; `MAVPROXY_SCENARIO=calibrate` by
+tests/gcs_calibration.rs: the sensor calibrations as an operator types them)
 
 MAVProxy listens on an ephemeral UDP port on 127.0.0.1 (`--master udpin:...`, as it listens on
 14550 by default); `PORT <n>` is printed first so the test points the vehicle's `udp_out` there.

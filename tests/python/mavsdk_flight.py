@@ -1,7 +1,7 @@
 """Flies `kestrel run` (config/sim.toml, unchanged) with MAVSDK as its users run it: PyPI `mavsdk`,
 whose wheel carries the C++ MAVSDK core, on its default connection `udpin://0.0.0.0:14540`.
 
-Usage: mavsdk_flight.py SCENARIO [PLAN.plan]   (run by tests/mavsdk.rs)
+Usage: mavsdk_flight.py SCENARIO [PLAN.plan]   (run by tests/gcs_mavsdk.rs)
 
     takeoff_land   arm, take off to 8 m, land: in air, 8 m, on the ground, disarmed
     mission        import a QGroundControl .plan with MAVSDK's importer, upload it, download it

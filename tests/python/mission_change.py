@@ -1,6 +1,6 @@
 """Changes the mission of a vehicle flying it in AUTO, as an operator does from a ground station,
 and reports what the vehicle then does. Written once, run against ArduCopter SITL and against
-`kestrel run` (tests/mission_change.rs), which compares the two reports.
+`kestrel run` (tests/gcs_mission_change.rs), which compares the two reports.
 
 Usage: mission_change.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
 

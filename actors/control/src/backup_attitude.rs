@@ -359,7 +359,7 @@ impl BackupAttitude {
         // estimate closes a loop (velocity → drag → tilt error → velocity) that the bias
         // integrator would make marginal (s³ + c·s² + k·c·s + k·c·w, c the drag rate ≈ 0.1/s,
         // k = ATT_W_ACC, w = ATT_W_GYRO_BIAS = 0.1 ≈ c); without it, s² + c·s + k·c is damped.
-        // Held by `tests/fault_flights.rs` (the estimator failing for good in forward flight).
+        // Held by `tests/flight_faults.rs` (the estimator failing for good in forward flight).
         let flying_alone =
             self.last_follow.is_some_and(|t| now.saturating_since(t).as_secs_f64() > FOLLOW_LAPSE_S);
         let spin = (gyro - self.gyro_bias_rad_s).norm();

@@ -4,7 +4,7 @@
 //!
 //! On the lockstep clock the sticks arrive at exactly the same simulated times in every run,
 //! which MAVLink `MANUAL_CONTROL` from outside the graph cannot promise (the graph does not
-//! wait for a socket): closed-loop tests of the pilot's modes use it (tests/poshold_avoidance.rs
+//! wait for a socket): closed-loop tests of the pilot's modes use it (tests/flight_poshold_avoidance.rs
 //! flies POSHOLD at a wall), and so can a bench without a radio. The sticks are a receiver's
 //! (`StickSource::Radio`): they win over a ground station's MAVLink sticks, stopping them is
 //! the RC-loss failsafe, and they do not hold off the ground station's (commander

@@ -5,7 +5,7 @@
 //! it), and a 10 cm pole is too few pixels of the centre region to reach that percentile
 //! until it is close. In front of a textured backdrop at 320 × 240 the centre region's nearest
 //! depth read 6.15 m with the pole 4.95 m ahead: the speed cap would have vouched for 1.2 m
-//! more than there was, beyond its 1 m margin (tests/detection_range.rs). Each sector keeps the
+//! more than there was, beyond its 1 m margin (tests/vision_detection_range.rs). Each sector keeps the
 //! nearest return of its columns, so the pole is there from about 10 m out. Only sectors whose
 //! return can lie in the vehicle's corridor count: a trunk 3 m beside the path must not hold
 //! the vehicle back.

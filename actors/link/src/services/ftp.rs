@@ -27,8 +27,8 @@
 //! Paths outside these two directories, and names in `logs/` that are not log names, are
 //! FileNotFound: nothing else of the companion computer's disk is reachable.
 //!
-//! Held by the tests in this file, `tests/log_download.rs` (pymavlink's mavftp, against
-//! ArduCopter too) and `tests/gcs.rs` (MAVProxy fetching its parameters as `param.pck`).
+//! Held by the tests in this file, `tests/gcs_log_download.rs` (pymavlink's mavftp, against
+//! ArduCopter too) and `tests/gcs_pymavlink.rs` (MAVProxy fetching its parameters as `param.pck`).
 
 use std::fs::File;
 use std::io;

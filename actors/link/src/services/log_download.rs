@@ -17,8 +17,8 @@
 //! Unlike ArduPilot, a read error is said as a STATUSTEXT (the transfer then ends as at the end
 //! of the file) rather than only ending the transfer.
 //!
-//! Held by the tests in this file, `tests/log_download.rs` (pymavlink, against ArduCopter too)
-//! and `tests/mavsdk.rs` (MAVSDK's LogFiles on its defaults).
+//! Held by the tests in this file, `tests/gcs_log_download.rs` (pymavlink, against ArduCopter too)
+//! and `tests/gcs_mavsdk.rs` (MAVSDK's LogFiles on its defaults).
 
 use std::fs::File;
 use std::io;

@@ -12,7 +12,7 @@
 //! size for the same reason).
 //!
 //! Held by `param_pack::tests` (decoded by an independent reader written from MAVProxy's
-//! decoder) and by `tests/log_download.rs` (pymavlink's own decoder over FTP).
+//! decoder) and by `tests/gcs_log_download.rs` (pymavlink's own decoder over FTP).
 
 use mavlink::dialects::ardupilotmega::{MavMessage, MavParamType};
 

@@ -111,7 +111,7 @@ fn flying_item_1() -> Commander {
 fn a_mission_uploaded_in_auto_is_flown_from_the_same_item() {
     let mut c = flying_item_1();
     // A longer mission: item 1 is now 50 m north, and is flown at once (ArduCopter restarts its
-    // current command from the new mission: tests/mission_change.rs shows it in SITL).
+    // current command from the new mission: tests/gcs_mission_change.rs shows it in SITL).
     c.on_mission(waypoints_north(&[25.0, 50.0, 75.0, 100.0])).expect("replaced in flight");
     assert_eq!(c.mode(), FlightMode::Auto);
     let progress = c.status(Time(3000)).mission;

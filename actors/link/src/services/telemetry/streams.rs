@@ -54,7 +54,7 @@ fn default_streams() -> Vec<Stream> {
         // Only while the graph has a simulator's ground truth, as ArduPilot SITL sends it.
         (SIMSTATE_DATA::ID, hz(10.0)),
         // ArduCopter's RAW_SENSORS, RC_CHANNELS and EXTRA3 members at the 4 Hz MAVProxy and
-        // QGroundControl ask it for (`tests/telemetry_frames.rs` measures both).
+        // QGroundControl ask it for (`tests/gcs_telemetry_frames.rs` measures both).
         (RAW_IMU_DATA::ID, hz(4.0)),
         (SCALED_PRESSURE_DATA::ID, hz(4.0)),
         (SERVO_OUTPUT_RAW_DATA::ID, hz(4.0)),
