@@ -49,7 +49,7 @@ fn on_kestrel_physics(binary: &Path, env: &[(&str, String)], limit: Duration, la
     let mut kestrel = Proc(
         Command::new(env!("CARGO_BIN_EXE_kestrel"))
             .args(["sitl", "ardupilot", "--config"])
-            .arg(root().join("config/ardupilot-sitl.toml"))
+            .arg(root().join("config/ardupilot/sitl.toml"))
             .args(["--gcs", &format!("udpclient:127.0.0.1:{port}"), "--instance", &instance.to_string()])
             .arg("--summary")
             .arg(&summary_path)

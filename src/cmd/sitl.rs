@@ -37,7 +37,7 @@ pub enum SitlTarget {
 #[derive(Debug, clap::Args)]
 pub struct ArdupilotArgs {
     /// The SITL config (TOML): vehicle, world, binary, parameter files.
-    #[arg(long, short, default_value = "config/ardupilot-sitl.toml", value_name = "FILE")]
+    #[arg(long, short, default_value = "config/ardupilot/sitl.toml", value_name = "FILE")]
     pub config: PathBuf,
     /// Where SITL's serial 0 sends MAVLink, overriding the config's `gcs`
     /// (e.g. `udpclient:127.0.0.1:14550`).

@@ -1,4 +1,4 @@
-//! `config/ardupilot-sitl.toml`: what `kestrel sitl ardupilot` flies ArduCopter SITL in.
+//! `config/ardupilot/sitl.toml`: what `kestrel sitl ardupilot` flies ArduCopter SITL in.
 
 use std::path::{Path, PathBuf};
 
