@@ -3,6 +3,8 @@
 //! and bad input is refused with an error that says what was wrong. A synthetic flight past
 //! obstacles, written through the recorder, gets the path and avoider figures.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::time::Duration;
@@ -16,6 +18,7 @@ use kestrel_proto::messages::{
     AvoidanceCommand, BaroSample, GpsFix, GpsFixType, GroundTruth, NavState, NavValidity, Obstacle,
     ObstacleMap, Setpoint, SetpointTarget, TrajectorySetpoint,
 };
+use support::flights;
 
 /// A fresh scratch path for this test process.
 fn scratch(name: &str) -> PathBuf {
@@ -28,8 +31,9 @@ fn recorded_log() -> &'static Path {
     static LOG: OnceLock<PathBuf> = OnceLock::new();
     LOG.get_or_init(|| {
         let path = scratch("sim.mcap");
-        let config =
+        let mut config =
             LoadedConfig::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("config/sim.toml")).unwrap();
+        flights::without_link_sockets(&mut config);
         let options = RunOptions {
             duration: Some(Duration::from_secs(20)),
             speedup: Some(0.0),

@@ -4,6 +4,9 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use kestrel::{LoadedConfig, Registry, RunOptions, run};
+use support::flights;
+
+mod support;
 
 fn temp_path(name: &str) -> PathBuf {
     std::env::temp_dir().join(format!("kestrel-{}-{name}", std::process::id()))
@@ -30,6 +33,7 @@ const FLIGHT_TOPICS: [&str; 12] = [
 fn record_mission(path: &Path) {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("config");
     let mut config = LoadedConfig::load(&dir.join("sim.toml")).unwrap();
+    flights::without_link_sockets(&mut config);
     let commander = config.graph.actors.values_mut().find(|d| d.kind.get_ref() == "commander").unwrap();
     let mut params = toml::Table::new();
     params.insert("mission".into(), dir.join("missions/square.plan").display().to_string().into());

@@ -32,6 +32,17 @@ pub fn merged_graph(file: &str) -> String {
     )
 }
 
+/// Takes the sockets off every link of `config`, for an in-process run beside other tests: the
+/// default config's fixed UDP ports (18570, 14580) would be taken by whichever test binds them
+/// first. The links keep their graph side.
+pub fn without_link_sockets(config: &mut kestrel::LoadedConfig) {
+    for link in config.graph.actors.values_mut().filter(|d| d.kind.get_ref() == "link") {
+        let params =
+            link.params.get_or_insert_with(|| toml::Spanned::new(0..0, toml::Table::new())).get_mut();
+        params.insert("endpoints".into(), toml::Value::Array(Vec::new()));
+    }
+}
+
 /// The text of `config/sim-forest.toml` (see [`merged_graph`]) flying `world` (a path), with
 /// its relative paths made absolute.
 pub fn sim_forest_graph(world: &Path) -> String {
