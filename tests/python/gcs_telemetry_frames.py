@@ -10,7 +10,7 @@ Usage: gcs_telemetry_frames.py   (prints `PORT <n>` first; see gcs_common.py for
 3. MAV_CMD_SET_MESSAGE_INTERVAL of ATTITUDE_QUATERNION at 20 Hz: the ACK and the rate then;
 4. a TIMESYNC request: whether it is answered, with `tc1` set and our `ts1` mirrored;
 5. field checks on what came: each ATTITUDE_QUATERNION unit length and within 0.02 rad of the
-   newest ATTITUDE (at most 300 ms older: the vehicle sits on the ground), SYSTEM_TIME's `time_boot_ms` advancing, SCALED_PRESSURE between
+   newest ATTITUDE (at most 300 ms older: the vehicle sits on the ground), SYSTEM_TIME's `time_boot_ms` never going back and advancing over the run, SCALED_PRESSURE between
    900 and 1100 hPa, RAW_IMU's acceleration about 1 g (mG);
 6. GUIDED and armed (each asked for until taken): SERVO_OUTPUT_RAW's first four outputs within
    1000..2000 µs while armed; then disarmed.
@@ -54,8 +54,9 @@ class Frames:
         self.seen = []  # (vehicle s, msg)
         self.attitude = None  # the newest ATTITUDE
         self.checks = {"quaternion_unit": None, "quaternion_matches_attitude": None,
-                       "system_time_advancing": None, "pressure_plausible": None,
-                       "raw_imu_one_g": None}
+                       "system_time_never_back": None, "system_time_advancing": None,
+                       "pressure_plausible": None, "raw_imu_one_g": None}
+        self.first_system_time = None
         self.last_system_time = None
         gcs.watchers.append(self.watch)
 
@@ -83,8 +84,14 @@ class Frames:
                            for p, q in ((roll, a.roll), (pitch, a.pitch), (yaw, a.yaw)))
                 self.check("quaternion_matches_attitude", diff < 0.02)
         elif kind == "SYSTEM_TIME":
+            # A streamed one and a requested one can leave at the same instant with the same
+            # time: equal is not a stopped clock, going back is a fault, and over the run the
+            # clock must have moved on from the first.
             if self.last_system_time is not None:
-                self.check("system_time_advancing", m.time_boot_ms > self.last_system_time)
+                self.check("system_time_never_back", m.time_boot_ms >= self.last_system_time)
+            if self.first_system_time is None:
+                self.first_system_time = m.time_boot_ms
+            self.checks["system_time_advancing"] = m.time_boot_ms > self.first_system_time
             self.last_system_time = m.time_boot_ms
         elif kind == "SCALED_PRESSURE":
             self.check("pressure_plausible", 900.0 < m.press_abs < 1100.0)
