@@ -133,8 +133,24 @@ impl Drop for ParamWriter {
 /// write a temporary file next to it, flush it to disk, rename it over, and flush the directory
 /// so the rename itself is on disk.
 pub fn write_atomically(path: &Path, text: &str) -> std::io::Result<()> {
+    write_atomically_as(path, text, None)
+}
+
+/// [`write_atomically`], the new file given permission bits `mode` when one is named (a secret
+/// is written owner-only from its first byte: the temporary file is created, or reset, so).
+pub fn write_atomically_as(path: &Path, text: &str, mode: Option<u32>) -> std::io::Result<()> {
+    use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
     let tmp = path.with_extension("tmp");
-    let mut f = std::fs::File::create(&tmp)?;
+    let mut options = std::fs::OpenOptions::new();
+    options.write(true).create(true).truncate(true);
+    if let Some(mode) = mode {
+        options.mode(mode);
+    }
+    let mut f = options.open(&tmp)?;
+    if let Some(mode) = mode {
+        // `mode` applies only to a file the open creates: a stale temporary file keeps its own.
+        f.set_permissions(std::fs::Permissions::from_mode(mode))?;
+    }
     f.write_all(text.as_bytes())?;
     f.sync_all()?;
     std::fs::rename(&tmp, path)?;

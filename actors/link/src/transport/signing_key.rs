@@ -2,8 +2,7 @@
 //! file that group or others may read is refused, as ssh refuses such a private key), and
 //! replaceable at run time by SETUP_SIGNING (written atomically with mode 0600).
 
-use std::io::Write;
-use std::os::unix::fs::{OpenOptionsExt, PermissionsExt};
+use std::os::unix::fs::PermissionsExt;
 use std::path::{Path, PathBuf};
 use std::sync::RwLock;
 
@@ -78,18 +77,7 @@ impl SigningKey {
 
 fn write_key(path: &Path, key: &[u8; 32]) -> std::io::Result<()> {
     let text: String = key.iter().map(|b| format!("{b:02x}")).collect::<String>() + "\n";
-    let tmp = path.with_extension("key-new");
-    let mut f = std::fs::OpenOptions::new().write(true).create(true).truncate(true).mode(0o600).open(&tmp)?;
-    // `mode` applies only to a file it creates: a stale temporary file keeps its own.
-    f.set_permissions(std::fs::Permissions::from_mode(0o600))?;
-    f.write_all(text.as_bytes())?;
-    f.sync_all()?;
-    std::fs::rename(&tmp, path)?;
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
-    };
-    std::fs::File::open(dir)?.sync_all()
+    super::param_writer::write_atomically_as(path, &text, Some(0o600))
 }
 
 fn parse_key(bytes: &[u8]) -> Option<[u8; 32]> {
