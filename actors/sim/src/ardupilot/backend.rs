@@ -30,6 +30,7 @@ use nalgebra::Vector3;
 
 use super::packet::{PacketError, ServoPacket};
 use crate::error::InvalidParam;
+use crate::faults::Fault;
 use crate::rigid_body::RigidBodyState;
 use crate::simulator::{InitialState, SimOptions, SimOutput, Simulator};
 use crate::vehicle::VehicleParams;
@@ -62,7 +63,33 @@ pub struct Summary {
     pub refused_pulses: u64,
     /// Packets that were not servo packets, over the run (counted by the shell).
     pub refused_packets: u64,
+    /// Physics time the vehicle first left the ground (s); `None` while it never has.
+    pub take_off_s: Option<f64>,
+    /// Faults started counting from take-off ([`JsonBackend::with_faults_from_take_off`]).
+    pub faults_started: u32,
 }
+
+/// One sample of the truth trace (`JsonBackend::trace_every`): what a scenario runner scores
+/// ArduCopter's flight on, in the units and frames of `GroundTruth`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct TraceSample {
+    /// Physics time (s): the `timestamp` SITL was sent with this state.
+    pub t_s: f64,
+    /// Position north, east, down from home (m).
+    pub position_ned_m: [f64; 3],
+    /// Velocity north, east, down (m/s).
+    pub velocity_ned_m_s: [f64; 3],
+    /// Attitude `[w, x, y, z]`, body FRD to NED.
+    pub attitude: [f64; 4],
+    /// Resting on the ground.
+    pub landed: bool,
+    /// The simulated battery: terminal voltage (V) and current drawn (A).
+    pub voltage_v: f64,
+    pub current_a: f64,
+}
+
+/// Samples a trace keeps without growing: ten minutes at 50 Hz.
+const TRACE_CAPACITY: usize = 30_000;
 
 /// The simulator answering ArduPilot SITL.
 #[derive(Debug)]
@@ -78,6 +105,12 @@ pub struct JsonBackend {
     has_range_down: bool,
     least_clearance_m: f64,
     summary: Summary,
+    /// Frames between truth samples; 0 = no trace.
+    trace_every: u64,
+    trace: Vec<TraceSample>,
+    /// The world's faults when they count from take-off: each with the schedule index it got
+    /// once started.
+    from_take_off: Vec<(Fault, Option<usize>)>,
 }
 
 impl JsonBackend {
@@ -118,7 +151,30 @@ impl JsonBackend {
             has_range_down,
             least_clearance_m: f64::INFINITY,
             summary: Summary::default(),
+            trace_every: 0,
+            trace: Vec::new(),
+            from_take_off: Vec::new(),
         })
+    }
+
+    /// The same, but the world's `[[faults]]` count their `at_s` from the moment the vehicle
+    /// first leaves the ground instead of from the start: ArduCopter takes off after EKF3's GPS
+    /// wait and a ground station's commands, at no physics time known in advance, and a fault
+    /// "mid-leg" must come mid-leg (`faults_from_take_off_start_at_take_off_plus_at_s`). The
+    /// faults are checked against the vehicle here, as `Simulator::new` checks a world's.
+    pub fn with_faults_from_take_off(
+        vehicle: VehicleParams,
+        mut world: World,
+        seed: u64,
+        frame_rate_hz: f64,
+        start: RigidBodyState,
+    ) -> Result<JsonBackend, InvalidParam> {
+        // Validation only: the faults against this vehicle, exactly as a world that holds them.
+        JsonBackend::new(vehicle.clone(), world.clone(), seed, frame_rate_hz, start.clone())?;
+        let faults = std::mem::take(&mut world.faults);
+        let mut backend = JsonBackend::new(vehicle, world, seed, frame_rate_hz, start)?;
+        backend.from_take_off = faults.into_iter().map(|f| (f, None)).collect();
+        Ok(backend)
     }
 
     /// Answers one datagram from SITL: the JSON to send back (newline-framed), or why the
@@ -159,6 +215,65 @@ impl JsonBackend {
         }
         self.least_clearance_m = self.least_clearance_m.min(self.sim.clearance_m());
         self.summary.frames += 1;
+        let now_s = self.sim.time().0 as f64 * 1e-6;
+        if self.summary.take_off_s.is_none() && !self.sim.landed() {
+            self.summary.take_off_s = Some(now_s);
+        }
+        if let Some(take_off_s) = self.summary.take_off_s {
+            self.start_and_end_faults(now_s - take_off_s);
+        }
+        if self.trace_every > 0 && self.summary.frames % self.trace_every == 0 {
+            let (state, battery) = (self.sim.state(), self.sim.battery_status());
+            let q = state.attitude;
+            self.trace.push(TraceSample {
+                t_s: self.sim.time().0 as f64 * 1e-6,
+                position_ned_m: state.position_ned_m.into(),
+                velocity_ned_m_s: state.velocity_ned_m_s.into(),
+                attitude: [q.w, q.i, q.j, q.k],
+                landed: self.sim.landed(),
+                voltage_v: battery.voltage_v,
+                current_a: battery.current_a,
+            });
+        }
+    }
+
+    /// Starts each fault held for take-off once `since_s` (s since take-off) reaches its `at_s`,
+    /// and ends it `for_s` later.
+    fn start_and_end_faults(&mut self, since_s: f64) {
+        for (fault, started) in &mut self.from_take_off {
+            match *started {
+                None if since_s >= fault.at_s => {
+                    // Checked against the vehicle in `with_faults_from_take_off`, so this holds.
+                    if let Ok(index) = self.sim.add_fault(fault.kind.clone()) {
+                        *started = Some(index);
+                        self.summary.faults_started += 1;
+                    }
+                }
+                Some(index) if fault.for_s.is_some_and(|f| since_s >= fault.at_s + f) => {
+                    self.sim.end_fault(index);
+                    fault.for_s = None;
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// Keeps a truth sample every `period_s` of physics time (rounded to whole frames, at least
+    /// one) from now on: [`JsonBackend::trace`]. Its first ten minutes at 50 Hz are reserved
+    /// here, so tracing a flight of that length does not allocate per frame.
+    pub fn trace_every(&mut self, period_s: f64) -> Result<(), InvalidParam> {
+        if !(period_s.is_finite() && period_s > 0.0) {
+            return Err(InvalidParam::new("trace period", format!("{period_s} s: must be positive")));
+        }
+        let frame_s = self.sim.tick_period().as_secs_f64();
+        self.trace_every = ((period_s / frame_s).round() as u64).max(1);
+        self.trace.reserve(TRACE_CAPACITY);
+        Ok(())
+    }
+
+    /// The truth samples kept so far (`trace_every`).
+    pub fn trace(&self) -> &[TraceSample] {
+        &self.trace
     }
 
     fn write_reply(&mut self) {
@@ -386,6 +501,78 @@ mod tests {
         let (w, x, y, z) = (q[0], q[1], q[2], q[3]);
         let yaw_deg = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)).to_degrees();
         assert!((yaw_deg - 90.0).abs() < 1e-5, "{yaw_deg}");
+    }
+
+    /// On the ground at home with the motors stopped, then at 1600 µs (well above the 1334 µs
+    /// hover): a trace every 0.05 s keeps one sample per 60 frames at 1200 Hz, stamped with
+    /// the physics time, landed until the climb and drawing current from the battery once the
+    /// motors spin.
+    #[test]
+    fn a_trace_samples_the_truth_every_period() {
+        let mut b = backend(vehicle("quad_x.toml"), 0.0, 0.0);
+        b.trace_every(0.05).unwrap();
+        fly(&mut b, 0, 600, &[1000; 4]);
+        fly(&mut b, 600, 1200, &[1600; 4]);
+        let trace = b.trace();
+        assert_eq!(trace.len(), 30);
+        let frame_s = b.simulator().tick_period().as_secs_f64();
+        assert!((trace[0].t_s - 60.0 * frame_s).abs() < 1e-9, "{:?}", trace[0]);
+        assert!(trace[..10].iter().all(|s| s.landed && s.position_ned_m == [0.0; 3]));
+        let last = trace.last().unwrap();
+        assert!(!last.landed && last.position_ned_m[2] < -0.5, "climbed: {last:?}");
+        assert!(last.current_a > trace[0].current_a + 1.0, "{:?} then {last:?}", trace[0]);
+        assert!(b.trace_every(0.0).is_err() && b.trace_every(f64::NAN).is_err());
+    }
+
+    /// A motor lost 0.5 s after take-off, for 0.5 s: nothing while the vehicle sits on the
+    /// ground for 2 s, then the fault starts 0.5 s after it leaves (the schedule has it there) and
+    /// ends at 1 s.
+    #[test]
+    fn faults_from_take_off_start_at_take_off_plus_at_s() {
+        let world = World {
+            faults: vec![Fault {
+                at_s: 0.5,
+                for_s: Some(0.5),
+                kind: crate::FaultKind::MotorLost { motor: 1 },
+            }],
+            ..World::default()
+        };
+        let mut b = JsonBackend::with_faults_from_take_off(
+            vehicle("quad_x.toml"),
+            world,
+            1,
+            RATE_HZ,
+            RigidBodyState::default(),
+        )
+        .unwrap();
+        fly(&mut b, 0, 2400, &[1000; 4]);
+        assert_eq!((b.summary().take_off_s, b.summary().faults_started), (None, 0));
+        assert!(b.simulator().faults().faults().is_empty());
+        fly(&mut b, 2400, 2400, &[1700; 4]);
+        let summary = b.summary();
+        let take_off_s = summary.take_off_s.expect("took off");
+        assert!(take_off_s > 2.0, "{summary:?}");
+        assert_eq!(summary.faults_started, 1);
+        let started = &b.simulator().faults().faults()[0];
+        assert!(
+            (started.at_s - (take_off_s + 0.5)).abs() < 2e-3,
+            "{started:?} after take-off at {take_off_s}"
+        );
+        // A motor index the vehicle lacks is refused up front, as in a world file.
+        let bad = World {
+            faults: vec![Fault { at_s: 0.5, for_s: None, kind: crate::FaultKind::MotorLost { motor: 9 } }],
+            ..World::default()
+        };
+        assert!(
+            JsonBackend::with_faults_from_take_off(
+                vehicle("quad_x.toml"),
+                bad,
+                1,
+                RATE_HZ,
+                RigidBodyState::default()
+            )
+            .is_err()
+        );
     }
 
     #[test]

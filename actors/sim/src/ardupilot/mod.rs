@@ -9,7 +9,7 @@ pub mod config;
 pub mod packet;
 pub mod server;
 
-pub use backend::{JsonBackend, Summary};
+pub use backend::{JsonBackend, Summary, TraceSample};
 pub use config::SitlConfig;
 pub use packet::{PacketError, ServoPacket};
 pub use server::JsonServer;
