@@ -8,7 +8,8 @@
 //! physics then answers SITL frame by frame until SITL exits, `--duration` of physics time has
 //! passed, or SIGINT/SIGTERM/SIGHUP; then SITL is stopped and what the simulator saw (frames,
 //! collisions, least clearance, landed, where) is printed as one JSON line, and written to
-//! `--summary` if given. Held by tests/sitl_ardupilot.rs.
+//! `--summary` if given, with the truth flown to `--trace` (tests/sitl_side_by_side.rs scores
+//! ArduCopter's flight on it). Held by tests/sitl_ardupilot.rs.
 
 use std::fs::File;
 use std::os::unix::process::CommandExt;
@@ -19,6 +20,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use kestrel_sim::ardupilot::{JsonBackend, JsonServer, SitlConfig, Summary, config::ARDUCOPTER_ENV};
 use kestrel_sim::{RigidBodyState, VehicleParams, World};
+
+/// Period of the truth trace (`--trace`, s of physics time): 20 Hz, finer than ArduCopter's
+/// telemetry and the path's corners need.
+const TRACE_PERIOD_S: f64 = 0.05;
 
 /// `kestrel sitl ...`.
 #[derive(Debug, clap::Args)]
@@ -52,6 +57,18 @@ pub struct ArdupilotArgs {
     /// Write the run's summary (JSON) here too.
     #[arg(long, value_name = "FILE.json")]
     pub summary: Option<PathBuf>,
+    /// Fly this world file instead of the config's (wind, obstacles, `[[faults]]`).
+    #[arg(long, value_name = "FILE")]
+    pub world: Option<PathBuf>,
+    /// Count the world's `[[faults]]` `at_s` from the vehicle's take-off instead of from the
+    /// start: ArduCopter leaves the ground after EKF3's GPS wait and a ground station's commands,
+    /// at no time known in advance.
+    #[arg(long)]
+    pub faults_from_take_off: bool,
+    /// Write the truth the simulator flew (JSON: a sample every 0.05 s of physics time: time,
+    /// position, velocity, attitude, landed, battery voltage and current) here at the end.
+    #[arg(long, value_name = "FILE.json")]
+    pub trace: Option<PathBuf>,
     /// SITL's working directory (its eeprom.bin and logs/ stay there); default a temporary one,
     /// removed at the end.
     #[arg(long, value_name = "DIR")]
@@ -71,6 +88,9 @@ fn ardupilot(args: ArdupilotArgs) -> Result<(), String> {
     }
     if let Some(instance) = args.instance {
         config.instance = instance;
+    }
+    if let Some(world) = &args.world {
+        config.world = world.clone();
     }
     config.validate().map_err(|e| format!("{}: {e}", args.config.display()))?;
     if let Some(d) = args.duration
@@ -100,9 +120,13 @@ fn ardupilot(args: ArdupilotArgs) -> Result<(), String> {
     let vehicle = VehicleParams::load(&config.vehicle).map_err(|e| e.to_string())?;
     let world = World::load(&config.world).map_err(|e| e.to_string())?;
     let home = world.home.clone();
-    let backend =
-        JsonBackend::new(vehicle, world, config.seed, config.frame_rate_hz, RigidBodyState::default())
-            .map_err(|e| format!("{}: {e}", args.config.display()))?;
+    let new =
+        if args.faults_from_take_off { JsonBackend::with_faults_from_take_off } else { JsonBackend::new };
+    let mut backend = new(vehicle, world, config.seed, config.frame_rate_hz, RigidBodyState::default())
+        .map_err(|e| format!("{}: {e}", args.config.display()))?;
+    if args.trace.is_some() {
+        backend.trace_every(TRACE_PERIOD_S).map_err(|e| e.to_string())?;
+    }
     let mut server = JsonServer::bind(backend, config.instance)
         .map_err(|e| format!("physics port of SITL instance {}: {e}", config.instance))?;
 
@@ -146,6 +170,10 @@ fn ardupilot(args: ArdupilotArgs) -> Result<(), String> {
     println!("{line}");
     if let Some(path) = &args.summary {
         std::fs::write(path, format!("{line}\n")).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    if let Some(path) = &args.trace {
+        let trace = serde_json::to_string(server.backend().trace()).map_err(|e| e.to_string())?;
+        std::fs::write(path, trace).map_err(|e| format!("{}: {e}", path.display()))?;
     }
     if !keep_dir {
         let _ = std::fs::remove_dir_all(&dir);

@@ -3,7 +3,11 @@ ArduCopter says it did. Run against ArduCopter SITL on Kestrel's physics (`kestr
 ardupilot`) and on its own `--model +` physics (tests/sitl_ardupilot.rs).
 
 Usage: ardupilot_square.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
-Environment: PLAN (the .plan file), DEADLINE_S (wall seconds the session may take).
+Environment: PLAN (the .plan file), DEADLINE_S (wall seconds the session may take), TAKEOFF_M
+(the GUIDED take-off height, default 10 m), ESTIMATE=1 (also report ArduCopter's estimate: every
+LOCAL_POSITION_NED and ATTITUDE seen, stamped with its time_boot_ms; tests/sitl_side_by_side.rs
+compares them with the simulator's truth at the same instants), GROUND_DISARM_S (a vehicle still
+armed that long on the ground after the mission is disarmed by force, and the results say so).
 
 1. identify the vehicle, ask for its telemetry streams (ArduCopter sends only what is asked for);
 2. upload the plan (home as item 0, as ArduPilot numbers it);
@@ -23,7 +27,8 @@ import time
 from gcs_common import (ACM_MODES, Failed, distance_m, enum_name, main, mav, mavutil, plan_items,
                         VEHICLE)
 
-TAKEOFF_M = 10.0
+TAKEOFF_M = float(os.environ.get("TAKEOFF_M", "10"))
+GROUND_DISARM_S = float(os.environ["GROUND_DISARM_S"]) if "GROUND_DISARM_S" in os.environ else None
 
 
 def upload(gcs, items):
@@ -92,8 +97,51 @@ def arm_in_guided(gcs, timeout_s=40.0):
         gcs.quiet(0.5)
 
 
+def wait_disarmed_or_force(gcs, ground_s):
+    """Waits for the vehicle to disarm itself; one that has sat below 0.3 m for `ground_s` of its
+    time still armed (its land detector has not tripped) is disarmed by force, as a pilot would,
+    and `forced_disarm_after_s` says so."""
+    low_since = [None]
+
+    def ground_timer(m):
+        if gcs.rel_alt_m is None or gcs.boot_s is None:
+            return False
+        if gcs.rel_alt_m > 0.3:
+            low_since[0] = None
+        elif low_since[0] is None:
+            low_since[0] = gcs.boot_s
+        return low_since[0] is not None and gcs.boot_s - low_since[0] >= ground_s
+
+    gcs.pump(lambda m: (gcs.heartbeat is not None and not gcs.armed) or ground_timer(m), 60.0,
+             "landed and disarmed")
+    if gcs.armed:
+        gcs.results["forced_disarm_after_s"] = ground_s
+        gcs.log(f"-> force disarm: armed {ground_s} s on the ground")
+        while gcs.armed:
+            accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [0, 21196], "force disarm")
+            gcs.quiet(0.3)
+
+
+def record_estimate(gcs):
+    """Keeps every LOCAL_POSITION_NED ([t_ms, x, y, z, vx, vy, vz], m and m/s from EKF3's origin)
+    and ATTITUDE ([t_ms, roll, pitch, yaw], rad) in the results."""
+    positions = gcs.results.setdefault("local_position_ned", [])
+    attitudes = gcs.results.setdefault("attitude", [])
+
+    def watch(m):
+        kind = m.get_type()
+        if kind == "LOCAL_POSITION_NED":
+            positions.append([m.time_boot_ms, m.x, m.y, m.z, m.vx, m.vy, m.vz])
+        elif kind == "ATTITUDE":
+            attitudes.append([m.time_boot_ms, m.roll, m.pitch, m.yaw])
+
+    gcs.watchers.append(watch)
+
+
 def flight(gcs):
-    gcs.identify(timeout_s=30.0)
+    if os.environ.get("ESTIMATE") == "1":
+        record_estimate(gcs)
+    gcs.identify(timeout_s=30.0, types=(mav.MAV_TYPE_QUADROTOR, mav.MAV_TYPE_HEXAROTOR))
     # 4 Hz of ArduCopter's time: at ten times real time and more, faster streams overrun a Python
     # client's socket and lose COMMAND_ACKs.
     gcs.conn.mav.request_data_stream_send(*VEHICLE, mav.MAV_DATA_STREAM_ALL, 4, 1)
@@ -111,9 +159,14 @@ def flight(gcs):
     last = len(items) - 2  # the last waypoint; the final item is the RTL
     # Reached, or MISSION_CURRENT past it: at many times real time a UDP datagram to a Python
     # client can be lost, MISSION_ITEM_REACHED as well as any other.
-    gcs.pump(lambda m: last in gcs.reached or (gcs.mission_current or 0) > last, 60.0, "square")
+    # A vehicle that disarms on the way (a crash check after a lost motor) ends the mission there.
+    gcs.pump(lambda m: last in gcs.reached or (gcs.mission_current or 0) > last or not gcs.armed,
+             60.0, "square")
     gcs.results["square_s"] = round(gcs.boot_s - auto_at, 2)
-    gcs.pump(lambda m: gcs.heartbeat is not None and not gcs.armed, 60.0, "landed and disarmed")
+    if GROUND_DISARM_S is None:
+        gcs.pump(lambda m: gcs.heartbeat is not None and not gcs.armed, 60.0, "landed and disarmed")
+    else:
+        wait_disarmed_or_force(gcs, GROUND_DISARM_S)
     gcs.quiet(0.5)
     gcs.results["flight_s"] = round(gcs.boot_s - armed_at, 2)
     gcs.results["max_rel_alt_m"] = round(gcs.max_rel_alt_m, 2)

@@ -204,8 +204,9 @@ class Gcs:
 
     # -- steps --------------------------------------------------------------------------------
 
-    def identify(self, timeout_s=10.0):
-        """Waits for the vehicle's HEARTBEAT (past boot) and checks who it is."""
+    def identify(self, timeout_s=10.0, types=(mav.MAV_TYPE_QUADROTOR,)):
+        """Waits for the vehicle's HEARTBEAT (past boot) and checks who it is: an ArduPilot
+        vehicle of one of `types` (MAV_TYPE)."""
         hb = self.wait_type("HEARTBEAT", timeout_s, "heartbeat",
                             lambda m: m.system_status != mav.MAV_STATE_BOOT)
         self.conn.target_system, self.conn.target_component = VEHICLE
@@ -216,7 +217,7 @@ class Gcs:
             "mavlink": self.conn.WIRE_PROTOCOL_VERSION,
         }
         self.log(f"identified vehicle {VEHICLE}: {vehicle}")
-        if hb.type != mav.MAV_TYPE_QUADROTOR or hb.autopilot != mav.MAV_AUTOPILOT_ARDUPILOTMEGA:
+        if hb.type not in types or hb.autopilot != mav.MAV_AUTOPILOT_ARDUPILOTMEGA:
             raise Failed("identify", vehicle)
         if vehicle["mode"] not in ACM_MODES:
             raise Failed("identify", f"mode {vehicle['mode']} has no ArduCopter name")

@@ -11,4 +11,5 @@ pub mod hil_square;
 pub mod merged_config;
 pub mod qgc_plan;
 pub mod results_page;
+pub mod side_by_side;
 pub mod sim_vehicle;
