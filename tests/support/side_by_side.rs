@@ -4,7 +4,8 @@
 //! script arming it), each scored the same way on the simulator's truth:
 //!
 //! * tracking: horizontal distance of the true position from the planned path (the polyline
-//!   home → each waypoint → where the plan lands), RMS and worst, over every airborne sample;
+//!   home → each waypoint → where the plan lands, placed as the simulator places latitude and
+//!   longitude: WGS-84, the tangent plane at home), RMS and worst, over every airborne sample;
 //! * estimate: the stack's own position, velocity and attitude against the truth of the same
 //!   instant, airborne (Kestrel's `nav_state` in its log; ArduCopter's LOCAL_POSITION_NED and
 //!   ATTITUDE, stamped with its boot time, which is the physics time the backend sent it);
@@ -21,16 +22,13 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use kestrel::recorder::LogReader;
+use kestrel_proto::geo::{Geodetic, LocalFrame};
 use kestrel_proto::messages::{BatteryStatus, GroundTruth, NavState};
 use serde_json::Value;
 
 use super::arducopter;
 use super::flights::{merged_graph, repo, run_for_report};
 use super::sim_vehicle::{Proc, python_client, stop, tail, transcript_until_exit};
-
-/// Metres per degree of latitude, and of longitude at the equator (WGS-84 equatorial radius):
-/// the flat-earth conversion both stacks' figures are measured in, over a few hundred metres.
-const EARTH_RADIUS_M: f64 = 6_378_137.0;
 
 /// One row of the comparison: what to fly, and where.
 #[derive(Clone, Debug)]
@@ -66,6 +64,8 @@ pub struct Score {
     /// Take-off to the last touchdown (s of simulated time).
     pub flight_s: f64,
     pub landing_error_m: f64,
+    /// Where it ended against where the plan lands: north, east (m).
+    pub landing_offset_ne_m: (f64, f64),
     pub energy_wh: f64,
     pub take_off_s: f64,
     /// `landed`, `crashed`, or `airborne at the end`, with collisions when any.
@@ -103,10 +103,12 @@ pub struct PlannedPath {
     pub take_off_alt_m: f64,
 }
 
+/// North and east of `lat_deg, lon_deg` from `home` (m), as the simulator converts (WGS-84, the
+/// local tangent plane at home): the truth's frame.
 fn ne_from(home: (f64, f64), lat_deg: f64, lon_deg: f64) -> (f64, f64) {
-    let north = (lat_deg - home.0).to_radians() * EARTH_RADIUS_M;
-    let east = (lon_deg - home.1).to_radians() * EARTH_RADIUS_M * home.0.to_radians().cos();
-    (north, east)
+    let frame = LocalFrame::new(Geodetic { lat_deg: home.0, lon_deg: home.1, alt_m: 0.0 });
+    let [n, e, _] = frame.to_ned(Geodetic { lat_deg, lon_deg, alt_m: 0.0 });
+    (n, e)
 }
 
 impl PlannedPath {
@@ -254,6 +256,7 @@ pub fn score(
         est_samples: counts[0].min(counts[2]),
         flight_s: t1 - t0,
         landing_error_m: (end.ned_m[0] - plan.landing_ne_m.0).hypot(end.ned_m[1] - plan.landing_ne_m.1),
+        landing_offset_ne_m: (end.ned_m[0] - plan.landing_ne_m.0, end.ned_m[1] - plan.landing_ne_m.1),
         energy_wh: energy_j / 3600.0,
         take_off_s: t0,
         outcome,
@@ -406,7 +409,7 @@ pub fn fly_kestrel(scenario: &Scenario, dir: &Path, fault_offset_s: f64) -> Flow
         })
         .collect();
     let flight = &report["flight"];
-    let score = score(
+    let mut score = score(
         &PlannedPath::read(&repo().join(scenario.plan)),
         &truth,
         &battery,
@@ -414,6 +417,17 @@ pub fn fly_kestrel(scenario: &Scenario, dir: &Path, fault_offset_s: f64) -> Flow
         flight["crashed"].as_bool().unwrap_or(true),
         flight["collisions"].as_u64().unwrap_or(0),
     );
+    // A lost motor: when the commander declared it, after the simulator took it.
+    let lost_at = report["faults"].as_array().and_then(|f| f.iter().find(|f| f["kind"] == "motor_lost"));
+    if let (Some(lost), Some(failure)) =
+        (lost_at, report["motor_failures"].as_array().and_then(|m| m.first()))
+    {
+        score.outcome += &format!(
+            ", motor {} declared failed {:.2} s after it was lost",
+            failure["motor"],
+            failure["t_s"].as_f64().unwrap_or(f64::NAN) - lost["t_s"].as_f64().unwrap_or(f64::NAN)
+        );
+    }
     Flown { score, wall_s: started.elapsed().as_secs_f64() }
 }
 
