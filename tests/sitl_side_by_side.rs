@@ -11,7 +11,7 @@
 //! Kestrel's figures are deterministic in lockstep: its rows must match the page bit for bit.
 //! ArduCopter's run also depends on when the ground station's commands land in its time, which
 //! the host's load moves by a fraction of a second, so its rows must match the page's outcome
-//! and each figure within a slack ([`ARDUCOPTER_SLACK`]).
+//! and, when it landed, each figure within a slack ([`ARDUCOPTER_SLACK`]).
 
 mod support;
 use support::results_page::{self, GeneratedTable};
@@ -112,12 +112,16 @@ fn figures(row: &str) -> (Vec<f64>, String) {
     (numbers, cells[cells.len() - 1].split(',').next().unwrap_or("").to_string())
 }
 
-/// ArduCopter's measured row against the committed one: the same outcome, each figure within
-/// [`ARDUCOPTER_SLACK`].
+/// ArduCopter's measured row against the committed one: the same outcome and, when it landed,
+/// each figure within [`ARDUCOPTER_SLACK`]. A crash's figures hang on how the vehicle tumbled
+/// (one run's flight time 20 s, the next 30 s), so there the outcome is what must hold.
 fn arducopter_row_holds(committed: &str, measured: &str) -> Result<(), String> {
     let ((want, want_outcome), (got, got_outcome)) = (figures(committed), figures(measured));
     if want_outcome != got_outcome || want.len() != got.len() {
         return Err(format!("outcome or shape: committed {committed}\nmeasured  {measured}"));
+    }
+    if want_outcome != "landed" {
+        return Ok(());
     }
     for (i, ((w, g), slack)) in want.iter().zip(&got).zip(ARDUCOPTER_SLACK).enumerate() {
         if !((w - g).abs() <= slack.max(0.3 * w.abs())) {
@@ -341,6 +345,9 @@ fn an_arducopter_row_holds_within_its_slack_and_not_beyond() {
     assert!(arducopter_row_holds(committed, &far).is_err());
     let crashed = near.replace("landed, late", "crashed");
     assert!(arducopter_row_holds(committed, &crashed).is_err());
+    // Two crashes: only the outcome holds them.
+    let (crash_a, crash_b) = (committed.replace("landed", "crashed"), far.replace("landed, late", "crashed"));
+    assert_eq!(arducopter_row_holds(&crash_a, &crash_b), Ok(()));
 }
 
 /// docs/src/results/side-by-side-SLUG.png: the planned path (grey), Kestrel's true path
