@@ -170,7 +170,7 @@ impl JsonBackend {
         start: RigidBodyState,
     ) -> Result<JsonBackend, InvalidParam> {
         // Validation only: the faults against this vehicle, exactly as a world that holds them.
-        JsonBackend::new(vehicle.clone(), world.clone(), seed, frame_rate_hz, start.clone())?;
+        JsonBackend::new(vehicle.clone(), world.clone(), seed, frame_rate_hz, start)?;
         let faults = std::mem::take(&mut world.faults);
         let mut backend = JsonBackend::new(vehicle, world, seed, frame_rate_hz, start)?;
         backend.from_take_off = faults.into_iter().map(|f| (f, None)).collect();
@@ -222,7 +222,7 @@ impl JsonBackend {
         if let Some(take_off_s) = self.summary.take_off_s {
             self.start_and_end_faults(now_s - take_off_s);
         }
-        if self.trace_every > 0 && self.summary.frames % self.trace_every == 0 {
+        if self.trace_every > 0 && self.summary.frames.is_multiple_of(self.trace_every) {
             let (state, battery) = (self.sim.state(), self.sim.battery_status());
             let q = state.attitude;
             self.trace.push(TraceSample {
