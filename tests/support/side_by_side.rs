@@ -428,6 +428,7 @@ pub fn fly_kestrel(scenario: &Scenario, dir: &Path, fault_offset_s: f64) -> Flow
             failure["t_s"].as_f64().unwrap_or(f64::NAN) - lost["t_s"].as_f64().unwrap_or(f64::NAN)
         );
     }
+    let _ = std::fs::remove_dir_all(dir);
     Flown { score, wall_s: started.elapsed().as_secs_f64() }
 }
 
@@ -588,10 +589,11 @@ pub fn fly_arducopter(binary: &Path, scenario: &Scenario, dir: &Path, limit: Dur
         score.outcome +=
             &format!(", still armed {after_s:.0} s after touchdown (disarmed by the ground station)");
     }
+    let _ = std::fs::remove_dir_all(dir);
     Flown { score, wall_s }
 }
 
-/// Where scratch files of a row go.
+/// Where scratch files of a row go (removed once the flight is scored; kept when it fails).
 pub fn row_dir(name: &str, stack: &str) -> PathBuf {
     let slug: String = name.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).collect();
     super::flights::scratch("side-by-side", &format!("{slug}-{stack}"))
