@@ -3,11 +3,14 @@
 //! `kestrel/kestrel-1/…`, and one client that knows nothing of Kestrel's code (the Python
 //! `eclipse-zenoh` package, tests/python/zenoh_fleet.py) decodes both vehicles' positions from
 //! `kestrel/*/nav_state` and commands one of them, whose commander accepts and refuses the
-//! commands as it does a ground station's.
+//! commands as it does a ground station's. The shipped config has access control on
+//! (config/zenoh/fleet-vehicle.json5): a client without credentials, a viewer that may not
+//! command, and a ground station's command that names no listed sender all try to arm the
+//! vehicle first, and it stays disarmed until the ground station arms it.
 //!
 //! The whole fleet runs in a network namespace of its own (`unshare --net` through a user
-//! namespace), so the fixed ports (Zenoh's 7447, the links' 14550, 18570 + N, 14580 + N) are the
-//! test's alone.
+//! namespace), so the fixed ports (Zenoh's 7447 + N, the links' 14550, 18570 + N, 14580 + N) are
+//! the test's alone.
 
 mod support;
 use support::sim_vehicle;
@@ -23,7 +26,8 @@ fn one_zenoh_subscriber_sees_two_instances_and_commands_one_as_a_ground_station_
     let dir = temp_dir("zenoh-fleet");
     let script = r#"
         ip link set lo up || exit 90
-        "$PYTHON" "$CLIENT" tcp/127.0.0.1:7447 90 kestrel-0 kestrel-1 --command kestrel-1 \
+        "$PYTHON" "$CLIENT" "$GCS" "$VIEWER" 90 kestrel-0=tcp/127.0.0.1:7447 kestrel-1=tcp/127.0.0.1:7448 \
+            --command kestrel-1 \
             > "$DIR/client.out" 2> "$DIR/client.err" &
         client=$!
         for n in 0 1; do
@@ -43,6 +47,8 @@ fn one_zenoh_subscriber_sees_two_instances_and_commands_one_as_a_ground_station_
         &[
             ("CLIENT", root().join("tests/python/zenoh_fleet.py")),
             ("CONFIG", root().join("config/fleet-sim.toml")),
+            ("GCS", root().join("config/zenoh/fleet-gcs.json5")),
+            ("VIEWER", root().join("config/zenoh/fleet-viewer.json5")),
         ],
     );
     let stdout = String::from_utf8_lossy(&out.stdout);
@@ -78,6 +84,19 @@ fn one_zenoh_subscriber_sees_two_instances_and_commands_one_as_a_ground_station_
     let east = vehicles["kestrel-1"]["east_m_from_first"].as_f64().expect("east offset");
     assert!((east - 5.0).abs() < 1.0, "kestrel-1 is {east} m east of kestrel-0");
 
+    // Refused before the ground station armed it: none answered, the vehicle never armed.
+    let attempts = &summary["attempts"];
+    for name in ["intruder", "viewer", "gcs_unstamped", "gcs_as_viewer"] {
+        let a = &attempts[name];
+        assert!(a["answered"] == false && a["armed"] == false, "{name}: {attempts}\n{}", logs());
+    }
+    assert_eq!(
+        attempts["intruder"]["peers"], 0,
+        "the vehicle refuses a client without credentials: {attempts}"
+    );
+    assert_eq!(attempts["viewer"]["peers"], 1, "the viewer logs in: {attempts}");
+    assert!(attempts["viewer"]["nav_states_seen"].as_u64().unwrap_or(0) > 0, "and may watch: {attempts}");
+
     let results = &summary["results"];
     let takeoff = &results[(FIRST_ID + 1).to_string()];
     assert_eq!(takeoff["vehicle"], "kestrel-1", "{results}");
@@ -89,5 +108,14 @@ fn one_zenoh_subscriber_sees_two_instances_and_commands_one_as_a_ground_station_
     assert_eq!(vehicles["kestrel-0"]["armed_seen"], false, "only the commanded vehicle armed");
     let log1 = read("kestrel1.log");
     assert!(log1.contains("command id 12 is in the link's range"), "{}", tail(&log1, 30));
+    // The bridge refused each of the ground station's three unstamped and three wrongly stamped
+    // arms, and never saw the viewer's (stamped with the same id as the latter): Zenoh's access
+    // control dropped those before the bridge.
+    let lines = |text: &str| log1.lines().filter(|l| l.contains(text)).count();
+    assert_eq!(lines("vehicle_command: it names no sender"), 3, "{}", tail(&log1, 30));
+    let unlisted = lines("vehicle_command: sender 5b1d7e0c2a9f4e02 is not in command_sources");
+    assert_eq!(unlisted, 3, "{}", tail(&log1, 30));
+    // The take-off stamped an hour ahead was taken at its arrival (and answered, above).
+    assert!(log1.contains("bridge clamped a time 3600."), "{}", tail(&log1, 30));
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -25,7 +25,8 @@ fn graph(file: &str, world: &Path) -> String {
     let text = kestrel::LoadedConfig::load(&config_dir.join(file)).unwrap().merged_toml().unwrap();
     let text = text
         .replace("worlds/obstacles.toml", &world.display().to_string())
-        .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()));
+        .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()))
+        .replace("\"zenoh/", &format!("\"{}/zenoh/", config_dir.display()));
     assert!(!text.contains("\"worlds/obstacles.toml"), "{file}: the world was swapped");
     text
 }

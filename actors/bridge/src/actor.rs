@@ -19,11 +19,14 @@ use zenoh::time::{NTP64, Timestamp, TimestampId};
 use zenoh::{Config, Session};
 
 use crate::catalogue::{Bridged, TOPICS, TopicVisitor, visit_topic};
+use crate::error::BridgeError;
 use crate::hop_latency::HopLatency;
 use crate::key_expr::topic_key;
 use crate::params::BridgeParams;
-use crate::payload::{self, ClockOrigin, Outgoing, Received};
+use crate::payload::{self, ClockOrigin, Decoded, Outgoing, Received};
 use crate::rate_limit::RateLimit;
+use crate::sources::CommandSources;
+use crate::zenoh_file;
 
 /// Longest wait between two tries of a `connect` endpoint that does not answer (Zenoh's default
 /// backs off to 4 s): the other side of a split is back within a second of its restart.
@@ -56,11 +59,18 @@ type Inbound = Arc<dyn Fn(Sample) + Send + Sync>;
 struct InboundStats {
     hop: HopLatency,
     refused: u64,
+    /// Samples of a motor topic from a source `command_sources` does not list.
+    unlisted: u64,
+    /// Samples with a time after the host clock, clamped to it, and the furthest ahead (µs).
+    clamped: u64,
+    max_ahead_us: u64,
 }
 
 /// The Zenoh bridge.
 pub struct BridgeActor {
     params: BridgeParams,
+    /// The Zenoh config file's settings (authentication, access control), or Zenoh's defaults.
+    base_config: Config,
     vehicle: String,
     /// The `subscribe` topics with what receives each.
     inbound: Vec<(&'static str, Inbound)>,
@@ -145,6 +155,7 @@ struct DeclareOutputs<'a, S> {
     setup: &'a mut S,
     clock: Arc<dyn Clock>,
     key: String,
+    sources: CommandSources,
     made: Option<(Inbound, Arc<Mutex<InboundStats>>)>,
 }
 
@@ -153,8 +164,20 @@ impl<S: Setup<BridgeInput>> TopicVisitor for DeclareOutputs<'_, S> {
         let publisher: Publisher<T> = self.setup.output::<T>(topic);
         let stats = Arc::new(Mutex::new(InboundStats::default()));
         let (clock, key, kept) = (Arc::clone(&self.clock), self.key.clone(), Arc::clone(&stats));
+        let sources = self.sources.clone();
         let inbound = move |sample: Sample| {
             let arrived_unix_us = unix_now_us();
+            if T::MOVES_MOTORS {
+                let sender = sample.timestamp().map(|ts| u128::from_le_bytes(ts.get_id().to_le_bytes()));
+                if let Err(why) = sources.admit(sender) {
+                    let mut stats = kept.lock().unwrap_or_else(PoisonError::into_inner);
+                    stats.unlisted += 1;
+                    if worth_logging(stats.unlisted) {
+                        tracing::warn!(unlisted = stats.unlisted, "bridge refused a sample on {key}: {why}");
+                    }
+                    return;
+                }
+            }
             let now = clock.now();
             let encoding = sample.encoding().to_string();
             let payload = sample.payload().to_bytes();
@@ -167,7 +190,18 @@ impl<S: Setup<BridgeInput>> TopicVisitor for DeclareOutputs<'_, S> {
             let decoded = payload::decode::<T>(received, ClockOrigin::at(now, arrived_unix_us), now);
             let mut stats = kept.lock().unwrap_or_else(PoisonError::into_inner);
             match decoded {
-                Ok(msg) => {
+                Ok(Decoded { msg, clamped_by_us }) => {
+                    if clamped_by_us > 0 {
+                        stats.clamped += 1;
+                        stats.max_ahead_us = stats.max_ahead_us.max(clamped_by_us);
+                        if worth_logging(stats.clamped) {
+                            tracing::warn!(
+                                clamped = stats.clamped,
+                                "bridge clamped a time {:.3} s in the future to now on {key}",
+                                clamped_by_us as f64 / 1e6
+                            );
+                        }
+                    }
                     if let Some(sent) =
                         sample.attachment().and_then(|a| payload::read_sent_attachment(&a.to_bytes()))
                     {
@@ -188,13 +222,15 @@ impl<S: Setup<BridgeInput>> TopicVisitor for DeclareOutputs<'_, S> {
     }
 }
 
-fn zenoh_config(p: &BridgeParams) -> Result<Config, String> {
+/// `base` (the Zenoh config file's settings) with the graph's: mode, endpoints, scouting.
+fn zenoh_config(p: &BridgeParams, base: Config) -> Result<Config, String> {
     let json = |v: &[String]| serde_json::to_string(v).unwrap_or_default();
-    let mut config = Config::default();
+    let mut config = base;
+    let listen = p.listen_endpoints().map_err(|e| e.to_string())?;
     let settings = [
         ("mode", format!("\"{}\"", p.mode.zenoh_name())),
         ("connect/endpoints", json(&p.connect)),
-        ("listen/endpoints", json(&p.listen)),
+        ("listen/endpoints", json(&listen)),
         ("scouting/multicast/enabled", p.scouting.to_string()),
         (
             "connect/retry",
@@ -285,6 +321,34 @@ impl Actor for BridgeActor {
 
     fn build(params: &BridgeParams, setup: &mut impl Setup<BridgeInput>) -> Result<Self, ActorError> {
         params.check().map_err(|e| ActorError::Params(e.to_string()))?;
+        let sources =
+            CommandSources::parse(&params.command_sources).map_err(|e| ActorError::Params(e.to_string()))?;
+        let base_config = match &params.zenoh_config {
+            Some(path) => {
+                let file = zenoh_file::load(setup.config_dir(), path)
+                    .map_err(|e| ActorError::Params(e.to_string()))?;
+                if let Some(topic) = params.motor_topics().first()
+                    && !file.denies_by_default
+                {
+                    return Err(ActorError::Params(
+                        BridgeError::ZenohConfig {
+                            file: file.path,
+                            field: "access_control".into(),
+                            why: format!(
+                                "the bridge subscribes to '{topic}', which moves the motors: access control \
+                                 must be enabled with default_permission \"deny\""
+                            ),
+                        }
+                        .to_string(),
+                    ));
+                }
+                for warning in &file.warnings {
+                    tracing::warn!("{warning}");
+                }
+                file.config
+            }
+            None => Config::default(),
+        };
         let vehicle = params.vehicle_name();
         for topic in &params.publish {
             visit_topic(topic, &mut DeclareInputs { setup: &mut *setup });
@@ -294,7 +358,8 @@ impl Actor for BridgeActor {
         for topic in &params.subscribe {
             let key = topic_key(&vehicle, topic).map_err(|e| ActorError::Params(e.to_string()))?;
             let clock = setup.clock();
-            let mut declare = DeclareOutputs { setup: &mut *setup, clock, key, made: None };
+            let mut declare =
+                DeclareOutputs { setup: &mut *setup, clock, key, sources: sources.clone(), made: None };
             visit_topic(topic, &mut declare);
             let Some(&name) = TOPICS.iter().find(|t| *t == topic) else { continue };
             if let Some((handler, topic_stats)) = declare.made {
@@ -308,6 +373,7 @@ impl Actor for BridgeActor {
             .collect();
         Ok(BridgeActor {
             params: params.clone(),
+            base_config,
             vehicle,
             inbound,
             stats,
@@ -318,7 +384,7 @@ impl Actor for BridgeActor {
     }
 
     async fn start(&mut self, ctx: &Context) -> Result<(), ActorError> {
-        let config = zenoh_config(&self.params).map_err(ActorError::Params)?;
+        let config = zenoh_config(&self.params, self.base_config.clone()).map_err(ActorError::Params)?;
         let own = OwnRuntime::new()
             .map_err(|source| ActorError::Io { what: "the zenoh bridge's runtime".into(), source })?;
         let runtime =
@@ -392,6 +458,9 @@ impl Actor for BridgeActor {
                 topic,
                 received = stats.hop.received(),
                 refused = stats.refused,
+                unlisted_source = stats.unlisted,
+                future_clamped = stats.clamped,
+                max_ahead_s = stats.max_ahead_us as f64 / 1e6,
                 "bridge hop latency p50 {p50:.3} ms p95 {p95:.3} ms"
             );
         }
@@ -425,7 +494,7 @@ mod tests {
             "vehicle = \"v\"\nmode = \"client\"\nconnect = [\"tcp/127.0.0.1:7447\", \"tcp/[::1]:7448\"]\nlisten = [\"tcp/0.0.0.0:7449\"]\npublish = [\"nav_state\"]",
         )
         .unwrap();
-        let config = zenoh_config(&params).unwrap();
+        let config = zenoh_config(&params, Config::default()).unwrap();
         let text = format!("{config}");
         for wanted in
             ["\"client\"", "tcp/127.0.0.1:7447", "tcp/[::1]:7448", "tcp/0.0.0.0:7449", "period_max_ms"]

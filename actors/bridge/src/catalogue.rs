@@ -16,9 +16,34 @@ pub trait Bridged: Message {
     /// The topic that carries this type across machines (its name in Kestrel's graphs).
     const TOPIC: &'static str;
 
+    /// Whether a message of this topic can move the motors where a graph routes it (a command,
+    /// a setpoint, an avoidance correction): the bridge takes it only from a listed source
+    /// (`command_sources`, see [`crate::sources`]).
+    const MOVES_MOTORS: bool = false;
+
+    /// Calls `f` with every time in the message (each once).
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time));
+
     /// Moves every time in the message by `by_us` (µs), from the sender's clock onto the
     /// receiver's: graph clocks count from their own process's start.
-    fn shift_times(&mut self, by_us: i64);
+    fn shift_times(&mut self, by_us: i64) {
+        self.visit_times(&mut |t| *t = shifted(*t, by_us));
+    }
+
+    /// Clamps every time in the message to `latest` (the receiver's clock now): a message from
+    /// the network is never captured in the future, whatever the sender's clock or intent
+    /// (a future time would outlive every staleness timeout). Returns by how much the furthest
+    /// time was ahead (µs), 0 if none was. Held by `payload::tests::a_clamped_time_is_never_after_the_host_clock`.
+    fn clamp_times(&mut self, latest: Time) -> u64 {
+        let mut ahead_us = 0;
+        self.visit_times(&mut |t| {
+            if *t > latest {
+                ahead_us = ahead_us.max(t.as_micros() - latest.as_micros());
+                *t = latest;
+            }
+        });
+        ahead_us
+    }
 
     /// Whether the receiving graph may take the message; `Err` says what is wrong. The sender's
     /// graph checked it too, but a sample may come from any Zenoh client.
@@ -71,46 +96,50 @@ catalogue!(
 
 impl Bridged for NavState {
     const TOPIC: &'static str = "nav_state";
-    fn shift_times(&mut self, by_us: i64) {
-        self.time = shifted(self.time, by_us);
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time)) {
+        f(&mut self.time);
     }
 }
 
 impl Bridged for GroundTruth {
     const TOPIC: &'static str = "ground_truth";
-    fn shift_times(&mut self, by_us: i64) {
-        self.time = shifted(self.time, by_us);
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time)) {
+        f(&mut self.time);
     }
 }
 
 impl Bridged for Setpoint {
     const TOPIC: &'static str = "setpoint";
-    fn shift_times(&mut self, by_us: i64) {
-        self.time = shifted(self.time, by_us);
+    const MOVES_MOTORS: bool = true;
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time)) {
+        f(&mut self.time);
     }
 }
 
 impl Bridged for DepthGrid {
     const TOPIC: &'static str = "depth_grid";
-    fn shift_times(&mut self, by_us: i64) {
-        self.time = shifted(self.time, by_us);
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time)) {
+        f(&mut self.time);
     }
 }
 
 impl Bridged for AvoidanceCommand {
     const TOPIC: &'static str = "avoidance_command";
-    fn shift_times(&mut self, by_us: i64) {
-        self.time = shifted(self.time, by_us);
-        self.grid_time = self.grid_time.map(|t| shifted(t, by_us));
+    const MOVES_MOTORS: bool = true;
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time)) {
+        f(&mut self.time);
+        if let Some(grid_time) = &mut self.grid_time {
+            f(grid_time);
+        }
     }
 }
 
 impl Bridged for VehicleStatus {
     const TOPIC: &'static str = "vehicle_status";
-    fn shift_times(&mut self, by_us: i64) {
-        self.time = shifted(self.time, by_us);
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time)) {
+        f(&mut self.time);
         if let Some(failsafe) = &mut self.failsafe {
-            failsafe.since = shifted(failsafe.since, by_us);
+            f(&mut failsafe.since);
         }
     }
 }
@@ -121,8 +150,9 @@ pub const FIRST_BRIDGED_COMMAND_ID: u32 = 1 << 31;
 
 impl Bridged for VehicleCommand {
     const TOPIC: &'static str = "vehicle_command";
-    fn shift_times(&mut self, by_us: i64) {
-        self.time = shifted(self.time, by_us);
+    const MOVES_MOTORS: bool = true;
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time)) {
+        f(&mut self.time);
     }
 
     /// The commander checks what a command asks for (arming checks, modes, finite targets);
@@ -140,8 +170,8 @@ impl Bridged for VehicleCommand {
 
 impl Bridged for CommandResult {
     const TOPIC: &'static str = "command_result";
-    fn shift_times(&mut self, by_us: i64) {
-        self.time = shifted(self.time, by_us);
+    fn visit_times(&mut self, f: &mut dyn FnMut(&mut Time)) {
+        f(&mut self.time);
     }
 }
 

@@ -12,6 +12,10 @@ pub enum BridgeError {
     /// A topic listed in `publish` or `subscribe` that the bridge cannot carry.
     #[error("parameter '{param}': topic '{topic}' is not bridged; bridged topics: {known}")]
     UnknownTopic { param: &'static str, topic: String, known: String },
+    /// The Zenoh config file (`zenoh_config`) is unusable; `field` is Zenoh's path of the field
+    /// at fault (`listen/endpoints`), empty for the file as a whole.
+    #[error("zenoh config {}{}{field}: {why}", file.display(), if field.is_empty() { "" } else { ", field " })]
+    ZenohConfig { file: std::path::PathBuf, field: String, why: String },
     /// A sample whose payload is not a valid message of its topic's type.
     #[error("sample on '{key}' ({schema}): {why}")]
     Payload { key: String, schema: &'static str, why: String },

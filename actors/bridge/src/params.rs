@@ -7,6 +7,7 @@ use serde::Deserialize;
 use crate::catalogue::{Bridged, TOPICS, TopicVisitor, visit_topic};
 use crate::error::BridgeError;
 use crate::key_expr::{check_chunk, instance_vehicle};
+use crate::sources::CommandSources;
 
 /// How the bridge joins a Zenoh network (Zenoh's own words).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
@@ -47,9 +48,22 @@ pub struct BridgeParams {
     /// Endpoints to connect to, e.g. `tcp/192.168.1.10:7447`; retried until they answer.
     #[serde(default)]
     pub connect: Vec<String>,
-    /// Endpoints to listen on, e.g. `tcp/127.0.0.1:7447`.
+    /// Endpoints to listen on, e.g. `tcp/127.0.0.1:7447`. With `--instance N` each port moves
+    /// up by N (port 0, any free port, stays 0), as the link's ports do, so a fleet on one
+    /// machine listens on 7447, 7448, ...
     #[serde(default)]
     pub listen: Vec<String>,
+    /// A Zenoh config file (json5, Zenoh's own format; relative to the graph config's
+    /// directory) with who may connect (`transport.auth.usrpwd`) and what each peer may do
+    /// (`access_control`). Required, with access control on and denying by default, when the
+    /// bridge subscribes to a topic that moves the motors. See the user guide's "Zenoh keys".
+    #[serde(default)]
+    pub zenoh_config: Option<String>,
+    /// The Zenoh ids (`38a4829bce9166ee`, as Zenoh prints them) that may send the topics that
+    /// move the motors (`vehicle_command`, `avoidance_command`, `setpoint`): a sample of those
+    /// is taken only when its timestamp names one of them (see [`crate::sources`]).
+    #[serde(default)]
+    pub command_sources: Vec<String>,
     /// Multicast scouting (finding peers on the LAN by itself). Off by default: a vehicle
     /// talks only to the endpoints it is given.
     #[serde(default)]
@@ -73,6 +87,29 @@ impl BridgeParams {
     /// The vehicle name in key expressions.
     pub fn vehicle_name(&self) -> String {
         instance_vehicle(&self.vehicle, self.instance)
+    }
+
+    /// `listen` with each port moved up by `instance` (port 0 stays 0).
+    pub fn listen_endpoints(&self) -> Result<Vec<String>, BridgeError> {
+        let n = u16::from(self.instance.unwrap_or(0));
+        self.listen
+            .iter()
+            .map(|endpoint| {
+                let bad = || BridgeError::Param {
+                    param: "listen",
+                    why: format!("endpoint {endpoint:?}: its port plus the instance {n} is not a port"),
+                };
+                let (head, port) = endpoint.rsplit_once(':').ok_or_else(bad)?;
+                let port: u16 = port.parse().map_err(|_| bad())?;
+                let moved = if port == 0 { 0 } else { port.checked_add(n).ok_or_else(bad)? };
+                Ok(format!("{head}:{moved}"))
+            })
+            .collect()
+    }
+
+    /// The subscribed topics that move the motors.
+    pub fn motor_topics(&self) -> Vec<&str> {
+        self.subscribe.iter().map(String::as_str).filter(|t| moves_motors(t)).collect()
     }
 
     /// Checks every parameter; the first problem found, naming the parameter.
@@ -136,12 +173,51 @@ impl BridgeParams {
                 why: format!("topic '{both}' is also published: the bridge would hear itself"),
             });
         }
+        let sources = CommandSources::parse(&self.command_sources)?;
+        if let Some(topic) = self.motor_topics().first() {
+            if self.zenoh_config.is_none() {
+                return Err(BridgeError::Param {
+                    param: "zenoh_config",
+                    why: format!(
+                        "subscribing to '{topic}', which moves the motors, needs a Zenoh config file \
+                         with access control (see config/zenoh/)"
+                    ),
+                });
+            }
+            if sources.is_empty() {
+                return Err(BridgeError::Param {
+                    param: "command_sources",
+                    why: format!(
+                        "subscribing to '{topic}', which moves the motors, needs the Zenoh ids that may send it"
+                    ),
+                });
+            }
+        } else if !sources.is_empty() {
+            return Err(BridgeError::Param {
+                param: "command_sources",
+                why: "no subscribed topic moves the motors, so no source is checked".into(),
+            });
+        }
+        self.listen_endpoints()?;
         Ok(())
     }
 }
 
 /// Topics `max_rate_hz` may not throttle: a dropped command is a lost command.
 const UNTHROTTLED: &[&str] = &["vehicle_command", "command_result"];
+
+/// Whether `topic` is a bridged topic that moves the motors ([`Bridged::MOVES_MOTORS`]).
+pub fn moves_motors(topic: &str) -> bool {
+    struct Moves(bool);
+    impl TopicVisitor for Moves {
+        fn visit<T: Bridged>(&mut self, _topic: &'static str) {
+            self.0 = T::MOVES_MOTORS;
+        }
+    }
+    let mut moves = Moves(false);
+    visit_topic(topic, &mut moves);
+    moves.0
+}
 
 struct Nothing;
 
@@ -180,6 +256,8 @@ mod tests {
         listen = ["tcp/127.0.0.1:7447"]
         publish = ["nav_state", "ground_truth"]
         subscribe = ["avoidance_command"]
+        zenoh_config = "zenoh/flight.json5"
+        command_sources = ["a1"]
     "#;
 
     #[test]
@@ -188,7 +266,22 @@ mod tests {
         p.check().unwrap();
         assert_eq!((p.mode, p.scouting), (Mode::Peer, false), "peer, no scouting by default");
         assert_eq!(p.vehicle_name(), "kestrel");
-        assert_eq!(BridgeParams { instance: Some(2), ..p }.vehicle_name(), "kestrel-2");
+        assert_eq!(p.listen_endpoints().unwrap(), ["tcp/127.0.0.1:7447"]);
+        assert_eq!(p.motor_topics(), ["avoidance_command"]);
+        let second = BridgeParams {
+            instance: Some(2),
+            listen: vec!["tcp/[::1]:7447".into(), "tcp/0.0.0.0:0".into()],
+            ..p
+        };
+        assert_eq!(second.vehicle_name(), "kestrel-2");
+        assert_eq!(second.listen_endpoints().unwrap(), ["tcp/[::1]:7449", "tcp/0.0.0.0:0"]);
+    }
+
+    #[test]
+    fn the_topics_that_move_the_motors_are_the_commands_and_setpoints() {
+        let moving: Vec<&str> = TOPICS.iter().copied().filter(|t| moves_motors(t)).collect();
+        assert_eq!(moving, ["setpoint", "avoidance_command", "vehicle_command"]);
+        assert!(!moves_motors("imu"));
     }
 
     #[test]
@@ -223,6 +316,19 @@ mod tests {
             ("max_rate_hz = { nav_state = -1.0 }", "a rate must be finite and above 0 Hz"),
             ("max_rate_hz = { nav_state = inf }", "nav_state = inf: a rate must be finite"),
             ("max_rate_hz = { nav_state = nan }", "a rate must be finite and above 0 Hz"),
+            (
+                "command_sources = []",
+                "parameter 'command_sources': subscribing to 'avoidance_command', which moves the motors, needs the Zenoh ids",
+            ),
+            ("command_sources = [\"A1\"]", "parameter 'command_sources': zenoh id \"A1\" holds a character"),
+            (
+                "subscribe = [\"depth_grid\"]",
+                "parameter 'command_sources': no subscribed topic moves the motors",
+            ),
+            (
+                "listen = [\"tcp/127.0.0.1:65535\"]\ninstance = 1",
+                "parameter 'listen': endpoint \"tcp/127.0.0.1:65535\": its port plus the instance 1 is not a port",
+            ),
         ];
         for (change, expected) in cases {
             let key = change.split(' ').next().unwrap();
@@ -237,9 +343,19 @@ mod tests {
                 .filter(|l| second.is_none_or(|k| !l.trim_start().starts_with(&format!("{k} "))))
                 .collect::<Vec<_>>()
                 .join("\n");
-            let e = params(&format!("{kept}\n{change}")).check().unwrap_err().to_string();
+            let e = match toml::from_str::<BridgeParams>(&format!("{kept}\n{change}")) {
+                Ok(p) => p.check().unwrap_err().to_string(),
+                Err(e) => e.to_string(),
+            };
             assert!(e.contains(expected), "{change}: {e}");
         }
+        let mut no_file = params(GOOD);
+        no_file.zenoh_config = None;
+        let e = no_file.check().unwrap_err().to_string();
+        assert!(
+            e.contains("parameter 'zenoh_config': subscribing to 'avoidance_command', which moves the motors, needs a Zenoh config file"),
+            "{e}"
+        );
         let unknown = toml::from_str::<BridgeParams>("vehicle = \"v\"\nendpoints = []").unwrap_err();
         assert!(unknown.to_string().contains("unknown field `endpoints`"), "{unknown}");
     }

@@ -11,7 +11,9 @@
 //! message by the difference of the two clocks' origins on the wall clock, read from the
 //! capture timestamp. Both machines' wall clocks must agree (NTP, PTP; on one machine they
 //! do); a sample without a timestamp (from a client that sets none) is taken as captured on
-//! arrival.
+//! arrival. No time from the network is ever after the receiver's clock: a capture time in the
+//! future (a fast clock, or a sender that wants its message to outlive every timeout) is
+//! clamped to the arrival, and counted.
 
 use kestrel_proto::Time;
 
@@ -96,9 +98,23 @@ pub struct Received<'a> {
     pub captured_unix_us: Option<i64>,
 }
 
-/// The message of `sample`, with its times on the local clock (`local`, which reads `now`),
+/// A message taken from the network.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Decoded<T> {
+    pub msg: T,
+    /// By how much (µs) its furthest time was after the receiver's clock before it was clamped
+    /// to it; 0 when none was.
+    pub clamped_by_us: u64,
+}
+
+/// The message of `sample`, with its times on the local clock (`local`, which reads `now`) and
+/// none after `now` (a future capture time is clamped to `now`, and by how much is returned),
 /// checked; `Err` names the key, the schema and what was wrong.
-pub fn decode<T: Bridged>(sample: Received<'_>, local: ClockOrigin, now: Time) -> Result<T, BridgeError> {
+pub fn decode<T: Bridged>(
+    sample: Received<'_>,
+    local: ClockOrigin,
+    now: Time,
+) -> Result<Decoded<T>, BridgeError> {
     let error = |why: String| BridgeError::Payload { key: sample.key.to_owned(), schema: T::TYPE_NAME, why };
     let (media, schema) = sample.encoding.split_once(';').unwrap_or((sample.encoding, ""));
     if media != MEDIA_TYPE {
@@ -113,8 +129,9 @@ pub fn decode<T: Bridged>(sample: Received<'_>, local: ClockOrigin, now: Time) -
         None => micros_i64(now).saturating_sub(micros_i64(msg.time())),
     };
     msg.shift_times(by_us);
+    let clamped_by_us = msg.clamp_times(now);
     msg.check().map_err(error)?;
-    Ok(msg)
+    Ok(Decoded { msg, clamped_by_us })
 }
 
 #[cfg(test)]

@@ -29,8 +29,12 @@ fn sent_and_received<T: Bridged>(msg: &T, later_us: i64) -> T {
         payload: &out.json,
         captured_unix_us: Some(sender.to_unix_us(out.captured)),
     };
-    decode::<T>(sample, receiver, Time::ZERO).unwrap()
+    decode::<T>(sample, receiver, RECEIVER_NOW).unwrap().msg
 }
+
+/// The receiver's clock when a test's message arrives: long after any capture time of these
+/// tests, so none is clamped.
+const RECEIVER_NOW: Time = Time::from_micros(1 << 50);
 
 /// Sends `msg` to a receiver whose clock started 2.5 s later: every time comes back 2.5 s
 /// earlier, everything else bit for bit. Returns the topic, for the coverage check.
@@ -133,11 +137,11 @@ fn a_sample_without_a_timestamp_is_taken_as_captured_on_arrival() {
     let local = ClockOrigin::at(Time::ZERO, SENDER_ORIGIN_US);
     let encoding = encoding_name(out.schema);
     let sample = Received { key: "k", encoding: &encoding, payload: &out.json, captured_unix_us: None };
-    let nav: NavState = decode(sample, local, t(3.0)).unwrap();
+    let nav: NavState = decode(sample, local, t(3.0)).unwrap().msg;
     assert_eq!(nav.time, t(3.0));
     // Schema-less JSON (a client that names only the media type) is read too.
     let sample = Received { encoding: MEDIA_TYPE, ..sample };
-    assert_eq!(decode::<NavState>(sample, local, t(4.0)).unwrap().time, t(4.0));
+    assert_eq!(decode::<NavState>(sample, local, t(4.0)).unwrap().msg.time, t(4.0));
 }
 
 #[test]
@@ -187,5 +191,62 @@ proptest! {
         let back = sent_and_received(&nav, later_us);
         let expected = i64::try_from(time_us).unwrap().saturating_sub(later_us).max(0);
         prop_assert_eq!(back.time.as_micros(), u64::try_from(expected).unwrap());
+    }
+}
+
+/// A sample stamped `ahead_us` after its arrival on the receiver's wall clock.
+fn received_ahead<T: Bridged>(msg: &T, ahead_us: i64, local: ClockOrigin, now: Time) -> Decoded<T> {
+    let out = encode(msg).unwrap();
+    let encoding = encoding_name(out.schema);
+    let sample = Received {
+        key: "kestrel/v/t",
+        encoding: &encoding,
+        payload: &out.json,
+        captured_unix_us: Some(local.to_unix_us(now).saturating_add(ahead_us)),
+    };
+    decode::<T>(sample, local, now).unwrap()
+}
+
+#[test]
+fn a_future_capture_time_is_clamped_to_the_arrival_and_by_how_much_is_returned() {
+    let local = ClockOrigin::at(Time::ZERO, SENDER_ORIGIN_US);
+    let now = t(100.0);
+    let cmd = VehicleCommand { id: FIRST_BRIDGED_COMMAND_ID, time: t(1.0), command: Command::Arm };
+    let later = received_ahead(&cmd, 3_600_000_000, local, now);
+    assert_eq!((later.msg.time, later.clamped_by_us), (now, 3_600_000_000));
+    let past = received_ahead(&cmd, -250_000, local, now);
+    assert_eq!((past.msg.time, past.clamped_by_us), (t(99.75), 0));
+    // A time inside the message later than its own capture time is clamped too: a grid time
+    // 10 s after the command's, sent on time.
+    let avoid = AvoidanceCommand { time: t(1.0), grid_time: Some(t(11.0)), ..AvoidanceCommand::default() };
+    let got = received_ahead(&avoid, 0, local, now);
+    assert_eq!((got.msg.time, got.msg.grid_time, got.clamped_by_us), (now, Some(now), 10_000_000));
+}
+
+proptest! {
+    /// Whatever the sender's clock, the capture time it claims and the times inside the
+    /// message, no time the receiver takes is after its own clock, and the amount reported is
+    /// exactly how far the furthest one was.
+    #[test]
+    fn a_clamped_time_is_never_after_the_host_clock(
+        time_us in 0u64..100_000_000_000,
+        grid_after_us in 0u64..10_000_000_000,
+        ahead_us in -10_000_000_000i64..10_000_000_000,
+        now_us in 0u64..100_000_000_000,
+    ) {
+        let local = ClockOrigin::at(Time::ZERO, SENDER_ORIGIN_US);
+        let now = Time::from_micros(now_us);
+        let avoid = AvoidanceCommand {
+            time: Time::from_micros(time_us),
+            grid_time: Some(Time::from_micros(time_us + grid_after_us)),
+            ..AvoidanceCommand::default()
+        };
+        let got = received_ahead(&avoid, ahead_us, local, now);
+        prop_assert!(got.msg.time <= now);
+        prop_assert!(got.msg.grid_time.unwrap() <= now);
+        // Unclamped, the grid time would land at now + ahead + grid_after (floored at zero).
+        let grid_unclamped = i128::from(now_us) + i128::from(ahead_us) + i128::from(grid_after_us);
+        let expected = u64::try_from((grid_unclamped - i128::from(now_us)).max(0)).unwrap();
+        prop_assert_eq!(got.clamped_by_us, expected);
     }
 }
