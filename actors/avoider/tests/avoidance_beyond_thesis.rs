@@ -518,7 +518,7 @@ fn the_ground_match_height_is_above_the_ground_a_rooftop_take_off_keeps_the_wall
         }
         avoider.update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid")
     };
-    assert!(16.0 > limit && 6.0 <= limit, "the case straddles AVOID_GND_HGT ({limit} m)");
+    assert!((6.0..16.0).contains(&limit), "the case straddles AVOID_GND_HGT ({limit} m)");
     // Measured from the origin (no home heard), the view would pass as open sky.
     assert!(!fly(None, None).health.unknown_centre_slowdown);
     // From home on the roof: 6 m up, the invalid view ahead is a wall: stop.
