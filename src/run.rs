@@ -8,7 +8,7 @@ use std::sync::atomic::Ordering;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use kestrel_proto::messages::{GroundTruth, SupervisorEvent, VehicleCommand, VehicleStatus};
+use kestrel_proto::messages::{GroundTruth, SensorHealth, SupervisorEvent, VehicleCommand, VehicleStatus};
 use kestrel_proto::{Clock, Message, Time};
 use tokio_util::sync::CancellationToken;
 
@@ -223,6 +223,16 @@ async fn run_graph(
             None => (None, None),
         },
     };
+    // A write error is reported at once on `sensor_health` (src/recorder/write_watch.rs).
+    let write_watch = match &recorder {
+        Some(r) => Some((
+            r.failure_probe(),
+            graph
+                .runtime_publisher::<SensorHealth>("sensor_health")
+                .map_err(|m| RunError::Config(vec![source.error(m)]))?,
+        )),
+        None => None,
+    };
     let truth = graph.observe::<GroundTruth>("ground_truth", Doorbell::new());
     let commander = graph.observe::<VehicleStatus>("vehicle_status", Doorbell::new());
     let topics = graph
@@ -269,6 +279,10 @@ async fn run_graph(
             onboard_status.clone(),
             shutdown.clone(),
         ));
+    }
+
+    if let Some((probe, health)) = write_watch {
+        tokio::spawn(crate::recorder::write_watch::run(probe, Arc::clone(&clock), health, shutdown.clone()));
     }
 
     let duration = options.duration.or(run_cfg.duration_s.map(Duration::from_secs_f64));

@@ -384,6 +384,14 @@ fn a_full_disk_is_reported_by_finish_and_recording_never_panics() {
             imu.record(*t, m);
         }
     }
+    // The failure is known the moment it happens, not only at `finish`.
+    let probe = recorder.failure_probe();
+    let start = std::time::Instant::now();
+    while probe.failure().is_none() && start.elapsed() < std::time::Duration::from_secs(5) {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let failure = probe.failure().expect("the probe sees the failed write");
+    assert!(failure.contains("/dev/full") && failure.contains("No space left on device"), "{failure}");
     let err = recorder.finish().expect_err("writing to a full disk must fail");
     assert!(matches!(err, RecorderError::Write { lost: 1.., .. }), "{err:?}");
     let text = err.to_string();
@@ -489,4 +497,58 @@ fn python_mcap_reader_agrees_with_ours() {
     check::<GroundTruth>(&python, &log, "ground_truth");
     check::<ActuatorOutputs>(&python, &log, "actuators");
     check::<SupervisorEvent>(&python, &log, "supervisor");
+}
+
+/// `kestrel run --record /dev/full`: the first chunk's write fails within the first second of
+/// the run, and the error is on stderr (and on `sensor_health`, which the link sends as a
+/// STATUSTEXT) while the vehicle still runs, not at the end: the line must come within a second
+/// of the start, so within a second of the failure.
+#[test]
+fn kestrel_run_recording_to_a_full_disk_reports_the_write_error_within_a_second() {
+    use std::io::{BufRead, BufReader};
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let config_dir = repo.join("config");
+    let text = kestrel::LoadedConfig::load(&config_dir.join("sim.toml")).unwrap().merged_toml().unwrap();
+    // No fixed ports (tests run in parallel): one link endpoint on an ephemeral local port.
+    let link = "[actors.link]\ntype = \"link\"\n";
+    assert!(text.contains(link), "sim.toml has a link");
+    let text = text
+        .replace(
+            link,
+            &format!("{link}params.endpoints = [{{ type = \"udp_in\", bind = \"127.0.0.1:0\" }}]\n"),
+        )
+        .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()))
+        .replace("\"worlds/", &format!("\"{}/worlds/", config_dir.display()));
+    let graph = scratch("full-disk-graph.toml");
+    std::fs::write(&graph, text).unwrap();
+    let started = Instant::now();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_kestrel"))
+        .current_dir(repo)
+        .env_remove("RUST_LOG")
+        .args(["run", "--speedup", "1", "--duration", "4", "--record", "/dev/full", "--config"])
+        .arg(&graph)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stderr = BufReader::new(child.stderr.take().unwrap());
+    let mut reported = None;
+    let mut lines = Vec::new();
+    for line in stderr.lines().map_while(Result::ok) {
+        if reported.is_none() && line.contains("flight log write failed") {
+            reported = Some(started.elapsed());
+        }
+        lines.push(line);
+    }
+    let status = child.wait().unwrap();
+    let after = reported.unwrap_or_else(|| panic!("no write error reported: {status}\n{}", lines.join("\n")));
+    let line = lines.iter().find(|l| l.contains("flight log write failed")).unwrap();
+    println!(
+        "figure: --record /dev/full: the write error reported {:.2} s after the start: {line}",
+        after.as_secs_f64()
+    );
+    assert!(line.contains("/dev/full") && line.contains("No space left on device"), "{line}");
+    assert!(after < Duration::from_secs(1), "reported {after:?} after the start");
 }

@@ -89,7 +89,7 @@ pub enum RecorderError {
 
 /// The most telling text of an MCAP error: for I/O failures the OS's own words ("No space left
 /// on device"), which `mcap`'s generic I/O message hides one level down.
-fn cause(error: &mcap::McapError) -> String {
+pub(super) fn cause(error: &mcap::McapError) -> String {
     match error {
         mcap::McapError::Io(io) => io.to_string(),
         other => other.to_string(),

@@ -21,9 +21,10 @@ mod error;
 mod format;
 pub mod onboard;
 mod reader;
+pub mod write_watch;
 mod writer;
 
 pub use error::RecorderError;
 pub use onboard::{OnboardLog, OnboardStatus};
 pub use reader::{LogDamage, LogReader, RawRecord, Recorded, TopicInfo};
-pub use writer::{RecordChannel, Recorder, RecordingSummary};
+pub use writer::{RecordChannel, Recorder, RecordingSummary, WriteFailureProbe};

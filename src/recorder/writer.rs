@@ -76,6 +76,23 @@ struct Queue {
     sender: Sender<Command>,
     /// JSON bytes sent but not yet taken by the writer thread, to bound memory.
     queued_bytes: AtomicUsize,
+    /// The writer thread's first write failure, set the moment it happens so that the runtime
+    /// can report it at once ([`WriteFailureProbe`]) rather than at [`Recorder::finish`].
+    failure: Mutex<Option<String>>,
+}
+
+/// Tells whether the recorder's writer has failed, from any thread; see
+/// [`Recorder::failure_probe`].
+#[derive(Clone)]
+pub struct WriteFailureProbe {
+    queue: Arc<Queue>,
+}
+
+impl WriteFailureProbe {
+    /// The first write failure (the file and the error), once there has been one.
+    pub fn failure(&self) -> Option<String> {
+        self.queue.failure.lock().unwrap_or_else(PoisonError::into_inner).clone()
+    }
 }
 
 /// One registered topic, shared by all its [`RecordChannel`] clones.
@@ -194,7 +211,12 @@ impl Recorder {
     /// recording in errors and the summary.
     fn start(path: &Path, writer: Box<dyn Sink>) -> Result<Recorder, RecorderError> {
         let (sender, receiver) = std::sync::mpsc::channel();
-        let queue = Arc::new(Queue { path: path.to_path_buf(), sender, queued_bytes: AtomicUsize::new(0) });
+        let queue = Arc::new(Queue {
+            path: path.to_path_buf(),
+            sender,
+            queued_bytes: AtomicUsize::new(0),
+            failure: Mutex::new(None),
+        });
         let thread_queue = Arc::clone(&queue);
         let thread = std::thread::Builder::new()
             .name("recorder".into())
@@ -211,6 +233,12 @@ impl Recorder {
     /// The file being written.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// A handle that reports the writer's first failure as soon as it happens (a full disk, a
+    /// read-only card): the runtime polls it to warn the ground station within a second.
+    pub fn failure_probe(&self) -> WriteFailureProbe {
+        WriteFailureProbe { queue: Arc::clone(&self.queue) }
     }
 
     /// Registers `topic` as carrying `T` and returns the handle to record it.
@@ -457,6 +485,8 @@ fn run_writer(mut writer: Box<dyn Sink>, commands: &Receiver<Command>, queue: &Q
             }
         };
         if let Err(e) = applied {
+            let text = format!("{}: {}", queue.path.display(), super::error::cause(&e));
+            *queue.failure.lock().unwrap_or_else(PoisonError::into_inner) = Some(text);
             failure = Some(e);
         }
     }

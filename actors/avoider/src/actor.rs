@@ -5,6 +5,10 @@
 //! * input `setpoint` (`Setpoint`): the commander's demand, for the desired speed;
 //! * input `nav` (`NavState`, optional): the estimator's pose, which places what the camera
 //!   saw in the short-term obstacle memory; unrouted, the avoider has no memory;
+//! * input `vehicle_status` (`VehicleStatus`, optional): home, for the height above the ground
+//!   (`ground_match_height_m`); unrouted, the height is above the estimator's origin;
+//! * input `rangefinder_down` (`RangefinderSample`, optional): the downward rangefinder, the
+//!   better measure of that height while it returns a distance;
 //! * timer `check` (every `check_period_s`): publishes the stale command while no fresh grid
 //!   arrives;
 //! * input `param_set` (`ParamSet`): changes to the live settings of
@@ -16,7 +20,9 @@
 //! Refused inputs are counted in the command's health and logged at the 1st, 2nd, 4th, 8th…
 //! refusal, so a broken camera cannot flood the log.
 
-use kestrel_proto::messages::{AvoidanceCommand, DepthGrid, NavState, ParamDecl, ParamSet, Setpoint};
+use kestrel_proto::messages::{
+    AvoidanceCommand, DepthGrid, NavState, ParamDecl, ParamSet, RangefinderSample, Setpoint, VehicleStatus,
+};
 use kestrel_proto::param_def::{self, ParamChange};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 
@@ -33,6 +39,10 @@ pub enum AvoiderInput {
     Setpoint(Setpoint),
     /// The estimator's state (port `nav`).
     Nav(Box<NavState>),
+    /// Home's NED position from the commander's status (port `vehicle_status`).
+    Home(Option<[f64; 3]>),
+    /// The downward rangefinder (port `rangefinder_down`).
+    Range(RangefinderSample),
     /// The staleness check (timer `check`), at its scheduled time.
     Check(Time),
     /// A parameter change from the link (port `param_set`).
@@ -88,6 +98,10 @@ impl Actor for AvoiderActor {
         setup.input("depth_grid", AvoiderInput::DepthGrid);
         setup.input("setpoint", AvoiderInput::Setpoint);
         setup.input("nav", |nav| AvoiderInput::Nav(Box::new(nav)));
+        setup.input("vehicle_status", |status: VehicleStatus| {
+            AvoiderInput::Home(status.home.map(|home| home.position_ned_m))
+        });
+        setup.input("rangefinder_down", AvoiderInput::Range);
         setup.input("param_set", AvoiderInput::Param);
         setup.timer("check", period, AvoiderInput::Check);
         Ok(AvoiderActor {
@@ -119,6 +133,8 @@ impl Actor for AvoiderActor {
                 Ok(()) | Err(_) => {}
             },
             AvoiderInput::Nav(nav) => self.avoider.set_pose(&nav),
+            AvoiderInput::Home(home) => self.avoider.set_home(home),
+            AvoiderInput::Range(sample) => self.avoider.set_range(&sample),
             AvoiderInput::Check(time) => {
                 if let Some(command) = self.avoider.check(time) {
                     self.command.publish(command);

@@ -489,3 +489,44 @@ fn above_the_ground_match_height_an_invalid_view_ahead_is_no_wall_but_vouches_on
     let blind = unfiltered(speed).update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid");
     assert!(blind.health.unknown_centre_slowdown);
 }
+
+#[test]
+fn the_ground_match_height_is_above_the_ground_a_rooftop_take_off_keeps_the_wall_check_on() {
+    use kestrel_proto::messages::{NavState, RangefinderOrientation, RangefinderSample};
+    let speed = 4.0;
+    let invalid = [[0.95; 3]; 3];
+    let limit = AvoiderParams::default().ground_match_height_m;
+    // 6 m above a roof that is 10 m above the estimator's origin: 16 m above the origin.
+    let fly = |home: Option<[f64; 3]>, range_m: Option<f64>| {
+        let mut avoider = unfiltered(speed);
+        avoider.set_pose(&NavState::exact(
+            at(0.0),
+            [1.0, 0.0, 0.0, 0.0],
+            [0.0; 3],
+            [0.0; 3],
+            [0.0, 0.0, -16.0],
+        ));
+        avoider.set_home(home);
+        if let Some(d) = range_m {
+            avoider.set_range(&RangefinderSample {
+                time: at(0.0),
+                orientation: RangefinderOrientation::Down,
+                distance_m: Some(d),
+                min_range_m: 0.1,
+                max_range_m: 40.0,
+            });
+        }
+        avoider.update(at(0.0), &grid(0.0, [[0.0; 3]; 3], invalid)).expect("valid")
+    };
+    assert!((6.0..16.0).contains(&limit), "the case straddles AVOID_GND_HGT ({limit} m)");
+    // Measured from the origin (no home heard), the view would pass as open sky.
+    assert!(!fly(None, None).health.unknown_centre_slowdown);
+    // From home on the roof: 6 m up, the invalid view ahead is a wall: stop.
+    let roof = fly(Some([0.0, 0.0, -10.0]), None);
+    assert!(roof.health.unknown_centre_slowdown, "{:?}", roof.health);
+    assert!((roof.velocity_frd_m_s[0] + speed).abs() < 1e-9, "{:?}", roof.velocity_frd_m_s);
+    // The downward rangefinder wins over home: over a hillside rising under the vehicle...
+    assert!(fly(Some([0.0; 3]), Some(5.0)).health.unknown_centre_slowdown);
+    // ...and off a cliff edge, where home's height says nothing of the ground below.
+    assert!(!fly(Some([0.0, 0.0, -10.0]), Some(30.0)).health.unknown_centre_slowdown);
+}

@@ -31,8 +31,9 @@
 //! * **Faults**: the world file's `camera_*` faults (`faults.rs`), by the capture instant:
 //!   `camera_stop` skips the capture (nothing is published); `camera_black` publishes the frame
 //!   on time with every pixel 0; `camera_frozen` publishes the pixels of the last frame before
-//!   the fault with the new stamp and sequence number. The simulator actor logs and publishes
-//!   their start and end (`sim_fault`); the camera only applies them.
+//!   the fault with the new stamp and sequence number; `camera_glare` washes a region of one or
+//!   both images towards white; `camera_capped` blacks out one image. The simulator actor logs
+//!   and publishes their start and end (`sim_fault`); the camera only applies them.
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
@@ -218,7 +219,8 @@ impl CameraSimActor {
 
 impl CameraSimActor {
     /// `frame` as the camera faults active at its capture leave it (stopped frames are never
-    /// captured): black pixels, or the last healthy frame's pixels under `frame`'s stamp.
+    /// captured): black pixels, the last healthy frame's pixels under `frame`'s stamp, or
+    /// `frame` with glare and a capped lens applied.
     fn apply_faults(&mut self, frame: StereoFrame, faults: CameraFaults) -> Result<StereoFrame, ActorError> {
         if faults.black {
             let pixels = frame.width as usize * frame.height as usize;
@@ -240,8 +242,27 @@ impl CameraSimActor {
             repeated.sequence = frame.sequence;
             return Ok(repeated);
         }
-        self.last_frame = Some(frame.clone());
-        Ok(frame)
+        if faults.glare.is_none() && !faults.capped_left && !faults.capped_right {
+            self.last_frame = Some(frame.clone());
+            return Ok(frame);
+        }
+        let (width, height) = (frame.width as usize, frame.height as usize);
+        let (mut left, mut right) = (frame.left().to_vec(), frame.right().to_vec());
+        if let Some(glare) = faults.glare {
+            glare.apply(&mut left, width, height, true);
+            glare.apply(&mut right, width, height, false);
+        }
+        if faults.capped_left {
+            left.fill(0);
+        }
+        if faults.capped_right {
+            right.fill(0);
+        }
+        // The frame as rendered stays the last healthy one, which `camera_frozen` repeats.
+        let faulty = StereoFrame::new(frame.time, frame.sequence, frame.width, frame.height, left, right)
+            .map_err(|e| ActorError::Failed(e.to_string()))?;
+        self.last_frame = Some(frame);
+        Ok(faulty)
     }
 }
 

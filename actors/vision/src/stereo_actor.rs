@@ -22,8 +22,9 @@
 //!   waiting one, as the `latest` mailbox would) and starts when the grid before it is out.
 //!
 //! Each frame is first checked for a camera that delivers on time but no longer sees
-//! ([`FrameCheck`]: black, or frozen while the vehicle moves, which it learns from the optional
-//! `nav_state` input). Such a frame gives no grid, so the avoider's input goes stale and the
+//! ([`FrameCheck`]: dark, one lens capped, saturated, glare over the centre, the lenses' brightness
+//! apart, or frozen while the vehicle moves, which it learns from the optional `nav_state`
+//! input). Such a frame gives no grid, so the avoider's input goes stale and the
 //! commander holds and then lands as for frames that stopped; the actor says so in the log on
 //! each change and in its once-a-second `health` report ([`SensorHealth`], whose errors the
 //! link turns into a STATUSTEXT naming the fault).
@@ -347,7 +348,7 @@ mod tests {
         let health: Vec<SensorHealth> = setup.published("health");
         assert_eq!(health.len(), 1);
         assert_eq!((health[0].errors, health[0].rate_hz), (10, 0.0));
-        assert_eq!(health[0].device, "stereo camera: frames black");
+        assert_eq!(health[0].device, "stereo camera: camera_blind: dark");
     }
 
     /// The simulated companion computer: with `latency_s`, a frame handled at `t` gives its

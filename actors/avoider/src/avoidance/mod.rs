@@ -25,8 +25,9 @@
 //!      (a slide of a few metres reaches such a trunk);
 //!    * view ahead unknown (the textureless wall of §4.2.3, [`View::unknown_ahead`]): the
 //!      vehicle keeps at most `unknown_speed_share` of its desired speed (0 by default: stop);
-//!      not above `ground_match_height_m`, where the ground below the path is out of the
-//!      stereo pair's reach and an invalid view is what open sky and far ground look like;
+//!      not above `ground_match_height_m` over the ground ([`ground_height`]: the downward
+//!      rangefinder, else home), where the ground below the path is out of the stereo pair's
+//!      reach and an invalid view is what open sky and far ground look like;
 //!    * every region blocked: forward progress stops and the vehicle climbs at
 //!      `climb_speed_m_s` until the centre's near share falls below `climb_exit_share` (§6),
 //!      and `climb_margin_m` more;
@@ -52,6 +53,7 @@
 
 mod desired_speed;
 pub mod error;
+pub mod ground_height;
 pub mod live_params;
 mod low_pass;
 pub mod memory;
@@ -64,7 +66,7 @@ mod view;
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
     AVOIDER_RULES, AvoidanceCommand, AvoidanceHealth, ClearRange, ClearRangeReason, DepthGrid, FuzzyVelocity,
-    NavState, Setpoint,
+    NavState, RangefinderSample, Setpoint,
 };
 use kestrel_proto::speed_cap::Braking;
 
@@ -88,6 +90,7 @@ fn pose_gap_s(a: Time, b: Time) -> f64 {
 }
 pub use desired_speed::desired_speed_m_s;
 use error::{AvoiderError, GridError, ParamsError, SetpointError};
+use ground_height::{GroundHeight, HeightSource};
 pub use low_pass::LowPass;
 pub use memory::{MemorySettings, ObstacleMemory, Pose};
 use params::AvoiderParams;
@@ -156,6 +159,8 @@ pub struct Avoider {
     memory: ObstacleMemory,
     /// The estimator's recent poses; empty while none has arrived or the position is invalid.
     poses: PoseHistory,
+    /// Home and the downward rangefinder, for the height above the ground.
+    ground: GroundHeight,
     grids_rejected: u64,
     setpoints_rejected: u64,
 }
@@ -188,6 +193,7 @@ impl Avoider {
             boxed_in: false,
             memory: ObstacleMemory::new(),
             poses: PoseHistory::default(),
+            ground: GroundHeight::default(),
             grids_rejected: 0,
             setpoints_rejected: 0,
         })
@@ -247,9 +253,26 @@ impl Avoider {
             self.sidestep.start_ne_m = None;
             return;
         }
+        self.ground.set_attitude(nav.attitude);
         let [w, x, y, z] = nav.attitude;
         let yaw_rad = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
         self.poses.push(Pose { time: nav.time, ned_m: nav.position_ned_m, yaw_rad });
+    }
+
+    /// Home's NED position in the estimator's frame, from the commander's status (`None`: no
+    /// home yet), for the height above the ground ([`ground_height`]).
+    pub fn set_home(&mut self, home_ned_m: Option<[f64; 3]>) {
+        self.ground.set_home(home_ned_m);
+    }
+
+    /// A rangefinder sample; the downward one measures the height above the ground.
+    pub fn set_range(&mut self, sample: &RangefinderSample) {
+        self.ground.set_range(sample);
+    }
+
+    /// The height above the ground at `now` (m) and its source, if a pose has arrived.
+    pub fn height_above_ground_m(&self, now: Time) -> Option<(f64, HeightSource)> {
+        self.poses.newest().map(|pose| self.ground.above_ground_m(now, pose.ned_m[2]))
     }
 
     /// Obstacle points remembered now.
@@ -329,8 +352,9 @@ impl Avoider {
         // High up, the ground below the path is out of the stereo pair's reach: an invalid
         // view ahead is then no sign of a wall (see `ground_match_height_m`), and vouches for
         // `unknown_range_m` in the memory as for the speed cap.
-        let ground_out_of_reach =
-            self.poses.newest().is_some_and(|pose| -pose.ned_m[2] > self.params.ground_match_height_m);
+        let ground_out_of_reach = self
+            .height_above_ground_m(now)
+            .is_some_and(|(height_m, _)| height_m > self.params.ground_match_height_m);
         let unmeasured_clear_m = if ground_out_of_reach { self.params.unknown_range_m } else { 0.0 };
         let settings = self.memory_settings().map(|s| MemorySettings { unmeasured_clear_m, ..s });
         match (settings, self.poses.at(grid.time)) {

@@ -60,8 +60,10 @@ pub struct AvoiderParams {
     /// hovering over open ground in the simulator: the region below the centre was 36–58 %
     /// invalid from 10 to 12.5 m and 74–85 % (unknown) from 14.5 m; from 28 m every region was
     /// invalid, and a vehicle that climbed over a 25 m tree stopped above it for good. The VGA
-    /// rig of `config/base/perception.toml` matches up to about 26 m and says so there. Flat
-    /// ground at the origin's height is assumed: the vehicle has no terrain data.
+    /// rig of `config/base/perception.toml` matches up to about 26 m and says so there. The
+    /// height is above the ground: the downward rangefinder's, else above home, else above the
+    /// estimator's origin ([`super::ground_height`]); without terrain data the ground is taken
+    /// as flat at home's height.
     ///
     /// [`ClearRangeReason::GroundOutOfReach`]: kestrel_proto::messages::ClearRangeReason::GroundOutOfReach
     pub ground_match_height_m: f64,

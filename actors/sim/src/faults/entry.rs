@@ -5,7 +5,7 @@
 use kestrel_proto::messages::MAX_MOTORS;
 use serde::{Deserialize, Serialize};
 
-use super::kind::{Fault, FaultKind, KINDS};
+use super::kind::{CameraLens, Fault, FaultKind, KINDS};
 use crate::error::InvalidParam;
 
 /// The flat table a `[[faults]]` entry is read from: every kind's values are optional here, and
@@ -42,6 +42,12 @@ pub(super) struct RawFault {
     gust_m_s: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     actor: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    region: Option<[f64; 4]>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    intensity: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    lens: Option<String>,
 }
 
 impl RawFault {
@@ -65,6 +71,9 @@ impl RawFault {
         note("ned_m_s", self.ned_m_s.is_some());
         note("gust_m_s", self.gust_m_s.is_some());
         note("actor", self.actor.is_some());
+        note("region", self.region.is_some());
+        note("intensity", self.intensity.is_some());
+        note("lens", self.lens.is_some());
         present
     }
 }
@@ -110,6 +119,18 @@ impl TryFrom<RawFault> for Fault {
             "camera_stop" => (FaultKind::CameraStop, &[]),
             "camera_black" => (FaultKind::CameraBlack, &[]),
             "camera_frozen" => (FaultKind::CameraFrozen, &[]),
+            "camera_glare" => (
+                FaultKind::CameraGlare {
+                    region: need(k, "region", &raw.region)?,
+                    intensity: need(k, "intensity", &raw.intensity)?,
+                    lens: raw.lens.as_deref().map_or(Ok(CameraLens::Both), CameraLens::parse)?,
+                },
+                &["region", "intensity", "lens"],
+            ),
+            "camera_capped" => (
+                FaultKind::CameraCapped { lens: CameraLens::parse(&need(k, "lens", &raw.lens)?)? },
+                &["lens"],
+            ),
             "actor_panic" => (FaultKind::ActorPanic { actor: need(k, "actor", &raw.actor)? }, &["actor"]),
             "link_lost" => (FaultKind::LinkLost, &[]),
             other => {
@@ -164,6 +185,12 @@ impl From<Fault> for RawFault {
                 raw.gust_m_s = Some(gust_m_s);
             }
             FaultKind::ActorPanic { actor } => raw.actor = Some(actor),
+            FaultKind::CameraGlare { region, intensity, lens } => {
+                raw.region = Some(region);
+                raw.intensity = Some(intensity);
+                raw.lens = Some(lens.name().to_owned());
+            }
+            FaultKind::CameraCapped { lens } => raw.lens = Some(lens.name().to_owned()),
             FaultKind::GpsOff
             | FaultKind::MagStuck
             | FaultKind::BaroStuck
@@ -248,7 +275,7 @@ mod tests {
 
     #[test]
     fn every_kind_parses_with_its_values() {
-        let cases: [(&str, FaultKind); 20] = [
+        let cases: [(&str, FaultKind); 22] = [
             ("kind = \"gps_off\"", FaultKind::GpsOff),
             (
                 "kind = \"gps_jump\"\nned_m = [50.0, -2.0, 1.0]",
@@ -282,6 +309,18 @@ mod tests {
             ("kind = \"camera_stop\"", FaultKind::CameraStop),
             ("kind = \"camera_black\"", FaultKind::CameraBlack),
             ("kind = \"camera_frozen\"", FaultKind::CameraFrozen),
+            (
+                "kind = \"camera_glare\"\nregion = [0.25, 0.2, 0.75, 0.8]\nintensity = 1.0\nlens = \"left\"",
+                FaultKind::CameraGlare {
+                    region: [0.25, 0.2, 0.75, 0.8],
+                    intensity: 1.0,
+                    lens: CameraLens::Left,
+                },
+            ),
+            (
+                "kind = \"camera_capped\"\nlens = \"right\"",
+                FaultKind::CameraCapped { lens: CameraLens::Right },
+            ),
             (
                 "kind = \"actor_panic\"\nactor = \"estimator\"",
                 FaultKind::ActorPanic { actor: "estimator".into() },
@@ -331,6 +370,19 @@ mod tests {
             ("at_s = 1.0\nkind = \"wind\"\nned_m_s = [nan, 0.0, 0.0]", "ned_m_s"),
             ("at_s = 1.0\nkind = \"wind\"\nned_m_s = [1.0, 0.0, 0.0]\ngust_m_s = -1.0", "gust_m_s"),
             ("at_s = 1.0\nkind = \"actor_panic\"\nactor = \" \"", "actor"),
+            ("at_s = 1.0\nkind = \"camera_glare\"\nregion = [0.5, 0.0, 0.4, 1.0]\nintensity = 1.0", "region"),
+            ("at_s = 1.0\nkind = \"camera_glare\"\nregion = [0.0, 0.0, 1.0, 1.5]\nintensity = 1.0", "region"),
+            (
+                "at_s = 1.0\nkind = \"camera_glare\"\nregion = [0.0, 0.0, 1.0, 1.0]\nintensity = 1.2",
+                "intensity",
+            ),
+            ("at_s = 1.0\nkind = \"camera_glare\"\nregion = [0.0, 0.0, 1.0, 1.0]", "intensity"),
+            (
+                "at_s = 1.0\nkind = \"camera_glare\"\nregion = [0.0, 0.0, 1.0, 1.0]\nintensity = 1.0\nlens = \"up\"",
+                "lens",
+            ),
+            ("at_s = 1.0\nkind = \"camera_capped\"", "lens"),
+            ("at_s = 1.0\nkind = \"camera_capped\"\nlens = \"both\"", "lens"),
             // A value of another kind, and a kind that does not exist.
             ("at_s = 1.0\nkind = \"gps_off\"\nfactor = 2.0", "factor"),
             ("at_s = 1.0\nkind = \"gps_of\"", "kind"),

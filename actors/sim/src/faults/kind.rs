@@ -92,6 +92,15 @@ pub enum FaultKind {
     /// `camera_frozen`: the camera publishes the pixels of its last frame before the fault
     /// again and again, with fresh stamps and sequence numbers (a driver stuck on one buffer).
     CameraFrozen,
+    /// `camera_glare region = [x0, y0, x1, y1], intensity, lens`: veiling glare (the sun in or
+    /// near the view, thesis §4.2.4) over the rectangle of columns `x0..x1` and rows `y0..y1`,
+    /// given as shares of the image width and height (0..1, top-left origin): each pixel there
+    /// becomes `p + intensity·(255 − p)` (intensity 0..1; 1 washes the region out to white). On
+    /// `lens` `"left"`, `"right"` or `"both"` (default both).
+    CameraGlare { region: [f64; 4], intensity: f64, lens: CameraLens },
+    /// `camera_capped lens`: lens `"left"` or `"right"` sees black (every pixel 0, a lens cap)
+    /// while the other still sees.
+    CameraCapped { lens: CameraLens },
     /// `actor_panic actor`: the named actor of the graph panics. The runtime injects it (it
     /// reads the sim actor's world file at start-up, refuses a name that is not in the graph,
     /// and while the fault is active every incarnation of the actor panics on the first message
@@ -104,8 +113,49 @@ pub enum FaultKind {
     LinkLost,
 }
 
+/// Which lens of the stereo camera a camera fault acts on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraLens {
+    Left,
+    Right,
+    Both,
+}
+
+impl CameraLens {
+    /// The world file's spelling.
+    pub fn name(self) -> &'static str {
+        match self {
+            CameraLens::Left => "left",
+            CameraLens::Right => "right",
+            CameraLens::Both => "both",
+        }
+    }
+
+    /// `"left"`, `"right"` or `"both"`; anything else is refused naming `lens`.
+    pub fn parse(name: &str) -> Result<CameraLens, InvalidParam> {
+        match name {
+            "left" => Ok(CameraLens::Left),
+            "right" => Ok(CameraLens::Right),
+            "both" => Ok(CameraLens::Both),
+            other => Err(InvalidParam::new(
+                "lens",
+                format!("must be \"left\", \"right\" or \"both\", got {other:?}"),
+            )),
+        }
+    }
+
+    /// Whether the fault acts on the left (`false`: right) image.
+    pub fn covers(self, left: bool) -> bool {
+        match self {
+            CameraLens::Left => left,
+            CameraLens::Right => !left,
+            CameraLens::Both => true,
+        }
+    }
+}
+
 /// Every kind's `kind` spelling, in the order of the world file documentation.
-pub const KINDS: [&str; 20] = [
+pub const KINDS: [&str; 22] = [
     "gps_off",
     "gps_jump",
     "gps_noise",
@@ -124,6 +174,8 @@ pub const KINDS: [&str; 20] = [
     "camera_stop",
     "camera_black",
     "camera_frozen",
+    "camera_glare",
+    "camera_capped",
     "actor_panic",
     "link_lost",
 ];
@@ -150,6 +202,8 @@ impl FaultKind {
             FaultKind::CameraStop => "camera_stop",
             FaultKind::CameraBlack => "camera_black",
             FaultKind::CameraFrozen => "camera_frozen",
+            FaultKind::CameraGlare { .. } => "camera_glare",
+            FaultKind::CameraCapped { .. } => "camera_capped",
             FaultKind::ActorPanic { .. } => "actor_panic",
             FaultKind::LinkLost => "link_lost",
         }
@@ -198,6 +252,29 @@ impl FaultKind {
                 finite3("ned_m_s", ned_m_s)?;
                 at_least_zero("gust_m_s", *gust_m_s)
             }
+            FaultKind::CameraGlare { region, intensity, .. } => {
+                let [x0, y0, x1, y1] = *region;
+                let share = |v: f64| v.is_finite() && (0.0..=1.0).contains(&v);
+                if !(region.iter().all(|&v| share(v)) && x0 < x1 && y0 < y1) {
+                    return Err(InvalidParam::new(
+                        "region",
+                        format!(
+                            "must be [x0, y0, x1, y1] shares of the image in 0..=1 with x0 < x1 and y0 < y1, got {region:?}"
+                        ),
+                    ));
+                }
+                if !share(*intensity) {
+                    return Err(InvalidParam::new(
+                        "intensity",
+                        format!("must be within 0..=1, got {intensity}"),
+                    ));
+                }
+                Ok(())
+            }
+            FaultKind::CameraCapped { lens: CameraLens::Both } => Err(InvalidParam::new(
+                "lens",
+                "must be \"left\" or \"right\" (both lenses capped is camera_black)",
+            )),
             FaultKind::ActorPanic { actor } if actor.trim().is_empty() => {
                 Err(InvalidParam::new("actor", "must name an actor of the graph"))
             }
@@ -223,6 +300,16 @@ impl fmt::Display for FaultKind {
             FaultKind::Wind { ned_m_s, gust_m_s } => {
                 write!(f, "ned_m_s = {}, gust_m_s = {gust_m_s}", v3(ned_m_s))
             }
+            FaultKind::CameraGlare { region, intensity, lens } => write!(
+                f,
+                "region = [{}, {}, {}, {}], intensity = {intensity}, lens = \"{}\"",
+                region[0],
+                region[1],
+                region[2],
+                region[3],
+                lens.name()
+            ),
+            FaultKind::CameraCapped { lens } => write!(f, "lens = \"{}\"", lens.name()),
             FaultKind::ActorPanic { actor } => write!(f, "actor = \"{actor}\""),
             _ => Ok(()),
         }

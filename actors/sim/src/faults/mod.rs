@@ -27,5 +27,5 @@ mod schedule;
 
 pub use entry::entry_lines;
 pub(crate) use entry::{check_entries, check_for_vehicle};
-pub use kind::{Fault, FaultKind, KINDS};
-pub use schedule::{CameraFaults, FaultEffects, FaultEvent, FaultSchedule};
+pub use kind::{CameraLens, Fault, FaultKind, KINDS};
+pub use schedule::{CameraFaults, FaultEffects, FaultEvent, FaultSchedule, Glare};

@@ -6,7 +6,7 @@ use kestrel_proto::Time;
 use kestrel_proto::messages::{SimFault, SimFaultPhase};
 use nalgebra::Vector3;
 
-use super::kind::{Fault, FaultKind};
+use super::kind::{CameraLens, Fault, FaultKind};
 use crate::battery::BatteryFaults;
 use crate::motors::MotorFaults;
 use crate::sensors::baro::BaroFaults;
@@ -113,6 +113,14 @@ impl FaultSchedule {
                 FaultKind::CameraStop => effects.camera.stop = true,
                 FaultKind::CameraBlack => effects.camera.black = true,
                 FaultKind::CameraFrozen => effects.camera.frozen = true,
+                FaultKind::CameraGlare { region, intensity, lens } => {
+                    // The latest entry active wins, as for the wind.
+                    effects.camera.glare = Some(Glare { region: *region, intensity: *intensity, lens: *lens })
+                }
+                FaultKind::CameraCapped { lens } => {
+                    effects.camera.capped_left |= lens.covers(true);
+                    effects.camera.capped_right |= lens.covers(false);
+                }
                 FaultKind::ActorPanic { .. } | FaultKind::LinkLost => {}
             }
         }
@@ -174,12 +182,44 @@ impl Default for FaultEffects {
 }
 
 /// The stereo camera's faults (applied in `camera_actor.rs`): when several are active, stopped
-/// wins over black, black over frozen.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// wins over black, black over frozen; a capped lens and glare act on a fresh frame (frozen
+/// repeats the last healthy one), the cap after the glare.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CameraFaults {
     pub stop: bool,
     pub black: bool,
     pub frozen: bool,
+    pub capped_left: bool,
+    pub capped_right: bool,
+    pub glare: Option<Glare>,
+}
+
+/// Veiling glare over part of the image (`camera_glare`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Glare {
+    /// `[x0, y0, x1, y1]`, shares of the image width and height, top-left origin.
+    pub region: [f64; 4],
+    /// 0..1: each pixel becomes `p + intensity·(255 − p)`.
+    pub intensity: f64,
+    pub lens: CameraLens,
+}
+
+impl Glare {
+    /// Applies the glare to one `width`×`height` grey image (`left` or right).
+    pub fn apply(&self, pixels: &mut [u8], width: usize, height: usize, left: bool) {
+        if !self.lens.covers(left) || width == 0 {
+            return;
+        }
+        let [x0, y0, x1, y1] = self.region;
+        let at = |share: f64, n: usize| ((share * n as f64).round() as usize).min(n);
+        let (c0, c1, r0, r1) = (at(x0, width), at(x1, width), at(y0, height), at(y1, height));
+        for row in pixels.chunks_exact_mut(width).take(r1).skip(r0) {
+            for p in &mut row[c0..c1] {
+                let v = f64::from(*p);
+                *p = (v + self.intensity * (255.0 - v)).round().clamp(0.0, 255.0) as u8;
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -271,6 +311,34 @@ mod tests {
             (message.kind.as_str(), message.values.as_str(), message.for_s),
             ("imu_stop", "", Some(2.0))
         );
+    }
+
+    #[test]
+    fn glare_whitens_its_region_on_its_lens_and_a_cap_blacks_out_one_side() {
+        let glare = Glare { region: [0.5, 0.0, 1.0, 0.5], intensity: 1.0, lens: CameraLens::Right };
+        let mut right = vec![100u8; 4 * 4];
+        glare.apply(&mut right, 4, 4, false);
+        let white: Vec<usize> = (0..16).filter(|&i| right[i] == 255).collect();
+        assert_eq!(white, [2, 3, 6, 7], "columns 2..4 of rows 0..2");
+        assert!(right.iter().all(|&p| p == 255 || p == 100));
+        let mut left = vec![100u8; 16];
+        glare.apply(&mut left, 4, 4, true);
+        assert!(left.iter().all(|&p| p == 100), "the left lens is not under this glare");
+        let half = Glare { intensity: 0.5, lens: CameraLens::Both, ..glare };
+        let mut both = vec![100u8; 16];
+        half.apply(&mut both, 4, 4, true);
+        assert_eq!(both[3], 178, "100 + 0.5·155 rounded");
+        let schedule = FaultSchedule::new(&[
+            fault(1.0, None, FaultKind::CameraCapped { lens: CameraLens::Right }),
+            fault(
+                2.0,
+                None,
+                FaultKind::CameraGlare { region: [0.0; 4], intensity: 0.0, lens: CameraLens::Both },
+            ),
+        ]);
+        let camera = schedule.effects_at(at(1.5)).camera;
+        assert_eq!((camera.capped_left, camera.capped_right, camera.glare), (false, true, None));
+        assert!(schedule.effects_at(at(2.5)).camera.glare.is_some());
     }
 
     fn any_kind() -> impl Strategy<Value = FaultKind> {
