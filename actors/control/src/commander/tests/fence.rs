@@ -9,11 +9,11 @@ use crate::commander::{Commander, CommanderParams};
 #[test]
 fn polygon_fence_inclusion() {
     let square = [[-10.0, -10.0], [-10.0, 10.0], [10.0, 10.0], [10.0, -10.0]];
-    assert!(crate::commander::geofence::inside_polygon(&square, 0.0, 0.0));
-    assert!(crate::commander::geofence::inside_polygon(&square, 9.9, -9.9));
-    assert!(!crate::commander::geofence::inside_polygon(&square, 10.1, 0.0));
-    assert!(!crate::commander::geofence::inside_polygon(&square, 0.0, -30.0));
-    assert!(crate::commander::geofence::inside_polygon(&[], 1e6, 1e6), "no polygon, no limit");
+    assert!(crate::commander::fence_zones::inside_polygon(&square, 0.0, 0.0));
+    assert!(crate::commander::fence_zones::inside_polygon(&square, 9.9, -9.9));
+    assert!(!crate::commander::fence_zones::inside_polygon(&square, 10.1, 0.0));
+    assert!(!crate::commander::fence_zones::inside_polygon(&square, 0.0, -30.0));
+    assert!(crate::commander::fence_zones::inside_polygon(&[], 1e6, 1e6), "no polygon, no limit");
 }
 
 #[test]
