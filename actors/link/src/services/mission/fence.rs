@@ -57,7 +57,10 @@ pub fn to_fence(items: &[MISSION_ITEM_INT_DATA], now: Time) -> Result<FencePlan,
             | MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
             | MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT => None,
             _ => {
-                return Err(refuse(MavMissionResult::MAV_MISSION_UNSUPPORTED, "command not supported".into()));
+                return Err(refuse(
+                    MavMissionResult::MAV_MISSION_UNSUPPORTED,
+                    "command not supported".into(),
+                ));
             }
         };
         if !(latlon[0].abs() <= 90.0 && latlon[1].abs() <= 180.0) {
