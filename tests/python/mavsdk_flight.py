@@ -358,7 +358,7 @@ async def geofence(v):
         await v.action.goto_location(outside.latitude_deg, outside.longitude_deg, alt, 0.0)
         raise Failed("goto_location outside the fence: accepted")
     except ActionError as e:
-        log("goto_location outside", f"refused: {e._result.result}")
+        log("goto_location outside", f"refused: {e.result.name}")
     await asyncio.sleep(2.0)
     moved = distance_m(before, await v.telemetry.position())
     if moved > 2.0:
