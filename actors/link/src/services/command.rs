@@ -155,8 +155,13 @@ impl CommandService {
                 self.region_of_interest(request, home(&ctx.telemetry.snapshot), now)
             }
             MavCmd::MAV_CMD_DO_REPOSITION => {
-                let guided =
-                    ctx.telemetry.snapshot.status.as_ref().is_some_and(|s| s.mode == FlightMode::Guided);
+                // GUIDED as a ground station sees it: the take-off flown in GUIDED is mode 4 too.
+                let guided = ctx
+                    .telemetry
+                    .snapshot
+                    .status
+                    .as_ref()
+                    .is_some_and(|s| matches!(s.mode, FlightMode::Guided | FlightMode::Takeoff));
                 self.reposition(request, home(&ctx.telemetry.snapshot), guided, now)
             }
             MavCmd::MAV_CMD_GET_HOME_POSITION => match ctx.telemetry.build(HOME_POSITION_DATA::ID, now) {

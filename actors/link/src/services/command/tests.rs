@@ -229,10 +229,10 @@ fn a_reposition_the_commander_refuses_fails_and_one_out_of_guided_is_denied() {
         sender: GCS,
     };
     let mut s = CommandService::new();
-    let out = s.reposition(goto.clone(), Some(origin), false, Time::ZERO);
+    let out = s.reposition(goto, Some(origin), false, Time::ZERO);
     assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "not in GUIDED, no change-mode flag");
     assert!(out.graph.is_empty());
-    let out = s.reposition(goto.clone(), Some(origin), true, Time::ZERO);
+    let out = s.reposition(goto, Some(origin), true, Time::ZERO);
     let [ToGraph::Request { id, command }] = out.graph[..] else { panic!("not passed on: {:?}", out.graph) };
     let ack = s.on_result(&answer(id, command, Some("guided target refused: outside the geofence polygon")));
     assert_eq!(ack.map(|a| result(&a).1), Some(MavResult::MAV_RESULT_FAILED));
