@@ -158,3 +158,9 @@ fn mavsdk_failure_plugin_gps_off_is_denied_until_enabled_then_lands_as_the_fault
     let t = fly("failure_gps", &[]);
     println!("disabled: {}; land: {}", detail(&t, "disabled"), detail(&t, "land"));
 }
+
+#[test]
+fn mavsdk_geofence_upload_refuses_a_goto_outside_and_a_breach_returns() {
+    let t = fly("geofence", &[]);
+    println!("outside: {}; breach: {}", detail(&t, "goto_location outside"), detail(&t, "breach"));
+}

@@ -232,5 +232,6 @@ pub fn vehicle_status(
         failed_motor: None,
         speed_cap: None,
         vertical_limit: None,
+        fence: crate::messages::FenceStatus::default(),
     }
 }

@@ -15,6 +15,10 @@ Usage: mavsdk_flight.py SCENARIO [PLAN.plan]   (run by tests/gcs_mavsdk.rs)
     log_files      take off to 5 m, land; LogFiles: the entries, the newest downloaded equal to
                    the vehicle's file ($KESTREL_STATE_DIR/sim/logs, byte for byte) and read by the
                    `mcap` reader (tests/python/read_mcap.py) from vehicle_status armed to disarmed
+    geofence       Geofence: upload an inclusion square of 200 m about home and an exclusion
+                   circle of 15 m radius 50 m north; take off to 10 m; goto_location outside the
+                   square refused, the vehicle stays; goto_location 90 m north (across the
+                   circle): the breach's action, RETURN_TO_LAUNCH, from near the circle's edge
 
 Every check reads what MAVSDK reports (telemetry, action and mission results), never the
 vehicle's log. One line per step goes to stdout (`wall_s step: detail`); the exit code is 0
@@ -31,12 +35,15 @@ import time
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.action import ActionAsync
 from mavsdk.asyncio.plugins.failure import FailureAsync
+from mavsdk.asyncio.plugins.geofence import GeofenceAsync
 from mavsdk.asyncio.plugins.log_files import LogFilesAsync
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
 from mavsdk.asyncio.plugins.offboard import OffboardAsync
 from mavsdk.asyncio.plugins.param import ParamAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
+from mavsdk.plugins.action import ActionError
 from mavsdk.plugins.failure import FailureError, FailureResult, FailureType, FailureUnit
+from mavsdk.plugins.geofence import Circle, FenceType, GeofenceData, Point, Polygon
 from mavsdk.plugins.offboard import VelocityNedYaw
 from mavsdk.plugins.telemetry import FlightMode, LandedState
 
@@ -84,6 +91,7 @@ class Vehicle:
         self.failure = FailureAsync(system)
         self.param = ParamAsync(system)
         self.log_files = LogFilesAsync(system)
+        self.geofence = GeofenceAsync(system)
 
     async def ready(self):
         health = await until("health: armable, global position, home",
@@ -324,8 +332,50 @@ async def log_files(v):
         raise Failed("mcap: the log is not the flight from arming to disarming")
 
 
+async def geofence(v):
+    home = await v.ready()
+    m_lat = 1.0 / 110_574.0
+    m_lon = 1.0 / (110_574.0 * math.cos(math.radians(home.latitude_deg)))
+
+    def point(north_m, east_m):
+        return Point(home.latitude_deg + north_m * m_lat, home.longitude_deg + east_m * m_lon)
+    square = Polygon([point(n, e) for n, e in ((-100, -100), (100, -100), (100, 100), (-100, 100))],
+                     FenceType.INCLUSION)
+    circle = Circle(point(50.0, 0.0), 15.0, FenceType.EXCLUSION)
+    await v.geofence.upload_geofence(GeofenceData([square], [circle]))
+    log("upload_geofence", "accepted")
+    await v.action.set_takeoff_altitude(10.0)
+    await v.arm()
+    await v.action.takeoff()
+
+    async def up():
+        return await v.relative_altitude() > 9.5
+    await until("at take-off height", up, 40.0)
+    before = await v.telemetry.position()
+    alt = home.absolute_altitude_m + 10.0
+    outside = point(150.0, 0.0)
+    try:
+        await v.action.goto_location(outside.latitude_deg, outside.longitude_deg, alt, 0.0)
+        raise Failed("goto_location outside the fence: accepted")
+    except ActionError as e:
+        log("goto_location outside", f"refused: {e.result.name}")
+    await asyncio.sleep(2.0)
+    moved = distance_m(before, await v.telemetry.position())
+    if moved > 2.0:
+        raise Failed(f"moved {moved:.1f} m after a refused goto")
+    across = point(90.0, 0.0)
+    await v.action.goto_location(across.latitude_deg, across.longitude_deg, alt, 0.0)
+    log("goto_location across the circle", "accepted")
+    await until("flight mode RETURN_TO_LAUNCH", lambda: _mode_is(v, FlightMode.RETURN_TO_LAUNCH), 60.0)
+    north = (await v.telemetry.position()).latitude_deg - home.latitude_deg
+    log("breach", f"RETURN_TO_LAUNCH at {north / m_lat:.1f} m north")
+    if not 25.0 < north / m_lat < 45.0:
+        raise Failed(f"breach action at {north / m_lat:.1f} m north, the circle's edge is at 35 m")
+
+
 SCENARIOS = {"takeoff_land": takeoff_land, "mission": mission, "offboard": offboard,
-             "goto_hold_rtl": goto_hold_rtl, "failure_gps": failure_gps, "log_files": log_files}
+             "goto_hold_rtl": goto_hold_rtl, "failure_gps": failure_gps, "log_files": log_files,
+             "geofence": geofence}
 
 
 async def run(name, args):

@@ -15,7 +15,7 @@ pub const PARAM_TABLE: &str = r#"[
   { name = "RTL_ALT_M", value = 15.0, min = 5.0, max = 120.0, unit = "m" },
   { name = "WPNAV_SPEED_MS", value = 5.0, min = 0.5, max = 15.0, unit = "m/s" },
   { name = "LAND_SPEED_MS", value = 1.5, min = 0.3, max = 3.0, unit = "m/s" },
-  { name = "FENCE_RADIUS_M", value = 300.0, min = 10.0, max = 10000.0, unit = "m" },
+  { name = "FENCE_RADIUS", value = 300.0, min = 10.0, max = 10000.0, unit = "m" },
   { name = "FS_GCS_ENABLE", value = 1, min = 0, max = 1, kind = "int32" },
   { name = "FS_GCS_TIMEOUT_S", value = 5.0, min = 1.0, max = 60.0, unit = "s" },
 ]"#;

@@ -4,7 +4,8 @@
 //! backup attitude, flown on while the estimator's state is stale), `battery` (BatteryStatus,
 //! `latest`), `manual` (ManualControl, `queue`: the receiver's and ground stations' sticks on one
 //! topic, each naming its source), `command` (VehicleCommand, `queue`), `mission` (Mission,
-//! `queue`), `supervisor` (SupervisorEvent, `queue`), `avoidance` (AvoidanceCommand,
+//! `queue`), `fence` (FencePlan, `queue`: the geofence a ground station uploaded; optional),
+//! `supervisor` (SupervisorEvent, `queue`), `avoidance` (AvoidanceCommand,
 //! `latest`; optional: routed only where the obstacle avoider runs, and from its first command
 //! on AUTO/GUIDED legs and POSHOLD's forward sticks blend its correction in and hold when it
 //! goes stale); timer `tick` at `tick_rate_hz`;
@@ -25,7 +26,7 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult,
-    EscTelemetry, FlightMode, LandedState, ManualControl, Mission, NavState, ParamDecl, ParamSet,
+    EscTelemetry, FencePlan, FlightMode, LandedState, ManualControl, Mission, NavState, ParamDecl, ParamSet,
     RangefinderSample, Setpoint, SpeedCapStatus, SupervisorEvent, VehicleCommand, VehicleStatus,
     VerticalLimitStatus,
 };
@@ -78,6 +79,8 @@ pub enum CommanderInput {
     Manual(ManualControl),
     Command(VehicleCommand),
     Mission(Mission),
+    /// The geofence a ground station uploaded (port `fence`).
+    Fence(FencePlan),
     Supervisor(SupervisorEvent),
     /// Boxed: the avoider's command carries its rule activations and shares.
     Avoidance(Box<AvoidanceCommand>),
@@ -142,6 +145,7 @@ impl Actor for CommanderActor {
         setup.input("manual", CommanderInput::Manual);
         setup.input("command", CommanderInput::Command);
         setup.input("mission", CommanderInput::Mission);
+        setup.input("fence", CommanderInput::Fence);
         setup.input("supervisor", CommanderInput::Supervisor);
         setup.input("avoidance", |cmd| CommanderInput::Avoidance(Box::new(cmd)));
         setup.input("param_set", CommanderInput::Param);
@@ -229,6 +233,10 @@ impl Actor for CommanderActor {
             }
             CommanderInput::Mission(mission) => {
                 let _ = self.commander.on_mission(mission);
+                self.step(ctx, ctx.now());
+            }
+            CommanderInput::Fence(plan) => {
+                self.commander.on_fence(plan);
                 self.step(ctx, ctx.now());
             }
         }

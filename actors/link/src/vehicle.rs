@@ -47,6 +47,7 @@ const DEFAULT_GCS_SYSID: u8 = 255;
 pub fn capabilities() -> MavProtocolCapability {
     MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_COMMAND_INT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_C_CAST
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED

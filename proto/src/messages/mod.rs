@@ -11,6 +11,7 @@ mod esc_pulses;
 mod esc_telemetry;
 mod estimator_status;
 mod failure_injection;
+mod fence_plan;
 mod gps;
 mod ground_truth;
 mod imu;
@@ -50,6 +51,7 @@ pub use failure_injection::{
     FAILURE_INJECTION_ENABLE, FailureInjection, FailureInjectionResult, FailureType, FailureUnit,
     InjectionOutcome,
 };
+pub use fence_plan::{FenceKind, FencePlan, FenceZone};
 pub use gps::{GpsFix, GpsFixType};
 pub use ground_truth::GroundTruth;
 pub use imu::ImuSample;
@@ -68,6 +70,7 @@ pub use stereo_frame::{FrameSizeError, StereoFrame};
 pub use supervisor::{SupervisorEvent, SupervisorEventKind};
 pub use vehicle_command::{Command, CommandResult, VehicleCommand};
 pub use vehicle_status::{
-    Failsafe, FailsafeAction, FailsafeCause, FlightMode, Home, LandedState, MissionProgress, SpeedCapStatus,
-    VehicleStatus, VerticalLimitKind, VerticalLimitStatus,
+    FENCE_ALT_MAX, FENCE_ALT_MIN, FENCE_CIRCLE, FENCE_POLYGON, Failsafe, FailsafeAction, FailsafeCause,
+    FenceStatus, FlightMode, Home, LandedState, MissionProgress, SpeedCapStatus, VehicleStatus,
+    VerticalLimitKind, VerticalLimitStatus,
 };

@@ -204,6 +204,29 @@ pub struct VehicleStatus {
     /// moves with every reading, so only its kind counts as a change of status.
     #[serde(default)]
     pub vertical_limit: Option<VerticalLimitStatus>,
+    /// The geofence's breaches, for FENCE_STATUS.
+    #[serde(default)]
+    pub fence: FenceStatus,
+}
+
+/// ArduCopter's `FENCE_TYPE` bit of the altitude ceiling (`FENCE_ALT_MAX`).
+pub const FENCE_ALT_MAX: u8 = 1;
+/// `FENCE_TYPE` bit of the circle around home (`FENCE_RADIUS`).
+pub const FENCE_CIRCLE: u8 = 2;
+/// `FENCE_TYPE` bit of the uploaded polygons and circles (and the configured polygon).
+pub const FENCE_POLYGON: u8 = 4;
+/// `FENCE_TYPE` bit of the altitude floor (`FENCE_ALT_MIN`).
+pub const FENCE_ALT_MIN: u8 = 8;
+
+/// The geofence's breach bookkeeping, as ArduCopter's `AC_Fence` keeps it for FENCE_STATUS.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct FenceStatus {
+    /// Fences breached now, as `FENCE_TYPE` bits (`FENCE_ALT_MAX` ...); 0 when inside all.
+    pub breaches: u8,
+    /// Breaches since boot: each fence newly breached counts one (saturating).
+    pub breach_count: u16,
+    /// When the latest breach began; `None` before the first.
+    pub breach_time: Option<Time>,
 }
 
 /// The geofence is on unless a ground station switched it off (older logs did not say).

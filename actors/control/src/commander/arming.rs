@@ -205,6 +205,9 @@ impl Commander {
                 return refuse(step.prearm_text());
             }
         }
+        if let Some(why) = self.geofence.pre_arm(&self.params.geofence) {
+            return refuse(format!("PreArm: {why}"));
+        }
         if self.geofence.enabled()
             && self.geofence.outside(nav, &self.home.or_here(nav), &self.params.geofence)
         {

@@ -6,9 +6,11 @@
 //! the ground, an RTL or a landing disarms.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{FailsafeAction, FailsafeCause, FlightMode};
+use kestrel_proto::messages::{FailsafeAction, FailsafeCause, FlightMode, LandedState, NavState};
+use nalgebra::Vector3;
 
 use super::arming::needs_position;
+use super::geofence::GIVE_UP_M;
 use super::pilot_input::PilotLimits;
 use super::{Commander, FailsafeMonitor, MotorCheck, flown_from_sticks};
 
@@ -88,17 +90,19 @@ impl Commander {
         });
         let avoidance_lost = self.avoidance.silent_for_s(now).is_some_and(|s| s > fs.avoidance_lost_s);
         let sticks_lost = flown_from_sticks(self.mode) && self.pilot.sticks_lost(now, &limits);
-        let fence = self.geofence.enabled()
-            && nav
-                .as_ref()
-                .is_some_and(|n| self.geofence.outside(n, &self.home.or_here(n), &self.params.geofence));
+        let fence_action = self.judge_fence(now, nav.as_ref(), fs.geofence_action);
         let critical_actor_failed = self.faults.critical_actor_failed();
         let motor_failed = self.faults.motor_failed();
         let m = &mut self.faults.monitor;
         m.set(now, FailsafeCause::DataLinkLost, armed && link_lost, fs.link_action);
         m.set(now, FailsafeCause::BatteryLow, battery.low, fs.battery_low_action);
         m.set(now, FailsafeCause::BatteryCritical, battery.critical, fs.battery_critical_action);
-        m.set(now, FailsafeCause::GeofenceBreach, armed && fence, fs.geofence_action);
+        m.set(
+            now,
+            FailsafeCause::GeofenceBreach,
+            fence_action.is_some(),
+            fence_action.unwrap_or(fs.geofence_action),
+        );
         m.set(now, FailsafeCause::EstimatorUnhealthy, armed && unhealthy, fs.estimator_action);
         m.set(now, FailsafeCause::NavStateStale, nav_stale, FailsafeAction::Land);
         m.set(
@@ -111,6 +115,33 @@ impl Commander {
         m.set(now, FailsafeCause::AvoidanceLost, armed && avoidance_lost, fs.avoidance_action);
         m.set(now, FailsafeCause::MotorFailure, armed && motor_failed, fs.motor_failure_action);
         self.apply_failsafe(now);
+    }
+
+    /// The geofence's judgement at `now` (`Geofence::update`): the action its breach takes, or
+    /// `None` inside (or off, or disarmed). An RTL more than `GIVE_UP_M` beyond the ceiling or
+    /// the circle lands instead, as ArduCopter's `fence_check` does. A breach ending is
+    /// announced ("Fence breach cleared", ArduCopter's notice).
+    fn judge_fence(
+        &mut self,
+        now: Time,
+        nav: Option<&NavState>,
+        action: FailsafeAction,
+    ) -> Option<FailsafeAction> {
+        let landing = self.mode == FlightMode::Land || self.landing.state() != LandedState::InAir;
+        let home = nav.map_or_else(Vector3::zeros, |n| self.home.or_here(n));
+        let before = self.geofence.status().breaches;
+        let breaches = self.geofence.update(now, nav, &home, &self.params.geofence, self.armed, landing);
+        if breaches == 0 {
+            if before != 0 && self.armed {
+                self.announce("Fence breach cleared".to_owned());
+            }
+            return None;
+        }
+        let far = nav.is_some_and(|n| {
+            let p = Vector3::from(n.position_ned_m);
+            self.geofence.breach_distance(&p, &home, &self.params.geofence) > GIVE_UP_M
+        });
+        Some(if far && action == FailsafeAction::ReturnToLaunch { FailsafeAction::Land } else { action })
     }
 
     fn apply_failsafe(&mut self, now: Time) {

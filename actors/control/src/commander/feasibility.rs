@@ -10,7 +10,7 @@ use nalgebra::Vector3;
 
 use super::Commander;
 use super::arming::Refusal;
-use super::geofence::inside_polygon;
+use super::geofence::Geofence;
 use super::mission_runner::resolve;
 use super::params::{FeasibilityParams, GeofenceParams};
 
@@ -19,9 +19,8 @@ pub(crate) struct Place<'a> {
     pub frame: LocalFrame,
     pub home: Vector3<f64>,
     pub vehicle: Vector3<f64>,
-    /// The fence's polygon in NED north/east (m), empty for none.
-    pub fence_ned: &'a [[f64; 2]],
-    pub fence_enabled: bool,
+    /// The geofence while it is on; `None` off.
+    pub fence: Option<&'a Geofence>,
 }
 
 /// What can be checked without knowing where the vehicle is ([`Mission::check_fields`], which
@@ -90,22 +89,8 @@ pub(crate) fn check_point(
     if flown_height && height > limits.max_distance_m {
         return Some(format!("{height:.0} m above home, at most {:.0} m", limits.max_distance_m));
     }
-    if place.fence_enabled {
-        if distance > fence.max_radius_m {
-            return Some(format!(
-                "{distance:.0} m from home, outside the {:.0} m geofence",
-                fence.max_radius_m
-            ));
-        }
-        if flown_height && height > fence.max_altitude_m {
-            return Some(format!(
-                "{height:.0} m above home, above the {:.0} m geofence",
-                fence.max_altitude_m
-            ));
-        }
-        if !inside_polygon(place.fence_ned, ned.x, ned.y) {
-            return Some("outside the geofence polygon".into());
-        }
+    if let Some(why) = place.fence.and_then(|f| f.target_refused(ned, &place.home, fence, flown_height)) {
+        return Some(why);
     }
     None
 }
@@ -120,8 +105,7 @@ impl Commander {
             frame,
             home: self.home.ned().unwrap_or(vehicle),
             vehicle,
-            fence_ned: self.geofence.polygon_ned(),
-            fence_enabled: self.geofence.enabled(),
+            fence: self.geofence.enabled().then_some(&self.geofence),
         })
     }
 
@@ -166,8 +150,9 @@ mod tests {
 
     fn check(items: Vec<MissionItem>, fence_enabled: bool) -> Result<(), Refusal> {
         let frame = LocalFrame::new(HOME);
-        let place =
-            Place { frame, home: Vector3::zeros(), vehicle: Vector3::zeros(), fence_ned: &[], fence_enabled };
+        let geofence = Geofence::default();
+        let fence = fence_enabled.then_some(&geofence);
+        let place = Place { frame, home: Vector3::zeros(), vehicle: Vector3::zeros(), fence };
         check_mission(&mission(items), &place, &FeasibilityParams::default(), &GeofenceParams::default())
     }
 

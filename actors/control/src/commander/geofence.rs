@@ -1,34 +1,67 @@
-//! The geofence: a cylinder around home (`max_radius_m`, `max_altitude_m`) and an optional
-//! inclusion polygon, placed in the estimator's NED frame once it has an origin, and switched
-//! by MAV_CMD_DO_FENCE_ENABLE. A breach while armed is the `GeofenceBreach` failsafe; outside
+//! The geofence: ArduCopter's fences (`FENCE_TYPE` bits) around home — the altitude ceiling
+//! (`max_altitude_m`, `FENCE_ALT_MAX`), the floor (`min_altitude_m`, `FENCE_ALT_MIN`), the
+//! circle (`max_radius_m`, `FENCE_RADIUS`) — and the polygons: the configured inclusion polygon
+//! and the zones a ground station uploaded (`fence_zones`), all placed in the estimator's NED
+//! frame once it has an origin. The switch is `FENCE_ENABLE` at boot and
+//! MAV_CMD_DO_FENCE_ENABLE after. A breach while armed is the `GeofenceBreach` failsafe; outside
 //! it the vehicle does not arm, and `feasibility` refuses targets beyond it.
 //!
-//! The polygon is held as one list of vertices: fences a ground station uploads (several
-//! inclusion and exclusion polygons, circles) belong here beside it.
+//! As ArduCopter's `AC_Fence`: each fence newly breached counts one breach (FENCE_STATUS); the
+//! floor counts only once the vehicle has climbed above it this flight and never while landing;
+//! a breach more than [`GIVE_UP_M`] beyond the ceiling or the circle lands instead of returning.
 
+use kestrel_proto::Time;
 use kestrel_proto::geo::LocalFrame;
-use kestrel_proto::messages::NavState;
+use kestrel_proto::messages::{
+    FENCE_ALT_MAX, FENCE_ALT_MIN, FENCE_CIRCLE, FENCE_POLYGON, FencePlan, FenceStatus, NavState,
+};
 use nalgebra::Vector3;
 
+use super::fence_zones::{ZoneNed, breached, inside_polygon};
 use super::params::GeofenceParams;
 
-/// Whether the fence is on, and its polygon in the local frame.
+/// Beyond this distance outside the ceiling or the circle (m), ArduCopter's breach action lands
+/// rather than returning (`AC_FENCE_GIVE_UP_DISTANCE`).
+pub(crate) const GIVE_UP_M: f64 = 100.0;
+
+/// Whether the fence is on, its shapes in the local frame, and its breaches.
 #[derive(Debug)]
 pub(crate) struct Geofence {
-    /// A breach triggers its failsafe (MAV_CMD_DO_FENCE_ENABLE switches it); on at boot.
+    /// A breach triggers its failsafe (MAV_CMD_DO_FENCE_ENABLE switches it).
     enabled: bool,
-    /// The inclusion polygon's vertices, north/east (m) from the estimator's origin; empty
-    /// before the origin is known, or for no polygon.
+    /// The configured inclusion polygon's vertices, north/east (m) from the estimator's origin;
+    /// empty before the origin is known, or for no polygon.
     polygon_ned: Vec<[f64; 2]>,
+    /// The uploaded fence as it came (WGS-84), kept to place again when the origin is known.
+    plan: Option<FencePlan>,
+    /// The uploaded zones in the local frame; empty before the origin is known.
+    zones: Vec<ZoneNed>,
+    frame: Option<LocalFrame>,
+    /// The vehicle has been above the floor this flight (ArduCopter's auto-enabled floor).
+    floor_reached: bool,
+    status: FenceStatus,
 }
 
 impl Default for Geofence {
     fn default() -> Geofence {
-        Geofence { enabled: true, polygon_ned: Vec::new() }
+        Geofence {
+            enabled: true,
+            polygon_ned: Vec::new(),
+            plan: None,
+            zones: Vec::new(),
+            frame: None,
+            floor_reached: false,
+            status: FenceStatus::default(),
+        }
     }
 }
 
 impl Geofence {
+    /// The fence with its boot switch (`FENCE_ENABLE`).
+    pub fn new(enabled: bool) -> Geofence {
+        Geofence { enabled, ..Geofence::default() }
+    }
+
     pub fn enabled(&self) -> bool {
         self.enabled
     }
@@ -43,8 +76,8 @@ impl Geofence {
         self.enabled = enabled;
     }
 
-    /// Places the configured polygon (`[lat_deg, lon_deg]` vertices) in `frame`, at the
-    /// origin's altitude.
+    /// Places the configured polygon (`[lat_deg, lon_deg]` vertices) and any uploaded zones in
+    /// `frame`, at the origin's altitude.
     pub fn place(&mut self, frame: &LocalFrame, polygon_deg: &[[f64; 2]]) {
         let alt_m = frame.home().alt_m;
         self.polygon_ned = polygon_deg
@@ -54,43 +87,190 @@ impl Geofence {
                 [ned[0], ned[1]]
             })
             .collect();
+        self.frame = Some(*frame);
+        self.place_zones();
     }
 
-    /// The polygon's vertices, north/east (m); empty for none.
+    fn place_zones(&mut self) {
+        self.zones = match (&self.plan, &self.frame) {
+            (Some(plan), Some(frame)) => plan.zones.iter().map(|z| ZoneNed::place(z, frame)).collect(),
+            _ => Vec::new(),
+        };
+    }
+
+    /// An uploaded fence replaces the one before (no zones clears it). The link checked it
+    /// whole before acknowledging it.
+    pub fn set_plan(&mut self, plan: FencePlan) {
+        tracing::info!(zones = plan.zones.len(), "uploaded geofence");
+        self.plan = (!plan.zones.is_empty()).then_some(plan);
+        self.place_zones();
+    }
+
+    /// The configured polygon's vertices, north/east (m); empty for none.
+    #[cfg(test)]
     pub fn polygon_ned(&self) -> &[[f64; 2]] {
         &self.polygon_ned
     }
 
+    /// The breach bookkeeping for FENCE_STATUS.
+    pub fn status(&self) -> FenceStatus {
+        self.status
+    }
+
+    /// The fences (`FENCE_TYPE` bits) the NED point (m) is beyond, whether or not the fence is
+    /// on. `floor` false leaves the floor out.
+    fn breaches_at(&self, p: &Vector3<f64>, home: &Vector3<f64>, limits: &GeofenceParams, floor: bool) -> u8 {
+        let types = limits.types;
+        let height = home.z - p.z;
+        let radius = (p.x - home.x).hypot(p.y - home.y);
+        let mut bits = 0;
+        if types & FENCE_ALT_MAX != 0 && height > limits.max_altitude_m {
+            bits |= FENCE_ALT_MAX;
+        }
+        if floor && types & FENCE_ALT_MIN != 0 && height < limits.min_altitude_m {
+            bits |= FENCE_ALT_MIN;
+        }
+        if types & FENCE_CIRCLE != 0 && radius > limits.max_radius_m {
+            bits |= FENCE_CIRCLE;
+        }
+        if types & FENCE_POLYGON != 0
+            && (!inside_polygon(&self.polygon_ned, p.x, p.y) || breached(&self.zones, p.x, p.y))
+        {
+            bits |= FENCE_POLYGON;
+        }
+        bits
+    }
+
     /// The vehicle at `nav` is outside the fence around `home` (NED, m), whether or not the
-    /// fence is on; never without a horizontal and vertical position.
+    /// fence is on; never without a horizontal and vertical position. The floor counts once
+    /// reached (`update`).
     pub fn outside(&self, nav: &NavState, home: &Vector3<f64>, limits: &GeofenceParams) -> bool {
         if !(nav.valid.horizontal_position && nav.valid.vertical_position) {
             return false;
         }
         let p = Vector3::from(nav.position_ned_m);
-        let radius = (p.x - home.x).hypot(p.y - home.y);
-        let height = home.z - p.z;
-        radius > limits.max_radius_m
-            || height > limits.max_altitude_m
-            || !inside_polygon(&self.polygon_ned, p.x, p.y)
+        self.breaches_at(&p, home, limits, self.floor_reached) != 0
+    }
+
+    /// Judges the vehicle at `nav` at `now` and keeps the breach bookkeeping (ArduCopter's
+    /// `AC_Fence::check`, once per commander update): the fences breached now (0 when off,
+    /// disarmed or without a position), each new one counted. `landing` leaves the floor out.
+    /// Returns the fences breached now.
+    pub fn update(
+        &mut self,
+        now: Time,
+        nav: Option<&NavState>,
+        home: &Vector3<f64>,
+        limits: &GeofenceParams,
+        armed: bool,
+        landing: bool,
+    ) -> u8 {
+        let placed = nav.filter(|n| n.valid.horizontal_position && n.valid.vertical_position);
+        if !armed {
+            self.floor_reached = false;
+        }
+        let bits = match placed {
+            Some(n) if self.enabled && armed => {
+                let p = Vector3::from(n.position_ned_m);
+                if home.z - p.z > limits.min_altitude_m {
+                    self.floor_reached = true;
+                }
+                self.breaches_at(&p, home, limits, self.floor_reached && !landing)
+            }
+            _ => 0,
+        };
+        let new = bits & !self.status.breaches;
+        if new != 0 {
+            self.status.breach_count = self.status.breach_count.saturating_add(new.count_ones() as u16);
+            self.status.breach_time = Some(now);
+        }
+        self.status.breaches = bits;
+        bits
+    }
+
+    /// How far (m) the NED point is beyond the ceiling and the circle it breaches, the larger;
+    /// 0 inside them (ArduCopter measures no distance for a polygon).
+    pub fn breach_distance(&self, p: &Vector3<f64>, home: &Vector3<f64>, limits: &GeofenceParams) -> f64 {
+        let above = (home.z - p.z) - limits.max_altitude_m;
+        let beyond = (p.x - home.x).hypot(p.y - home.y) - limits.max_radius_m;
+        let mut d: f64 = 0.0;
+        if self.status.breaches & FENCE_ALT_MAX != 0 {
+            d = d.max(above);
+        }
+        if self.status.breaches & FENCE_CIRCLE != 0 {
+            d = d.max(beyond);
+        }
+        d
+    }
+
+    /// Why a NED target (m) is outside the fence (ArduCopter's
+    /// `AC_Fence::check_destination_within_fence`), `None` inside; `flown_height` false for a
+    /// landing point, whose height is the ground's.
+    pub fn target_refused(
+        &self,
+        ned: &Vector3<f64>,
+        home: &Vector3<f64>,
+        limits: &GeofenceParams,
+        flown_height: bool,
+    ) -> Option<String> {
+        let bits = self.breaches_at(ned, home, limits, flown_height);
+        let height = home.z - ned.z;
+        let distance = (ned.x - home.x).hypot(ned.y - home.y);
+        if bits & FENCE_CIRCLE != 0 {
+            return Some(format!(
+                "{distance:.0} m from home, outside the {:.0} m geofence",
+                limits.max_radius_m
+            ));
+        }
+        if flown_height && bits & FENCE_ALT_MAX != 0 {
+            return Some(format!(
+                "{height:.0} m above home, above the {:.0} m geofence",
+                limits.max_altitude_m
+            ));
+        }
+        if bits & FENCE_ALT_MIN != 0 {
+            return Some(format!(
+                "{height:.0} m above home, below the {:.0} m geofence floor",
+                limits.min_altitude_m
+            ));
+        }
+        if bits & FENCE_POLYGON != 0 {
+            return Some("outside the geofence polygon".into());
+        }
+        None
+    }
+
+    /// ArduCopter's fence pre-arm checks on the parameters (its own words), `None` when they
+    /// hold or the fence is off.
+    pub fn pre_arm(&self, limits: &GeofenceParams) -> Option<&'static str> {
+        if !self.enabled {
+            return None;
+        }
+        if limits.types == 0 {
+            return Some("Fences enabled, but none selected");
+        }
+        if limits.types & FENCE_CIRCLE != 0 && limits.max_radius_m < limits.margin_m {
+            return Some("Circle FENCE_MARGIN is greater than FENCE_RADIUS");
+        }
+        let alt_both = FENCE_ALT_MAX | FENCE_ALT_MIN;
+        if limits.types & alt_both == alt_both {
+            if limits.max_altitude_m < limits.min_altitude_m {
+                return Some("FENCE_ALT_MAX < FENCE_ALT_MIN");
+            }
+            if limits.max_altitude_m - limits.min_altitude_m <= 2.0 * limits.margin_m {
+                return Some("FENCE_MARGIN too big");
+            }
+        }
+        None
     }
 }
 
-/// Even-odd ray casting; an empty polygon contains everything.
-pub(crate) fn inside_polygon(vertices: &[[f64; 2]], north: f64, east: f64) -> bool {
-    if vertices.len() < 3 {
-        return true;
+impl super::Commander {
+    /// The geofence a ground station uploaded (or cleared, with no zones): enforced from the
+    /// next update, in every mode, and judged against every target and mission from now on.
+    pub fn on_fence(&mut self, plan: FencePlan) {
+        self.geofence.set_plan(plan);
     }
-    let mut inside = false;
-    let mut j = vertices.len() - 1;
-    for i in 0..vertices.len() {
-        let ([ni, ei], [nj, ej]) = (vertices[i], vertices[j]);
-        if (ei > east) != (ej > east) && north < (nj - ni) * (east - ei) / (ej - ei) + ni {
-            inside = !inside;
-        }
-        j = i;
-    }
-    inside
 }
 
 #[cfg(test)]

@@ -1,8 +1,9 @@
 //! The commander's live parameters: every tunable field of [`CommanderParams`] a ground station
 //! may change in flight, declared once here with its MAVLink name, range and unit. The actor
 //! publishes this table to the link (`param_decl`) and applies `ParamSet`s against it. Names
-//! follow ArduPilot's where one exists, with the unit spelled out (`RTL_ALT_M`, `FENCE_RADIUS_M`),
-//! so QGroundControl and MAVProxy users recognise them. Ranges are what a small multirotor can
+//! follow ArduPilot's where one exists, with the unit spelled out (`RTL_ALT_M`), or exactly
+//! ArduCopter's where ground station tools set them by name (the `FENCE_*` family), so
+//! QGroundControl and MAVProxy users recognise them. Ranges are what a small multirotor can
 //! sensibly fly; the whole struct is validated again after each change (e.g. the critical
 //! battery share must stay below the low one), and a refused change keeps the old value. The
 //! failsafe actions are enumerations in ArduCopter's (and for a motor PX4's) numbering
@@ -298,7 +299,28 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.failsafe.battery_volt_timer_s = v,
     },
     ParamDef {
-        name: "FENCE_RADIUS_M",
+        name: "FENCE_ENABLE",
+        unit: "",
+        min: 0.0,
+        max: 1.0,
+        description: "Geofence on (1) or off (0); MAV_CMD_DO_FENCE_ENABLE switches it too",
+        while_armed: WhileArmed::Tunable,
+        get: |p| f64::from(u8::from(p.geofence.enabled)),
+        set: |p, v| p.geofence.enabled = v == 1.0,
+    },
+    ParamDef {
+        name: "FENCE_TYPE",
+        unit: "",
+        min: 0.0,
+        max: 15.0,
+        description: "Geofence kinds enforced, bits: 1 max altitude, 2 circle, 4 polygons, 8 min altitude",
+        while_armed: WhileArmed::Tunable,
+        get: |p| f64::from(p.geofence.types),
+        // The range is checked first; a fraction is not a bit mask.
+        set: |p, v| p.geofence.types = if v.fract() == 0.0 { v as u8 } else { u8::MAX },
+    },
+    ParamDef {
+        name: "FENCE_RADIUS",
         unit: "m",
         min: 10.0,
         max: 10000.0,
@@ -308,7 +330,7 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.geofence.max_radius_m = v,
     },
     ParamDef {
-        name: "FENCE_ALT_MAX_M",
+        name: "FENCE_ALT_MAX",
         unit: "m",
         min: 5.0,
         max: 500.0,
@@ -316,6 +338,26 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         while_armed: WhileArmed::Tunable,
         get: |p| p.geofence.max_altitude_m,
         set: |p, v| p.geofence.max_altitude_m = v,
+    },
+    ParamDef {
+        name: "FENCE_ALT_MIN",
+        unit: "m",
+        min: -100.0,
+        max: 100.0,
+        description: "Geofence: least height above home, once climbed above it",
+        while_armed: WhileArmed::Tunable,
+        get: |p| p.geofence.min_altitude_m,
+        set: |p, v| p.geofence.min_altitude_m = v,
+    },
+    ParamDef {
+        name: "FENCE_MARGIN",
+        unit: "m",
+        min: 0.0,
+        max: 100.0,
+        description: "Geofence: distance to keep from the fences (pre-arm: circle and altitude band wider)",
+        while_armed: WhileArmed::Tunable,
+        get: |p| p.geofence.margin_m,
+        set: |p, v| p.geofence.margin_m = v,
     },
     ParamDef {
         name: "FD_ACT_EN",

@@ -31,6 +31,7 @@ mod failsafe;
 mod failsafe_actions;
 mod faults;
 mod feasibility;
+mod fence_zones;
 mod geofence;
 mod guided;
 mod home;
@@ -98,7 +99,7 @@ pub struct Commander {
     nav: nav_source::NavSource,
     /// Home and the estimator's NED frame (`home`).
     home: home::Home,
-    /// The geofence's switch and polygon (`geofence`).
+    /// The geofence's switch, shapes and breaches (`geofence`).
     geofence: geofence::Geofence,
     /// The newest battery report and the voltage held under its thresholds (`battery`).
     battery: battery::Battery,
@@ -133,6 +134,7 @@ impl Commander {
             .map_err(|e| InvalidParam::new("failsafe.motor_failure", e.to_string()))?;
         Ok(Commander {
             guided: guided::Guided::new(params.takeoff_altitude_m),
+            geofence: geofence::Geofence::new(params.geofence.enabled),
             params,
             armed: false,
             mode: FlightMode::Guided,
@@ -140,7 +142,6 @@ impl Commander {
             landing: landing::Landing::default(),
             nav: nav_source::NavSource::default(),
             home: home::Home::default(),
-            geofence: geofence::Geofence::default(),
             battery: battery::Battery::default(),
             calibration: None,
             pilot: PilotInput::default(),
@@ -163,6 +164,10 @@ impl Commander {
     /// it is one of the commander's and the result validates, otherwise the old value stays.
     pub fn on_param(&mut self, name: &str, value: f64) -> Result<ParamChange, ParamRefused> {
         let change = live_params::apply(&mut self.params, name, value)?;
+        // FENCE_ENABLE is the switch too, as ArduCopter's parameter is.
+        if change == ParamChange::Applied && name == "FENCE_ENABLE" {
+            self.geofence.set_enabled(self.params.geofence.enabled);
+        }
         // `apply` validated the whole set, the detector's part with it.
         self.faults
             .motors
@@ -394,6 +399,7 @@ impl Commander {
             failed_motor: self.failed_motor_u8(),
             speed_cap: self.avoidance.speed_cap,
             vertical_limit: self.vertical.status(),
+            fence: self.geofence.status(),
         }
     }
 

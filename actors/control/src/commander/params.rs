@@ -242,21 +242,41 @@ impl FailsafeParams {
     }
 }
 
-/// `[geofence]`: a cylinder around home and an optional inclusion polygon.
+/// `[geofence]`: the vehicle's own fences (ArduCopter's `FENCE_*` parameters, the defaults a
+/// ground station's PARAM_SET changes live): a cylinder around home, a floor, and an optional
+/// inclusion polygon beside the zones a ground station uploads.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GeofenceParams {
-    /// Largest horizontal distance from home (m).
+    /// The fence is on at boot (`FENCE_ENABLE`; MAV_CMD_DO_FENCE_ENABLE switches it after).
+    pub enabled: bool,
+    /// The fences enforced, ArduCopter's `FENCE_TYPE` bits: 1 ceiling, 2 circle, 4 polygons
+    /// (configured and uploaded), 8 floor. ArduCopter's default 7.
+    pub types: u8,
+    /// Largest horizontal distance from home (m; `FENCE_RADIUS`).
     pub max_radius_m: f64,
-    /// Largest height above home (m).
+    /// Largest height above home (m; `FENCE_ALT_MAX`).
     pub max_altitude_m: f64,
+    /// Least height above home once climbed above it (m; `FENCE_ALT_MIN`, ArduCopter's -10).
+    pub min_altitude_m: f64,
+    /// Distance to keep from the fences (m; `FENCE_MARGIN`, ArduCopter's 2): the pre-arm checks
+    /// want the circle and the altitude band wider than it.
+    pub margin_m: f64,
     /// Inclusion polygon as `[lat_deg, lon_deg]` vertices; empty for none.
     pub polygon: Vec<[f64; 2]>,
 }
 
 impl Default for GeofenceParams {
     fn default() -> GeofenceParams {
-        GeofenceParams { max_radius_m: 300.0, max_altitude_m: 120.0, polygon: Vec::new() }
+        GeofenceParams {
+            enabled: true,
+            types: 7,
+            max_radius_m: 300.0,
+            max_altitude_m: 120.0,
+            min_altitude_m: -10.0,
+            margin_m: 2.0,
+            polygon: Vec::new(),
+        }
     }
 }
 
@@ -350,6 +370,11 @@ impl CommanderParams {
         self.failsafe.validate_actions()?;
         MotorFailureDetector::new(self.failsafe.motor_failure)
             .map_err(|e| InvalidParam::new("failsafe.motor_failure", e.to_string()))?;
+        if self.geofence.types > 15 {
+            return Err(InvalidParam::new("geofence.types", "FENCE_TYPE bits are 1, 2, 4 and 8: at most 15"));
+        }
+        within("geofence.min_altitude_m", self.geofence.min_altitude_m, -100.0, 100.0)?;
+        within("geofence.margin_m", self.geofence.margin_m, 0.0, 100.0)?;
         let polygon = &self.geofence.polygon;
         if !polygon.is_empty() && polygon.len() < 3 {
             return Err(InvalidParam::new("geofence.polygon", "needs at least 3 vertices"));

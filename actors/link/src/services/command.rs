@@ -154,7 +154,16 @@ impl CommandService {
             MavCmd::MAV_CMD_DO_SET_ROI_LOCATION => {
                 self.region_of_interest(request, home(&ctx.telemetry.snapshot), now)
             }
-            MavCmd::MAV_CMD_DO_REPOSITION => self.reposition(request, home(&ctx.telemetry.snapshot), now),
+            MavCmd::MAV_CMD_DO_REPOSITION => {
+                // GUIDED as a ground station sees it: the take-off flown in GUIDED is mode 4 too.
+                let guided = ctx
+                    .telemetry
+                    .snapshot
+                    .status
+                    .as_ref()
+                    .is_some_and(|s| matches!(s.mode, FlightMode::Guided | FlightMode::Takeoff));
+                self.reposition(request, home(&ctx.telemetry.snapshot), guided, now)
+            }
             MavCmd::MAV_CMD_GET_HOME_POSITION => match ctx.telemetry.build(HOME_POSITION_DATA::ID, now) {
                 Some(home) => Outputs {
                     mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), home],
@@ -284,8 +293,16 @@ impl CommandService {
     /// to a point, converted to NED around the estimator's `origin`. As in ArduCopter, the
     /// vehicle must be in GUIDED unless param2 carries MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, which
     /// switches to GUIDED first. The speed (param1) and yaw (param4) are not flown: the leg
-    /// keeps the guided speed and the heading held.
-    pub fn reposition(&mut self, request: CommandRequest, origin: Option<Geodetic>, now: Time) -> Outputs {
+    /// keeps the guided speed and the heading held. Out of GUIDED (`guided`, the last status)
+    /// without that flag it is DENIED here; a target the commander refuses (beyond the fence) is
+    /// FAILED, as ArduCopter answers both (`on_answer`).
+    pub fn reposition(
+        &mut self,
+        request: CommandRequest,
+        origin: Option<Geodetic>,
+        guided: bool,
+        now: Time,
+    ) -> Outputs {
         let p = request.params;
         let denied = || Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED));
         let change_mode = match whole(p[1], u8::MAX.into()) {
@@ -294,6 +311,9 @@ impl CommandService {
             None => return denied(),
         };
         let Ok(Some(point)) = reposition_target(&request) else { return denied() };
+        if !guided && !change_mode {
+            return denied();
+        }
         let Some(origin) = origin else {
             return Outputs::send(ack(&request, MavResult::MAV_RESULT_TEMPORARILY_REJECTED));
         };
@@ -357,8 +377,16 @@ impl CommandService {
     }
 
     /// The answer to the command passed on with `id` (the commander's or the calibration's).
+    /// A refused DO_REPOSITION is FAILED, as ArduCopter answers a GUIDED destination it will not
+    /// fly (beyond the fence: `tests/gcs_fence.rs`); any other refusal is DENIED.
     pub fn on_answer(&mut self, id: u32, refused: bool) -> Option<MavMessage> {
-        let answer = if !refused { MavResult::MAV_RESULT_ACCEPTED } else { MavResult::MAV_RESULT_DENIED };
+        let reposition =
+            self.pending.iter().any(|p| p.id == id && p.request.command == MavCmd::MAV_CMD_DO_REPOSITION);
+        let answer = match (refused, reposition) {
+            (false, _) => MavResult::MAV_RESULT_ACCEPTED,
+            (true, true) => MavResult::MAV_RESULT_FAILED,
+            (true, false) => MavResult::MAV_RESULT_DENIED,
+        };
         self.acknowledge(id, answer)
     }
 

@@ -11,6 +11,8 @@
 //! the old one is flown from the same item index (the commander's `MissionRunner::replace`), as
 //! ArduCopter does; clearing it then is refused with MAV_MISSION_ERROR, as ArduPilot refuses to
 //! clear a running mission.
+//! A fence upload is checked whole (`fence`) and sent to the commander, which enforces it; clearing
+//! it sends an empty one.
 //! Each item request is retried [`RETRIES`] times, [`ITEM_TIMEOUT`] apart, before the upload is
 //! cancelled.
 #![allow(
@@ -22,7 +24,7 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::geo::deg_e7;
-use kestrel_proto::messages::{Command, MAX_MISSION_ITEMS, Mission};
+use kestrel_proto::messages::{Command, FencePlan, MAX_MISSION_ITEMS, Mission};
 use mavlink::dialects::ardupilotmega::{
     MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
     MavMessage, MavMissionResult, MavMissionType, MavSeverity,
@@ -31,7 +33,9 @@ use mavlink::dialects::ardupilotmega::{
 use super::events::statustext;
 use super::{Outputs, Sender, Service, ToGraph};
 
+mod fence;
 mod items;
+pub use fence::{FenceRefused, to_fence};
 pub use items::{ItemRefused, to_mission};
 use items::{int_frame, is_global, refusal_text, to_float};
 
@@ -222,11 +226,20 @@ impl MissionService {
         let Some(up) = self.upload.take() else { return Outputs::none() };
         let t = up.mission_type;
         let mut out = Outputs::none();
+        let refuse = |text: &str, result| Outputs {
+            mav: vec![statustext(MavSeverity::MAV_SEVERITY_ERROR, text), Self::ack(from, t, result)],
+            graph: Vec::new(),
+        };
+        // The fence goes to the commander, checked whole first (`fence`).
+        if t == MavMissionType::MAV_MISSION_TYPE_FENCE {
+            match to_fence(&up.items, now) {
+                Ok(plan) => out.graph.push(ToGraph::Fence(plan)),
+                Err(FenceRefused { seq, result, reason }) => {
+                    return refuse(&format!("Fence item {seq}: {reason}"), result);
+                }
+            }
+        }
         if t == MavMissionType::MAV_MISSION_TYPE_MISSION {
-            let refuse = |text: &str, result| Outputs {
-                mav: vec![statustext(MavSeverity::MAV_SEVERITY_ERROR, text), Self::ack(from, t, result)],
-                graph: Vec::new(),
-            };
             match to_mission(&up.items, now) {
                 // Home alone clears the mission (QGroundControl's "remove all" on ArduPilot).
                 Ok(mission) if mission.items.is_empty() && self.flying => {
@@ -312,6 +325,9 @@ impl MissionService {
                 items: Vec::new(),
                 cruise_speed_m_s: DEFAULT_CRUISE_M_S,
             }));
+        }
+        if t == MavMissionType::MAV_MISSION_TYPE_FENCE {
+            out.graph.push(ToGraph::Fence(FencePlan { time: now, zones: Vec::new() }));
         }
         out
     }

@@ -1,7 +1,11 @@
-//! The geofence: the polygon, its breach in flight, and its switch.
+//! The geofence: the polygon, uploaded zones, breach, action and recovery, the floor, the
+//! parameters and the switch.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{Command, FailsafeCause, FlightMode};
+use kestrel_proto::messages::{
+    Command, FENCE_ALT_MAX, FENCE_ALT_MIN, FENCE_CIRCLE, FENCE_POLYGON, FailsafeCause, FenceKind, FencePlan,
+    FenceZone, FlightMode,
+};
 
 use super::fixtures::{at, cmd, full_battery, hover_at, hovering, nav};
 use crate::commander::{Commander, CommanderParams};
@@ -9,11 +13,11 @@ use crate::commander::{Commander, CommanderParams};
 #[test]
 fn polygon_fence_inclusion() {
     let square = [[-10.0, -10.0], [-10.0, 10.0], [10.0, 10.0], [10.0, -10.0]];
-    assert!(crate::commander::geofence::inside_polygon(&square, 0.0, 0.0));
-    assert!(crate::commander::geofence::inside_polygon(&square, 9.9, -9.9));
-    assert!(!crate::commander::geofence::inside_polygon(&square, 10.1, 0.0));
-    assert!(!crate::commander::geofence::inside_polygon(&square, 0.0, -30.0));
-    assert!(crate::commander::geofence::inside_polygon(&[], 1e6, 1e6), "no polygon, no limit");
+    assert!(crate::commander::fence_zones::inside_polygon(&square, 0.0, 0.0));
+    assert!(crate::commander::fence_zones::inside_polygon(&square, 9.9, -9.9));
+    assert!(!crate::commander::fence_zones::inside_polygon(&square, 10.1, 0.0));
+    assert!(!crate::commander::fence_zones::inside_polygon(&square, 0.0, -30.0));
+    assert!(crate::commander::fence_zones::inside_polygon(&[], 1e6, 1e6), "no polygon, no limit");
 }
 
 #[test]
@@ -57,4 +61,165 @@ fn the_geofence_switch_is_honoured_in_flight() {
     hover_at(&mut c, 4000, [400.0, 0.0, -5.0]);
     assert_eq!(c.status(Time(4000)).failsafe.map(|f| f.cause), Some(FailsafeCause::GeofenceBreach));
     assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
+}
+
+/// A zone placed from NED metres around the fixtures' origin, for readable tests.
+fn deg(north_m: f64, east_m: f64) -> [f64; 2] {
+    let frame = kestrel_proto::geo::LocalFrame::new(super::fixtures::ORIGIN);
+    let g = frame.to_geodetic([north_m, east_m, 0.0]);
+    [g.lat_deg, g.lon_deg]
+}
+
+/// An inclusion square 100 m about the origin and an exclusion circle of 10 m at 40 m north.
+fn uploaded() -> FencePlan {
+    FencePlan {
+        time: Time(1000),
+        zones: vec![
+            FenceZone::Polygon {
+                kind: FenceKind::Inclusion,
+                vertices_deg: vec![
+                    deg(-100.0, -100.0),
+                    deg(100.0, -100.0),
+                    deg(100.0, 100.0),
+                    deg(-100.0, 100.0),
+                ],
+            },
+            FenceZone::Circle { kind: FenceKind::Exclusion, center_deg: deg(40.0, 0.0), radius_m: 10.0 },
+        ],
+    }
+}
+
+fn guided_hover() -> Commander {
+    let mut c = hovering();
+    at(&mut c, 2000, Command::SetMode(FlightMode::Guided)).expect("guided");
+    c
+}
+
+#[test]
+fn an_uploaded_fence_refuses_targets_beyond_it_and_a_cleared_one_does_not() {
+    let mut c = guided_hover();
+    c.on_fence(uploaded());
+    let goto =
+        |c: &mut Commander, n: f64, e: f64| at(c, 2100, Command::GotoNed { position_ned_m: [n, e, -10.0] });
+    goto(&mut c, 60.0, 60.0).expect("inside the square, outside the circle");
+    let why = goto(&mut c, 150.0, 0.0).expect_err("outside the square");
+    assert!(why.contains("geofence polygon"), "{why}");
+    let why = goto(&mut c, 42.0, 3.0).expect_err("inside the exclusion circle");
+    assert!(why.contains("geofence polygon"), "{why}");
+    // Within 300 m (the circle) but above the 120 m ceiling.
+    let why =
+        at(&mut c, 2100, Command::GotoNed { position_ned_m: [10.0, 0.0, -150.0] }).expect_err("ceiling");
+    assert!(why.contains("above the 120 m geofence"), "{why}");
+    // FENCE_TYPE without the polygon bit: the zones no longer bound targets.
+    c.on_param("FENCE_TYPE", 3.0).expect("ceiling and circle");
+    goto(&mut c, 150.0, 0.0).expect("polygons not enforced");
+    c.on_param("FENCE_TYPE", 7.0).expect("back");
+    c.on_fence(FencePlan { time: Time(2200), zones: Vec::new() });
+    goto(&mut c, 150.0, 0.0).expect("cleared");
+}
+
+#[test]
+fn an_exclusion_zone_breach_returns_counts_once_and_clears_back_outside_it() {
+    let mut c = hovering();
+    c.on_fence(uploaded());
+    hover_at(&mut c, 3000, [20.0, 0.0, -10.0]);
+    assert_eq!(c.status(Time(3000)).fence.breach_count, 0);
+    hover_at(&mut c, 4000, [35.0, 0.0, -10.0]);
+    let s = c.status(Time(4000));
+    assert_eq!(s.failsafe.map(|f| f.cause), Some(FailsafeCause::GeofenceBreach));
+    assert_eq!(
+        (s.fence.breaches, s.fence.breach_count, s.fence.breach_time),
+        (FENCE_POLYGON, 1, Some(Time(4000)))
+    );
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch, "FENCE_ACTION 1: RTL");
+    // Still inside a moment later: the same breach, not a new one.
+    hover_at(&mut c, 5000, [36.0, 0.0, -10.0]);
+    assert_eq!(c.status(Time(5000)).fence.breach_count, 1);
+    // Back out of the circle (RTL flies home): cleared, announced, the count kept.
+    hover_at(&mut c, 6000, [25.0, 0.0, -10.0]);
+    let s = c.status(Time(6000));
+    assert_eq!(s.failsafe, None);
+    assert_eq!((s.fence.breaches, s.fence.breach_count), (0, 1));
+    assert_eq!(s.last_refusal.as_deref(), Some("Fence breach cleared"));
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch, "the RTL it started goes on, as ArduCopter's");
+    // A second entry is a second breach.
+    hover_at(&mut c, 7000, [40.0, 0.0, -10.0]);
+    assert_eq!(c.status(Time(7000)).fence.breach_count, 2);
+}
+
+#[test]
+fn each_fence_action_does_what_arducopter_does() {
+    // 4: brake, then hold position; 2: land; 0: report only.
+    for (code, mode) in [(4.0, FlightMode::PosHold), (2.0, FlightMode::Land), (0.0, FlightMode::Guided)] {
+        let mut c = guided_hover();
+        c.on_param("FENCE_ACTION", code).expect("taken");
+        hover_at(&mut c, 3000, [0.0, 0.0, -125.0]);
+        assert_eq!(c.status(Time(3000)).fence.breaches, FENCE_ALT_MAX, "action {code}");
+        assert_eq!(c.mode(), mode, "action {code}");
+    }
+    // 3 and 5 (SmartRTL) are refused: there is no SmartRTL to try.
+    assert!(guided_hover().on_param("FENCE_ACTION", 3.0).is_err());
+    // More than 100 m beyond the ceiling or the circle, RTL gives way to a landing.
+    let mut c = guided_hover();
+    hover_at(&mut c, 3000, [0.0, 0.0, -221.0]);
+    assert_eq!(c.mode(), FlightMode::Land, "101 m above the ceiling");
+    let mut c = guided_hover();
+    hover_at(&mut c, 3000, [0.0, 0.0, -219.0]);
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch, "99 m above it");
+}
+
+#[test]
+fn the_floor_counts_once_climbed_above_and_never_while_landing() {
+    let mut c = Commander::new(CommanderParams {
+        geofence: crate::commander::GeofenceParams {
+            types: FENCE_ALT_MAX | FENCE_CIRCLE | FENCE_POLYGON | FENCE_ALT_MIN,
+            min_altitude_m: 8.0,
+            ..crate::commander::GeofenceParams::default()
+        },
+        ..CommanderParams::default()
+    })
+    .expect("valid");
+    c.on_nav(&nav(Time(1000), 0.0, true));
+    c.on_battery(&full_battery(Time(1000)));
+    cmd(&mut c, Command::SetMode(FlightMode::PosHold)).expect("poshold");
+    cmd(&mut c, Command::Arm).expect("arms below the floor");
+    hover_at(&mut c, 2000, [0.0, 0.0, -5.0]);
+    assert_eq!(c.status(Time(2000)).fence.breaches, 0, "not yet above the floor");
+    hover_at(&mut c, 3000, [0.0, 0.0, -12.0]);
+    hover_at(&mut c, 4000, [0.0, 0.0, -6.0]);
+    assert_eq!(c.status(Time(4000)).fence.breaches, FENCE_ALT_MIN);
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
+    at(&mut c, 4000, Command::SetMode(FlightMode::Land)).expect("land");
+    hover_at(&mut c, 5000, [0.0, 0.0, -3.0]);
+    assert_eq!(c.status(Time(5000)).fence.breaches, 0, "landing: the floor is not judged");
+}
+
+#[test]
+fn fence_enable_is_the_switch_and_the_pre_arm_checks_are_arducopters() {
+    let mut c = super::fixtures::ready(true);
+    c.on_param("FENCE_ENABLE", 0.0).expect("off");
+    assert!(!c.status(Time(1000)).geofence_enabled);
+    c.on_param("FENCE_ENABLE", 1.0).expect("on");
+    assert!(c.status(Time(1000)).geofence_enabled);
+    c.on_param("FENCE_MARGIN", 20.0).expect("in range");
+    c.on_param("FENCE_TYPE", 15.0).expect("all four");
+    c.on_param("FENCE_ALT_MIN", 0.0).expect("in range");
+    c.on_param("FENCE_ALT_MAX", 30.0).expect("in range");
+    let why = cmd(&mut c, Command::Arm).expect_err("margin too big for the band");
+    assert!(why.contains("FENCE_MARGIN too big"), "{why}");
+    c.on_param("FENCE_MARGIN", 2.0).expect("in range");
+    assert!(c.on_param("FENCE_TYPE", 16.0).is_err(), "no such bit");
+    assert!(c.on_param("FENCE_TYPE", 2.5).is_err(), "not a bit mask");
+    cmd(&mut c, Command::Arm).expect("arms");
+}
+
+#[test]
+fn a_fence_uploaded_before_the_origin_is_placed_when_it_is_known() {
+    let mut c = Commander::new(CommanderParams::default()).expect("valid");
+    c.on_fence(uploaded());
+    c.on_nav(&nav(Time(1000), 0.0, true));
+    c.on_battery(&full_battery(Time(1000)));
+    hover_at(&mut c, 1500, [150.0, 0.0, 0.0]);
+    let why = cmd(&mut c, Command::Arm).expect_err("outside the square");
+    assert!(why.contains("outside the geofence"), "{why}");
 }

@@ -12,6 +12,9 @@ use kestrel_proto::messages::{
 use crate::commander::{Commander, CommanderParams};
 
 /// A still, level NavState `down_m` (NED) at home, with or without a horizontal position.
+/// The estimator's origin in every fixture.
+pub(crate) const ORIGIN: Geodetic = Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 };
+
 pub(crate) fn nav(t: Time, down_m: f64, position: bool) -> NavState {
     NavState {
         time: t,
@@ -22,7 +25,7 @@ pub(crate) fn nav(t: Time, down_m: f64, position: bool) -> NavState {
         gyro_bias_rad_s: [0.0; 3],
         accel_bias_m_s2: [0.0; 3],
         covariance_diagonal: [0.0; 16],
-        origin: position.then_some(Geodetic { lat_deg: 6.79710, lon_deg: 79.90170, alt_m: 20.0 }),
+        origin: position.then_some(ORIGIN),
         valid: NavValidity {
             attitude: true,
             horizontal_velocity: position,

@@ -218,3 +218,28 @@ fn change_speed_and_pause_continue_take_their_parameters_exactly() {
         assert_eq!(result(&yaw(&mut s, bad).mav[0]).1, MavResult::MAV_RESULT_DENIED, "{bad:?}");
     }
 }
+
+#[test]
+fn a_reposition_the_commander_refuses_fails_and_one_out_of_guided_is_denied() {
+    let origin = Geodetic { lat_deg: 6.7971, lon_deg: 79.9017, alt_m: 20.0 };
+    let goto = CommandRequest {
+        command: MavCmd::MAV_CMD_DO_REPOSITION,
+        params: [-1.0, 0.0, 0.0, f64::NAN, 67_972_000.0, 799_017_000.0, 10.0],
+        frame: Some(MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT),
+        sender: GCS,
+    };
+    let mut s = CommandService::new();
+    let out = s.reposition(goto, Some(origin), false, Time::ZERO);
+    assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "not in GUIDED, no change-mode flag");
+    assert!(out.graph.is_empty());
+    let out = s.reposition(goto, Some(origin), true, Time::ZERO);
+    let [ToGraph::Request { id, command }] = out.graph[..] else { panic!("not passed on: {:?}", out.graph) };
+    let ack = s.on_result(&answer(id, command, Some("guided target refused: outside the geofence polygon")));
+    assert_eq!(ack.map(|a| result(&a).1), Some(MavResult::MAV_RESULT_FAILED));
+    let out = s.reposition(goto, Some(origin), true, Time::ZERO);
+    let [ToGraph::Request { id, command }] = out.graph[..] else { panic!("not passed on") };
+    assert_eq!(
+        s.on_result(&answer(id, command, None)).map(|a| result(&a).1),
+        Some(MavResult::MAV_RESULT_ACCEPTED)
+    );
+}

@@ -1,4 +1,4 @@
-use kestrel_proto::messages::MissionItem;
+use kestrel_proto::messages::{FenceKind, FenceZone, MissionItem};
 use mavlink::dialects::ardupilotmega::{MavCmd, MavFrame};
 
 use super::*;
@@ -267,20 +267,142 @@ fn a_cancelled_upload_while_flying_leaves_the_flown_mission() {
     assert_eq!(download_x(&mut s), flown.iter().map(|i| i.x).collect::<Vec<_>>());
 }
 
+const FENCE: MavMissionType = MavMissionType::MAV_MISSION_TYPE_FENCE;
+
+fn fence_item(seq: u16, command: MavCmd, param1: f32, north_m: i32, east_m: i32) -> MISSION_ITEM_INT_DATA {
+    // About 1.1 cm a unit of 1e-7 degree: 90 units a metre, near enough for these tests.
+    MISSION_ITEM_INT_DATA {
+        param1,
+        x: 67_971_000 + north_m * 90,
+        y: 799_017_000 + east_m * 90,
+        z: 0.0,
+        mission_type: FENCE,
+        ..item(seq, command)
+    }
+}
+
+fn upload_fence(s: &mut MissionService, items: &[MISSION_ITEM_INT_DATA]) -> Outputs {
+    let n = u16::try_from(items.len()).expect("small");
+    let mut out = s.on_count(GCS, &MISSION_COUNT_DATA { mission_type: FENCE, ..count(n) }, t(0.0));
+    for it in items {
+        assert_eq!(requested(&out), Some(it.seq));
+        out = s.on_item(GCS, it, t(0.1));
+    }
+    out
+}
+
+/// An inclusion square of 4 vertices, then the items `rest` numbered on from 4.
+fn square_then(rest: &[(MavCmd, f32)]) -> Vec<MISSION_ITEM_INT_DATA> {
+    let inc = MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION;
+    let mut items: Vec<_> = [(-100, -100), (100, -100), (100, 100), (-100, 100)]
+        .iter()
+        .enumerate()
+        .map(|(i, &(n, e))| fence_item(i as u16, inc, 4.0, n, e))
+        .collect();
+    for (i, &(cmd, p1)) in rest.iter().enumerate() {
+        items.push(fence_item(4 + i as u16, cmd, p1, 20, 20));
+    }
+    items
+}
+
+fn statustext_of(out: &Outputs) -> String {
+    out.mav
+        .iter()
+        .find_map(|m| match m {
+            MavMessage::STATUSTEXT(t) => {
+                Some(t.text.to_str().unwrap_or_default().trim_end_matches('\0').to_owned())
+            }
+            _ => None,
+        })
+        .unwrap_or_default()
+}
+
 #[test]
-fn fence_items_are_kept_apart_and_clear_all_publishes_an_empty_mission() {
+fn fence_upload_reaches_the_commander_apart_from_the_mission_and_clear_sends_an_empty_fence() {
     let mut s = MissionService::new();
-    let mut c = count(1);
-    c.mission_type = MavMissionType::MAV_MISSION_TYPE_FENCE;
-    s.on_count(GCS, &c, t(0.0));
-    let mut f = item(0, MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION);
-    f.mission_type = MavMissionType::MAV_MISSION_TYPE_FENCE;
-    let out = s.on_item(GCS, &f, t(0.1));
+    let items = square_then(&[
+        (MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, 15.0),
+        (MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT, 0.0),
+    ]);
+    let out = upload_fence(&mut s, &items);
     assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
-    assert!(out.graph.is_empty());
-    assert_eq!(s.mission_len(), 0);
+    let [ToGraph::Fence(plan)] = &out.graph[..] else { panic!("no fence published: {:?}", out.graph) };
+    assert_eq!(plan.zones.len(), 2, "the return point is no zone");
+    let FenceZone::Polygon { kind, vertices_deg } = &plan.zones[0] else { panic!("polygon first") };
+    assert_eq!((*kind, vertices_deg.len()), (FenceKind::Inclusion, 4));
+    assert!((vertices_deg[0][0] - (6.7971 - 100.0 * 90e-7)).abs() < 1e-9, "{:?}", vertices_deg[0]);
+    assert!(
+        matches!(plan.zones[1], FenceZone::Circle { kind: FenceKind::Exclusion, radius_m, .. } if radius_m == 15.0)
+    );
+    assert_eq!(s.mission_len(), 0, "the mission is untouched");
+    // Downloaded as uploaded.
+    let out = s.on_request_list(GCS, FENCE);
+    assert!(matches!(out.mav[0], MavMessage::MISSION_COUNT(MISSION_COUNT_DATA { count: 6, .. })));
+    let out = s.clear(GCS, FENCE, t(1.0));
+    assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+    assert!(matches!(&out.graph[..], [ToGraph::Fence(p)] if p.zones.is_empty()));
     let out = s.clear(GCS, MISSION, t(1.0));
-    assert!(matches!(&out.graph[0], ToGraph::Mission(m) if m.items.is_empty()));
+    assert!(matches!(&out.graph[..], [ToGraph::Mission(m)] if m.items.is_empty()));
+}
+
+#[test]
+fn fence_uploads_ardupilot_refuses_are_refused_with_the_item_and_the_old_fence_kept() {
+    let inc = MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION;
+    let exc = MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION;
+    let circle = MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION;
+    let ret = MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT;
+    let error = MavMissionResult::MAV_MISSION_ERROR;
+    let two = |p1: f32| (0..2).map(|i| fence_item(i, inc, p1, i as i32 * 10, 0)).collect::<Vec<_>>();
+    let mut mixed = square_then(&[]);
+    mixed[2].param1 = 5.0;
+    let mut kinds = square_then(&[]);
+    kinds[1].command = exc;
+    let cases: Vec<(&str, Vec<MISSION_ITEM_INT_DATA>, u16, MavMissionResult, &str)> = vec![
+        ("two vertices", two(2.0), 0, error, "at least 3"),
+        ("count over 255", two(300.0), 0, MavMissionResult::MAV_MISSION_INVALID_PARAM1, "out of range"),
+        ("counts differ", mixed, 2, error, "its polygon's is 4"),
+        ("kinds differ", kinds, 1, error, "other kind"),
+        ("short polygon", square_then(&[]).into_iter().take(3).collect(), 2, error, "incomplete"),
+        (
+            "circle inside a polygon",
+            {
+                let mut v = square_then(&[]);
+                v[3] = fence_item(3, circle, 10.0, 0, 0);
+                v
+            },
+            3,
+            error,
+            "incomplete",
+        ),
+        ("zero radius", square_then(&[(circle, 0.0)]), 4, error, "radius"),
+        ("two return points", square_then(&[(ret, 0.0), (ret, 0.0)]), 5, error, "return point"),
+        (
+            "a waypoint",
+            square_then(&[(MavCmd::MAV_CMD_NAV_WAYPOINT, 0.0)]),
+            4,
+            MavMissionResult::MAV_MISSION_UNSUPPORTED,
+            "not supported",
+        ),
+    ];
+    for (name, items, seq, result, words) in cases {
+        let mut s = MissionService::new();
+        let good = square_then(&[]);
+        assert_eq!(ack_result(&upload_fence(&mut s, &good)), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+        let out = upload_fence(&mut s, &items);
+        assert_eq!(ack_result(&out), Some(result), "{name}");
+        let text = statustext_of(&out);
+        assert!(text.starts_with(&format!("Fence item {seq}:")) && text.contains(words), "{name}: {text}");
+        assert!(out.graph.is_empty(), "{name}: nothing reaches the commander");
+        let kept = s.on_request_list(GCS, FENCE);
+        assert!(
+            matches!(kept.mav[0], MavMessage::MISSION_COUNT(MISSION_COUNT_DATA { count: 4, .. })),
+            "{name}"
+        );
+    }
+    let mut frame = square_then(&[]);
+    frame[0].frame = MavFrame::MAV_FRAME_LOCAL_NED;
+    let out = upload_fence(&mut MissionService::new(), &frame);
+    assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_UNSUPPORTED_FRAME));
 }
 
 #[test]

@@ -12,10 +12,11 @@ use kestrel_proto::Time;
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, ATTITUDE_QUATERNION_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA,
-    EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA,
-    HIGHRES_IMU_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavDataStream,
-    MavResult, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, RAW_IMU_DATA, SCALED_IMU_DATA, SCALED_PRESSURE_DATA,
-    SERVO_OUTPUT_RAW_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA, WIND_DATA,
+    EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, FENCE_STATUS_DATA, GLOBAL_POSITION_INT_DATA,
+    GPS_RAW_INT_DATA, HIGHRES_IMU_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
+    MavDataStream, MavResult, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, RAW_IMU_DATA, SCALED_IMU_DATA,
+    SCALED_PRESSURE_DATA, SERVO_OUTPUT_RAW_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA,
+    VFR_HUD_DATA, WIND_DATA,
 };
 
 #[derive(Clone, Copy, Debug)]
@@ -46,6 +47,8 @@ fn default_streams() -> Vec<Stream> {
         // Once the estimator has learnt the wind (a drag model is configured).
         (WIND_DATA::ID, hz(1.0)),
         (MISSION_CURRENT_DATA::ID, hz(1.0)),
+        // While the fence is on, in ArduCopter's EXTENDED_STATUS group beside SYS_STATUS.
+        (FENCE_STATUS_DATA::ID, hz(1.0)),
         (OBSTACLE_DISTANCE_DATA::ID, hz(5.0)),
         (DEBUG_VECT_DATA::ID, hz(5.0)),
         // One per rangefinder with a fresh sample (down, up): the rangefinders sample at tens of
@@ -78,6 +81,7 @@ fn data_stream_ids(stream: MavDataStream) -> &'static [u32] {
             SYS_STATUS_DATA::ID,
             GPS_RAW_INT_DATA::ID,
             MISSION_CURRENT_DATA::ID,
+            FENCE_STATUS_DATA::ID,
             GLOBAL_POSITION_INT_DATA::ID,
             LOCAL_POSITION_NED_DATA::ID,
             ATTITUDE_DATA::ID,
@@ -92,7 +96,7 @@ fn data_stream_ids(stream: MavDataStream) -> &'static [u32] {
         MavDataStream::MAV_DATA_STREAM_RAW_SENSORS => &[RAW_IMU_DATA::ID, SCALED_PRESSURE_DATA::ID],
         MavDataStream::MAV_DATA_STREAM_RC_CHANNELS => &[SERVO_OUTPUT_RAW_DATA::ID],
         MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS => {
-            &[SYS_STATUS_DATA::ID, GPS_RAW_INT_DATA::ID, MISSION_CURRENT_DATA::ID]
+            &[SYS_STATUS_DATA::ID, GPS_RAW_INT_DATA::ID, MISSION_CURRENT_DATA::ID, FENCE_STATUS_DATA::ID]
         }
         MavDataStream::MAV_DATA_STREAM_POSITION => {
             &[GLOBAL_POSITION_INT_DATA::ID, LOCAL_POSITION_NED_DATA::ID]

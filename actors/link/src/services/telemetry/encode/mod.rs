@@ -8,9 +8,9 @@ use kestrel_proto::attitude::euler_rad;
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, ATTITUDE_QUATERNION_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA,
-    EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA, GPS_RAW_INT_DATA,
-    HIGHRES_IMU_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA, MavMessage,
-    OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, RAW_IMU_DATA, SCALED_IMU_DATA, SCALED_PRESSURE_DATA,
+    EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, FENCE_STATUS_DATA, GLOBAL_POSITION_INT_DATA,
+    GPS_RAW_INT_DATA, HIGHRES_IMU_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
+    MavMessage, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, RAW_IMU_DATA, SCALED_IMU_DATA, SCALED_PRESSURE_DATA,
     SERVO_OUTPUT_RAW_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA, WIND_DATA,
 };
 
@@ -23,6 +23,7 @@ pub mod debug_vect;
 pub mod distance_sensor;
 pub mod ekf_status_report;
 pub mod extended_sys_state;
+pub mod fence_status;
 pub mod global_position_int;
 pub mod gps_raw_int;
 pub mod highres_imu;
@@ -72,6 +73,7 @@ pub fn build(snap: &Snapshot, id: u32, now: Time) -> Option<MavMessage> {
             MavMessage::EXTENDED_SYS_STATE(extended_sys_state::extended_sys_state(snap.status.as_ref()?))
         }
         MISSION_CURRENT_DATA::ID => MavMessage::MISSION_CURRENT(mission_current::mission_current(snap)),
+        FENCE_STATUS_DATA::ID => MavMessage::FENCE_STATUS(fence_status::fence_status(snap.status.as_ref()?)?),
         OBSTACLE_DISTANCE_DATA::ID => {
             let depth = snap.depth.as_ref()?;
             MavMessage::OBSTACLE_DISTANCE(obstacle_distance::obstacle_distance(depth.time, &depth.sectors))

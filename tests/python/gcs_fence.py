@@ -1,0 +1,178 @@
+"""A geofence from the ground station, as a ground station sets it, uploads it and flies against
+it, reported so that tests/gcs_fence.rs can compare ArduCopter SITL with `kestrel run`.
+
+Usage: gcs_fence.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
+
+1. identify the vehicle, ask for every stream at 4 Hz, and read AUTOPILOT_VERSION's
+   MISSION_FENCE capability bit;
+2. PARAM_SET FENCE_ENABLE 1, FENCE_TYPE 7 (ceiling, circle, polygons), FENCE_ALT_MAX 40,
+   FENCE_RADIUS 300, FENCE_ACTION 1 (RTL or land): the echoes;
+3. two malformed fence uploads (a polygon of 2 vertices; vertices whose counts differ): each
+   one's MISSION_ACK;
+4. the fence: an inclusion square of 200 m about home and an exclusion circle of 15 m radius 50 m
+   north; its MISSION_ACK and the count downloaded back;
+5. GUIDED, armed, a 10 m take-off; then DO_REPOSITION targets outside the square, inside the
+   circle, and above the ceiling: each COMMAND_ACK, and how far the vehicle moved;
+6. a DO_REPOSITION to 90 m north, inside the square: its path crosses the circle. The mode the
+   breach switches to, FENCE_STATUS while breached, and once the vehicle is out of the circle
+   again (the breach cleared).
+
+The last line's `results` holds `fence_capability`, `params` (name: echo), `malformed` (case:
+ACK), `upload` ({ack, count}), `targets` (case: ACK), `moved_m`, `breach` ({mode, status,
+count, type}) and `cleared` ({status, count, type, text}).
+"""
+
+import math
+import time
+
+from gcs_common import ACM_MODES, Failed, VEHICLE, distance_m, enum_name, main, mav, mavutil
+
+STREAM_HZ = 4
+HOME = (6.79710, 79.90170)
+TAKEOFF_M = 10.0
+SQUARE_M = 100.0
+CIRCLE_NORTH_M = 50.0
+CIRCLE_RADIUS_M = 15.0
+PARAMS = [("FENCE_ENABLE", 1), ("FENCE_TYPE", 7), ("FENCE_ALT_MAX", 40), ("FENCE_RADIUS", 300),
+          ("FENCE_ACTION", 1)]
+M_PER_DEG_LAT = 110_574.0  # near the equator: good to a metre over these distances
+
+
+def offset(north_m, east_m):
+    lat = HOME[0] + north_m / M_PER_DEG_LAT
+    lon = HOME[1] + east_m / (M_PER_DEG_LAT * math.cos(math.radians(HOME[0])))
+    return int(round(lat * 1e7)), int(round(lon * 1e7))
+
+
+def vertex(kind, count, north_m, east_m):
+    x, y = offset(north_m, east_m)
+    return dict(command=kind, param1=float(count), x=x, y=y)
+
+
+def square(count=4):
+    s = SQUARE_M
+    kind = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+    return [vertex(kind, count, n, e) for n, e in ((-s, -s), (s, -s), (s, s), (-s, s))]
+
+
+def upload_fence(gcs, items, step):
+    """MISSION_COUNT and every requested item of a fence; returns the MISSION_ACK's result."""
+    gcs.log(f"-> MISSION_COUNT {len(items)} (fence)")
+    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mav.MAV_MISSION_TYPE_FENCE)
+    while True:
+        m = gcs.pump(lambda m: gcs.from_vehicle(m) and m.get_type() in
+                     ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK")
+                     and m.mission_type == mav.MAV_MISSION_TYPE_FENCE, 5.0, step)
+        if m.get_type() == "MISSION_ACK":
+            result = enum_name("MAV_MISSION_RESULT", m.type)
+            gcs.log(f"MISSION_ACK {result} ({step})")
+            return result
+        it = items[m.seq]
+        gcs.conn.mav.mission_item_int_send(
+            *VEHICLE, m.seq, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, it["command"], 0, 1,
+            it["param1"], 0, 0, 0, it["x"], it["y"], 0.0, mav.MAV_MISSION_TYPE_FENCE)
+
+
+def until_accepted(gcs, cmd, params, step, timeout_s=40.0):
+    """COMMAND_LONG, asked again every second until ACCEPTED (arming waits for the estimate)."""
+    end = time.monotonic() + timeout_s
+    while True:
+        try:
+            return gcs.command(cmd, params, step)
+        except Failed:
+            if time.monotonic() > end:
+                raise
+            gcs.quiet(1.0)
+
+
+def reposition(gcs, north_m, east_m, alt_m, step):
+    """DO_REPOSITION (COMMAND_INT, relative altitude) as QGroundControl's "Go to location"."""
+    x, y = offset(north_m, east_m)
+    gcs.log(f"-> COMMAND_INT DO_REPOSITION {north_m} m N {east_m} m E {alt_m} m")
+    gcs.conn.mav.command_int_send(*VEHICLE, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                                  mav.MAV_CMD_DO_REPOSITION, 0, 0, -1, 0, 0, math.nan, x, y, alt_m)
+    ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == mav.MAV_CMD_DO_REPOSITION)
+    return enum_name("MAV_RESULT", ack.result)
+
+
+def fence(gcs):
+    statuses = []
+
+    def watch(m):
+        if m.get_type() == "FENCE_STATUS":
+            s = (m.breach_status, m.breach_count, enum_name("FENCE_BREACH", m.breach_type))
+            if not statuses or statuses[-1] != s:
+                gcs.log(f"FENCE_STATUS status={s[0]} count={s[1]} type={s[2]}")
+            statuses.append(s)
+
+    gcs.watchers.append(watch)
+    gcs.identify(timeout_s=20.0)
+    gcs.log("-> REQUEST_DATA_STREAM ALL 4 Hz")
+    gcs.conn.mav.request_data_stream_send(*VEHICLE, mav.MAV_DATA_STREAM_ALL, STREAM_HZ, 1)
+
+    # 1. The capability.
+    gcs.conn.mav.command_long_send(*VEHICLE, mav.MAV_CMD_REQUEST_MESSAGE, 0, 148, 0, 0, 0, 0, 0, 0)
+    version = gcs.wait_type("AUTOPILOT_VERSION", 5.0, "autopilot version")
+    gcs.results["fence_capability"] = bool(
+        version.capabilities & mav.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE)
+
+    # 2. The parameters.
+    gcs.results["params"] = {
+        name: gcs.set_param(name, float(value), f"set {name}").param_value for name, value in PARAMS}
+
+    # 3. Malformed uploads.
+    mixed = square()
+    mixed[2]["param1"] = 5.0
+    gcs.results["malformed"] = {
+        "two_vertices": upload_fence(gcs, square(2)[:2], "two vertices"),
+        "counts_differ": upload_fence(gcs, mixed, "counts differ"),
+    }
+
+    # 4. The fence.
+    x, y = offset(CIRCLE_NORTH_M, 0.0)
+    circle = dict(command=mav.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1=CIRCLE_RADIUS_M, x=x, y=y)
+    ack = upload_fence(gcs, square() + [circle], "fence upload")
+    gcs.conn.mav.mission_request_list_send(*VEHICLE, mav.MAV_MISSION_TYPE_FENCE)
+    count = gcs.wait_type("MISSION_COUNT", 3.0, "fence count",
+                          lambda m: m.mission_type == mav.MAV_MISSION_TYPE_FENCE).count
+    gcs.conn.mav.mission_ack_send(*VEHICLE, mav.MAV_MISSION_ACCEPTED, mav.MAV_MISSION_TYPE_FENCE)
+    gcs.results["upload"] = {"ack": ack, "count": count}
+    if ack != "MAV_MISSION_ACCEPTED":
+        raise Failed("fence upload", ack)
+
+    # 5. Take-off, and targets beyond the fence.
+    until_accepted(gcs, mav.MAV_CMD_DO_SET_MODE,
+                   [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]], "guided")
+    gcs.wait_type("HEARTBEAT", 3.0, "guided", lambda m: mavutil.mode_string_v10(m) == "GUIDED")
+    until_accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm")
+    gcs.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, TAKEOFF_M], "takeoff")
+    gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 0.7, 30.0, "climb")
+    before = gcs.position
+    gcs.results["targets"] = {
+        "outside_polygon": reposition(gcs, 150.0, 0.0, TAKEOFF_M, "outside the square"),
+        "inside_exclusion": reposition(gcs, CIRCLE_NORTH_M, 0.0, TAKEOFF_M, "inside the circle"),
+        "above_ceiling": reposition(gcs, 10.0, 0.0, 60.0, "above the ceiling"),
+    }
+    gcs.quiet(1.0)
+    gcs.results["moved_m"] = round(distance_m(before, gcs.position), 1)
+
+    # 6. A leg across the exclusion circle: the breach, its action, its end.
+    gcs.results["targets"]["across_exclusion"] = reposition(gcs, 90.0, 0.0, TAKEOFF_M, "across")
+    breached = gcs.pump(lambda m: m.get_type() == "FENCE_STATUS" and m.breach_status == 1, 60.0,
+                        "breach")
+    gcs.pump(lambda m: gcs.mode != "GUIDED", 10.0, "breach action")
+    gcs.results["breach"] = {"mode": gcs.mode, "status": breached.breach_status,
+                             "count": breached.breach_count,
+                             "type": enum_name("FENCE_BREACH", breached.breach_type),
+                             "north_m": round(distance_m(HOME, gcs.position), 1)}
+    cleared = gcs.pump(lambda m: m.get_type() == "FENCE_STATUS" and m.breach_status == 0, 60.0,
+                       "breach cleared")
+    gcs.quiet(0.5)
+    gcs.results["cleared"] = {"status": cleared.breach_status, "count": cleared.breach_count,
+                              "type": enum_name("FENCE_BREACH", cleared.breach_type),
+                              "mode": gcs.mode,
+                              "text": any("Fence breach cleared" in t for t in gcs.statustexts)}
+    gcs.log(f"results: {gcs.results}")
+
+
+main(fence, deadline_s=140.0)
