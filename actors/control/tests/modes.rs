@@ -175,3 +175,17 @@ fn brake_stops_from_five_metres_a_second_within_the_tilt_limited_distance_and_ho
     assert!(drift < 0.1, "drifted {drift} m while holding");
     assert!((f.height() - 10.0).abs() < 0.3, "height {}", f.height());
 }
+
+#[test]
+fn reboot_is_refused_armed_and_motor_test_unless_disarmed_and_landed() {
+    let mut f = Flight::new(CommanderParams::default());
+    let test = Command::MotorTest { first: 1, count: 1, throttle: 0.1, duration_s: 0.5 };
+    // Disarmed on the ground both are still refused: neither is carried out by this vehicle yet,
+    // and nothing is acknowledged that is not done.
+    assert!(f.command(Command::Reboot).expect_err("not restarted").0.contains("restart the kestrel service"));
+    assert!(f.command(test).expect_err("no test path").0.contains("not supported"));
+    let mut f = airborne(5.0);
+    assert!(f.command(Command::Reboot).expect_err("armed").0.contains("armed"));
+    assert!(f.command(test).expect_err("armed").0.contains("armed"));
+    assert!(f.commander.armed(), "the refusals changed nothing");
+}
