@@ -67,7 +67,7 @@ fn circle_orbit_brake_reboot_and_motor_test_answer_as_arducopter_does() {
     assert_eq!(ours["modes"]["after_do_orbit"], "CIRCLE", "DO_ORBIT flies in CIRCLE: {ours:#}");
     assert_eq!(ack(ours, "motor_test_disarmed"), "MAV_RESULT_DENIED", "{ours:#}");
     let rate = ours["circle"]["rate_deg_s"].as_f64().expect("rate");
-    assert!((rate - 20.0).abs() < 2.0, "CIRCLE_RATE_DEG_S 20, flown {rate} deg/s");
+    assert!((rate - 20.0).abs() < 2.0, "CIRCLE_RATE_DEGS 20, flown {rate} deg/s");
     println!("kestrel half: {:.1} s: {}", started.elapsed().as_secs_f64(), ours);
 
     let Some(binary) = arducopter::binary() else { return };

@@ -65,9 +65,10 @@ pub enum Command {
     /// and refreshes the data link whose loss is a failsafe; others are counted and ignored.
     Heartbeat { system_id: u8 },
     /// Circle a centre (MAV_CMD_DO_ORBIT): switches to CIRCLE. `radius_m` > 0 flies clockwise
-    /// seen from above, < 0 counter-clockwise; `speed_m_s` is the tangential speed (`None`: the
-    /// CIRCLE_RATE_DEG_S default); `centre_ned_m` NED from the estimator's origin (`None`: where
-    /// the vehicle is; a `None` down keeps the vehicle's height).
+    /// seen from above, < 0 counter-clockwise, NaN the CIRCLE_RADIUS_M default; `speed_m_s` is
+    /// the tangential speed (`None`: the CIRCLE_RATE_DEGS rate); `centre_ne_m` north and east of
+    /// the estimator's origin (`None`: where the vehicle is), `centre_down_m` its down
+    /// coordinate (`None`: the height flown), both in m.
     Orbit {
         radius_m: f64,
         speed_m_s: Option<f64>,

@@ -97,7 +97,7 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.circle.radius_m = v,
     },
     ParamDef {
-        name: "CIRCLE_RATE_DEG_S",
+        name: "CIRCLE_RATE_DEGS",
         unit: "deg/s",
         min: -90.0,
         max: 90.0,

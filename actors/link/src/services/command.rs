@@ -331,10 +331,13 @@ impl CommandService {
             return denied();
         }
         let speed_m_s = if p[1].is_nan() { None } else { Some(p[1]) };
-        let yaw = match p[2] {
-            v if v.is_nan() || v == 0.0 => OrbitYaw::FaceCentre,
-            v if v == 1.0 || v == 2.0 || v == 4.0 => OrbitYaw::HoldInitial,
-            v if v == 3.0 => OrbitYaw::Tangent,
+        // ORBIT_YAW_BEHAVIOUR: 0 front to the centre, 1 initial heading, 2 uncontrolled and
+        // 4 RC-controlled (no sticks here: held), 3 tangent to the circle.
+        let yaw = match whole(p[2], 4) {
+            _ if p[2].is_nan() => OrbitYaw::FaceCentre,
+            Some(0) => OrbitYaw::FaceCentre,
+            Some(1 | 2 | 4) => OrbitYaw::HoldInitial,
+            Some(3) => OrbitYaw::Tangent,
             _ => return denied(),
         };
         let in_deg_e7 = request.frame.is_some();
@@ -518,7 +521,7 @@ fn motor_test(p: &[f64; 7]) -> Result<Command, MavResult> {
         Some(_) => return Err(MavResult::MAV_RESULT_UNSUPPORTED),
         None => return Err(MavResult::MAV_RESULT_DENIED),
     }
-    if !(0.0..=100.0).contains(&p[2]) || !(p[3].is_finite() && p[3] > 0.0) {
+    if !((0.0..=100.0).contains(&p[2]) && p[3].is_finite() && p[3] > 0.0) {
         return Err(MavResult::MAV_RESULT_DENIED);
     }
     let count = whole(p[4], u8::MAX.into()).ok_or(MavResult::MAV_RESULT_DENIED)?.max(1);
