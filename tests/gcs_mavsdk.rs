@@ -137,9 +137,14 @@ fn mavsdk_offboard_velocity_flies_a_10_m_square_and_ends_where_it_began() {
 }
 
 #[test]
-fn mavsdk_goto_location_hold_and_return_to_launch() {
+fn mavsdk_goto_location_hold_orbit_and_return_to_launch() {
     let t = fly("goto_hold_rtl", &[]);
-    println!("hold: {}; landed: {}", detail(&t, "hold"), detail(&t, "landed"));
+    println!(
+        "hold: {}; orbit: {}; landed: {}",
+        detail(&t, "hold"),
+        detail(&t, "orbit"),
+        detail(&t, "landed")
+    );
 }
 
 #[test]

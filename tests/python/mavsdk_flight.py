@@ -7,7 +7,9 @@ Usage: mavsdk_flight.py SCENARIO [PLAN.plan]   (run by tests/gcs_mavsdk.rs)
     mission        import a QGroundControl .plan with MAVSDK's importer, upload it, download it
                    identical, arm, start, follow the progress to the end, land near home
     offboard       Offboard velocity: a 10 m square in NED, back within 2 m of the start
-    goto_hold_rtl  goto_location 20 m north, hold there, RTL: landed near home, disarmed
+    goto_hold_rtl  goto_location 20 m north, hold there, do_orbit an 8 m circle at 2 m/s (the
+                   positions reported lie on it and turn at v / r), RTL: landed near home,
+                   disarmed
     failure_gps    the Failure plugin: GPS off DENIED while SYS_FAILURE_EN is 0; set it to 1
                    (Param plugin), take off to 8 m, inject GPS off: global position lost, LAND
                    (the fault matrix's "GPS lost" row: estimator_unhealthy → land), landed,
@@ -42,6 +44,7 @@ from mavsdk.asyncio.plugins.offboard import OffboardAsync
 from mavsdk.asyncio.plugins.param import ParamAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 from mavsdk.plugins.action import ActionError
+from mavsdk.plugins.action import OrbitYawBehavior
 from mavsdk.plugins.failure import FailureError, FailureResult, FailureType, FailureUnit
 from mavsdk.plugins.geofence import Circle, FenceType, GeofenceData, Point, Polygon
 from mavsdk.plugins.offboard import VelocityNedYaw
@@ -250,6 +253,7 @@ async def goto_hold_rtl(v):
     log("hold", f"drifted {drift:.2f} m in 5 s")
     if drift > 1.5:
         raise Failed(f"hold: drifted {drift:.2f} m")
+    await orbit(v, held)
     await v.action.return_to_launch()
     await until("flight mode RETURN_TO_LAUNCH", lambda: _mode_is(v, FlightMode.RETURN_TO_LAUNCH), 5.0)
     await v.landed_and_disarmed(120.0)
@@ -258,6 +262,53 @@ async def goto_hold_rtl(v):
     log("landed", f"{off:.2f} m from home")
     if off > 3.0:
         raise Failed(f"RTL landed {off:.2f} m from home")
+
+
+def fit_circle(points):
+    """Kasa's algebraic least-squares circle through (north, east) points (m): centre, radius."""
+    n = len(points)
+    mx, my = sum(p[0] for p in points) / n, sum(p[1] for p in points) / n
+    u = [(p[0] - mx, p[1] - my) for p in points]
+    suu, svv = sum(a * a for a, _ in u), sum(b * b for _, b in u)
+    suv = sum(a * b for a, b in u)
+    r1 = 0.5 * (sum(a ** 3 for a, _ in u) + sum(a * b * b for a, b in u))
+    r2 = 0.5 * (sum(b ** 3 for _, b in u) + sum(b * a * a for a, b in u))
+    det = suu * svv - suv * suv
+    uc, vc = (r1 * svv - r2 * suv) / det, (r2 * suu - r1 * suv) / det
+    return (uc + mx, vc + my), math.sqrt(uc * uc + vc * vc + (suu + svv) / n)
+
+
+async def orbit(v, here):
+    """`action.do_orbit`: ORBIT_R_M round a centre ORBIT_R_M east of `here`, at ORBIT_V_M_S,
+    facing the centre; the positions telemetry reports over ORBIT_S of vehicle time must lie on
+    that circle (least-squares fit: radius within 1 m, RMS off it under 0.5 m) and turn
+    clockwise at about v / r."""
+    ORBIT_R_M, ORBIT_V_M_S, ORBIT_S = 8.0, 2.0, 16.0
+    centre_lat = here.latitude_deg
+    centre_lon = here.longitude_deg + ORBIT_R_M / (111_320.0 * math.cos(math.radians(here.latitude_deg)))
+    await v.action.do_orbit(ORBIT_R_M, ORBIT_V_M_S, OrbitYawBehavior.HOLD_FRONT_TO_CIRCLE_CENTER,
+                            centre_lat, centre_lon, here.absolute_altitude_m)
+    log("do_orbit", f"accepted; flight mode {await v.telemetry.flight_mode()}")
+    await asyncio.sleep(2.0 / SPEEDUP)
+    samples = []
+    end = time.monotonic() + ORBIT_S / SPEEDUP
+    while time.monotonic() < end:
+        p = await v.telemetry.position()
+        north = (p.latitude_deg - centre_lat) * 110_574.0
+        east = (p.longitude_deg - centre_lon) * 111_320.0 * math.cos(math.radians(centre_lat))
+        samples.append((time.monotonic(), north, east))
+        await asyncio.sleep(0.1)
+    (cn, ce), radius = fit_circle([(n, e) for _, n, e in samples])
+    rms = math.sqrt(sum((math.hypot(n - cn, e - ce) - radius) ** 2 for _, n, e in samples) / len(samples))
+    angles = [math.atan2(e, n) for _, n, e in samples]
+    turned = sum((b - a + math.pi) % (2 * math.pi) - math.pi for a, b in zip(angles, angles[1:]))
+    rate = turned / ((samples[-1][0] - samples[0][0]) * SPEEDUP)
+    log("orbit", f"radius {radius:.2f} m, RMS {rms:.3f} m, centre {math.hypot(cn, ce):.2f} m off, "
+                 f"rate {rate:.3f} rad/s over {len(samples)} positions")
+    if abs(radius - ORBIT_R_M) > 1.0 or rms > 0.5 or math.hypot(cn, ce) > 1.0:
+        raise Failed(f"orbit: radius {radius:.2f} m, RMS {rms:.3f} m round a centre {math.hypot(cn, ce):.2f} m off")
+    if abs(rate - ORBIT_V_M_S / ORBIT_R_M) > 0.05:
+        raise Failed(f"orbit: {rate:.3f} rad/s, wanted {ORBIT_V_M_S / ORBIT_R_M:.3f}")
 
 
 async def failure_gps(v):

@@ -10,9 +10,11 @@
 //! | AltHold | 2 | ALT_HOLD |
 //! | Auto | 3 | AUTO |
 //! | Guided, Takeoff | 4 | GUIDED (ArduCopter takes off in GUIDED) |
-//! | PosHold | 5 | LOITER: stick velocity, centred holds position, as ours (POSHOLD, 16, and BRAKE, 17, which MAVSDK's `hold` asks for, are accepted inbound too) |
+//! | PosHold | 5 | LOITER: stick velocity, centred holds position, as ours (POSHOLD, 16, is accepted inbound too) |
 //! | ReturnToLaunch | 6 | RTL |
+//! | Circle | 7 | CIRCLE (also what DO_ORBIT starts) |
 //! | Land | 9 | LAND |
+//! | Brake | 17 | BRAKE (MAVSDK's `hold` asks for it) |
 
 use kestrel_proto::messages::FlightMode;
 
@@ -26,7 +28,9 @@ pub fn custom_mode(mode: FlightMode) -> u32 {
         FlightMode::Guided | FlightMode::Takeoff => 4,
         FlightMode::PosHold => 5,
         FlightMode::ReturnToLaunch => 6,
+        FlightMode::Circle => 7,
         FlightMode::Land => 9,
+        FlightMode::Brake => 17,
     }
 }
 
@@ -38,11 +42,13 @@ pub fn flight_mode(custom_mode: u32) -> Option<FlightMode> {
         2 => FlightMode::AltHold,
         3 => FlightMode::Auto,
         4 => FlightMode::Guided,
-        // LOITER, POSHOLD and BRAKE all hold position with the sticks centred, as ours does;
-        // MAVSDK 4's `hold` asks for BRAKE.
-        5 | 16 | 17 => FlightMode::PosHold,
+        // LOITER and POSHOLD both hold position with the sticks centred, as ours does.
+        5 | 16 => FlightMode::PosHold,
         6 => FlightMode::ReturnToLaunch,
+        7 => FlightMode::Circle,
         9 => FlightMode::Land,
+        // MAVSDK 4's `hold` asks for BRAKE: it stops, then holds.
+        17 => FlightMode::Brake,
         _ => return None,
     })
 }
@@ -59,6 +65,8 @@ pub fn mode_name(mode: FlightMode) -> &'static str {
         FlightMode::PosHold => "LOITER",
         FlightMode::ReturnToLaunch => "RTL",
         FlightMode::Land => "LAND",
+        FlightMode::Circle => "CIRCLE",
+        FlightMode::Brake => "BRAKE",
     }
 }
 
@@ -77,10 +85,13 @@ mod tests {
             FlightMode::Auto,
             FlightMode::ReturnToLaunch,
             FlightMode::Land,
+            FlightMode::Circle,
+            FlightMode::Brake,
         ] {
             assert_eq!(flight_mode(custom_mode(mode)), Some(mode));
         }
         assert_eq!(flight_mode(custom_mode(FlightMode::Takeoff)), Some(FlightMode::Guided));
-        assert_eq!(flight_mode(7), None);
+        assert_eq!((custom_mode(FlightMode::Circle), custom_mode(FlightMode::Brake)), (7, 17));
+        assert_eq!(flight_mode(8), None, "DRIFT is not flown");
     }
 }

@@ -64,6 +64,38 @@ pub enum Command {
     /// names (and its MANUAL_CONTROL; not other commands, which scripts send too) establishes
     /// and refreshes the data link whose loss is a failsafe; others are counted and ignored.
     Heartbeat { system_id: u8 },
+    /// Circle a centre (MAV_CMD_DO_ORBIT): switches to CIRCLE. `radius_m` > 0 flies clockwise
+    /// seen from above, < 0 counter-clockwise, NaN the CIRCLE_RADIUS_M default; `speed_m_s` is
+    /// the tangential speed (`None`: the CIRCLE_RATE_DEGS rate); `centre_ne_m` north and east of
+    /// the estimator's origin (`None`: where the vehicle is), `centre_down_m` its down
+    /// coordinate (`None`: the height flown), both in m.
+    Orbit {
+        radius_m: f64,
+        speed_m_s: Option<f64>,
+        yaw: OrbitYaw,
+        centre_ne_m: Option<[f64; 2]>,
+        centre_down_m: Option<f64>,
+    },
+    /// Restart the flight stack (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN 1): only while disarmed.
+    Reboot,
+    /// Spin motors for a test (MAV_CMD_DO_MOTOR_TEST), only disarmed and landed: motor
+    /// `first` (1-based, in the frame's test order) and the `count` - 1 after it in turn, each at
+    /// `throttle` (share of full, 0..=1) for `duration_s`.
+    MotorTest { first: u8, count: u8, throttle: f64, duration_s: f64 },
+}
+
+/// Where the nose points while orbiting (MAVLink ORBIT_YAW_BEHAVIOUR).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum OrbitYaw {
+    /// At the centre (ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TO_CIRCLE_CENTER, the default).
+    #[default]
+    FaceCentre,
+    /// The heading held when the orbit started (HOLD_INITIAL_HEADING, UNCONTROLLED and
+    /// RC_CONTROLLED: no sticks in the loop, so held).
+    HoldInitial,
+    /// Along the direction of travel (HOLD_FRONT_TANGENT_TO_CIRCLE).
+    Tangent,
 }
 
 /// A timestamped [`Command`].

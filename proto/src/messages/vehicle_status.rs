@@ -29,6 +29,11 @@ pub enum FlightMode {
     ReturnToLaunch,
     /// Descend where the vehicle is and disarm on touchdown.
     Land,
+    /// Fly a circle around a centre, nose on the centre (ArduCopter CIRCLE, PX4 Orbit; also
+    /// what MAV_CMD_DO_ORBIT starts).
+    Circle,
+    /// Stop as fast as the vehicle can and hold there (ArduCopter BRAKE).
+    Brake,
 }
 
 /// Whether the vehicle is on the ground.

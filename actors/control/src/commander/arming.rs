@@ -25,6 +25,8 @@ pub fn needs_position(mode: FlightMode) -> bool {
             | FlightMode::Auto
             | FlightMode::Takeoff
             | FlightMode::ReturnToLaunch
+            | FlightMode::Circle
+            | FlightMode::Brake
     )
 }
 
@@ -120,9 +122,13 @@ impl Commander {
             return refuse("already armed");
         }
         self.vehicle_ready(now)?;
-        if matches!(self.mode, FlightMode::ReturnToLaunch | FlightMode::Land) {
+        if matches!(
+            self.mode,
+            FlightMode::ReturnToLaunch | FlightMode::Land | FlightMode::Circle | FlightMode::Brake
+        ) {
             // ArduCopter's RTL and LAND do not allow arming: the vehicle would take off only to
-            // come straight back down, or sit armed waiting for the land detector.
+            // come straight back down, or sit armed waiting for the land detector. Nor do its
+            // CIRCLE and BRAKE (`allows_arming` false): they fly only once in the air.
             return refuse(format!("arming refused: not in {:?} (choose GUIDED, LOITER or AUTO)", self.mode));
         }
         self.sticks_ready(now)?;

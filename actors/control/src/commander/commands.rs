@@ -127,6 +127,11 @@ impl Commander {
             Command::RegionOfInterest { position_ned_m } => {
                 self.guided.set_region_of_interest(position_ned_m)
             }
+            Command::Orbit { radius_m, speed_m_s, yaw, centre_ne_m, centre_down_m } => {
+                self.orbit(now, radius_m, speed_m_s, yaw, centre_ne_m, centre_down_m)
+            }
+            Command::Reboot => self.reboot(),
+            Command::MotorTest { .. } => self.motor_test(),
             Command::PauseMission | Command::ContinueMission
                 if self.mode != FlightMode::Auto || self.mission.runner.is_none() =>
             {
@@ -149,6 +154,28 @@ impl Commander {
             }
         };
         self.refused(result)
+    }
+
+    /// MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: refused while armed, as ArduCopter refuses it (its
+    /// ACK FAILED, ours DENIED). Disarmed it is refused too: nothing in the runtime restarts the
+    /// process on it yet, and a command is never acknowledged unless it is carried out.
+    fn reboot(&mut self) -> Result<(), Refusal> {
+        if self.armed {
+            return refuse("reboot refused: vehicle is armed");
+        }
+        refuse("reboot refused: restart the kestrel service instead")
+    }
+
+    /// MAV_CMD_DO_MOTOR_TEST: refused unless disarmed and landed, as ArduCopter's
+    /// `mavlink_motor_test_check` ("vehicle not landed", and a test only starts disarmed).
+    fn motor_test(&mut self) -> Result<(), Refusal> {
+        if self.armed {
+            return refuse("motor test refused: armed");
+        }
+        if self.landing.state() != LandedState::OnGround {
+            return refuse("motor test refused: vehicle not landed");
+        }
+        refuse("motor test refused: not supported by this vehicle's outputs")
     }
 
     fn start_flip(&mut self, now: Time) -> Result<(), Refusal> {

@@ -26,6 +26,8 @@ mod announcements;
 mod arming;
 mod avoidance;
 mod battery;
+mod brake;
+mod circle;
 mod commands;
 mod failsafe;
 mod failsafe_actions;
@@ -60,6 +62,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 pub use arming::{Refusal, needs_position, needs_sticks};
 pub use avoidance::{cap_braking, frd_to_ned};
+pub use brake::{BRAKE_DECEL_M_S2, Brake, BrakeTarget};
+pub use circle::{Circle, CircleParams, CircleTarget};
 pub use failsafe::{FailsafeMonitor, FailsafeRecord, HeldFor, NetHeldFor};
 pub use kestrel_proto::param_def::{ParamChange, ParamRefused};
 pub use land_detector::LandDetector;

@@ -8,6 +8,8 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use super::arming::Refusal;
 use super::avoidance::{Blend, Leg, Limits};
+use super::brake::Brake;
+use super::circle::Circle;
 use super::guided::GuidedTarget;
 use super::mission_runner::MissionStep;
 use super::{Commander, heading};
@@ -49,11 +51,15 @@ pub(crate) struct ModeLatches {
     pub rtl: RtlPhase,
     /// A flip under way (ACRO).
     pub flip: Option<Flip>,
+    /// The orbit CIRCLE flies (set by DO_ORBIT, or on entry).
+    pub circle: Option<Circle>,
+    /// BRAKE's velocity still to shed, then the point held.
+    pub brake: Option<Brake>,
 }
 
 impl Default for ModeLatches {
     fn default() -> ModeLatches {
-        ModeLatches { hold: Hold::default(), rtl: RtlPhase::Climb, flip: None }
+        ModeLatches { hold: Hold::default(), rtl: RtlPhase::Climb, flip: None, circle: None, brake: None }
     }
 }
 
@@ -174,6 +180,9 @@ impl Commander {
                 }
                 traj([Some(p.x), Some(p.y), Some(down)], [None; 3], Some(yaw))
             }
+            FlightMode::Circle | FlightMode::Brake if on_ground => SetpointTarget::MotorsOff,
+            FlightMode::Circle => self.circle(dt_s, &nav),
+            FlightMode::Brake => self.brake(dt_s, &nav),
             FlightMode::ReturnToLaunch => self.rtl(now, dt_s, &nav),
             FlightMode::Land => {
                 let p = *self.latched.hold.position.get_or_insert(Vector3::from(nav.position_ned_m));

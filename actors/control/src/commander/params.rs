@@ -4,6 +4,7 @@
 use kestrel_proto::messages::FailsafeAction;
 use serde::{Deserialize, Serialize};
 
+use super::circle::CircleParams;
 use super::failsafe_actions;
 use super::vertical::VerticalParams;
 use crate::error::{InvalidParam, positive, within};
@@ -75,6 +76,8 @@ pub struct CommanderParams {
     pub feasibility: FeasibilityParams,
     /// `[vertical]`: the up- and downward rangefinders' limits (`vertical`).
     pub vertical: VerticalParams,
+    /// `[circle]`: CIRCLE's radius, rate and acceleration (`circle`).
+    pub circle: CircleParams,
 }
 
 impl Default for CommanderParams {
@@ -109,6 +112,7 @@ impl Default for CommanderParams {
             geofence: GeofenceParams::default(),
             feasibility: FeasibilityParams::default(),
             vertical: VerticalParams::default(),
+            circle: CircleParams::default(),
         }
     }
 }
@@ -352,6 +356,7 @@ impl CommanderParams {
         within("disarm_delay_s", self.disarm_delay_s, 0.0, 127.0)?;
         within("feasibility.min_height_m", self.feasibility.min_height_m, -100.0, 100.0)?;
         self.vertical.validate()?;
+        self.circle.validate()?;
         within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
         within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;
         within("failsafe.battery_critical", self.failsafe.battery_critical, 0.0, self.failsafe.battery_low)?;

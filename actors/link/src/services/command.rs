@@ -18,7 +18,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_from_e7};
 use kestrel_proto::messages::{
-    AltitudeFrame, Command, CommandResult, FailureInjection, FailureInjectionResult, FlightMode, MissionPoint,
+    AltitudeFrame, Command, CommandResult, FailureInjection, FailureInjectionResult, FlightMode,
+    MissionPoint, OrbitYaw,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
@@ -164,6 +165,7 @@ impl CommandService {
                     .is_some_and(|s| matches!(s.mode, FlightMode::Guided | FlightMode::Takeoff));
                 self.reposition(request, home(&ctx.telemetry.snapshot), guided, now)
             }
+            MavCmd::MAV_CMD_DO_ORBIT => self.orbit(request, home(&ctx.telemetry.snapshot), now),
             MavCmd::MAV_CMD_GET_HOME_POSITION => match ctx.telemetry.build(HOME_POSITION_DATA::ID, now) {
                 Some(home) => Outputs {
                     mav: vec![ack(&request, MavResult::MAV_RESULT_ACCEPTED), home],
@@ -262,6 +264,14 @@ impl CommandService {
                 Ok(point) => Command::SetHome { point },
                 Err(result) => return refuse(result),
             },
+            // param1 1 reboots the autopilot; 0 (nothing), 2 (shut down), 3 (bootloader) and the
+            // companion's params are not something this process does.
+            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if p[0] == 1.0 => Command::Reboot,
+            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN => return refuse(MavResult::MAV_RESULT_UNSUPPORTED),
+            MavCmd::MAV_CMD_DO_MOTOR_TEST => match motor_test(&p) {
+                Ok(command) => command,
+                Err(result) => return refuse(result),
+            },
             MavCmd::MAV_CMD_DO_FENCE_ENABLE => match fence_switch(p[0]) {
                 Ok(enabled) => Command::SetGeofence { enabled },
                 Err(result) => return refuse(result),
@@ -324,6 +334,67 @@ impl CommandService {
         }
         out.extend(self.submit(request, Command::GotoNed { position_ned_m: ned }, now));
         out
+    }
+
+    /// MAV_CMD_DO_ORBIT (QGroundControl's "Orbit", MAVSDK's `do_orbit`): param1 the radius (m,
+    /// negative counter-clockwise; NaN the CIRCLE default), param2 the tangential speed (m/s; NaN
+    /// the default rate), param3 ORBIT_YAW_BEHAVIOUR (NaN: face the centre), params 5-7 the
+    /// centre as DO_REPOSITION reads them (NaN, or COMMAND_INT's INT32_MAX, for latitude and
+    /// longitude: here; NaN altitude: the height flown), converted to NED around the
+    /// estimator's `origin`. ArduCopter 4.7 answers UNSUPPORTED; we fly it in CIRCLE, as PX4's
+    /// Orbit does and as ArduCopter's CIRCLE flies.
+    pub fn orbit(&mut self, request: CommandRequest, origin: Option<Geodetic>, now: Time) -> Outputs {
+        let p = request.params;
+        let denied = || Outputs::send(ack(&request, MavResult::MAV_RESULT_DENIED));
+        let radius_m = p[0];
+        if radius_m.is_infinite() {
+            return denied();
+        }
+        let speed_m_s = if p[1].is_nan() { None } else { Some(p[1]) };
+        // ORBIT_YAW_BEHAVIOUR: 0 front to the centre, 1 initial heading, 2 uncontrolled and
+        // 4 RC-controlled (no sticks here: held), 3 tangent to the circle.
+        let yaw = match whole(p[2], 4) {
+            _ if p[2].is_nan() => OrbitYaw::FaceCentre,
+            Some(0) => OrbitYaw::FaceCentre,
+            Some(1 | 2 | 4) => OrbitYaw::HoldInitial,
+            Some(3) => OrbitYaw::Tangent,
+            _ => return denied(),
+        };
+        let in_deg_e7 = request.frame.is_some();
+        let unset = |v: f64| v.is_nan() || (in_deg_e7 && v == f64::from(i32::MAX));
+        let (centre_ne_m, centre_down_m) = if unset(p[4]) && unset(p[5]) && p[6].is_nan() {
+            (None, None)
+        } else {
+            let Some(origin) = origin else {
+                return Outputs::send(ack(&request, MavResult::MAV_RESULT_TEMPORARILY_REJECTED));
+            };
+            let ne = if unset(p[4]) || unset(p[5]) {
+                None
+            } else {
+                let mut at = request;
+                at.params[6] = if p[6].is_nan() { origin.alt_m } else { p[6] };
+                match reposition_target(&at) {
+                    Ok(Some(point)) => {
+                        let ned = to_ned(origin, &point);
+                        Some([ned[0], ned[1]])
+                    }
+                    _ => return denied(),
+                }
+            };
+            let down = if p[6].is_nan() {
+                None
+            } else {
+                let mut at = request;
+                at.params[4] = if in_deg_e7 { origin.lat_deg * 1e7 } else { origin.lat_deg };
+                at.params[5] = if in_deg_e7 { origin.lon_deg * 1e7 } else { origin.lon_deg };
+                match reposition_target(&at) {
+                    Ok(Some(point)) => Some(to_ned(origin, &point)[2]),
+                    _ => return denied(),
+                }
+            };
+            (ne, down)
+        };
+        self.submit(request, Command::Orbit { radius_m, speed_m_s, yaw, centre_ne_m, centre_down_m }, now)
     }
 
     /// MAV_CMD_MISSION_START from the commander's item `index` (the caller mapped param1, the
@@ -464,6 +535,30 @@ fn reposition_target(request: &CommandRequest) -> Result<Option<MissionPoint>, M
     let mut as_home = *request;
     as_home.params[0] = 0.0;
     home_target(&as_home)
+}
+
+/// MAV_CMD_DO_MOTOR_TEST's params as ArduCopter reads them: param1 the motor (1-based, in the
+/// test order), param2 the throttle type — only MOTOR_TEST_THROTTLE_PERCENT (0) is taken, PWM
+/// and pilot pass-through are UNSUPPORTED — param3 the throttle (0..=100 %), param4 the time
+/// (s, > 0), param5 how many motors in sequence (0 counts as 1), param6 the order (0 default or
+/// 2 board order; 1, sequence, is ArduPilot's numbering too). What is out of range is DENIED.
+fn motor_test(p: &[f64; 7]) -> Result<Command, MavResult> {
+    let first = whole(p[0], u8::MAX.into()).filter(|&m| m >= 1).ok_or(MavResult::MAV_RESULT_DENIED)?;
+    match whole(p[1], 2) {
+        Some(0) => {}
+        Some(_) => return Err(MavResult::MAV_RESULT_UNSUPPORTED),
+        None => return Err(MavResult::MAV_RESULT_DENIED),
+    }
+    if !((0.0..=100.0).contains(&p[2]) && p[3].is_finite() && p[3] > 0.0) {
+        return Err(MavResult::MAV_RESULT_DENIED);
+    }
+    let count = whole(p[4], u8::MAX.into()).ok_or(MavResult::MAV_RESULT_DENIED)?.max(1);
+    Ok(Command::MotorTest {
+        first: u8::try_from(first).map_err(|_| MavResult::MAV_RESULT_DENIED)?,
+        count: u8::try_from(count).map_err(|_| MavResult::MAV_RESULT_DENIED)?,
+        throttle: p[2] / 100.0,
+        duration_s: p[3],
+    })
 }
 
 /// MAV_CMD_DO_FENCE_ENABLE's param1: 0 off, 1 on. 2 (ArduPilot: disable the floor only) is

@@ -32,8 +32,10 @@ pub fn vehicle_heartbeat(status: Option<&VehicleStatus>) -> HEARTBEAT_DATA {
         FlightMode::Stabilize | FlightMode::Acro | FlightMode::AltHold | FlightMode::PosHold => {
             MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
         }
-        FlightMode::Guided | FlightMode::Takeoff => MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED,
-        FlightMode::Auto | FlightMode::ReturnToLaunch | FlightMode::Land => {
+        FlightMode::Guided | FlightMode::Takeoff | FlightMode::Brake => {
+            MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED
+        }
+        FlightMode::Auto | FlightMode::ReturnToLaunch | FlightMode::Land | FlightMode::Circle => {
             MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED | MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED
         }
     };

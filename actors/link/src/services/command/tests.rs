@@ -243,3 +243,97 @@ fn a_reposition_the_commander_refuses_fails_and_one_out_of_guided_is_denied() {
         Some(MavResult::MAV_RESULT_ACCEPTED)
     );
 }
+
+#[test]
+fn do_orbit_reads_radius_speed_yaw_and_centre_and_denies_nonsense() {
+    let mut s = CommandService::new();
+    let origin = Geodetic { lat_deg: 6.7971, lon_deg: 79.9017, alt_m: 20.0 };
+    let nan = f64::NAN;
+    // MAVSDK's `do_orbit` with no centre: here, at the height flown, defaults for NaN.
+    let here =
+        s.orbit(request(MavCmd::MAV_CMD_DO_ORBIT, [10.0, nan, 0.0, nan, nan, nan, nan]), None, Time::ZERO);
+    assert_eq!(
+        graph(&here),
+        Some(Command::Orbit {
+            radius_m: 10.0,
+            speed_m_s: None,
+            yaw: OrbitYaw::FaceCentre,
+            centre_ne_m: None,
+            centre_down_m: None
+        })
+    );
+    // A centre 0.0001° north (11.06 m) at 30 m AMSL (10 m up), counter-clockwise at 2 m/s,
+    // nose along the track.
+    let north = s.orbit(
+        request(MavCmd::MAV_CMD_DO_ORBIT, [-5.0, 2.0, 3.0, nan, 6.7972, 79.9017, 30.0]),
+        Some(origin),
+        Time::ZERO,
+    );
+    let Some(Command::Orbit { radius_m, speed_m_s, yaw, centre_ne_m: Some([n, e]), centre_down_m: Some(d) }) =
+        graph(&north)
+    else {
+        panic!("no centre: {north:?}")
+    };
+    assert_eq!((radius_m, speed_m_s, yaw), (-5.0, Some(2.0), OrbitYaw::Tangent));
+    assert!((n - 11.06).abs() < 0.05 && e.abs() < 1e-6 && (d + 10.0).abs() < 1e-6, "{n} {e} {d}");
+    // COMMAND_INT's INT32_MAX latitude and longitude: here, at the altitude given.
+    let int = CommandRequest {
+        frame: Some(MavFrame::MAV_FRAME_GLOBAL_INT),
+        ..request(
+            MavCmd::MAV_CMD_DO_ORBIT,
+            [8.0, nan, 1.0, nan, f64::from(i32::MAX), f64::from(i32::MAX), 25.0],
+        )
+    };
+    let Some(Command::Orbit {
+        centre_ne_m: None, centre_down_m: Some(d), yaw: OrbitYaw::HoldInitial, ..
+    }) = graph(&s.orbit(int, Some(origin), Time::ZERO))
+    else {
+        panic!("INT32_MAX is no centre")
+    };
+    assert!((d + 5.0).abs() < 1e-6);
+    // A centre without an origin waits for one; a bad yaw behaviour or an infinite radius is DENIED.
+    let no_origin =
+        s.orbit(request(MavCmd::MAV_CMD_DO_ORBIT, [5.0, nan, 0.0, nan, 6.8, 79.9, 30.0]), None, Time::ZERO);
+    assert_eq!(result(&no_origin.mav[0]).1, MavResult::MAV_RESULT_TEMPORARILY_REJECTED);
+    for params in [[5.0, nan, 7.0, nan, nan, nan, nan], [f64::INFINITY, nan, 0.0, nan, nan, nan, nan]] {
+        let out = s.orbit(request(MavCmd::MAV_CMD_DO_ORBIT, params), Some(origin), Time::ZERO);
+        assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{params:?}");
+        assert!(out.graph.is_empty());
+    }
+}
+
+#[test]
+fn reboot_and_motor_test_go_to_the_commander_and_what_we_do_not_do_is_unsupported() {
+    let mut s = CommandService::new();
+    let reboot = s.handle(
+        request(MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        Time::ZERO,
+    );
+    assert_eq!(graph(&reboot.expect("handled")), Some(Command::Reboot));
+    for param1 in [0.0, 2.0, 3.0] {
+        let out = s
+            .handle(
+                request(MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [param1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                Time::ZERO,
+            )
+            .expect("handled");
+        assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_UNSUPPORTED, "param1 {param1}");
+    }
+    let test =
+        s.handle(request(MavCmd::MAV_CMD_DO_MOTOR_TEST, [2.0, 0.0, 15.0, 1.5, 0.0, 0.0, 0.0]), Time::ZERO);
+    assert_eq!(
+        graph(&test.expect("handled")),
+        Some(Command::MotorTest { first: 2, count: 1, throttle: 0.15, duration_s: 1.5 })
+    );
+    for (params, answer) in [
+        ([2.0, 1.0, 1100.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_UNSUPPORTED),
+        ([0.0, 0.0, 10.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([1.0, 0.0, 101.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([1.0, 0.0, 10.0, 0.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([1.0, 0.0, f64::NAN, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+    ] {
+        let out = s.handle(request(MavCmd::MAV_CMD_DO_MOTOR_TEST, params), Time::ZERO).expect("handled");
+        assert_eq!(result(&out.mav[0]).1, answer, "{params:?}");
+        assert!(out.graph.is_empty());
+    }
+}
