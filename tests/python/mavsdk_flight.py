@@ -43,8 +43,7 @@ from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
 from mavsdk.asyncio.plugins.offboard import OffboardAsync
 from mavsdk.asyncio.plugins.param import ParamAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
-from mavsdk.plugins.action import ActionError
-from mavsdk.plugins.action import OrbitYawBehavior
+from mavsdk.plugins.action import ActionError, OrbitYawBehavior
 from mavsdk.plugins.failure import FailureError, FailureResult, FailureType, FailureUnit
 from mavsdk.plugins.geofence import Circle, FenceType, GeofenceData, Point, Polygon
 from mavsdk.plugins.offboard import VelocityNedYaw
