@@ -13,6 +13,7 @@ mod estimator_status;
 mod failure_injection;
 mod gps;
 mod ground_truth;
+mod guided_target;
 mod imu;
 mod mag;
 mod manual_control;
@@ -52,6 +53,7 @@ pub use failure_injection::{
 };
 pub use gps::{GpsFix, GpsFixType};
 pub use ground_truth::GroundTruth;
+pub use guided_target::{AttitudeTarget, PositionTarget};
 pub use imu::ImuSample;
 pub use mag::MagSample;
 pub use manual_control::{ManualControl, StickSource};

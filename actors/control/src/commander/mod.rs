@@ -33,6 +33,7 @@ mod faults;
 mod feasibility;
 mod geofence;
 mod guided;
+mod guided_setpoint;
 mod home;
 mod land_detector;
 mod landing;
