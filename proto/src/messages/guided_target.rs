@@ -22,6 +22,10 @@ pub struct PositionTarget {
     pub yaw_rad: Option<f64>,
     /// Heading rate (rad/s, clockwise seen from above); `None` keeps the mode's default.
     pub yaw_rate_rad_s: Option<f64>,
+    /// Horizontal speed to fly to the position at (m/s), MAV_CMD_DO_REPOSITION's param1; `None`
+    /// uses the controller's limit.
+    #[serde(default)]
+    pub speed_m_s: Option<f64>,
 }
 
 /// A SET_ATTITUDE_TARGET as ArduCopter flies it on its default `GUID_OPTIONS` (0): an attitude

@@ -255,6 +255,14 @@ impl Commander {
                 "position target refused: acceleration above {MAX_TARGET_ACCELERATION_M_S2} m/s²"
             ));
         }
+        if let Some(speed) = t.speed_m_s {
+            let max = self.params.feasibility.max_velocity_m_s;
+            if !(speed.is_finite() && speed > 0.0 && speed <= max && t.position_ned_m.is_some()) {
+                return refuse(format!(
+                    "position target refused: speed {speed} m/s, not 0 < speed <= {max} m/s to a position"
+                ));
+            }
+        }
         if let Some(p) = t.position_ned_m {
             self.guided_target_refused(GuidedTarget::Position(p))?;
         }

@@ -43,6 +43,7 @@ impl Commander {
             acceleration_ned_m_s2: t.acceleration_ned_m_s2.unwrap_or([0.0; 3]),
             yaw_rad: Some(yaw),
             yaw_rate_rad_s: rate,
+            max_horizontal_speed_m_s: t.speed_m_s,
             ..TrajectorySetpoint::default()
         })
     }

@@ -318,9 +318,10 @@ impl Commander {
                 }
                 GuidedTarget::Velocity(v) => Some(Leg::Velocity(Vector3::from(v))),
                 GuidedTarget::Setpoint(t) => match (t.position_ned_m, t.velocity_ned_m_s) {
-                    (Some(p), _) => {
-                        Some(Leg::To { target: Vector3::from(p), speed_m_s: self.params.guided_speed_m_s })
-                    }
+                    (Some(p), _) => Some(Leg::To {
+                        target: Vector3::from(p),
+                        speed_m_s: t.speed_m_s.unwrap_or(self.params.guided_speed_m_s),
+                    }),
                     (None, Some(v)) => Some(Leg::Velocity(Vector3::from(v))),
                     (None, None) => None,
                 },

@@ -13,8 +13,7 @@ use kestrel_proto::messages::{
     AttitudeTarget, Command, ManualControl, NavState, PositionTarget, StickSource,
 };
 use mavlink::dialects::ardupilotmega::{
-    AttitudeTargetTypemask, MANUAL_CONTROL_DATA, MavFrame, MavMessage, POSITION_TARGET_GLOBAL_INT_DATA,
-    POSITION_TARGET_LOCAL_NED_DATA, PositionTargetTypemask, SET_ATTITUDE_TARGET_DATA,
+    AttitudeTargetTypemask, MANUAL_CONTROL_DATA, MavFrame, PositionTargetTypemask, SET_ATTITUDE_TARGET_DATA,
     SET_POSITION_TARGET_GLOBAL_INT_DATA, SET_POSITION_TARGET_LOCAL_NED_DATA,
 };
 
@@ -187,6 +186,7 @@ pub fn local_target(
         acceleration_ned_m_s2,
         yaw_rad,
         yaw_rate_rad_s: yaw_rate,
+        speed_m_s: None,
     })
 }
 
@@ -240,6 +240,7 @@ pub fn global_target(
         acceleration_ned_m_s2,
         yaw_rad,
         yaw_rate_rad_s,
+        speed_m_s: None,
     })
 }
 
@@ -285,46 +286,6 @@ pub fn attitude_target(m: &SET_ATTITUDE_TARGET_DATA, rejects: &mut OffboardRejec
 fn stop(count: &mut u64) -> Command {
     *count += 1;
     Command::GuidedStop
-}
-
-/// The POSITION_TARGET_LOCAL_NED echo of an accepted local target.
-pub fn local_echo(m: &SET_POSITION_TARGET_LOCAL_NED_DATA, now: Time) -> MavMessage {
-    MavMessage::POSITION_TARGET_LOCAL_NED(POSITION_TARGET_LOCAL_NED_DATA {
-        time_boot_ms: (now.as_micros() / 1000) as u32,
-        x: m.x,
-        y: m.y,
-        z: m.z,
-        vx: m.vx,
-        vy: m.vy,
-        vz: m.vz,
-        afx: m.afx,
-        afy: m.afy,
-        afz: m.afz,
-        yaw: m.yaw,
-        yaw_rate: m.yaw_rate,
-        type_mask: m.type_mask,
-        coordinate_frame: m.coordinate_frame,
-    })
-}
-
-/// The POSITION_TARGET_GLOBAL_INT echo of an accepted global target.
-pub fn global_echo(m: &SET_POSITION_TARGET_GLOBAL_INT_DATA, now: Time) -> MavMessage {
-    MavMessage::POSITION_TARGET_GLOBAL_INT(POSITION_TARGET_GLOBAL_INT_DATA {
-        time_boot_ms: (now.as_micros() / 1000) as u32,
-        lat_int: m.lat_int,
-        lon_int: m.lon_int,
-        alt: m.alt,
-        vx: m.vx,
-        vy: m.vy,
-        vz: m.vz,
-        afx: m.afx,
-        afy: m.afy,
-        afz: m.afz,
-        yaw: m.yaw,
-        yaw_rate: m.yaw_rate,
-        type_mask: m.type_mask,
-        coordinate_frame: m.coordinate_frame,
-    })
 }
 
 #[cfg(test)]
