@@ -198,6 +198,7 @@ mod tests {
             acceleration_ned_m_s2: Some([0.5, 0.0, 0.0]),
             yaw_rad: Some(1.0),
             yaw_rate_rad_s: Some(0.2),
+            speed_m_s: None,
         };
         g.set_target(GuidedTarget::Setpoint(full), t(1.0));
         g.advance(0.5);
