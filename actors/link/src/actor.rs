@@ -52,6 +52,9 @@ pub enum LinkInput {
     /// The commander's newest setpoint (port `setpoint`; optional, `latest`):
     /// POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT, NAV_CONTROLLER_OUTPUT.
     Setpoint(Setpoint),
+    /// The newest sticks on the graph (port `manual_control`; optional, `latest`): the RC
+    /// receiver's or a ground station's, for RC_CHANNELS.
+    Sticks(ManualControl),
     /// A driver's health report (port `sensor_health`; hardware graphs): errors become a
     /// STATUSTEXT warning.
     SensorHealth(SensorHealth),
@@ -182,6 +185,7 @@ impl Actor for LinkActor {
         setup.input("baro", LinkInput::Baro);
         setup.input("actuator_outputs", LinkInput::Actuators);
         setup.input("setpoint", LinkInput::Setpoint);
+        setup.input("manual_control", LinkInput::Sticks);
         setup.input("rangefinder_up", LinkInput::Rangefinder);
         setup.input("rangefinder_down", LinkInput::Rangefinder);
         setup.input("ground_truth", |t| LinkInput::Truth(Box::new(t)));
@@ -282,6 +286,10 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Setpoint(setpoint) => {
                     hub.vehicle().on_setpoint(setpoint);
+                    Vec::new()
+                }
+                LinkInput::Sticks(sticks) => {
+                    hub.vehicle().on_sticks(sticks);
                     Vec::new()
                 }
                 LinkInput::Rangefinder(r) => {

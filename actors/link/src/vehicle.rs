@@ -410,6 +410,11 @@ impl Vehicle {
         self.telemetry.snapshot.actuators = Some(actuators);
     }
 
+    /// The newest sticks on the graph (for RC_CHANNELS).
+    pub fn on_sticks(&mut self, sticks: kestrel_proto::messages::ManualControl) {
+        self.telemetry.snapshot.sticks = Some(sticks);
+    }
+
     /// The commander's newest setpoint (for POSITION_TARGET_* and NAV_CONTROLLER_OUTPUT).
     pub fn on_setpoint(&mut self, setpoint: kestrel_proto::messages::Setpoint) {
         self.telemetry.snapshot.setpoint = Some(setpoint);
