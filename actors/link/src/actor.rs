@@ -52,7 +52,7 @@ pub enum LinkInput {
     /// The commander's newest setpoint (port `setpoint`; optional, `latest`):
     /// POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT, NAV_CONTROLLER_OUTPUT.
     Setpoint(Setpoint),
-    /// The newest sticks on the graph (port `manual_control`; optional, `latest`): the RC
+    /// The newest sticks on the graph (port `sticks`, topic `manual_control`; optional): the RC
     /// receiver's or a ground station's, for RC_CHANNELS.
     Sticks(ManualControl),
     /// A driver's health report (port `sensor_health`; hardware graphs): errors become a
@@ -185,7 +185,7 @@ impl Actor for LinkActor {
         setup.input("baro", LinkInput::Baro);
         setup.input("actuator_outputs", LinkInput::Actuators);
         setup.input("setpoint", LinkInput::Setpoint);
-        setup.input("manual_control", LinkInput::Sticks);
+        setup.input("sticks", LinkInput::Sticks);
         setup.input("rangefinder_up", LinkInput::Rangefinder);
         setup.input("rangefinder_down", LinkInput::Rangefinder);
         setup.input("ground_truth", |t| LinkInput::Truth(Box::new(t)));
