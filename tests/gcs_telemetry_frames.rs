@@ -16,7 +16,7 @@
 //! Kestrel does the same for the frames it sends, with one difference on purpose: ODOMETRY is
 //! sent on request (MAVSDK's `telemetry.odometry` asks for it, as PX4 sends it). Kestrel streams
 //! its 4 Hz frames unasked too, as it streams every other frame; RC_CHANNELS,
-//! NAV_CONTROLLER_OUTPUT and POSITION_TARGET_* are not compared ([`NOT_COMPARED`]).
+//! NAV_CONTROLLER_OUTPUT and POSITION_TARGET_* are reported, not compared ([`NOT_COMPARED`]).
 
 mod support;
 use support::{arducopter, sim_vehicle};
@@ -32,9 +32,10 @@ const SCRIPT: &str = "gcs_telemetry_frames.py";
 const STREAMED: [&str; 4] = ["RAW_IMU", "SCALED_PRESSURE", "SYSTEM_TIME", "SERVO_OUTPUT_RAW"];
 /// Sent only when asked for, by both (ODOMETRY: by Kestrel).
 const ON_REQUEST: [&str; 4] = ["ATTITUDE_QUATERNION", "SCALED_IMU", "HIGHRES_IMU", "ODOMETRY"];
-/// Frames the script asks for that Kestrel does not send yet: RC_CHANNELS (no RC receiver in
-/// the simulated graph), NAV_CONTROLLER_OUTPUT and POSITION_TARGET_* (the commander's targets
-/// are not a link input). Reported, not compared.
+/// Frames reported, not compared: RC_CHANNELS (Kestrel sends it only while sticks come, and the
+/// simulated graph has no receiver; ArduCopter SITL simulates one), NAV_CONTROLLER_OUTPUT and
+/// POSITION_TARGET_* (sent from the commander's setpoint; POSITION_TARGET_* only while armed,
+/// which this script's listening window is not).
 const NOT_COMPARED: [&str; 4] =
     ["RC_CHANNELS", "NAV_CONTROLLER_OUTPUT", "POSITION_TARGET_LOCAL_NED", "POSITION_TARGET_GLOBAL_INT"];
 /// The stream rate asked for (Hz) and how far a measured rate may be from it: the vehicle's
