@@ -340,7 +340,7 @@ async def body_circle(v, speed_m_s=2.0, rate_deg_s=30.0):
     async def up_to_speed():
         vel = (await v.telemetry.position_velocity_ned()).velocity
         return math.hypot(vel.north_m_s, vel.east_m_s) > 0.9 * speed_m_s
-    await until("circle: up to speed", up_to_speed, 30.0, 0.05)
+    await until("spin-up to 2 m/s", up_to_speed, 30.0, 0.05)
     points, speeds = [], []
     turned, last = 0.0, (await v.telemetry.heading()).heading_deg
     end = time.monotonic() + 90.0
