@@ -131,9 +131,9 @@ fn mavsdk_imports_uploads_downloads_and_flies_a_qgroundcontrol_plan() {
 }
 
 #[test]
-fn mavsdk_offboard_velocity_flies_a_10_m_square_and_ends_where_it_began() {
+fn mavsdk_offboard_velocity_flies_a_10_m_square_then_a_body_velocity_circle_of_radius_v_over_omega() {
     let t = fly("offboard", &[]);
-    println!("square: {}", detail(&t, "square"));
+    println!("square: {}; circle: {}", detail(&t, "square"), detail(&t, "circle"));
 }
 
 #[test]

@@ -6,7 +6,9 @@ Usage: mavsdk_flight.py SCENARIO [PLAN.plan]   (run by tests/gcs_mavsdk.rs)
     takeoff_land   arm, take off to 8 m, land: in air, 8 m, on the ground, disarmed
     mission        import a QGroundControl .plan with MAVSDK's importer, upload it, download it
                    identical, arm, start, follow the progress to the end, land near home
-    offboard       Offboard velocity: a 10 m square in NED, back within 2 m of the start
+    offboard       Offboard velocity: a 10 m square in NED, back within 2 m of the start; then
+                   `set_velocity_body` 2 m/s forward turning 30 °/s: over one turn of the
+                   heading, a circle of radius v/ω = 3.8 m at 2 m/s
     goto_hold_rtl  goto_location 20 m north, hold there, do_orbit an 8 m circle at 2 m/s (the
                    positions reported lie on it and turn at v / r), RTL: landed near home,
                    disarmed
@@ -46,7 +48,7 @@ from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 from mavsdk.plugins.action import ActionError, OrbitYawBehavior
 from mavsdk.plugins.failure import FailureError, FailureResult, FailureType, FailureUnit
 from mavsdk.plugins.geofence import Circle, FenceType, GeofenceData, Point, Polygon
-from mavsdk.plugins.offboard import VelocityNedYaw
+from mavsdk.plugins.offboard import VelocityBodyYawspeed, VelocityNedYaw
 from mavsdk.plugins.telemetry import FlightMode, LandedState
 
 CONNECTION = "udpin://0.0.0.0:14540"
@@ -207,10 +209,11 @@ async def offboard(v):
         log("corner", f"N {corners[-1][0]:.2f} E {corners[-1][1]:.2f}")
     await v.offboard.set_velocity_ned(VelocityNedYaw(0.0, 0.0, 0.0, 0.0))
     await asyncio.sleep(3.0 / SPEEDUP)
-    await v.offboard.stop()
     end = (await v.telemetry.position_velocity_ned()).position
     off = math.hypot(end.north_m - start.north_m, end.east_m - start.east_m)
     log("square", f"ended {off:.2f} m from its start")
+    await body_circle(v)
+    await v.offboard.stop()
     # The square's corners as flown: each side about 10 m (2 m/s for 5 vehicle seconds).
     expected = [(10, 0), (10, 10), (0, 10), (0, 0)]
     for (n, e), (en, ee) in zip(corners, expected):
@@ -421,6 +424,65 @@ async def geofence(v):
     log("breach", f"RETURN_TO_LAUNCH at {north / m_lat:.1f} m north")
     if not 25.0 < north / m_lat < 45.0:
         raise Failed(f"breach action at {north / m_lat:.1f} m north, the circle's edge is at 35 m")
+
+
+async def body_circle(v, speed_m_s=2.0, rate_deg_s=30.0):
+    """`set_velocity_body` forward at `speed_m_s` turning at `rate_deg_s`: the body velocity turns
+    with the nose, so the vehicle flies a circle of radius v/ω. Once up to speed, the positions
+    MAVSDK reports over one full turn of its heading are fitted with a circle (least squares,
+    Kåsa): its radius must be v/ω, every point near it, and the ground speed v. Nothing here is
+    timed by the wall clock, so a slow host (lockstep below its speed-up) flies the same shape."""
+    omega = math.radians(rate_deg_s)
+    radius = speed_m_s / omega
+    await v.offboard.set_velocity_body(VelocityBodyYawspeed(speed_m_s, 0.0, 0.0, rate_deg_s))
+
+    async def up_to_speed():
+        vel = (await v.telemetry.position_velocity_ned()).velocity
+        return math.hypot(vel.north_m_s, vel.east_m_s) > 0.9 * speed_m_s
+    await until("spin-up to 2 m/s", up_to_speed, 30.0, 0.05)
+    points, speeds = [], []
+    turned, last = 0.0, (await v.telemetry.heading()).heading_deg
+    end = time.monotonic() + 90.0
+    while turned < 360.0:
+        if time.monotonic() > end:
+            raise Failed(f"circle: turned only {turned:.0f} deg in 90 s")
+        pv = await v.telemetry.position_velocity_ned()
+        points.append((pv.position.north_m, pv.position.east_m))
+        speeds.append(math.hypot(pv.velocity.north_m_s, pv.velocity.east_m_s))
+        h = (await v.telemetry.heading()).heading_deg
+        turned += (h - last + 180.0) % 360.0 - 180.0
+        last = h
+        await asyncio.sleep(0.05)
+    await v.offboard.set_velocity_body(VelocityBodyYawspeed(0.0, 0.0, 0.0, 0.0))
+    # Kåsa's fit: x² + y² = 2 a x + 2 b y + c, least squares in (a, b, c); r² = c + a² + b².
+    n = len(points)
+    sx = sum(x for x, _ in points); sy = sum(y for _, y in points)
+    sxx = sum(x * x for x, _ in points); syy = sum(y * y for _, y in points)
+    sxy = sum(x * y for x, y in points)
+    sz = [x * x + y * y for x, y in points]
+    rhs = [sum(z * x for z, (x, _) in zip(sz, points)), sum(z * y for z, (_, y) in zip(sz, points)), sum(sz)]
+    m = [[2 * sxx, 2 * sxy, sx], [2 * sxy, 2 * syy, sy], [2 * sx, 2 * sy, n]]
+
+    def det(a):
+        return (a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) - a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0])
+                + a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]))
+    d = det(m)
+    sol = []
+    for col in range(3):
+        mc = [row[:] for row in m]
+        for r in range(3):
+            mc[r][col] = rhs[r]
+        sol.append(det(mc) / d)
+    cn, ce, c = sol
+    fitted = math.sqrt(c + cn * cn + ce * ce)
+    worst = max(abs(math.hypot(x - cn, y - ce) - fitted) for x, y in points)
+    speed = sum(speeds) / len(speeds)
+    log("circle", f"{n} samples over one turn: radius {fitted:.2f} m (v/ω = {radius:.2f} m), farthest "
+                  f"point {worst:.2f} m off it, ground speed {speed:.2f} m/s (asked {speed_m_s})")
+    if abs(fitted - radius) > 0.2 * radius or worst > 0.25 * radius:
+        raise Failed(f"circle: radius {fitted:.2f} m, a point {worst:.2f} m off; expected {radius:.2f} m")
+    if abs(speed - speed_m_s) > 0.15 * speed_m_s:
+        raise Failed(f"circle: ground speed {speed:.2f} m/s, asked {speed_m_s}")
 
 
 SCENARIOS = {"takeoff_land": takeoff_land, "mission": mission, "offboard": offboard,

@@ -10,7 +10,7 @@ use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, CalibrationCommand, CalibrationEvent,
     CommandResult, DepthGrid, EstimatorStatus, FailureInjection, FailureInjectionResult, FencePlan, GpsFix,
     GroundTruth, ImuSample, ManualControl, Mission, NavState, ParamDecl, ParamSet, RangefinderSample,
-    SensorHealth, VehicleCommand, VehicleStatus,
+    SensorHealth, Setpoint, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -49,6 +49,12 @@ pub enum LinkInput {
     Baro(BaroSample),
     /// The mixer's newest motor outputs (port `actuator_outputs`; optional): SERVO_OUTPUT_RAW.
     Actuators(ActuatorOutputs),
+    /// The commander's newest setpoint (port `setpoint`; optional, `latest`):
+    /// POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT, NAV_CONTROLLER_OUTPUT.
+    Setpoint(Setpoint),
+    /// The newest sticks on the graph (port `sticks`, topic `manual_control`; optional): the RC
+    /// receiver's or a ground station's, for RC_CHANNELS.
+    Sticks(ManualControl),
     /// A driver's health report (port `sensor_health`; hardware graphs): errors become a
     /// STATUSTEXT warning.
     SensorHealth(SensorHealth),
@@ -180,6 +186,8 @@ impl Actor for LinkActor {
         setup.input("imu", LinkInput::Imu);
         setup.input("baro", LinkInput::Baro);
         setup.input("actuator_outputs", LinkInput::Actuators);
+        setup.input("setpoint", LinkInput::Setpoint);
+        setup.input("sticks", LinkInput::Sticks);
         setup.input("rangefinder_up", LinkInput::Rangefinder);
         setup.input("rangefinder_down", LinkInput::Rangefinder);
         setup.input("ground_truth", |t| LinkInput::Truth(Box::new(t)));
@@ -277,6 +285,14 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Actuators(actuators) => {
                     hub.vehicle().on_actuators(actuators);
+                    Vec::new()
+                }
+                LinkInput::Setpoint(setpoint) => {
+                    hub.vehicle().on_setpoint(setpoint);
+                    Vec::new()
+                }
+                LinkInput::Sticks(sticks) => {
+                    hub.vehicle().on_sticks(sticks);
                     Vec::new()
                 }
                 LinkInput::Rangefinder(r) => {

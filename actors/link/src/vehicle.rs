@@ -27,7 +27,7 @@ use crate::services::heartbeat::{GcsEvent, GcsWatch, vehicle_heartbeat};
 use crate::services::log_download::{LogDirectory, LogDownload};
 use crate::services::mission::MissionService;
 use crate::services::offboard::{
-    OffboardRejects, global_echo, global_target, local_echo, local_target, manual_control,
+    OffboardRejects, attitude_target, global_target, local_target, manual_control,
 };
 use crate::services::params::ParamTable;
 use crate::services::telemetry::{Telemetry, home};
@@ -219,18 +219,20 @@ impl Vehicle {
                     .into_iter()
                     .collect(),
             },
-            MavMessage::SET_POSITION_TARGET_LOCAL_NED(m) => match local_target(m, &mut self.offboard_rejects)
-            {
-                Some(c) => Outputs { mav: vec![local_echo(m, now)], graph: vec![ToGraph::Command(c)] },
-                None => Outputs::none(),
-            },
+            MavMessage::SET_POSITION_TARGET_LOCAL_NED(m) => {
+                let nav = self.telemetry.snapshot.nav.as_ref();
+                let c = local_target(m, nav, &mut self.offboard_rejects);
+                Outputs { mav: Vec::new(), graph: vec![ToGraph::Command(c)] }
+            }
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(m) => {
                 let home = home(&self.telemetry.snapshot);
-                match global_target(m, home, &mut self.offboard_rejects) {
-                    Some(c) => Outputs { mav: vec![global_echo(m, now)], graph: vec![ToGraph::Command(c)] },
-                    None => Outputs::none(),
-                }
+                let c = global_target(m, home, &mut self.offboard_rejects);
+                Outputs { mav: Vec::new(), graph: vec![ToGraph::Command(c)] }
             }
+            MavMessage::SET_ATTITUDE_TARGET(m) => Outputs {
+                mav: Vec::new(),
+                graph: vec![ToGraph::Command(attitude_target(m, &mut self.offboard_rejects))],
+            },
             _ => {
                 self.unhandled += 1;
                 Outputs::none()
@@ -407,6 +409,16 @@ impl Vehicle {
     /// The mixer's newest motor outputs (for SERVO_OUTPUT_RAW).
     pub fn on_actuators(&mut self, actuators: ActuatorOutputs) {
         self.telemetry.snapshot.actuators = Some(actuators);
+    }
+
+    /// The newest sticks on the graph (for RC_CHANNELS).
+    pub fn on_sticks(&mut self, sticks: kestrel_proto::messages::ManualControl) {
+        self.telemetry.snapshot.sticks = Some(sticks);
+    }
+
+    /// The commander's newest setpoint (for POSITION_TARGET_* and NAV_CONTROLLER_OUTPUT).
+    pub fn on_setpoint(&mut self, setpoint: kestrel_proto::messages::Setpoint) {
+        self.telemetry.snapshot.setpoint = Some(setpoint);
     }
 
     /// Periodic work: command and mission timeouts, GCS loss; returns replies and the telemetry

@@ -14,6 +14,7 @@ mod failure_injection;
 mod fence_plan;
 mod gps;
 mod ground_truth;
+mod guided_target;
 mod imu;
 mod mag;
 mod manual_control;
@@ -54,6 +55,7 @@ pub use failure_injection::{
 pub use fence_plan::{FenceKind, FencePlan, FenceZone};
 pub use gps::{GpsFix, GpsFixType};
 pub use ground_truth::GroundTruth;
+pub use guided_target::{AttitudeTarget, PositionTarget};
 pub use imu::ImuSample;
 pub use mag::MagSample;
 pub use manual_control::{ManualControl, StickSource};

@@ -3,6 +3,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use super::guided_target::{AttitudeTarget, PositionTarget};
 use super::mission::MissionPoint;
 use super::vehicle_status::FlightMode;
 use crate::time::Time;
@@ -32,6 +33,14 @@ pub enum Command {
     GotoNed { position_ned_m: [f64; 3] },
     /// In GUIDED: fly at this NED velocity (m/s).
     VelocityNed { velocity_ned_m_s: [f64; 3] },
+    /// In GUIDED: fly this position/velocity/acceleration target with its yaw
+    /// (SET_POSITION_TARGET_LOCAL_NED / GLOBAL_INT, resolved to NED by the link).
+    PositionTarget(PositionTarget),
+    /// In GUIDED: fly this attitude or these body rates (SET_ATTITUDE_TARGET).
+    AttitudeTarget(AttitudeTarget),
+    /// In GUIDED: stop and hold where the vehicle is, as ArduCopter's GUIDED does when a
+    /// SET_POSITION_TARGET_* or SET_ATTITUDE_TARGET cannot be flown (`ModeGuided::init(true)`).
+    GuidedStop,
     /// Move home, where RTL returns and what the geofence and mission-relative altitudes are
     /// measured from (MAV_CMD_DO_SET_HOME): to the vehicle's position (`None`) or to `point`.
     /// Accepted in flight, as PX4 and ArduPilot do; a home set this way survives later armings.

@@ -3,7 +3,9 @@
 //! status, as a STATUSTEXT). A command is ACKed accepted only when it is carried out.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{Command, FlightMode, LandedState, Mission, VehicleCommand};
+use kestrel_proto::messages::{
+    AttitudeTarget, Command, FlightMode, LandedState, Mission, PositionTarget, VehicleCommand,
+};
 use nalgebra::Vector3;
 
 use super::arming::{Refusal, refuse};
@@ -12,6 +14,11 @@ use super::modes::Hold;
 use super::pilot_input::PilotLimits;
 use super::{Commander, feasibility, heading};
 use crate::flip::Flip;
+
+/// Largest acceleration a position target may carry (m/s²): ArduCopter refuses velocities
+/// above 1000 m/s and checks no acceleration; 2 g is beyond what its position controller flies
+/// (`PSC_ACC_XY_MAX` 5 m/s² by default) and keeps a wild value from reaching the loop.
+const MAX_TARGET_ACCELERATION_M_S2: f64 = 2.0 * kestrel_proto::units::GRAVITY_M_S2;
 
 impl Commander {
     /// A new mission; replaces the old one, and one of no items clears it. Refused when a field
@@ -108,6 +115,11 @@ impl Commander {
             Command::VelocityNed { velocity_ned_m_s } => {
                 self.guided_command(now, GuidedTarget::Velocity(velocity_ned_m_s))
             }
+            Command::PositionTarget(t) => self.position_target(now, t),
+            Command::AttitudeTarget(t) => self.attitude_target(now, t),
+            Command::GuidedStop => self.guided_command(now, GuidedTarget::Hold).map(|()| {
+                self.latched.hold = Hold::default();
+            }),
             Command::SetHome { point } => self.set_home(now, point),
             Command::SetGeofence { enabled } => {
                 self.geofence.set_enabled(enabled);
@@ -211,12 +223,20 @@ impl Commander {
     }
 
     fn guided_command(&mut self, now: Time, target: GuidedTarget) -> Result<(), Refusal> {
+        self.guided_target_refused(target)?;
+        self.guided.set_target(target, now);
+        Ok(())
+    }
+
+    /// Whether GUIDED may fly `target` now: in GUIDED, finite, the position where a goto may go,
+    /// the velocity within the feasibility limit.
+    fn guided_target_refused(&self, target: GuidedTarget) -> Result<(), Refusal> {
         if self.mode != FlightMode::Guided {
             return refuse("position/velocity targets are accepted in GUIDED only");
         }
         let finite = match target {
             GuidedTarget::Position(v) | GuidedTarget::Velocity(v) => v.iter().all(|x| x.is_finite()),
-            GuidedTarget::Hold => true,
+            GuidedTarget::Hold | GuidedTarget::Setpoint(_) | GuidedTarget::Attitude(_) => true,
         };
         if !finite {
             return refuse("guided target is not finite");
@@ -233,9 +253,65 @@ impl Commander {
                     return refuse(format!("guided velocity refused: {speed:.1} m/s, at most {max:.1} m/s"));
                 }
             }
-            GuidedTarget::Hold => {}
+            GuidedTarget::Hold | GuidedTarget::Setpoint(_) | GuidedTarget::Attitude(_) => {}
         }
-        self.guided.set_target(target, now);
         Ok(())
+    }
+
+    /// SET_POSITION_TARGET_*: one of ArduCopter's four combinations (position; velocity with or
+    /// without acceleration; acceleration; position and velocity with or without acceleration),
+    /// every value finite, the position checked as a goto is and the velocity against the
+    /// feasibility limit. A yaw turns the held heading to it at once. Held by
+    /// `tests::guided::position_targets_are_checked_as_gotos_and_velocities_are`.
+    fn position_target(&mut self, now: Time, t: PositionTarget) -> Result<(), Refusal> {
+        let vectors = [t.position_ned_m, t.velocity_ned_m_s, t.acceleration_ned_m_s2];
+        let scalars = [t.yaw_rad, t.yaw_rate_rad_s];
+        if !(vectors.iter().flatten().flatten().chain(scalars.iter().flatten()).all(|v| v.is_finite())) {
+            return refuse("position target is not finite");
+        }
+        if !matches!(
+            vectors,
+            [Some(_), None, None] | [None, Some(_), _] | [None, None, Some(_)] | [Some(_), Some(_), _]
+        ) {
+            return refuse("position target refused: give a position, a velocity or an acceleration");
+        }
+        if let Some(a) = t.acceleration_ned_m_s2
+            && Vector3::from(a).norm() > MAX_TARGET_ACCELERATION_M_S2
+        {
+            return refuse(format!(
+                "position target refused: acceleration above {MAX_TARGET_ACCELERATION_M_S2} m/s²"
+            ));
+        }
+        if let Some(speed) = t.speed_m_s {
+            let max = self.params.feasibility.max_velocity_m_s;
+            if !(speed.is_finite() && speed > 0.0 && speed <= max && t.position_ned_m.is_some()) {
+                return refuse(format!(
+                    "position target refused: speed {speed} m/s, not 0 < speed <= {max} m/s to a position"
+                ));
+            }
+        }
+        if let Some(p) = t.position_ned_m {
+            self.guided_target_refused(GuidedTarget::Position(p))?;
+        }
+        if let Some(v) = t.velocity_ned_m_s {
+            self.guided_target_refused(GuidedTarget::Velocity(v))?;
+        }
+        self.guided_command(now, GuidedTarget::Setpoint(t))?;
+        if let Some(yaw) = t.yaw_rad {
+            self.latched.hold.yaw_rad = Some(yaw);
+        }
+        Ok(())
+    }
+
+    /// SET_ATTITUDE_TARGET: a unit attitude, a finite yaw rate and a climb share within -1..1.
+    fn attitude_target(&mut self, now: Time, t: AttitudeTarget) -> Result<(), Refusal> {
+        let norm = t.attitude.iter().map(|v| v * v).sum::<f64>().sqrt();
+        // ArduCopter's `Quaternion::is_unit_length` tolerance.
+        if !((norm - 1.0).abs() <= 1e-3 && t.yaw_rate_rad_s.is_finite() && (-1.0..=1.0).contains(&t.climb)) {
+            return refuse(
+                "attitude target refused: not a unit attitude, a finite rate and a climb in -1..1",
+            );
+        }
+        self.guided_command(now, GuidedTarget::Attitude(t))
     }
 }

@@ -4,7 +4,7 @@
 //! the nose's aim; the take-off height is the last one asked for.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::NavState;
+use kestrel_proto::messages::{AttitudeTarget, NavState, PositionTarget};
 
 use super::arming::{Refusal, refuse};
 
@@ -25,6 +25,11 @@ pub(crate) enum GuidedTarget {
     Position([f64; 3]),
     /// NED (m/s).
     Velocity([f64; 3]),
+    /// SET_POSITION_TARGET_*: one of ArduCopter's accepted position/velocity/acceleration
+    /// combinations with its yaw (flown by `guided_setpoint`).
+    Setpoint(PositionTarget),
+    /// SET_ATTITUDE_TARGET (flown by `guided_setpoint`).
+    Attitude(AttitudeTarget),
 }
 
 /// GUIDED's target, the nose's aim and the take-off height.
@@ -55,21 +60,69 @@ impl Guided {
         self.yaw = None;
     }
 
-    /// A target checked by the commander, received at `now`.
+    /// A target checked by the commander, received at `now`. One that carries its own yaw or
+    /// yaw rate (or an attitude) replaces CONDITION_YAW's heading and the region of interest,
+    /// as ArduCopter's `set_yaw_state` replaces the auto-yaw mode.
     pub fn set_target(&mut self, target: GuidedTarget, now: Time) {
+        let own_yaw = match target {
+            GuidedTarget::Setpoint(t) => t.yaw_rad.is_some() || t.yaw_rate_rad_s.is_some(),
+            GuidedTarget::Attitude(_) => true,
+            GuidedTarget::Hold | GuidedTarget::Position(_) | GuidedTarget::Velocity(_) => false,
+        };
+        if own_yaw {
+            self.yaw = None;
+        }
         self.target = target;
         self.at = Some(now);
     }
 
-    /// A velocity target nobody repeated within `timeout_s` is dropped for a hold (ArduCopter's
-    /// GUIDED_TIMEOUT, PX4's COM_OF_LOSS_T); true when it was dropped now.
-    pub fn drop_stale_velocity(&mut self, now: Time, timeout_s: f64) -> bool {
-        let stale = matches!(self.target, GuidedTarget::Velocity(_))
-            && self.at.is_some_and(|t| now.saturating_since(t).as_secs_f64() > timeout_s);
+    /// What a stream that stopped leaves after `timeout_s` (ArduCopter's GUID_TIMEOUT, 3 s; PX4's
+    /// COM_OF_LOSS_T): a velocity, an acceleration or an attitude is dropped for a hold where the
+    /// vehicle is; a position keeps flying to its point, without the velocity, acceleration and
+    /// yaw rate that came with it (ArduCopter's `posvelaccel_control_run` zeroes them and turns
+    /// the rate yaw into a hold). ArduCopter levels and holds the height on an attitude timeout
+    /// but lets the wind carry it: the hold keeps the place as well. True when the target was
+    /// cut now. Held by `tests::a_stopped_stream_keeps_only_a_position`.
+    pub fn drop_stale_stream(&mut self, now: Time, timeout_s: f64) -> bool {
+        let streamed = match self.target {
+            GuidedTarget::Velocity(_) | GuidedTarget::Attitude(_) => true,
+            GuidedTarget::Setpoint(t) => {
+                t.position_ned_m.is_none()
+                    || t.velocity_ned_m_s.is_some()
+                    || t.acceleration_ned_m_s2.is_some()
+                    || t.yaw_rate_rad_s.is_some()
+            }
+            GuidedTarget::Hold | GuidedTarget::Position(_) => false,
+        };
+        let stale = streamed && self.at.is_some_and(|t| now.saturating_since(t).as_secs_f64() > timeout_s);
         if stale {
-            self.target = GuidedTarget::Hold;
+            self.target = match self.target {
+                GuidedTarget::Setpoint(PositionTarget { position_ned_m: Some(p), yaw_rad, .. }) => {
+                    GuidedTarget::Setpoint(PositionTarget {
+                        position_ned_m: Some(p),
+                        yaw_rad,
+                        ..Default::default()
+                    })
+                }
+                _ => GuidedTarget::Hold,
+            };
         }
         stale
+    }
+
+    /// A position target with a velocity moves along it (m, over `dt_s` s), as ArduCopter's
+    /// position controller advances a position-velocity target between messages.
+    pub fn advance(&mut self, dt_s: f64) {
+        if let GuidedTarget::Setpoint(PositionTarget {
+            position_ned_m: Some(p),
+            velocity_ned_m_s: Some(v),
+            ..
+        }) = &mut self.target
+        {
+            for (p, v) in p.iter_mut().zip(v.iter()) {
+                *p += v * dt_s;
+            }
+        }
     }
 
     pub fn takeoff_height_m(&self) -> f64 {
@@ -128,11 +181,56 @@ mod tests {
     fn a_velocity_is_dropped_for_a_hold_once_not_repeated_within_the_timeout() {
         let mut g = Guided::new(2.5);
         g.set_target(GuidedTarget::Velocity([1.0, 0.0, 0.0]), Time::from_secs_f64(1.0));
-        assert!(!g.drop_stale_velocity(Time::from_secs_f64(3.0), 3.0));
-        assert!(g.drop_stale_velocity(Time::from_secs_f64(4.5), 3.0));
+        assert!(!g.drop_stale_stream(Time::from_secs_f64(3.0), 3.0));
+        assert!(g.drop_stale_stream(Time::from_secs_f64(4.5), 3.0));
         assert_eq!(g.target(), GuidedTarget::Hold);
         g.set_target(GuidedTarget::Position([5.0, 0.0, -3.0]), Time::from_secs_f64(5.0));
-        assert!(!g.drop_stale_velocity(Time::from_secs_f64(60.0), 3.0), "a position is kept");
+        assert!(!g.drop_stale_stream(Time::from_secs_f64(60.0), 3.0), "a position is kept");
+    }
+
+    #[test]
+    fn a_stopped_stream_keeps_only_a_position() {
+        let mut g = Guided::new(2.5);
+        let t = |s: f64| Time::from_secs_f64(s);
+        let full = PositionTarget {
+            position_ned_m: Some([5.0, 0.0, -3.0]),
+            velocity_ned_m_s: Some([1.0, 0.0, 0.0]),
+            acceleration_ned_m_s2: Some([0.5, 0.0, 0.0]),
+            yaw_rad: Some(1.0),
+            yaw_rate_rad_s: Some(0.2),
+            speed_m_s: None,
+        };
+        g.set_target(GuidedTarget::Setpoint(full), t(1.0));
+        g.advance(0.5);
+        assert!(!g.drop_stale_stream(t(4.0), 3.0), "within the timeout");
+        assert!(g.drop_stale_stream(t(4.01), 3.0));
+        let kept = PositionTarget {
+            position_ned_m: Some([5.5, 0.0, -3.0]),
+            yaw_rad: Some(1.0),
+            ..Default::default()
+        };
+        assert_eq!(g.target(), GuidedTarget::Setpoint(kept), "moved along its velocity, then only the point");
+        assert!(!g.drop_stale_stream(t(60.0), 3.0), "a bare position is kept for ever");
+        let accel = PositionTarget { acceleration_ned_m_s2: Some([1.0, 0.0, 0.0]), ..Default::default() };
+        g.set_target(GuidedTarget::Setpoint(accel), t(61.0));
+        assert!(g.drop_stale_stream(t(64.5), 3.0));
+        assert_eq!(g.target(), GuidedTarget::Hold, "an acceleration alone is not flown on");
+    }
+
+    #[test]
+    fn a_target_with_its_own_yaw_replaces_the_region_of_interest() {
+        let mut g = Guided::new(2.5);
+        let n = nav(Time(1000), -5.0, true);
+        g.set_region_of_interest(Some([0.0, 10.0, 0.0])).expect("east");
+        g.set_target(GuidedTarget::Velocity([1.0, 0.0, 0.0]), Time(2000));
+        assert!(g.aimed_yaw(&n, None).is_some(), "a velocity alone keeps the aim");
+        let turn = PositionTarget {
+            velocity_ned_m_s: Some([1.0, 0.0, 0.0]),
+            yaw_rate_rad_s: Some(0.3),
+            ..Default::default()
+        };
+        g.set_target(GuidedTarget::Setpoint(turn), Time(3000));
+        assert_eq!(g.aimed_yaw(&n, None), None);
     }
 
     #[test]

@@ -36,6 +36,7 @@ mod feasibility;
 mod fence_zones;
 mod geofence;
 mod guided;
+mod guided_setpoint;
 mod home;
 mod land_detector;
 mod landing;

@@ -309,14 +309,15 @@ impl Commander {
     }
 
     fn guided(&mut self, now: Time, dt_s: f64, nav: &NavState, on_ground: bool) -> SetpointTarget {
-        if self.guided.drop_stale_velocity(now, self.params.guided_timeout_s) {
-            // A velocity nobody repeats is not flown on for ever: hold where the stream stopped.
+        if self.guided.drop_stale_stream(now, self.params.guided_timeout_s) {
+            // A stream nobody repeats is not flown on for ever: hold where it stopped.
             self.latched.hold = Hold::default();
             self.announce(format!(
                 "GUIDED: no velocity target for {} s, holding",
                 self.params.guided_timeout_s
             ));
         }
+        self.guided.advance(dt_s);
         let yaw = *self.latched.hold.yaw_rad.get_or_insert(heading(nav));
         if self.avoidance.active() {
             let leg = match self.guided.target() {
@@ -325,6 +326,15 @@ impl Commander {
                     Some(Leg::To { target: Vector3::from(p), speed_m_s: self.params.guided_speed_m_s })
                 }
                 GuidedTarget::Velocity(v) => Some(Leg::Velocity(Vector3::from(v))),
+                GuidedTarget::Setpoint(t) => match (t.position_ned_m, t.velocity_ned_m_s) {
+                    (Some(p), _) => Some(Leg::To {
+                        target: Vector3::from(p),
+                        speed_m_s: t.speed_m_s.unwrap_or(self.params.guided_speed_m_s),
+                    }),
+                    (None, Some(v)) => Some(Leg::Velocity(Vector3::from(v))),
+                    (None, None) => None,
+                },
+                GuidedTarget::Attitude(_) => None,
             };
             match leg {
                 Some(leg) => return SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint),
@@ -336,6 +346,8 @@ impl Commander {
             GuidedTarget::Hold => self.hold_here(nav),
             GuidedTarget::Position(p) => traj(p.map(Some), [None; 3], Some(yaw)),
             GuidedTarget::Velocity(v) => traj([None; 3], v.map(Some), Some(yaw)),
+            GuidedTarget::Setpoint(t) => self.fly_position_target(nav, &t, dt_s),
+            GuidedTarget::Attitude(t) => self.fly_attitude_target(nav, &t, dt_s),
         }
     }
 

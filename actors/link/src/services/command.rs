@@ -19,7 +19,7 @@ use kestrel_proto::Time;
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_from_e7};
 use kestrel_proto::messages::{
     AltitudeFrame, Command, CommandResult, FailureInjection, FailureInjectionResult, FlightMode,
-    MissionPoint, OrbitYaw,
+    MissionPoint, OrbitYaw, PositionTarget,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
@@ -302,10 +302,14 @@ impl CommandService {
     /// MAV_CMD_DO_REPOSITION (QGroundControl's "Go to location", MAVSDK's `goto_location`): fly
     /// to a point, converted to NED around the estimator's `origin`. As in ArduCopter, the
     /// vehicle must be in GUIDED unless param2 carries MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, which
-    /// switches to GUIDED first. The speed (param1) and yaw (param4) are not flown: the leg
-    /// keeps the guided speed and the heading held. Out of GUIDED (`guided`, the last status)
-    /// without that flag it is DENIED here; a target the commander refuses (beyond the fence) is
-    /// FAILED, as ArduCopter answers both (`on_answer`).
+    /// switches to GUIDED first. The ground speed (param1, m/s; negative or NaN: the default) and
+    /// the heading (param4, degrees; NaN: the heading held) are flown as the MAVLink definition
+    /// and PX4 say; ArduCopter 4.7 ignores both (`handle_command_int_do_reposition`). A zero or
+    /// infinite speed, or an infinite heading, is DENIED. Out of GUIDED (`guided`, the last
+    /// status) without the change-mode flag it is DENIED here; a target the commander refuses
+    /// (beyond the fence) is FAILED, as ArduCopter answers both (`on_answer`). Held by
+    /// `tests::reposition_flies_its_speed_and_heading` and
+    /// `tests::a_reposition_the_commander_refuses_fails_and_one_out_of_guided_is_denied`.
     pub fn reposition(
         &mut self,
         request: CommandRequest,
@@ -320,6 +324,16 @@ impl CommandService {
             None if p[1].is_nan() => false,
             None => return denied(),
         };
+        let speed_m_s = match p[0] {
+            s if s.is_nan() || s < 0.0 => None,
+            s if s.is_finite() && s > 0.0 => Some(s),
+            _ => return denied(),
+        };
+        let yaw_rad = match p[3] {
+            y if y.is_nan() => None,
+            y if y.is_finite() => Some(y.to_radians()),
+            _ => return denied(),
+        };
         let Ok(Some(point)) = reposition_target(&request) else { return denied() };
         if !guided && !change_mode {
             return denied();
@@ -332,7 +346,17 @@ impl CommandService {
         if change_mode {
             out.graph.push(ToGraph::Command(Command::SetMode(FlightMode::Guided)));
         }
-        out.extend(self.submit(request, Command::GotoNed { position_ned_m: ned }, now));
+        let command = if speed_m_s.is_none() && yaw_rad.is_none() {
+            Command::GotoNed { position_ned_m: ned }
+        } else {
+            Command::PositionTarget(PositionTarget {
+                position_ned_m: Some(ned),
+                yaw_rad,
+                speed_m_s,
+                ..PositionTarget::default()
+            })
+        };
+        out.extend(self.submit(request, command, now));
         out
     }
 

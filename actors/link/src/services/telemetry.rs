@@ -16,7 +16,7 @@ use kestrel_proto::Time;
 use kestrel_proto::geo::Geodetic;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, DepthGrid, EstimatorStatus, GpsFix,
-    GroundTruth, ImuSample, NavState, RangefinderSample, VehicleStatus,
+    GroundTruth, ImuSample, ManualControl, NavState, RangefinderSample, Setpoint, VehicleStatus,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
@@ -51,6 +51,11 @@ pub struct Snapshot {
     pub baro: Option<BaroSample>,
     /// The mixer's newest motor outputs (for SERVO_OUTPUT_RAW).
     pub actuators: Option<ActuatorOutputs>,
+    /// The commander's newest setpoint (for POSITION_TARGET_LOCAL_NED / GLOBAL_INT and
+    /// NAV_CONTROLLER_OUTPUT).
+    pub setpoint: Option<Setpoint>,
+    /// The newest sticks on the graph, the receiver's or a ground station's (for RC_CHANNELS).
+    pub sticks: Option<ManualControl>,
 }
 
 /// The telemetry scheduler and message builder.

@@ -337,3 +337,28 @@ fn reboot_and_motor_test_go_to_the_commander_and_what_we_do_not_do_is_unsupporte
         assert!(out.graph.is_empty());
     }
 }
+
+#[test]
+fn reposition_flies_its_speed_and_heading() {
+    let mut s = CommandService::new();
+    let origin = Some(kestrel_proto::geo::Geodetic { lat_deg: 6.7971, lon_deg: 79.9017, alt_m: 20.0 });
+    let go = |s: &mut CommandService, speed: f64, yaw: f64| {
+        let r = request(MavCmd::MAV_CMD_DO_REPOSITION, [speed, 0.0, 0.0, yaw, 6.7972, 79.9017, 30.0]);
+        s.reposition(r, origin, true, Time::ZERO)
+    };
+    let Some(Command::PositionTarget(t)) = graph(&go(&mut s, 3.0, 90.0)) else { panic!("a target") };
+    assert_eq!((t.speed_m_s, t.yaw_rad), (Some(3.0), Some(90f64.to_radians())));
+    let p = t.position_ned_m.expect("position");
+    assert!((p[0] - 11.06).abs() < 0.05 && p[1].abs() < 0.01 && (p[2] + 10.0).abs() < 0.01, "{p:?}");
+    assert!(
+        matches!(graph(&go(&mut s, -1.0, f64::NAN)), Some(Command::GotoNed { .. })),
+        "default speed, heading kept: a plain goto"
+    );
+    let Some(Command::PositionTarget(t)) = graph(&go(&mut s, f64::NAN, 10.0)) else { panic!("a target") };
+    assert_eq!(t.speed_m_s, None, "NaN: the default speed");
+    for (speed, yaw) in [(0.0, 0.0), (f64::INFINITY, 0.0), (1.0, f64::INFINITY)] {
+        let out = go(&mut s, speed, yaw);
+        assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{speed} {yaw}");
+        assert!(out.graph.is_empty());
+    }
+}

@@ -14,9 +14,10 @@ use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, ATTITUDE_QUATERNION_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA,
     EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, FENCE_STATUS_DATA, GLOBAL_POSITION_INT_DATA,
     GPS_RAW_INT_DATA, HIGHRES_IMU_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
-    MavDataStream, MavResult, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, RAW_IMU_DATA, SCALED_IMU_DATA,
-    SCALED_PRESSURE_DATA, SERVO_OUTPUT_RAW_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA,
-    VFR_HUD_DATA, WIND_DATA,
+    MavDataStream, MavResult, NAV_CONTROLLER_OUTPUT_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA,
+    POSITION_TARGET_GLOBAL_INT_DATA, POSITION_TARGET_LOCAL_NED_DATA, RAW_IMU_DATA, RC_CHANNELS_DATA,
+    SCALED_IMU_DATA, SCALED_PRESSURE_DATA, SERVO_OUTPUT_RAW_DATA, SIMSTATE_DATA, SYS_STATUS_DATA,
+    SYSTEM_TIME_DATA, VFR_HUD_DATA, WIND_DATA,
 };
 
 #[derive(Clone, Copy, Debug)]
@@ -61,7 +62,14 @@ fn default_streams() -> Vec<Stream> {
         (RAW_IMU_DATA::ID, hz(4.0)),
         (SCALED_PRESSURE_DATA::ID, hz(4.0)),
         (SERVO_OUTPUT_RAW_DATA::ID, hz(4.0)),
+        // While sticks come (a receiver or MANUAL_CONTROL), as ArduCopter's RC_CHANNELS member.
+        (RC_CHANNELS_DATA::ID, hz(4.0)),
         (SYSTEM_TIME_DATA::ID, hz(4.0)),
+        // ArduCopter's EXTENDED_STATUS members: what the commander steers to (its setpoint).
+        (NAV_CONTROLLER_OUTPUT_DATA::ID, hz(4.0)),
+        (POSITION_TARGET_GLOBAL_INT_DATA::ID, hz(4.0)),
+        // In GUIDED only, as ArduCopter sends it: what a companion computer's target became.
+        (POSITION_TARGET_LOCAL_NED_DATA::ID, hz(4.0)),
         // Sent on request only (SET_MESSAGE_INTERVAL, REQUEST_MESSAGE), as ArduCopter sends
         // them; ODOMETRY, which ArduCopter refuses, as PX4 sends it to MAVSDK's `odometry`.
         (ATTITUDE_QUATERNION_DATA::ID, None),
@@ -92,12 +100,22 @@ fn data_stream_ids(stream: MavDataStream) -> &'static [u32] {
             SCALED_PRESSURE_DATA::ID,
             SERVO_OUTPUT_RAW_DATA::ID,
             SYSTEM_TIME_DATA::ID,
+            RC_CHANNELS_DATA::ID,
+            NAV_CONTROLLER_OUTPUT_DATA::ID,
+            POSITION_TARGET_GLOBAL_INT_DATA::ID,
+            POSITION_TARGET_LOCAL_NED_DATA::ID,
         ],
         MavDataStream::MAV_DATA_STREAM_RAW_SENSORS => &[RAW_IMU_DATA::ID, SCALED_PRESSURE_DATA::ID],
-        MavDataStream::MAV_DATA_STREAM_RC_CHANNELS => &[SERVO_OUTPUT_RAW_DATA::ID],
-        MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS => {
-            &[SYS_STATUS_DATA::ID, GPS_RAW_INT_DATA::ID, MISSION_CURRENT_DATA::ID, FENCE_STATUS_DATA::ID]
-        }
+        MavDataStream::MAV_DATA_STREAM_RC_CHANNELS => &[SERVO_OUTPUT_RAW_DATA::ID, RC_CHANNELS_DATA::ID],
+        MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS => &[
+            SYS_STATUS_DATA::ID,
+            GPS_RAW_INT_DATA::ID,
+            MISSION_CURRENT_DATA::ID,
+            FENCE_STATUS_DATA::ID,
+            NAV_CONTROLLER_OUTPUT_DATA::ID,
+            POSITION_TARGET_GLOBAL_INT_DATA::ID,
+            POSITION_TARGET_LOCAL_NED_DATA::ID,
+        ],
         MavDataStream::MAV_DATA_STREAM_POSITION => {
             &[GLOBAL_POSITION_INT_DATA::ID, LOCAL_POSITION_NED_DATA::ID]
         }

@@ -10,7 +10,8 @@ use mavlink::dialects::ardupilotmega::{
     ATTITUDE_DATA, ATTITUDE_QUATERNION_DATA, BATTERY_STATUS_DATA, DEBUG_VECT_DATA, DISTANCE_SENSOR_DATA,
     EKF_STATUS_REPORT_DATA, EXTENDED_SYS_STATE_DATA, FENCE_STATUS_DATA, GLOBAL_POSITION_INT_DATA,
     GPS_RAW_INT_DATA, HIGHRES_IMU_DATA, HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MISSION_CURRENT_DATA,
-    MavMessage, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, RAW_IMU_DATA, SCALED_IMU_DATA, SCALED_PRESSURE_DATA,
+    MavMessage, NAV_CONTROLLER_OUTPUT_DATA, OBSTACLE_DISTANCE_DATA, ODOMETRY_DATA, POSITION_TARGET_GLOBAL_INT_DATA,
+    POSITION_TARGET_LOCAL_NED_DATA, RAW_IMU_DATA, RC_CHANNELS_DATA, SCALED_IMU_DATA, SCALED_PRESSURE_DATA,
     SERVO_OUTPUT_RAW_DATA, SIMSTATE_DATA, SYS_STATUS_DATA, SYSTEM_TIME_DATA, VFR_HUD_DATA, WIND_DATA,
 };
 
@@ -31,9 +32,13 @@ pub mod home_position;
 mod imu_units;
 pub mod local_position_ned;
 pub mod mission_current;
+pub mod nav_controller_output;
 pub mod obstacle_distance;
 pub mod odometry;
+pub mod position_target_global_int;
+pub mod position_target_local_ned;
 pub mod raw_imu;
+pub mod rc_channels;
 pub mod scaled_imu;
 pub mod scaled_pressure;
 pub mod servo_output_raw;
@@ -93,6 +98,18 @@ pub fn build(snap: &Snapshot, id: u32, now: Time) -> Option<MavMessage> {
         SERVO_OUTPUT_RAW_DATA::ID => {
             MavMessage::SERVO_OUTPUT_RAW(servo_output_raw::servo_output_raw(snap.actuators.as_ref()?))
         }
+        RC_CHANNELS_DATA::ID => {
+            MavMessage::RC_CHANNELS(rc_channels::rc_channels(snap.sticks.as_ref()?, now, boot_ms)?)
+        }
+        NAV_CONTROLLER_OUTPUT_DATA::ID => {
+            MavMessage::NAV_CONTROLLER_OUTPUT(nav_controller_output::nav_controller_output(snap)?)
+        }
+        POSITION_TARGET_LOCAL_NED_DATA::ID => MavMessage::POSITION_TARGET_LOCAL_NED(
+            position_target_local_ned::position_target_local_ned(snap, boot_ms)?,
+        ),
+        POSITION_TARGET_GLOBAL_INT_DATA::ID => MavMessage::POSITION_TARGET_GLOBAL_INT(
+            position_target_global_int::position_target_global_int(snap, boot_ms)?,
+        ),
         _ => return None,
     })
 }
