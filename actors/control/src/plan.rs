@@ -119,7 +119,9 @@ fn convert(index: usize, item: &PlanItem) -> Result<MissionItem, PlanError> {
             })
         }
         19 => match param(0) {
-            Some(t) if t.is_finite() && t >= 0.0 => Ok(MissionItem::LoiterTime { duration_s: t }),
+            Some(t) if t.is_finite() && t >= 0.0 => {
+                Ok(MissionItem::LoiterTime { duration_s: t, point: None })
+            }
             other => Err(err(format!("bad loiter time {other:?}"))),
         },
         20 => Ok(MissionItem::ReturnToLaunch),
