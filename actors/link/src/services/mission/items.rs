@@ -264,3 +264,7 @@ pub fn to_mission(items: &[MISSION_ITEM_INT_DATA], now: Time) -> Result<Mission,
         .collect::<Result<Vec<_>, _>>()?;
     Ok(Mission { time: now, items: out, cruise_speed_m_s: DEFAULT_CRUISE_M_S })
 }
+
+#[cfg(test)]
+#[path = "items_tests.rs"]
+mod tests;
