@@ -187,6 +187,8 @@ def flight(gcs):
     reached_before, currents_before = len(gcs.reached), len(gcs.mission_currents)
     gcs.set_mode_command("AUTO", "auto")
     gcs.pump(lambda m: gcs.armed is False, 90.0, "flown, landed and disarmed")
+    # What the vehicle says about the landing item around the disarm.
+    gcs.quiet(2.0)
     gcs.results["jump"]["reached"] = gcs.reached[reached_before:]
     currents = []
     for seq in gcs.mission_currents[currents_before:]:

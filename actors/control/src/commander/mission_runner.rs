@@ -471,7 +471,7 @@ impl MissionRunner {
     fn turn_yaw(&mut self, dt_s: f64) {
         if let Yaw::Turn { target_rad, rate_rad_s, command_rad } = &mut self.yaw {
             let error = wrap_pi(*target_rad - *command_rad);
-            let step = if *rate_rad_s > 0.0 { rate_rad_s.mul_add(dt_s, 0.0) } else { f64::INFINITY };
+            let step = if *rate_rad_s > 0.0 { *rate_rad_s * dt_s } else { f64::INFINITY };
             *command_rad += error.clamp(-step, step);
         }
     }
