@@ -75,9 +75,18 @@ mod items {
         now: Time,
         pos: Vector3<f64>,
         heading_rad: f64,
-        /// (time s, position, heading, setpoint, current item) each step.
-        log: Vec<(f64, Vector3<f64>, f64, Option<MissionStep>, u32)>,
+        /// Each step's sample.
+        log: Vec<Sample>,
         events: Vec<MissionEvent>,
+    }
+
+    /// One step of a [`Flight`]: the time (s) the step was taken at, the vehicle's position
+    /// after it, the mission's step and the item current after it.
+    struct Sample {
+        t_s: f64,
+        pos: Vector3<f64>,
+        step: MissionStep,
+        current: u32,
     }
 
     impl Flight {
@@ -108,13 +117,12 @@ mod items {
                         wrap_pi(self.heading_rad + wrap_pi(yaw - self.heading_rad).clamp(-max, max));
                 }
             }
-            self.log.push((
-                self.now.as_secs_f64(),
-                self.pos,
-                self.heading_rad,
-                Some(step),
-                self.runner.progress().current,
-            ));
+            self.log.push(Sample {
+                t_s: self.now.as_secs_f64(),
+                pos: self.pos,
+                step,
+                current: self.runner.progress().current,
+            });
             self.now = self.now + Duration::from_secs_f64(DT_S);
             step
         }
@@ -132,11 +140,11 @@ mod items {
         /// The time (s) item `index` stopped being current, if it did.
         fn left(&self, index: u32) -> Option<f64> {
             let mut was = false;
-            for (t, _, _, _, current) in &self.log {
-                if *current == index {
+            for sample in &self.log {
+                if sample.current == index {
                     was = true;
                 } else if was {
-                    return Some(*t);
+                    return Some(sample.t_s);
                 }
             }
             None
@@ -165,7 +173,7 @@ mod items {
         assert_eq!(f.run(200.0), MissionStep::Finished);
         // Once on the circle: at its radius, and the angle swept is two turns clockwise.
         let on: Vec<_> =
-            f.log.iter().map(|l| l.1).filter(|p| ((p - center).xy().norm() - 10.0).abs() < 0.5).collect();
+            f.log.iter().map(|l| l.pos).filter(|p| ((p - center).xy().norm() - 10.0).abs() < 0.5).collect();
         let mut swept = 0.0;
         for w in on.windows(2) {
             let a = (w[0].y - center.y).atan2(w[0].x - center.x);
@@ -294,7 +302,7 @@ mod items {
                 assert_eq!(sp.yaw_rad, None, "ROI none: the commander's held heading");
                 break;
             }
-            let p = f.log.last().unwrap().1;
+            let p = f.log.last().unwrap().pos;
             let want = (50.0 - p.y).atan2(-p.x);
             let yaw = sp.yaw_rad.expect("the mission aims the nose");
             assert!(wrap_pi(yaw - want).abs() < 0.2, "yaw {yaw} want {want}");
@@ -332,7 +340,7 @@ mod items {
         for p in
             [Vector3::new(30.0, 0.0, -10.0), Vector3::new(30.0, 30.0, -10.0), Vector3::new(0.0, 30.0, -10.0)]
         {
-            let nearest = f.log.iter().map(|l| (l.1 - p).norm()).fold(f64::INFINITY, f64::min);
+            let nearest = f.log.iter().map(|l| (l.pos - p).norm()).fold(f64::INFINITY, f64::min);
             assert!(nearest < 2.0, "passed {nearest} m from {p:?}");
         }
         // Smooth: the setpoint never turns through more than a few degrees a step at the
@@ -340,8 +348,8 @@ mod items {
         let sps: Vec<Vector3<f64>> = f
             .log
             .iter()
-            .filter_map(|l| match l.3 {
-                Some(MissionStep::Fly(sp)) => sp.position_ned_m.iter().copied().collect::<Option<Vec<_>>>(),
+            .filter_map(|l| match l.step {
+                MissionStep::Fly(sp) => sp.position_ned_m.iter().copied().collect::<Option<Vec<_>>>(),
                 _ => None,
             })
             .map(|v| Vector3::new(v[0], v[1], v[2]))
@@ -370,7 +378,7 @@ mod items {
             wp(0.0, 5.0),
         ]);
         assert_eq!(f.run(200.0), MissionStep::Finished);
-        let mut seq: Vec<u32> = f.log.iter().map(|l| l.4).collect();
+        let mut seq: Vec<u32> = f.log.iter().map(|l| l.current).collect();
         seq.dedup();
         assert_eq!(seq, vec![0, 1, 0, 1, 0, 1, 3, 4]);
     }
