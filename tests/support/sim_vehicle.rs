@@ -189,6 +189,18 @@ pub fn square_in_process(
     param_file: Option<&Path>,
     record: Option<PathBuf>,
 ) -> serde_json::Value {
+    plan_in_process(dir, label, "missions/square.plan", vehicle, param_file, record)
+}
+
+/// As [`square_in_process`], flying `plan` (a path under config/).
+pub fn plan_in_process(
+    dir: &Path,
+    label: &str,
+    plan: &str,
+    vehicle: &str,
+    param_file: Option<&Path>,
+    record: Option<PathBuf>,
+) -> serde_json::Value {
     let config_dir = root().join("config");
     let mut config = kestrel::LoadedConfig::load(&config_dir.join("sim.toml")).expect("sim.toml");
     let table = |pairs: Vec<(&str, toml::Value)>| -> toml::Table {
@@ -199,7 +211,7 @@ pub fn square_in_process(
     for actor in config.graph.actors.values_mut() {
         let params = match actor.kind.get_ref().as_str() {
             "commander" => table(vec![
-                ("mission", config_dir.join("missions/square.plan").display().to_string().into()),
+                ("mission", config_dir.join(plan).display().to_string().into()),
                 ("auto", true.into()),
                 ("exit_on_land", true.into()),
             ]),

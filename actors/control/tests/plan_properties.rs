@@ -29,7 +29,7 @@ proptest! {
                     MissionItem::Waypoint { point, acceptance_radius_m, hold_s } => {
                         prop_assert!(point.alt_m.is_finite() && acceptance_radius_m.is_finite() && hold_s.is_finite());
                     }
-                    MissionItem::LoiterTime { duration_s } => prop_assert!(duration_s.is_finite()),
+                    MissionItem::LoiterTime { duration_s, .. } => prop_assert!(duration_s.is_finite()),
                     MissionItem::ChangeSpeed { speed_m_s } => prop_assert!(speed_m_s.is_finite()),
                     _ => {}
                 }

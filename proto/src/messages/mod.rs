@@ -59,7 +59,7 @@ pub use guided_target::{AttitudeTarget, PositionTarget};
 pub use imu::ImuSample;
 pub use mag::MagSample;
 pub use manual_control::{ManualControl, StickSource};
-pub use mission::{AltitudeFrame, MAX_MISSION_ITEMS, Mission, MissionItem, MissionPoint};
+pub use mission::{AltitudeFrame, CameraAction, MAX_MISSION_ITEMS, Mission, MissionItem, MissionPoint};
 pub use nav_state::{NavState, NavValidity};
 pub use obstacle_map::{Obstacle, ObstacleMap};
 pub use param_decl::{ParamDecl, ParamInfo};

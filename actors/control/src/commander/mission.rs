@@ -6,9 +6,10 @@
 //! message must not start a mission) and the next run, by AUTO or MISSION_START, starts there,
 //! as ArduPilot resumes at its current item.
 
-use kestrel_proto::messages::{FlightMode, Mission, MissionProgress};
+use kestrel_proto::messages::{CameraAction, FlightMode, Mission, MissionProgress};
 
 use super::arming::{Refusal, refuse};
+use super::mission_runner::MissionEvent;
 use super::{Commander, MissionRunner};
 
 /// The mission held and its run.
@@ -87,7 +88,50 @@ impl MissionState {
     }
 }
 
+/// The STATUSTEXT for what a do item did (the item numbered as the ground station numbers it,
+/// home being 0, as ArduCopter's "Mission: N ..." texts).
+fn event_text(event: &MissionEvent) -> String {
+    match *event {
+        MissionEvent::NoOutput { index, command } => {
+            let name = match command {
+                181 => "relay",
+                182 => "repeat relay",
+                183 => "servo",
+                184 => "repeat servo",
+                205 => "mount control",
+                1000 => "gimbal pitch/yaw",
+                _ => "output",
+            };
+            format!("Mission: {} {name}: no such output", index + 1)
+        }
+        MissionEvent::Camera { index, action } => {
+            let what = match action {
+                CameraAction::TriggerDistance { .. } => "trigger distance",
+                CameraAction::StartCapture { .. } => "start capture",
+                CameraAction::StopCapture => "stop capture",
+                CameraAction::Shoot => "shoot",
+            };
+            format!("Mission: {} camera {what}: no camera output", index + 1)
+        }
+    }
+}
+
 impl Commander {
+    /// Reports what the do items run since the last call did that no other message shows: an
+    /// item for an output the vehicle lacks is said so (STATUSTEXT), never pretended.
+    pub(super) fn report_mission_events(&mut self) {
+        let Some(runner) = &mut self.mission.runner else { return };
+        let mut newest = None;
+        for event in runner.drain_events() {
+            let text = event_text(&event);
+            tracing::info!(?event, "{text}");
+            newest = Some(text);
+        }
+        if let Some(text) = newest {
+            self.announce(text);
+        }
+    }
+
     /// Makes item `index` (the commander's numbering: the ground station's home is not an
     /// item) current.
     pub(super) fn set_mission_current(&mut self, index: u32) -> Result<(), Refusal> {

@@ -49,6 +49,7 @@ mod nav_source;
 mod params;
 mod pilot_input;
 mod shutdown;
+mod spline;
 mod vertical;
 mod vertical_limit;
 

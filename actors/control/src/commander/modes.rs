@@ -363,7 +363,9 @@ impl Commander {
         };
         let pos = Vector3::from(nav.position_ned_m);
         let home = self.home.ned().unwrap_or(pos);
-        let step = runner.update(now, &pos, &frame, &home, ceiling);
+        let step = runner.update(now, &pos, heading(nav), &frame, &home, ceiling);
+        self.report_mission_events();
+        let Some(runner) = self.mission.runner.as_mut() else { return self.hold_here(nav) };
         if !matches!(step, MissionStep::Fly(_) | MissionStep::Land { .. }) {
             self.avoidance.reset();
         }
@@ -376,7 +378,12 @@ impl Commander {
                 SetpointTarget::Trajectory(self.avoiding(now, dt_s, nav, leg).setpoint)
             }
             MissionStep::Fly(mut sp) => {
-                sp.yaw_rad = Some(*self.latched.hold.yaw_rad.get_or_insert(heading(nav)));
+                // The mission's nose (a region of interest, a CONDITION_YAW turn, a circle's
+                // centre) is latched, so that it is held once the mission lets go of it.
+                let yaw =
+                    sp.yaw_rad.unwrap_or_else(|| *self.latched.hold.yaw_rad.get_or_insert(heading(nav)));
+                self.latched.hold.yaw_rad = Some(yaw);
+                sp.yaw_rad = Some(yaw);
                 SetpointTarget::Trajectory(sp)
             }
             MissionStep::Land { north_m, east_m } => self.land_at(now, dt_s, nav, Some([north_m, east_m])),

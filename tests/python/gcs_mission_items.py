@@ -1,0 +1,200 @@
+"""Survey and DO_JUMP missions as a ground station sends them, written once and run against
+ArduCopter SITL and against `kestrel run` (tests/gcs_mission_items.rs), which compares the two.
+
+Usage: gcs_mission_items.py   (prints `PORT <n>` first; see gcs_common.py for the transcript)
+
+1. identify the vehicle, ask for its telemetry streams (ArduCopter sends only what is asked for);
+2. upload, one mission each (home, a take-off, the item), items whose answer is not ACCEPTED or
+   is worth comparing: CONDITION_GATE, a DO_JUMP to home and one past the end, a gimbal item
+   with NaN rates, the camera, ROI, delay, condition and output items MAVSDK and QGroundControl
+   send: each MISSION_ACK's result;
+3. upload config/missions/survey.plan (QGroundControl's survey, its items as QGC uploads them:
+   the complex item's saved `Items` in place) and download it back: the ACK and whether each
+   item's command and place came back;
+4. upload the jump mission: home, take-off to 10 m, waypoints A (item 2) and B (3), DO_JUMP to
+   item 2 repeated once (4), waypoint C (5), LAND (6);
+5. GUIDED and arm (each asked for until taken), take off to 10 m, AUTO; follow the flight until
+   landed and disarmed: every MISSION_ITEM_REACHED and the sequence of MISSION_CURRENT.
+
+The last line's `results` holds `acks` (probe name: MAV_MISSION_RESULT name), `survey` ({ack,
+items, downloaded_identical: each item's command and place as sent}), `jump` ({ack, reached:
+the MISSION_ITEM_REACHED seqs from AUTO on, currents: the MISSION_CURRENT seqs, repeats
+dropped}).
+"""
+
+import json
+import math
+import os
+import time
+
+from gcs_common import ACM_MODES, Failed, enum_name, main, mav, mavutil, VEHICLE
+
+HOME = (6.79710, 79.90170)
+TAKEOFF_M = 10.0
+M_PER_DEG = 111_320.0
+REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+
+
+def offset(north_m, east_m):
+    return (HOME[0] + north_m / M_PER_DEG,
+            HOME[1] + east_m / (M_PER_DEG * math.cos(math.radians(HOME[0]))))
+
+
+def item(command, frame=mav.MAV_FRAME_MISSION, params=(0.0, 0.0, 0.0, 0.0), at=None, alt=0.0):
+    lat, lon = at if at is not None else (0.0, 0.0)
+    return dict(command=command, frame=frame, params=[float(p) for p in params],
+                x=int(round(lat * 1e7)), y=int(round(lon * 1e7)), lat=lat, lon=lon, alt=float(alt),
+                autocontinue=1)
+
+
+def numbered(items):
+    for seq, it in enumerate(items):
+        it["seq"] = seq
+    return items
+
+
+def home_and_takeoff():
+    return [item(mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL, at=HOME, alt=20.0),
+            item(mav.MAV_CMD_NAV_TAKEOFF, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, at=HOME, alt=TAKEOFF_M)]
+
+
+def upload(gcs, items, step):
+    """MISSION_COUNT, an item for each MISSION_REQUEST_INT; the MISSION_ACK's result name."""
+    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mav.MAV_MISSION_TYPE_MISSION)
+    while True:
+        m = gcs.pump(lambda m: gcs.from_vehicle(m)
+                     and m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"),
+                     3.0, step)
+        if m.get_type() == "MISSION_ACK":
+            result = enum_name("MAV_MISSION_RESULT", m.type)
+            gcs.log(f"{step}: MISSION_ACK {result}")
+            return result
+        it = items[m.seq]
+        gcs.conn.mav.mission_item_int_send(
+            *VEHICLE, m.seq, it["frame"], it["command"], 0, it["autocontinue"], *it["params"],
+            it["x"], it["y"], it["alt"], mav.MAV_MISSION_TYPE_MISSION)
+
+
+def download(gcs, step):
+    """The stored mission: (command, x, y) of each item."""
+    gcs.conn.mav.mission_request_list_send(*VEHICLE, mav.MAV_MISSION_TYPE_MISSION)
+    count = gcs.wait_type("MISSION_COUNT", 3.0, step).count
+    back = []
+    for seq in range(count):
+        gcs.conn.mav.mission_request_int_send(*VEHICLE, seq, mav.MAV_MISSION_TYPE_MISSION)
+        m = gcs.wait_type("MISSION_ITEM_INT", 3.0, step, lambda m, s=seq: m.seq == s)
+        back.append((m.command, m.x, m.y))
+    gcs.conn.mav.mission_ack_send(*VEHICLE, mav.MAV_MISSION_ACCEPTED, mav.MAV_MISSION_TYPE_MISSION)
+    gcs.log(f"{step}: {count} items, commands {[c for c, _, _ in back]}")
+    return back
+
+
+def survey_items():
+    """config/missions/survey.plan as QGroundControl uploads it: home, then each SimpleItem and
+    each complex item's saved `Items`, in order."""
+    with open(os.path.join(REPO, "config", "missions", "survey.plan")) as f:
+        plan = json.load(f)["mission"]
+    lat, lon, alt = plan["plannedHomePosition"]
+    items = [item(mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL, at=(lat, lon), alt=alt)]
+    simple = []
+    for it in plan["items"]:
+        simple += it["TransectStyleComplexItem"]["Items"] if it["type"] == "ComplexItem" else [it]
+    for it in simple:
+        p = [math.nan if v is None else float(v) for v in it["params"]]
+        items.append(item(it["command"], it["frame"], p[:4], (p[4], p[5]), p[6]))
+    return numbered(items)
+
+
+NAN = float("nan")
+# (name, command, frame, params, at): each uploaded as item 2 after home and a take-off.
+PROBES = [
+    ("condition_gate", 4501, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, (0, 1, 0, 0), offset(10, 0)),
+    ("jump_to_home", mav.MAV_CMD_DO_JUMP, mav.MAV_FRAME_MISSION, (0, 2, 0, 0), None),
+    ("jump_past_end", mav.MAV_CMD_DO_JUMP, mav.MAV_FRAME_MISSION, (9, 2, 0, 0), None),
+    ("jump_forever", mav.MAV_CMD_DO_JUMP, mav.MAV_FRAME_MISSION, (1, -1, 0, 0), None),
+    ("gimbal_nan_rates", mav.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, mav.MAV_FRAME_MISSION, (-45, 0, NAN, NAN), None),
+    ("gimbal", mav.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, mav.MAV_FRAME_MISSION, (-45, 0, 0, 0), None),
+    ("mount_control", mav.MAV_CMD_DO_MOUNT_CONTROL, mav.MAV_FRAME_MISSION, (-45, 0, 0, 0), None),
+    ("set_servo", mav.MAV_CMD_DO_SET_SERVO, mav.MAV_FRAME_MISSION, (9, 1500, 0, 0), None),
+    ("set_relay", mav.MAV_CMD_DO_SET_RELAY, mav.MAV_FRAME_MISSION, (0, 1, 0, 0), None),
+    ("cam_trigg_dist", mav.MAV_CMD_DO_SET_CAM_TRIGG_DIST, mav.MAV_FRAME_MISSION, (25, 0, 1, 0), None),
+    ("image_start", mav.MAV_CMD_IMAGE_START_CAPTURE, mav.MAV_FRAME_MISSION, (0, 2, 0, 0), None),
+    ("image_stop", mav.MAV_CMD_IMAGE_STOP_CAPTURE, mav.MAV_FRAME_MISSION, (0, 0, 0, 0), None),
+    ("roi_location", mav.MAV_CMD_DO_SET_ROI_LOCATION, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, (0, 0, 0, 0), offset(30, 30)),
+    ("roi_none", mav.MAV_CMD_DO_SET_ROI_NONE, mav.MAV_FRAME_MISSION, (0, 0, 0, 0), None),
+    ("nav_delay", mav.MAV_CMD_NAV_DELAY, mav.MAV_FRAME_MISSION, (5, -1, -1, -1), None),
+    ("condition_delay", mav.MAV_CMD_CONDITION_DELAY, mav.MAV_FRAME_MISSION, (5, 0, 0, 0), None),
+    ("condition_distance", mav.MAV_CMD_CONDITION_DISTANCE, mav.MAV_FRAME_MISSION, (5, 0, 0, 0), None),
+    ("condition_yaw", mav.MAV_CMD_CONDITION_YAW, mav.MAV_FRAME_MISSION, (90, 10, 1, 0), None),
+    ("land_start", mav.MAV_CMD_DO_LAND_START, mav.MAV_FRAME_MISSION, (0, 0, 0, 0), None),
+    ("spline", mav.MAV_CMD_NAV_SPLINE_WAYPOINT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, (0, 0, 0, 0), offset(20, 0)),
+    ("loiter_turns", mav.MAV_CMD_NAV_LOITER_TURNS, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, (2, 0, 5, 0), offset(20, 0)),
+    ("loiter_unlim", mav.MAV_CMD_NAV_LOITER_UNLIM, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, (0, 0, 0, 0), offset(20, 0)),
+]
+
+
+def jump_mission():
+    a, b, c = offset(15.0, 0.0), offset(15.0, 15.0), offset(0.0, 15.0)
+    wp = lambda at: item(mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, at=at, alt=TAKEOFF_M)
+    return numbered(home_and_takeoff() + [
+        wp(a), wp(b),
+        item(mav.MAV_CMD_DO_JUMP, params=(2, 1, 0, 0)),
+        wp(c),
+        item(mav.MAV_CMD_NAV_LAND, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, at=c, alt=0.0),
+    ])
+
+
+def until_accepted(gcs, cmd, params, step, timeout_s=60.0):
+    """COMMAND_LONG, asked again every second until ACCEPTED (a vehicle refuses GUIDED and
+    arming until its position estimate is good)."""
+    end = time.monotonic() + timeout_s
+    p = list(params) + [0.0] * (7 - len(params))
+    while True:
+        gcs.conn.mav.command_long_send(*VEHICLE, cmd, 0, *p)
+        ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == cmd)
+        if ack.result == mav.MAV_RESULT_ACCEPTED:
+            return
+        if time.monotonic() > end:
+            raise Failed(step, f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
+        gcs.quiet(1.0)
+
+
+def flight(gcs):
+    gcs.identify()
+    gcs.conn.mav.request_data_stream_send(*VEHICLE, mav.MAV_DATA_STREAM_ALL, 10, 1)
+    acks = {}
+    for name, command, frame, params, at in PROBES:
+        items = numbered(home_and_takeoff() + [item(command, frame, params, at, TAKEOFF_M if at else 0.0)])
+        acks[name] = upload(gcs, items, f"probe {name}")
+    gcs.results["acks"] = acks
+
+    survey = survey_items()
+    ack = upload(gcs, survey, "survey")
+    back = download(gcs, "survey download")
+    sent = [(it["command"], it["x"], it["y"]) for it in survey[1:]]
+    gcs.results["survey"] = {"ack": ack, "items": len(survey),
+                             "downloaded_identical": ack == "MAV_MISSION_ACCEPTED" and back[1:] == sent}
+
+    ack = upload(gcs, jump_mission(), "jump mission")
+    gcs.results["jump"] = {"ack": ack}
+    if ack != "MAV_MISSION_ACCEPTED":
+        raise Failed("jump mission", ack)
+    until_accepted(gcs, mav.MAV_CMD_DO_SET_MODE, [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]], "guided")
+    gcs.wait_type("HEARTBEAT", 3.0, "guided", lambda m: mavutil.mode_string_v10(m) == "GUIDED")
+    until_accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm")
+    gcs.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, TAKEOFF_M], "take-off")
+    gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 1.0, 30.0, "take-off")
+    reached_before, currents_before = len(gcs.reached), len(gcs.mission_currents)
+    gcs.set_mode_command("AUTO", "auto")
+    gcs.pump(lambda m: gcs.armed is False, 90.0, "flown, landed and disarmed")
+    # What the vehicle says about the landing item around the disarm.
+    gcs.quiet(2.0)
+    gcs.results["jump"]["reached"] = gcs.reached[reached_before:]
+    currents = []
+    for seq in gcs.mission_currents[currents_before:]:
+        if currents[-1:] != [seq]:
+            currents.append(seq)
+    gcs.results["jump"]["currents"] = currents
+
+
+main(flight, deadline_s=140.0)
