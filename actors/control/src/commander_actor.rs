@@ -26,7 +26,7 @@ use std::time::Duration;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult,
     EscTelemetry, FlightMode, LandedState, ManualControl, Mission, NavState, ParamDecl, ParamSet,
-    RangefinderSample, Setpoint, SpeedCapStatus, SupervisorEvent, VehicleCommand, VehicleStatus,
+    RallyPoints, RangefinderSample, Setpoint, SpeedCapStatus, SupervisorEvent, VehicleCommand, VehicleStatus,
     VerticalLimitStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
@@ -78,6 +78,8 @@ pub enum CommanderInput {
     Manual(ManualControl),
     Command(VehicleCommand),
     Mission(Mission),
+    /// Rally points uploaded or cleared (port `rally`; optional): where RTL may return.
+    Rally(RallyPoints),
     Supervisor(SupervisorEvent),
     /// Boxed: the avoider's command carries its rule activations and shares.
     Avoidance(Box<AvoidanceCommand>),
@@ -142,6 +144,7 @@ impl Actor for CommanderActor {
         setup.input("manual", CommanderInput::Manual);
         setup.input("command", CommanderInput::Command);
         setup.input("mission", CommanderInput::Mission);
+        setup.input("rally", CommanderInput::Rally);
         setup.input("supervisor", CommanderInput::Supervisor);
         setup.input("avoidance", |cmd| CommanderInput::Avoidance(Box::new(cmd)));
         setup.input("param_set", CommanderInput::Param);
@@ -230,6 +233,10 @@ impl Actor for CommanderActor {
             CommanderInput::Mission(mission) => {
                 let _ = self.commander.on_mission(mission);
                 self.step(ctx, ctx.now());
+            }
+            CommanderInput::Rally(rally) => {
+                // The link checked every point before it ACKed; a refusal is in the status.
+                let _ = self.commander.on_rally(rally);
             }
         }
         Ok(())

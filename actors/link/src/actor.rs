@@ -9,8 +9,8 @@ use std::time::Duration;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, CalibrationCommand, CalibrationEvent,
     CommandResult, DepthGrid, EstimatorStatus, FailureInjection, FailureInjectionResult, GpsFix, GroundTruth,
-    ImuSample, ManualControl, Mission, NavState, ParamDecl, ParamSet, RangefinderSample, SensorHealth,
-    VehicleCommand, VehicleStatus,
+    ImuSample, ManualControl, Mission, NavState, ParamDecl, ParamSet, RallyPoints, RangefinderSample,
+    SensorHealth, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -70,6 +70,8 @@ pub enum LinkInput {
 pub struct LinkOutputs {
     pub command: Publisher<VehicleCommand>,
     pub mission: Publisher<Mission>,
+    /// Rally points uploaded or cleared (port `rally`): where RTL may return instead of home.
+    pub rally: Publisher<RallyPoints>,
     pub manual: Publisher<ManualControl>,
     pub param: Publisher<ParamSet>,
     pub calibration: Publisher<CalibrationCommand>,
@@ -88,6 +90,7 @@ impl LinkOutputs {
                     self.command.publish(VehicleCommand { id, time: now, command })
                 }
                 ToGraph::Mission(m) => self.mission.publish(m),
+                ToGraph::Rally(r) => self.rally.publish(r),
                 ToGraph::Manual(m) => self.manual.publish(m),
                 ToGraph::Param(p) => self.param.publish(p),
                 ToGraph::Calibration { id, request } => {
@@ -190,6 +193,7 @@ impl Actor for LinkActor {
         let outputs = LinkOutputs {
             command: setup.output("vehicle_command"),
             mission: setup.output("mission"),
+            rally: setup.output("rally"),
             manual: setup.output("manual_control"),
             param: setup.output("param_set"),
             calibration: setup.output("calibration_command"),

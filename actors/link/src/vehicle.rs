@@ -43,7 +43,8 @@ const GCS_SYSID_PARAM: &str = "MAV_GCS_SYSID";
 const DEFAULT_GCS_SYSID: u8 = 255;
 
 /// What we claim in AUTOPILOT_VERSION: only what this crate implements (FTP is read-only: the
-/// logs and `@PARAM/param.pck`, see `services::ftp`).
+/// logs and `@PARAM/param.pck`, see `services::ftp`). Rally points: uploaded, downloaded and
+/// flown to by RTL (the commander's `rally`).
 pub fn capabilities() -> MavProtocolCapability {
     MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT
@@ -53,6 +54,7 @@ pub fn capabilities() -> MavProtocolCapability {
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
 }
 
 /// The vehicle's side of every microservice.

@@ -5,6 +5,7 @@ use kestrel_proto::messages::FailsafeAction;
 use serde::{Deserialize, Serialize};
 
 use super::failsafe_actions;
+use super::rally::RallyParams;
 use super::vertical::VerticalParams;
 use crate::error::{InvalidParam, positive, within};
 use crate::motor_failure::{MotorFailureDetector, MotorFailureParams};
@@ -75,6 +76,8 @@ pub struct CommanderParams {
     pub feasibility: FeasibilityParams,
     /// `[vertical]`: the up- and downward rangefinders' limits (`vertical`).
     pub vertical: VerticalParams,
+    /// `[rally]`: which rally point RTL may return to (`rally`).
+    pub rally: RallyParams,
 }
 
 impl Default for CommanderParams {
@@ -109,6 +112,7 @@ impl Default for CommanderParams {
             geofence: GeofenceParams::default(),
             feasibility: FeasibilityParams::default(),
             vertical: VerticalParams::default(),
+            rally: RallyParams::default(),
         }
     }
 }
@@ -332,6 +336,7 @@ impl CommanderParams {
         within("disarm_delay_s", self.disarm_delay_s, 0.0, 127.0)?;
         within("feasibility.min_height_m", self.feasibility.min_height_m, -100.0, 100.0)?;
         self.vertical.validate()?;
+        within("rally.limit_km", self.rally.limit_km, 0.0, 100.0)?;
         within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
         within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;
         within("failsafe.battery_critical", self.failsafe.battery_critical, 0.0, self.failsafe.battery_low)?;

@@ -22,7 +22,7 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::geo::deg_e7;
-use kestrel_proto::messages::{Command, MAX_MISSION_ITEMS, Mission};
+use kestrel_proto::messages::{Command, MAX_MISSION_ITEMS, Mission, RallyPoints};
 use mavlink::dialects::ardupilotmega::{
     MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
     MavMessage, MavMissionResult, MavMissionType, MavSeverity,
@@ -32,8 +32,10 @@ use super::events::statustext;
 use super::{Outputs, Sender, Service, ToGraph};
 
 mod items;
+mod rally;
 pub use items::{ItemRefused, to_mission};
 use items::{int_frame, is_global, refusal_text, to_float};
+pub use rally::to_rally;
 
 /// Most items a plan of any type may hold (home included); larger uploads are refused with
 /// NO_SPACE. The one limit for missions however they arrive (`MAX_MISSION_ITEMS`).
@@ -244,6 +246,23 @@ impl MissionService {
                 }
             }
         }
+        if t == MavMissionType::MAV_MISSION_TYPE_RALLY {
+            match to_rally(&up.items, now) {
+                Ok(rally) => out.graph.push(ToGraph::Rally(rally)),
+                Err(ItemRefused { seq, result }) => {
+                    return Outputs {
+                        mav: vec![
+                            statustext(
+                                MavSeverity::MAV_SEVERITY_ERROR,
+                                &format!("Rally item {seq}: {}", refusal_text(result)),
+                            ),
+                            Self::ack(from, t, result),
+                        ],
+                        graph: Vec::new(),
+                    };
+                }
+            }
+        }
         if let Some(plan) = self.plan(t) {
             *plan = up.items;
         }
@@ -312,6 +331,9 @@ impl MissionService {
                 items: Vec::new(),
                 cruise_speed_m_s: DEFAULT_CRUISE_M_S,
             }));
+        }
+        if t == MavMissionType::MAV_MISSION_TYPE_RALLY {
+            out.graph.push(ToGraph::Rally(RallyPoints { time: now, points: Vec::new() }));
         }
         out
     }

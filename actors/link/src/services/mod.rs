@@ -19,7 +19,7 @@ pub mod timesync;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    CalibrationRequest, Command, FailureInjection, ManualControl, Mission, ParamSet,
+    CalibrationRequest, Command, FailureInjection, ManualControl, Mission, ParamSet, RallyPoints,
 };
 use mavlink::dialects::ardupilotmega::MavMessage;
 
@@ -68,6 +68,8 @@ pub enum ToGraph {
     /// A MAV_CMD_INJECT_FAILURE whose answer for its `id` becomes its COMMAND_ACK.
     InjectFailure(FailureInjection),
     Mission(Mission),
+    /// The rally points uploaded (all of them) or cleared (none).
+    Rally(RallyPoints),
     Manual(ManualControl),
     Param(ParamSet),
 }
