@@ -119,6 +119,21 @@ impl Vehicle {
         self.params.declare(decl, now).out
     }
 
+    /// Keeps the uploaded plans in `store` from now on and restores the ones it holds: what the
+    /// graph must be told, and why a plan was not restored (`MissionService::keep_in`).
+    pub fn keep_plans_in(
+        &mut self,
+        store: crate::services::mission::PlanStore,
+        now: Time,
+    ) -> (Vec<ToGraph>, Vec<String>) {
+        self.missions.keep_in(store, now)
+    }
+
+    /// Writes the plans still pending to disk (at shutdown).
+    pub fn finish_plans(&self) {
+        self.missions.finish_store();
+    }
+
     /// True once after each change the parameter file must follow.
     pub fn take_params_changed(&mut self) -> bool {
         self.params.take_changed()
