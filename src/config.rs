@@ -242,6 +242,17 @@ impl Default for RunConfig {
     }
 }
 
+/// `[state]`: what the vehicle keeps across restarts.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StateConfig {
+    /// Where the link keeps the uploaded mission, fence and rally points and the parameters set
+    /// (its `state_dir`), relative to the state directory ([`state_dir`]); `--instance N` (N > 0)
+    /// adds `instance-N`. Runs scripted with `--mission` or `--auto` keep nothing: they start
+    /// from their flags alone. `None`: nothing outlives a run.
+    pub dir: Option<PathBuf>,
+}
+
 /// `[record]`: what the flight log holds.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -436,6 +447,8 @@ pub struct GraphConfig {
     pub run: RunConfig,
     #[serde(default)]
     pub record: RecordConfig,
+    #[serde(default)]
+    pub state: StateConfig,
     pub actors: BTreeMap<Spanned<String>, ActorDecl>,
 }
 

@@ -40,6 +40,9 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         apply_instance(&mut config, n)?;
     }
     apply_log_dir(&mut config, args.log_dir.as_deref(), args.instance.unwrap_or(0))?;
+    if args.mission.is_none() && !args.auto {
+        apply_state_dir(&mut config, args.instance.unwrap_or(0));
+    }
     let hil = kestrel::hil::HilOptions::new();
     let hil = HilOptions { world: args.hil_world.clone().unwrap_or(hil.world.clone()), ..hil };
     let bench = args.hil.then(|| kestrel::hil::apply_hil(&mut config, &hil)).transpose()?;
@@ -110,6 +113,22 @@ fn apply_log_dir(config: &mut LoadedConfig, flag: Option<&Path>, instance: u8) -
         params.entry("log_dir").or_insert_with(|| toml::Value::String(onboard.dir.display().to_string()));
     }
     Ok(())
+}
+
+/// Resolves `[state] dir` against the state directory (`instance-N` added for `--instance N` >
+/// 0) and hands it to every link actor that names none itself (`state_dir`), where the uploaded
+/// plans and the parameters set persist.
+fn apply_state_dir(config: &mut LoadedConfig, instance: u8) {
+    let Some(dir) = &config.graph.state.dir else { return };
+    let mut dir = kestrel::config::state_dir().join(dir);
+    if instance > 0 {
+        dir = dir.join(format!("instance-{instance}"));
+    }
+    for actor in config.graph.actors.values_mut().filter(|d| d.kind.get_ref() == "link") {
+        let params =
+            actor.params.get_or_insert_with(|| toml::Spanned::new(0..0, toml::Table::new())).get_mut();
+        params.entry("state_dir").or_insert_with(|| toml::Value::String(dir.display().to_string()));
+    }
 }
 
 /// Hands `--mission`, `--auto` and `--exit-on-land` to the graph's commander as parameters.

@@ -84,7 +84,15 @@ pub fn sim_config(link_params: &str) -> String {
     for path in ["\"vehicles/", "\"worlds/"] {
         assert!(text.contains(path), "config/sim.toml names no {path}");
     }
+    // Each graph keeps its plans and parameters in a state directory of its own: runs side by
+    // side must not restore what another uploaded.
+    static RUNS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = RUNS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let state = std::env::temp_dir().join(format!("kestrel-state-{}-{n}", std::process::id()));
+    let shipped_state = "[state]\ndir = \"sim\"\n";
+    assert!(text.contains(shipped_state), "config/sim.toml keeps its state in \"sim\":\n{text}");
     text.replace(link, &format!("{link}{link_params}"))
+        .replace(shipped_state, &format!("[state]\ndir = \"{}\"\n", state.display()))
         .replace("\"vehicles/", &format!("\"{}/vehicles/", config_dir.display()))
         .replace("\"worlds/", &format!("\"{}/worlds/", config_dir.display()))
 }

@@ -27,7 +27,7 @@ use std::time::Duration;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BatteryStatus, CalibrationStatus, Command, CommandResult,
     EscTelemetry, FencePlan, FlightMode, LandedState, ManualControl, Mission, NavState, ParamDecl, ParamSet,
-    RangefinderSample, Setpoint, SpeedCapStatus, SupervisorEvent, VehicleCommand, VehicleStatus,
+    RallyPoints, RangefinderSample, Setpoint, SpeedCapStatus, SupervisorEvent, VehicleCommand, VehicleStatus,
     VerticalLimitStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
@@ -81,6 +81,8 @@ pub enum CommanderInput {
     Mission(Mission),
     /// The geofence a ground station uploaded (port `fence`).
     Fence(FencePlan),
+    /// Rally points uploaded or cleared (port `rally`; optional): where RTL may return.
+    Rally(RallyPoints),
     Supervisor(SupervisorEvent),
     /// Boxed: the avoider's command carries its rule activations and shares.
     Avoidance(Box<AvoidanceCommand>),
@@ -146,6 +148,7 @@ impl Actor for CommanderActor {
         setup.input("command", CommanderInput::Command);
         setup.input("mission", CommanderInput::Mission);
         setup.input("fence", CommanderInput::Fence);
+        setup.input("rally", CommanderInput::Rally);
         setup.input("supervisor", CommanderInput::Supervisor);
         setup.input("avoidance", |cmd| CommanderInput::Avoidance(Box::new(cmd)));
         setup.input("param_set", CommanderInput::Param);
@@ -238,6 +241,10 @@ impl Actor for CommanderActor {
             CommanderInput::Fence(plan) => {
                 self.commander.on_fence(plan);
                 self.step(ctx, ctx.now());
+            }
+            CommanderInput::Rally(rally) => {
+                // The link checked every point before it ACKed; a refusal is in the status.
+                let _ = self.commander.on_rally(rally);
             }
         }
         Ok(())

@@ -9,17 +9,20 @@ use std::time::Duration;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, CalibrationCommand, CalibrationEvent,
     CommandResult, DepthGrid, EstimatorStatus, FailureInjection, FailureInjectionResult, FencePlan, GpsFix,
-    GroundTruth, ImuSample, ManualControl, Mission, NavState, ParamDecl, ParamSet, RangefinderSample,
-    SensorHealth, Setpoint, VehicleCommand, VehicleStatus,
+    GroundTruth, ImuSample, ManualControl, Mission, NavState, ParamDecl, ParamSet, RallyPoints,
+    RangefinderSample, SensorHealth, Setpoint, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
 use crate::config::{EndpointKind, LinkParams};
 use crate::hub::Hub;
 use crate::services::ToGraph;
+use crate::services::events::statustext;
+use crate::services::mission::PlanStore;
 use crate::services::params::{ParamTable, parse_param_file, render_param_file};
 use crate::transport::{GraphSink, OpenEndpoint, ParamWriter, Shared, open_all};
 use crate::vehicle::Vehicle;
+use mavlink::dialects::ardupilotmega::MavSeverity;
 
 /// Period of the scheduler that sends telemetry and checks timeouts (50 Hz: the fastest stream
 /// rate we honour).
@@ -77,6 +80,8 @@ pub struct LinkOutputs {
     pub command: Publisher<VehicleCommand>,
     pub mission: Publisher<Mission>,
     pub fence: Publisher<FencePlan>,
+    /// Rally points uploaded or cleared (port `rally`): where RTL may return instead of home.
+    pub rally: Publisher<RallyPoints>,
     pub manual: Publisher<ManualControl>,
     pub param: Publisher<ParamSet>,
     pub calibration: Publisher<CalibrationCommand>,
@@ -96,6 +101,7 @@ impl LinkOutputs {
                 }
                 ToGraph::Mission(m) => self.mission.publish(m),
                 ToGraph::Fence(f) => self.fence.publish(f),
+                ToGraph::Rally(r) => self.rally.publish(r),
                 ToGraph::Manual(m) => self.manual.publish(m),
                 ToGraph::Param(p) => self.param.publish(p),
                 ToGraph::Calibration { id, request } => {
@@ -117,6 +123,8 @@ pub struct LinkActor {
     endpoints: Vec<OpenEndpoint>,
     /// Persists parameter changes on its own thread; finished (pending text written) in `stop`.
     param_writer: Option<Arc<ParamWriter>>,
+    /// The plans restored from the state directory, published in `start`, and what was not.
+    restored: Restored,
 }
 
 impl LinkActor {
@@ -130,31 +138,64 @@ impl LinkActor {
     }
 }
 
+/// The file changed parameters persist in: `param_file` (relative to the config directory),
+/// else `params.parm` in the state directory, else none.
+pub fn param_path(params: &LinkParams, config_dir: &std::path::Path) -> Option<PathBuf> {
+    match (&params.param_file, &params.state_dir) {
+        (Some(file), _) => Some(config_dir.join(file)),
+        (None, Some(dir)) => Some(config_dir.join(dir).join(PARAM_FILE)),
+        (None, None) => None,
+    }
+}
+
+/// Name of the parameter file in the state directory (ArduPilot's `.parm` form: NAME=VALUE).
+pub const PARAM_FILE: &str = "params.parm";
+
 /// Builds the parameter table from the config's own entries and the persisted file (if any);
-/// the graph's actors add theirs as their declarations arrive.
-pub fn load_params(params: &LinkParams, config_dir: &std::path::Path) -> Result<ParamTable, ActorError> {
+/// the graph's actors add theirs as their declarations arrive. A file with a line that does not
+/// read restores nothing (a vehicle starts on its defaults rather than on part of a file): the
+/// second value says why, naming the file and the line.
+pub fn load_params(
+    params: &LinkParams,
+    config_dir: &std::path::Path,
+) -> Result<(ParamTable, Option<String>), ActorError> {
     let mut table = ParamTable::new(params.params.clone()).map_err(|e| ActorError::Params(e.to_string()))?;
-    if let Some(file) = &params.param_file {
-        let path = config_dir.join(file);
-        match std::fs::read_to_string(&path) {
-            Ok(text) => {
-                let (pairs, bad) = parse_param_file(&text);
-                for line in bad {
-                    tracing::warn!(path = %path.display(), %line, "unreadable parameter line ignored");
-                }
-                for (name, value) in pairs {
-                    if let Err(e) = table.restore(&name, value) {
-                        tracing::warn!(path = %path.display(), error = %e, "stored parameter ignored");
-                    }
-                }
+    let Some(path) = param_path(params, config_dir) else { return Ok((table, None)) };
+    match std::fs::read_to_string(&path) {
+        Ok(text) => {
+            let (pairs, bad) = parse_param_file(&text);
+            if let Some(line) = bad.first() {
+                let n = text.lines().position(|l| l.trim() == line).map_or(0, |i| i + 1);
+                let why =
+                    format!("{}:{n}: \"{line}\" is not NAME=VALUE; no parameter restored", path.display());
+                tracing::error!("{why}");
+                return Ok((table, Some(why)));
             }
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(source) => {
-                return Err(ActorError::Io { what: format!("parameter file {}", path.display()), source });
+            for (name, value) in pairs {
+                if let Err(e) = table.restore(&name, value) {
+                    tracing::warn!(path = %path.display(), error = %e, "stored parameter ignored");
+                }
             }
         }
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(source) => {
+            return Err(ActorError::Io { what: format!("parameter file {}", path.display()), source });
+        }
     }
-    Ok(table)
+    Ok((table, None))
+}
+
+/// The end of an error about a stored file that a STATUSTEXT can hold: from the file's own name.
+fn short(error: &str) -> &str {
+    error.rfind('/').map_or(error, |i| &error[i + 1..])
+}
+
+/// What a restart restored: the plans for the graph, and what could not be restored (said as
+/// STATUSTEXT once the endpoints are open).
+#[derive(Default)]
+struct Restored {
+    graph: Vec<ToGraph>,
+    errors: Vec<String>,
 }
 
 impl Actor for LinkActor {
@@ -169,7 +210,7 @@ impl Actor for LinkActor {
         let gcs_timeout =
             kestrel_proto::timing::positive_seconds("gcs_timeout_s", params.gcs_timeout_s, 3600.0)?;
         let config_dir = setup.config_dir().to_owned();
-        let table = load_params(params, &config_dir)?;
+        let (table, param_error) = load_params(params, &config_dir)?;
         for endpoint in &params.endpoints {
             if let EndpointKind::Serial { device, .. } = &endpoint.kind {
                 setup.claim_device(device)?;
@@ -201,6 +242,7 @@ impl Actor for LinkActor {
             command: setup.output("vehicle_command"),
             mission: setup.output("mission"),
             fence: setup.output("fence"),
+            rally: setup.output("rally"),
             manual: setup.output("manual_control"),
             param: setup.output("param_set"),
             calibration: setup.output("calibration_command"),
@@ -208,6 +250,20 @@ impl Actor for LinkActor {
         };
         let mut vehicle = Vehicle::new(params.system_id, table, gcs_timeout);
         vehicle.serve_logs(params.log_dir.clone().map(crate::services::log_download::LogDirectory::new));
+        let mut restored = Restored { graph: Vec::new(), errors: param_error.into_iter().collect() };
+        if let Some(dir) = &params.state_dir {
+            let dir = config_dir.join(dir);
+            let store = PlanStore::open(&dir).map_err(|source| ActorError::Io {
+                what: format!("state directory {}", dir.display()),
+                source,
+            })?;
+            let (graph, errors) = vehicle.keep_plans_in(store, setup.clock().now());
+            for e in &errors {
+                tracing::error!("{e}; not restored");
+            }
+            restored.graph = graph;
+            restored.errors.extend(errors);
+        }
         Ok(LinkActor {
             params: params.clone(),
             config_dir,
@@ -216,6 +272,7 @@ impl Actor for LinkActor {
             clock: setup.clock(),
             endpoints: Vec::new(),
             param_writer: None,
+            restored,
         })
     }
 
@@ -223,8 +280,7 @@ impl Actor for LinkActor {
         let outputs = self.outputs.clone();
         let clock = Arc::clone(&self.clock);
         let graph: GraphSink = Arc::new(move |out| outputs.publish(out, clock.now()));
-        if let Some(file) = &self.params.param_file {
-            let path = self.config_dir.join(file);
+        if let Some(path) = param_path(&self.params, &self.config_dir) {
             let writer = ParamWriter::to_file(path.clone()).map_err(|source| ActorError::Io {
                 what: format!("parameter writer thread for {}", path.display()),
                 source,
@@ -243,6 +299,19 @@ impl Actor for LinkActor {
             .map_err(|e| ActorError::Failed(e.to_string()))?;
         for e in &self.endpoints {
             tracing::info!(endpoint = %e.name, local = ?e.local_addr, "MAVLink endpoint open");
+        }
+        let restored = std::mem::take(&mut self.restored);
+        self.outputs.publish(restored.graph, self.clock.now());
+        if !restored.errors.is_empty() {
+            // The whole text is in the log; a STATUSTEXT holds 50 characters: the file's name
+            // and line.
+            let mav = restored
+                .errors
+                .iter()
+                .map(|e| statustext(MavSeverity::MAV_SEVERITY_ERROR, short(e)))
+                .collect();
+            let mut hub = self.hub();
+            let _ = hub.dispatch(crate::services::Outputs { mav, graph: Vec::new() });
         }
         Ok(())
     }
@@ -346,6 +415,7 @@ impl Actor for LinkActor {
     }
 
     async fn stop(&mut self, _ctx: &Context) {
+        self.hub().vehicle().finish_plans();
         if let Some(writer) = self.param_writer.take() {
             let finished = tokio::task::spawn_blocking(move || {
                 writer.finish();
@@ -370,15 +440,18 @@ impl Actor for LinkActor {
 
 #[cfg(test)]
 mod tests {
+    use std::path::Path;
+
     use super::*;
     use crate::config::{ParamKind, ParamSpec};
     use crate::transport::write_atomically;
 
     #[test]
-    fn persisted_parameters_come_back_after_a_restart_and_bad_lines_are_skipped() {
+    fn persisted_parameters_come_back_after_a_restart_and_a_bad_line_restores_none() {
         let dir = std::env::temp_dir().join(format!("kestrel-link-params-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");
-        write_atomically(&dir.join("p.txt"), "RTL_ALT_M=55\nRTL_ALT_M_X=1\nRTL_ALT_M=oops\n").expect("write");
+        write_atomically(&dir.join("p.txt"), "RTL_ALT_M=55\nRTL_ALT_M_X=1\n").expect("write");
+        write_atomically(&dir.join("bad.txt"), "RTL_ALT_M=55\n# a comment\nRTL_ALT_M=oops\n").expect("write");
         let params = LinkParams {
             params: vec![ParamSpec {
                 name: "RTL_ALT_M".into(),
@@ -391,13 +464,21 @@ mod tests {
             param_file: Some("p.txt".into()),
             ..LinkParams::default()
         };
-        let table = load_params(&params, &dir).expect("loads");
-        assert_eq!(table.values().collect::<Vec<_>>(), [("RTL_ALT_M", 55.0)]);
-        let missing = LinkParams { param_file: Some("absent.txt".into()), ..params };
+        let (table, error) = load_params(&params, &dir).expect("loads");
+        assert_eq!((table.values().collect::<Vec<_>>(), error), (vec![("RTL_ALT_M", 55.0)], None));
+        let bad = LinkParams { param_file: Some("bad.txt".into()), ..params.clone() };
+        let (table, error) = load_params(&bad, &dir).expect("loads");
+        assert_eq!(table.values().collect::<Vec<_>>(), [("RTL_ALT_M", 30.0)], "nothing restored");
+        let error = error.expect("an error");
+        assert!(error.contains("bad.txt:3: \"RTL_ALT_M=oops\""), "{error}");
+        let missing = LinkParams { param_file: Some("absent.txt".into()), ..params.clone() };
         assert_eq!(
-            load_params(&missing, &dir).expect("no file yet").values().next(),
+            load_params(&missing, &dir).expect("no file yet").0.values().next(),
             Some(("RTL_ALT_M", 30.0))
         );
+        // With a state directory and no param_file, the parameters live there.
+        let state = LinkParams { param_file: None, state_dir: Some(dir.clone()), ..params };
+        assert_eq!(param_path(&state, Path::new("/elsewhere")), Some(dir.join(PARAM_FILE)));
         std::fs::remove_dir_all(&dir).ok();
     }
 }

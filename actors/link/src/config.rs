@@ -63,6 +63,12 @@ pub struct LinkParams {
     /// `services::ftp`). The runtime sets it from `[record] dir`; `None`: no logs are served.
     #[serde(default)]
     pub log_dir: Option<PathBuf>,
+    /// Where the vehicle keeps what a restart must not lose: the uploaded mission, fence and
+    /// rally points (`services::mission::store`) and the parameters set (`params.parm`, unless
+    /// `param_file` names a file). The runtime sets it from the graph's `[state] dir`; relative
+    /// to the config directory otherwise. `None`: nothing outlives the run.
+    #[serde(default)]
+    pub state_dir: Option<PathBuf>,
 }
 
 impl Default for LinkParams {
@@ -75,6 +81,7 @@ impl Default for LinkParams {
             gcs_timeout_s: default_gcs_timeout_s(),
             instance: 0,
             log_dir: None,
+            state_dir: None,
         }
     }
 }

@@ -43,7 +43,8 @@ const GCS_SYSID_PARAM: &str = "MAV_GCS_SYSID";
 const DEFAULT_GCS_SYSID: u8 = 255;
 
 /// What we claim in AUTOPILOT_VERSION: only what this crate implements (FTP is read-only: the
-/// logs and `@PARAM/param.pck`, see `services::ftp`).
+/// logs and `@PARAM/param.pck`, see `services::ftp`). Rally points: uploaded, downloaded and
+/// flown to by RTL (the commander's `rally`).
 pub fn capabilities() -> MavProtocolCapability {
     MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FLOAT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_INT
@@ -54,6 +55,7 @@ pub fn capabilities() -> MavProtocolCapability {
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MAVLINK2
         | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP
+        | MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
 }
 
 /// The vehicle's side of every microservice.
@@ -116,6 +118,21 @@ impl Vehicle {
     /// values set earlier go back to the owner as `ParamSet`.
     pub fn on_param_decl(&mut self, decl: &ParamDecl, now: Time) -> Outputs {
         self.params.declare(decl, now).out
+    }
+
+    /// Keeps the uploaded plans in `store` from now on and restores the ones it holds: what the
+    /// graph must be told, and why a plan was not restored (`MissionService::keep_in`).
+    pub fn keep_plans_in(
+        &mut self,
+        store: crate::services::mission::PlanStore,
+        now: Time,
+    ) -> (Vec<ToGraph>, Vec<String>) {
+        self.missions.keep_in(store, now)
+    }
+
+    /// Writes the plans still pending to disk (at shutdown).
+    pub fn finish_plans(&self) {
+        self.missions.finish_store();
     }
 
     /// True once after each change the parameter file must follow.

@@ -48,6 +48,26 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.rtl_loiter_s = v,
     },
     ParamDef {
+        name: "RALLY_LIMIT_KM",
+        unit: "km",
+        min: 0.0,
+        max: 100.0,
+        description: "RTL flies to the nearest rally point only within this distance; 0 = any",
+        while_armed: WhileArmed::Tunable,
+        get: |p| p.rally.limit_km,
+        set: |p, v| p.rally.limit_km = v,
+    },
+    ParamDef {
+        name: "RALLY_INCL_HOME",
+        unit: "",
+        min: 0.0,
+        max: 1.0,
+        description: "Home counts as a rally point: 0 no, 1 yes",
+        while_armed: WhileArmed::Tunable,
+        get: |p| f64::from(u8::from(p.rally.include_home)),
+        set: |p, v| p.rally.include_home = v != 0.0,
+    },
+    ParamDef {
         name: "TKOFF_ALT_M",
         unit: "m",
         min: 1.0,
@@ -485,7 +505,7 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
 
 /// The live parameters that are switches: exactly 0 (off) or 1 (on); a value between answers
 /// neither.
-const SWITCHES: [&str; 1] = ["FD_ACT_EN"];
+const SWITCHES: [&str; 2] = ["FD_ACT_EN", "RALLY_INCL_HOME"];
 
 /// Parameters that are whole numbers (a system id).
 const WHOLE: [&str; 1] = ["MAV_GCS_SYSID"];

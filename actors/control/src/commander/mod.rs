@@ -16,7 +16,8 @@
 //! * what is flown: `modes` (each mode's setpoint, and what it latched), `guided` (GUIDED's
 //!   target, the nose's aim), `mission` and `mission_runner`, `avoidance`, `vertical` and
 //!   `vertical_limit` (the rangefinders), `crate::flip`;
-//! * where: `home` (home and the NED frame), `geofence`, `feasibility` (what may be flown to);
+//! * where: `home` (home and the NED frame), `rally` (rally points, and where RTL returns),
+//!   `geofence`, `feasibility` (what may be flown to);
 //! * what ends a flight or starts a failsafe: `arming`, `landing` and `land_detector`, `faults`
 //!   (the causes and the action applied), `failsafe`, `failsafe_actions`, `motor_check`,
 //!   `shutdown`;
@@ -48,6 +49,7 @@ mod motor_check;
 mod nav_source;
 mod params;
 mod pilot_input;
+mod rally;
 mod shutdown;
 mod spline;
 mod vertical;
@@ -73,6 +75,7 @@ pub use mission_runner::{MissionRunner, MissionStep};
 pub use motor_check::{COMMAND_STALE_S, MotorCheck};
 pub use params::{CommanderParams, FailsafeParams, FeasibilityParams, GeofenceParams};
 pub use pilot_input::{PilotInput, PilotLimits, SticksHeard};
+pub use rally::RallyParams;
 pub use vertical::VerticalParams;
 
 use crate::error::InvalidParam;
@@ -116,6 +119,8 @@ pub struct Commander {
     pilot: PilotInput,
     /// The uploaded mission, its run and a pause (`mission`).
     mission: mission::MissionState,
+    /// The rally points a ground station uploaded (`rally`).
+    rally: rally::Rally,
     /// What the current mode latched: held position, RTL's phase, a flip (`modes`).
     latched: ModeLatches,
     /// GUIDED's target, the nose's aim and the take-off height (`guided`).
@@ -152,6 +157,7 @@ impl Commander {
             calibration: None,
             pilot: PilotInput::default(),
             mission: mission::MissionState::default(),
+            rally: rally::Rally::default(),
             latched: ModeLatches::default(),
             faults: faults::Faults::new(motors),
             announcements: announcements::Announcements::default(),

@@ -49,6 +49,8 @@ pub(crate) struct Hold {
 pub(crate) struct ModeLatches {
     pub hold: Hold,
     pub rtl: RtlPhase,
+    /// Where RTL returns (home or a rally point, `rally`), chosen when it starts (m, NED).
+    pub rtl_target: Option<Vector3<f64>>,
     /// A flip under way (ACRO).
     pub flip: Option<Flip>,
     /// The orbit CIRCLE flies (set by DO_ORBIT, or on entry).
@@ -59,7 +61,14 @@ pub(crate) struct ModeLatches {
 
 impl Default for ModeLatches {
     fn default() -> ModeLatches {
-        ModeLatches { hold: Hold::default(), rtl: RtlPhase::Climb, flip: None, circle: None, brake: None }
+        ModeLatches {
+            hold: Hold::default(),
+            rtl: RtlPhase::Climb,
+            rtl_target: None,
+            flip: None,
+            circle: None,
+            brake: None,
+        }
     }
 }
 
@@ -434,13 +443,26 @@ impl Commander {
     /// retraced: the avoider corrects any leg, and a retraced path is no clearer once the wind or a
     /// moved obstacle has changed it. The climb and the descent are vertical, where the forward
     /// camera sees nothing: the rangefinders hold them (`vertical`).
+    /// "Home" here is the return target chosen when RTL starts: home or a rally point (`rally`);
+    /// a rally point's altitude above home raises the return altitude, as ArduCopter's does.
     fn rtl(&mut self, now: Time, dt_s: f64, nav: &NavState) -> SetpointTarget {
-        let Some(home) = self.home.ned() else { return self.land_at(now, dt_s, nav, None) };
+        let Some(launch) = self.home.ned() else { return self.land_at(now, dt_s, nav, None) };
         let pos = Vector3::from(nav.position_ned_m);
+        let home = match self.latched.rtl_target {
+            Some(target) => target,
+            None => {
+                let frame = self.home.frame();
+                let target = self.rally.return_target(&self.params.rally, frame.as_ref(), &launch, &pos);
+                if let Some(i) = target.rally {
+                    tracing::info!(rally_point = i, ned_m = ?target.ned_m, "RTL to a rally point");
+                }
+                *self.latched.rtl_target.insert(target.ned_m)
+            }
+        };
         let yaw = *self.latched.hold.yaw_rad.get_or_insert(heading(nav));
         match self.latched.rtl {
             RtlPhase::Climb => {
-                let down = pos.z.min(home.z - self.params.rtl_altitude_m);
+                let down = pos.z.min(launch.z - self.params.rtl_altitude_m).min(home.z.min(launch.z));
                 let start = *self.latched.hold.position.get_or_insert(pos);
                 let down = *self.latched.hold.down_m.get_or_insert(down);
                 // Held under something overhead, the climb ends there and the return sets off

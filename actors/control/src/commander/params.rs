@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::circle::CircleParams;
 use super::failsafe_actions;
+use super::rally::RallyParams;
 use super::vertical::VerticalParams;
 use crate::error::{InvalidParam, positive, within};
 use crate::motor_failure::{MotorFailureDetector, MotorFailureParams};
@@ -78,6 +79,8 @@ pub struct CommanderParams {
     pub vertical: VerticalParams,
     /// `[circle]`: CIRCLE's radius, rate and acceleration (`circle`).
     pub circle: CircleParams,
+    /// `[rally]`: which rally point RTL may return to (`rally`).
+    pub rally: RallyParams,
 }
 
 impl Default for CommanderParams {
@@ -113,6 +116,7 @@ impl Default for CommanderParams {
             feasibility: FeasibilityParams::default(),
             vertical: VerticalParams::default(),
             circle: CircleParams::default(),
+            rally: RallyParams::default(),
         }
     }
 }
@@ -357,6 +361,7 @@ impl CommanderParams {
         within("feasibility.min_height_m", self.feasibility.min_height_m, -100.0, 100.0)?;
         self.vertical.validate()?;
         self.circle.validate()?;
+        within("rally.limit_km", self.rally.limit_km, 0.0, 100.0)?;
         within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
         within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;
         within("failsafe.battery_critical", self.failsafe.battery_critical, 0.0, self.failsafe.battery_low)?;

@@ -24,7 +24,7 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::geo::deg_e7;
-use kestrel_proto::messages::{Command, FencePlan, MAX_MISSION_ITEMS, Mission};
+use kestrel_proto::messages::{Command, FencePlan, MAX_MISSION_ITEMS, Mission, RallyPoints};
 use mavlink::dialects::ardupilotmega::{
     MISSION_ACK_DATA, MISSION_COUNT_DATA, MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA,
     MavMessage, MavMissionResult, MavMissionType, MavSeverity,
@@ -36,8 +36,12 @@ use super::{Outputs, Sender, Service, ToGraph};
 mod fence;
 mod items;
 pub use fence::{FenceRefused, to_fence};
+mod rally;
+mod store;
 pub use items::{ItemRefused, to_mission};
 use items::{int_frame, is_global, refusal_text, to_float};
+pub use rally::to_rally;
+pub use store::{PLAN_FILES, PlanFileError, PlanStore};
 
 /// Most items a plan of any type may hold (home included); larger uploads are refused with
 /// NO_SPACE. The one limit for missions however they arrive (`MAX_MISSION_ITEMS`).
@@ -74,6 +78,8 @@ pub struct MissionService {
     flying: bool,
     /// Items or acks that did not fit the transfer in progress.
     pub ignored: u64,
+    /// Where accepted plans are kept across restarts (`store`); `None`: not kept.
+    store: Option<PlanStore>,
 }
 
 impl MissionService {
@@ -86,6 +92,7 @@ impl MissionService {
             upload: None,
             flying: false,
             ignored: 0,
+            store: None,
         }
     }
 
@@ -225,43 +232,99 @@ impl MissionService {
         }
         let Some(up) = self.upload.take() else { return Outputs::none() };
         let t = up.mission_type;
-        let mut out = Outputs::none();
-        let refuse = |text: &str, result| Outputs {
-            mav: vec![statustext(MavSeverity::MAV_SEVERITY_ERROR, text), Self::ack(from, t, result)],
-            graph: Vec::new(),
-        };
+        match self.accept(t, up.items, now) {
+            Ok(graph) => {
+                Outputs { mav: vec![Self::ack(from, t, MavMissionResult::MAV_MISSION_ACCEPTED)], graph }
+            }
+            Err((text, result)) => Outputs {
+                mav: vec![statustext(MavSeverity::MAV_SEVERITY_ERROR, &text), Self::ack(from, t, result)],
+                graph: Vec::new(),
+            },
+        }
+    }
+
+    /// A complete plan of type `t`, uploaded or restored: checked as the commander checks it,
+    /// then stored (and kept on disk) with what the graph must be told; or why not, in words
+    /// naming the item and as the MISSION_ACK's result, the stored plan unchanged.
+    fn accept(
+        &mut self,
+        t: MavMissionType,
+        items: Vec<MISSION_ITEM_INT_DATA>,
+        now: Time,
+    ) -> Result<Vec<ToGraph>, (String, MavMissionResult)> {
+        let mut graph = Vec::new();
         // The fence goes to the commander, checked whole first (`fence`).
         if t == MavMissionType::MAV_MISSION_TYPE_FENCE {
-            match to_fence(&up.items, now) {
-                Ok(plan) => out.graph.push(ToGraph::Fence(plan)),
+            match to_fence(&items, now) {
+                Ok(plan) => graph.push(ToGraph::Fence(plan)),
                 Err(FenceRefused { seq, result, reason }) => {
-                    return refuse(&format!("Fence item {seq}: {reason}"), result);
+                    return Err((format!("Fence item {seq}: {reason}"), result));
                 }
             }
         }
         if t == MavMissionType::MAV_MISSION_TYPE_MISSION {
-            match to_mission(&up.items, now) {
+            match to_mission(&items, now) {
                 // Home alone clears the mission (QGroundControl's "remove all" on ArduPilot).
                 Ok(mission) if mission.items.is_empty() && self.flying => {
-                    return refuse(CLEAR_REFUSED, MavMissionResult::MAV_MISSION_ERROR);
+                    return Err((CLEAR_REFUSED.into(), MavMissionResult::MAV_MISSION_ERROR));
                 }
-                Ok(mission) if mission.items.is_empty() => out.graph.push(ToGraph::Mission(mission)),
+                Ok(mission) if mission.items.is_empty() => graph.push(ToGraph::Mission(mission)),
                 // The commander's own check, made here so that what is ACKed is never refused.
                 Ok(mission) => match mission.check_fields() {
-                    Ok(()) => out.graph.push(ToGraph::Mission(mission)),
-                    Err(text) => return refuse(&text, MavMissionResult::MAV_MISSION_ERROR),
+                    Ok(()) => graph.push(ToGraph::Mission(mission)),
+                    Err(text) => return Err((text, MavMissionResult::MAV_MISSION_ERROR)),
                 },
+                // MISSION_ACK carries only the reason; the item it is about goes in words.
                 Err(ItemRefused { seq, result }) => {
-                    // MISSION_ACK carries only the reason; the item it is about goes in words.
-                    return refuse(&format!("Mission item {seq}: {}", refusal_text(result)), result);
+                    return Err((format!("Mission item {seq}: {}", refusal_text(result)), result));
                 }
             }
         }
-        if let Some(plan) = self.plan(t) {
-            *plan = up.items;
+        if t == MavMissionType::MAV_MISSION_TYPE_RALLY {
+            match to_rally(&items, now) {
+                Ok(rally) => graph.push(ToGraph::Rally(rally)),
+                Err(ItemRefused { seq, result }) => {
+                    return Err((format!("Rally item {seq}: {}", refusal_text(result)), result));
+                }
+            }
         }
-        out.mav.push(Self::ack(from, t, MavMissionResult::MAV_MISSION_ACCEPTED));
-        out
+        if let Some(store) = &self.store {
+            store.save(t, &items);
+        }
+        if let Some(plan) = self.plan(t) {
+            *plan = items;
+        }
+        Ok(graph)
+    }
+
+    /// Keeps the plans in `store` from now on, starting from the ones it holds: each is checked
+    /// as an upload is; what the graph must be told, and for each plan that could not be read
+    /// or is refused, why (naming the file and line or the item). Such a plan is not restored
+    /// (the vehicle starts without it rather than with part of it), and its file is left as it
+    /// is until the next upload of that type replaces it.
+    pub fn keep_in(&mut self, store: PlanStore, now: Time) -> (Vec<ToGraph>, Vec<String>) {
+        let (mut graph, mut errors) = (Vec::new(), Vec::new());
+        for (t, _) in PLAN_FILES {
+            let file = store.file(t).map(|f| f.display().to_string()).unwrap_or_default();
+            match store.load(t) {
+                Ok(None) => {}
+                Ok(Some(items)) if items.is_empty() => {}
+                Ok(Some(items)) => match self.accept(t, items, now) {
+                    Ok(out) => graph.extend(out),
+                    Err((text, _)) => errors.push(format!("{file}: {text}")),
+                },
+                Err(e) => errors.push(e.to_string()),
+            }
+        }
+        self.store = Some(store);
+        (graph, errors)
+    }
+
+    /// Writes the plans still pending to disk (at shutdown).
+    pub fn finish_store(&self) {
+        if let Some(store) = &self.store {
+            store.finish();
+        }
     }
 
     /// MISSION_ACK from the ground station: ends a download, or cancels its upload.
@@ -318,6 +381,9 @@ impl MissionService {
             return Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_UNSUPPORTED));
         };
         plan.clear();
+        if let Some(store) = &self.store {
+            store.save(t, &[]);
+        }
         let mut out = Outputs::send(Self::ack(from, t, MavMissionResult::MAV_MISSION_ACCEPTED));
         if t == MavMissionType::MAV_MISSION_TYPE_MISSION {
             out.graph.push(ToGraph::Mission(Mission {
@@ -328,6 +394,9 @@ impl MissionService {
         }
         if t == MavMissionType::MAV_MISSION_TYPE_FENCE {
             out.graph.push(ToGraph::Fence(FencePlan { time: now, zones: Vec::new() }));
+        }
+        if t == MavMissionType::MAV_MISSION_TYPE_RALLY {
+            out.graph.push(ToGraph::Rally(RallyPoints { time: now, points: Vec::new() }));
         }
         out
     }

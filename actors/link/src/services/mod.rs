@@ -19,7 +19,7 @@ pub mod timesync;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
-    CalibrationRequest, Command, FailureInjection, FencePlan, ManualControl, Mission, ParamSet,
+    CalibrationRequest, Command, FailureInjection, FencePlan, ManualControl, Mission, ParamSet, RallyPoints,
 };
 use mavlink::dialects::ardupilotmega::MavMessage;
 
@@ -70,6 +70,8 @@ pub enum ToGraph {
     Mission(Mission),
     /// An uploaded (or cleared) geofence, for the commander to enforce.
     Fence(FencePlan),
+    /// The rally points uploaded (all of them) or cleared (none).
+    Rally(RallyPoints),
     Manual(ManualControl),
     Param(ParamSet),
 }

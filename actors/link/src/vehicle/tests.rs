@@ -316,6 +316,7 @@ fn ftp_opens_the_parameter_file_for_its_sender_and_is_claimed() {
     assert_eq!((ack.payload[0], ack.payload[2], ack.target_system, ack.target_component), (6, 9, 255, 190));
     assert_eq!(v.unhandled, 0);
     assert!(capabilities().contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_FTP));
+    assert!(capabilities().contains(MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY));
 }
 
 #[test]

@@ -14,6 +14,7 @@ mod mission;
 mod modes;
 mod motors;
 mod poshold_avoidance;
+mod rally;
 mod rtl;
 mod vertical;
 

@@ -102,7 +102,8 @@ pub(super) fn refusal_text(result: MavMissionResult) -> &'static str {
         MavMissionResult::MAV_MISSION_ERROR => "jump target out of range",
         MavMissionResult::MAV_MISSION_INVALID_PARAM5_X => "latitude out of range",
         MavMissionResult::MAV_MISSION_INVALID_PARAM6_Y => "longitude out of range",
-        MavMissionResult::MAV_MISSION_INVALID_PARAM7 => "altitude not a number",
+        MavMissionResult::MAV_MISSION_INVALID_PARAM7 => "altitude out of range",
+        MavMissionResult::MAV_MISSION_NO_SPACE => "too many items",
         _ => "invalid",
     }
 }

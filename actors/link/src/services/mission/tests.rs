@@ -437,3 +437,42 @@ fn legacy_float_items_are_accepted() {
         }
     }
 }
+
+#[test]
+fn rally_upload_reaches_the_graph_a_bad_item_is_refused_by_number_and_clear_empties_it() {
+    const RALLY: MavMissionType = MavMissionType::MAV_MISSION_TYPE_RALLY;
+    let rally =
+        |seq| MISSION_ITEM_INT_DATA { mission_type: RALLY, ..item(seq, MavCmd::MAV_CMD_NAV_RALLY_POINT) };
+    let mut s = MissionService::new();
+    let n = |n| MISSION_COUNT_DATA { mission_type: RALLY, ..count(n) };
+    let send = |s: &mut MissionService, items: &[MISSION_ITEM_INT_DATA]| {
+        let mut out = s.on_count(GCS, &n(u16::try_from(items.len()).expect("small")), t(0.0));
+        for it in items {
+            out = s.on_item(GCS, it, t(0.1));
+        }
+        out
+    };
+    let out = send(&mut s, &[rally(0), rally(1)]);
+    assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+    let Some(ToGraph::Rally(r)) = out.graph.first() else { panic!("no rally published: {out:?}") };
+    assert_eq!(r.points.len(), 2);
+    // A waypoint among rally points: refused with its number, the two points kept.
+    let waypoint = MISSION_ITEM_INT_DATA { command: MavCmd::MAV_CMD_NAV_WAYPOINT, ..rally(1) };
+    let out = send(&mut s, &[rally(0), waypoint]);
+    assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_UNSUPPORTED));
+    assert!(out.graph.is_empty());
+    let said = out.mav.iter().find_map(|m| match m {
+        MavMessage::STATUSTEXT(st) => {
+            Some(String::from_utf8_lossy(&st.text.to_vec()).trim_end_matches('\0').to_owned())
+        }
+        _ => None,
+    });
+    assert_eq!(said.as_deref(), Some("Rally item 1: command not supported"));
+    assert!(matches!(
+        s.on_request_list(GCS, RALLY).mav[0],
+        MavMessage::MISSION_COUNT(MISSION_COUNT_DATA { count: 2, .. })
+    ));
+    let out = s.clear(GCS, RALLY, t(1.0));
+    assert_eq!(ack_result(&out), Some(MavMissionResult::MAV_MISSION_ACCEPTED));
+    assert!(matches!(out.graph.first(), Some(ToGraph::Rally(r)) if r.points.is_empty()));
+}
