@@ -24,8 +24,8 @@ The last line's `results` hold `max_rel_alt_m`, `reached` (MISSION_ITEM_REACHED 
 import os
 import time
 
-from gcs_common import (ACM_MODES, Failed, distance_m, enum_name, main, mav, mavutil, plan_items,
-                        VEHICLE)
+from gcs_common import (accepted, ACM_MODES, arm_in_guided, distance_m, enum_name, Failed, main,
+                        mav, mavutil, plan_items, VEHICLE)
 
 TAKEOFF_M = float(os.environ.get("TAKEOFF_M", "10"))
 GROUND_DISARM_S = float(os.environ["GROUND_DISARM_S"]) if "GROUND_DISARM_S" in os.environ else None
@@ -51,15 +51,6 @@ def upload(gcs, items):
             *it["params"], it["x"], it["y"], it["alt"], mav.MAV_MISSION_TYPE_MISSION)
 
 
-def accepted(gcs, cmd, params, step):
-    """COMMAND_LONG once; whether its COMMAND_ACK says ACCEPTED (no answer within 3 s: no)."""
-    p = list(params) + [0.0] * (7 - len(params))
-    gcs.conn.mav.command_long_send(*VEHICLE, cmd, 0, *p)
-    try:
-        ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == cmd)
-    except Failed:
-        return False
-    return ack.result == mav.MAV_RESULT_ACCEPTED
 
 
 def until_mode(gcs, name, timeout_s=20.0):
@@ -77,24 +68,6 @@ def until_mode(gcs, name, timeout_s=20.0):
                 pass
 
 
-def arm_in_guided(gcs, timeout_s=40.0):
-    """GUIDED, then armed, asked for every half second until the vehicle takes both: ArduCopter
-    refuses to arm until EKF3 uses GPS, about 40 s of its time after boot, and may leave GUIDED
-    while it has no position."""
-    end = time.monotonic() + timeout_s
-    guided = [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]]
-    while not (gcs.mode == "GUIDED" and gcs.armed):
-        if time.monotonic() > end:
-            raise Failed("arm", f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
-        if gcs.mode != "GUIDED":
-            accepted(gcs, mav.MAV_CMD_DO_SET_MODE, guided, "guided")
-        elif accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm") or gcs.armed:
-            try:
-                gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
-            except Failed:
-                pass
-            continue
-        gcs.quiet(0.5)
 
 
 def wait_disarmed_or_force(gcs, ground_s):

@@ -393,6 +393,38 @@ def distance_m(a, b):
     return math.hypot(north, east)
 
 
+def accepted(gcs, cmd, params, step):
+    """COMMAND_LONG once; whether its COMMAND_ACK says ACCEPTED (no answer within 3 s: no)."""
+    p = list(params) + [0.0] * (7 - len(params))
+    gcs.conn.mav.command_long_send(*VEHICLE, cmd, 0, *p)
+    try:
+        ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == cmd)
+    except Failed:
+        return False
+    return ack.result == mav.MAV_RESULT_ACCEPTED
+
+
+def arm_in_guided(gcs, timeout_s=40.0):
+    """GUIDED, then armed, asked for every half second until the vehicle takes both: a vehicle
+    refuses GUIDED or arming until its position estimate is good (ArduCopter: until EKF3 uses
+    GPS, about 40 s of its time after boot, and it may leave GUIDED while it has no position),
+    and an ACK lost on a loaded host is asked for again."""
+    end = time.monotonic() + timeout_s
+    guided = [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]]
+    while not (gcs.mode == "GUIDED" and gcs.armed):
+        if time.monotonic() > end:
+            raise Failed("arm", f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
+        if gcs.mode != "GUIDED":
+            accepted(gcs, mav.MAV_CMD_DO_SET_MODE, guided, "guided")
+        elif accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm") or gcs.armed:
+            try:
+                gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+            except Failed:
+                pass
+            continue
+        gcs.quiet(0.5)
+
+
 def main(body, deadline_s=50.0):
     """Runs `body(gcs)` and turns its outcome into the exit status and the last JSON line; the
     whole session must end within `deadline_s` of wall time."""

@@ -23,9 +23,8 @@ count, type}) and `cleared` ({status, count, type, text}).
 """
 
 import math
-import time
 
-from gcs_common import ACM_MODES, Failed, VEHICLE, distance_m, enum_name, main, mav, mavutil
+from gcs_common import arm_in_guided, distance_m, enum_name, Failed, main, mav, VEHICLE
 
 STREAM_HZ = 4
 HOME = (6.79710, 79.90170)
@@ -73,16 +72,6 @@ def upload_fence(gcs, items, step):
             it["param1"], 0, 0, 0, it["x"], it["y"], 0.0, mav.MAV_MISSION_TYPE_FENCE)
 
 
-def until_accepted(gcs, cmd, params, step, timeout_s=40.0):
-    """COMMAND_LONG, asked again every second until ACCEPTED (arming waits for the estimate)."""
-    end = time.monotonic() + timeout_s
-    while True:
-        try:
-            return gcs.command(cmd, params, step)
-        except Failed:
-            if time.monotonic() > end:
-                raise
-            gcs.quiet(1.0)
 
 
 def reposition(gcs, north_m, east_m, alt_m, step):
@@ -141,10 +130,7 @@ def fence(gcs):
         raise Failed("fence upload", ack)
 
     # 5. Take-off, and targets beyond the fence.
-    until_accepted(gcs, mav.MAV_CMD_DO_SET_MODE,
-                   [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]], "guided")
-    gcs.wait_type("HEARTBEAT", 3.0, "guided", lambda m: mavutil.mode_string_v10(m) == "GUIDED")
-    until_accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm")
+    arm_in_guided(gcs)
     gcs.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, TAKEOFF_M], "takeoff")
     gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 0.7, 30.0, "climb")
     before = gcs.position

@@ -29,28 +29,12 @@ import zlib
 
 from pymavlink import mavftp
 
-from gcs_common import ACM_MODES, Failed, main, mav, mavutil, VEHICLE
+from gcs_common import arm_in_guided, Failed, main, mav, VEHICLE
 from read_mcap import topic_span
 
 TAKEOFF_M = 5.0
 
 
-def until_accepted(gcs, cmd, params, step, timeout_s=40.0):
-    """COMMAND_LONG, asked again every second until ACCEPTED (a vehicle refuses GUIDED or arming
-    until its position estimate is good)."""
-    end = time.monotonic() + timeout_s
-    p = list(params) + [0.0] * (7 - len(params))
-    while True:
-        gcs.conn.mav.command_long_send(*VEHICLE, cmd, 0, *p)
-        try:
-            ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == cmd)
-            if ack.result == mav.MAV_RESULT_ACCEPTED:
-                return
-        except Failed:
-            pass  # an ACK lost on a loaded host: ask again
-        if time.monotonic() > end:
-            raise Failed(step, f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
-        gcs.quiet(1.0)
 
 
 def log_list(gcs, step, timeout_s=5.0):
@@ -183,11 +167,7 @@ def raw_ftp(gcs, opcode, path, step):
 def flight(gcs):
     gcs.identify()
     gcs.conn.mav.request_data_stream_send(*VEHICLE, mav.MAV_DATA_STREAM_ALL, 10, 1)
-    until_accepted(gcs, mav.MAV_CMD_DO_SET_MODE,
-                   [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]], "guided")
-    gcs.wait_type("HEARTBEAT", 3.0, "guided", lambda m: mavutil.mode_string_v10(m) == "GUIDED")
-    until_accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm")
-    gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+    arm_in_guided(gcs)
     gcs.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, TAKEOFF_M], "take-off")
     gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 1.0, 30.0, "take-off")
 

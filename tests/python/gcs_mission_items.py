@@ -25,9 +25,8 @@ dropped}).
 import json
 import math
 import os
-import time
 
-from gcs_common import ACM_MODES, Failed, enum_name, main, mav, mavutil, VEHICLE
+from gcs_common import arm_in_guided, enum_name, Failed, main, mav, VEHICLE
 
 HOME = (6.79710, 79.90170)
 TAKEOFF_M = 10.0
@@ -144,19 +143,6 @@ def jump_mission():
     ])
 
 
-def until_accepted(gcs, cmd, params, step, timeout_s=60.0):
-    """COMMAND_LONG, asked again every second until ACCEPTED (a vehicle refuses GUIDED and
-    arming until its position estimate is good)."""
-    end = time.monotonic() + timeout_s
-    p = list(params) + [0.0] * (7 - len(params))
-    while True:
-        gcs.conn.mav.command_long_send(*VEHICLE, cmd, 0, *p)
-        ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == cmd)
-        if ack.result == mav.MAV_RESULT_ACCEPTED:
-            return
-        if time.monotonic() > end:
-            raise Failed(step, f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
-        gcs.quiet(1.0)
 
 
 def flight(gcs):
@@ -179,9 +165,7 @@ def flight(gcs):
     gcs.results["jump"] = {"ack": ack}
     if ack != "MAV_MISSION_ACCEPTED":
         raise Failed("jump mission", ack)
-    until_accepted(gcs, mav.MAV_CMD_DO_SET_MODE, [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]], "guided")
-    gcs.wait_type("HEARTBEAT", 3.0, "guided", lambda m: mavutil.mode_string_v10(m) == "GUIDED")
-    until_accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm")
+    arm_in_guided(gcs)
     gcs.command(mav.MAV_CMD_NAV_TAKEOFF, [0, 0, 0, 0, 0, 0, TAKEOFF_M], "take-off")
     gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m >= TAKEOFF_M - 1.0, 30.0, "take-off")
     reached_before, currents_before = len(gcs.reached), len(gcs.mission_currents)

@@ -25,7 +25,7 @@ import math
 import os
 import time
 
-from gcs_common import ACM_MODES, Failed, enum_name, main, mav, mavutil, VEHICLE
+from gcs_common import ACM_MODES, arm_in_guided, enum_name, Failed, main, mav, VEHICLE
 
 TAKEOFF_M = 10.0
 ORBIT_M = 10.0
@@ -47,23 +47,6 @@ def ack_of(gcs, cmd, params, step):
     return result
 
 
-def arm_in_guided(gcs, timeout_s=40.0):
-    """GUIDED, then armed, asked for every half second until the vehicle takes both (ArduCopter
-    refuses to arm until EKF3 uses GPS, about 40 s of its time after boot)."""
-    end = time.monotonic() + timeout_s
-    guided = [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]]
-    while not (gcs.mode == "GUIDED" and gcs.armed):
-        if time.monotonic() > end:
-            raise Failed("arm", f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
-        if gcs.mode != "GUIDED":
-            ack_of(gcs, mav.MAV_CMD_DO_SET_MODE, guided, "guided")
-        elif ack_of(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm") == "MAV_RESULT_ACCEPTED":
-            try:
-                gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
-            except Failed:
-                pass
-            continue
-        gcs.quiet(0.5)
 
 
 def centre_sticks(gcs):

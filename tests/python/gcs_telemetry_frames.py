@@ -22,9 +22,8 @@ The last line's `results` holds `streamed_hz` (message: Hz, 0 when it never came
 """
 
 import math
-import time
 
-from gcs_common import ACM_MODES, Failed, enum_name, main, mav, mavutil, VEHICLE
+from gcs_common import arm_in_guided, enum_name, Failed, main, mav, VEHICLE
 
 FRAMES = {
     "ATTITUDE_QUATERNION": 31,
@@ -118,17 +117,6 @@ def wait_vehicle_s(gcs, seconds, step):
     gcs.pump(lambda m: gcs.boot_s is not None and gcs.boot_s - start >= seconds, 30.0, step)
 
 
-def until_accepted(gcs, cmd, params, step, timeout_s=30.0):
-    """COMMAND_LONG, asked again every second until ACCEPTED (a vehicle refuses GUIDED or arming
-    until its position estimate is good)."""
-    end = time.monotonic() + timeout_s
-    while True:
-        try:
-            return gcs.command(cmd, params, step)
-        except Failed:
-            if time.monotonic() > end:
-                raise
-            gcs.quiet(1.0)
 
 
 def flight(gcs):
@@ -184,11 +172,7 @@ def flight(gcs):
     gcs.log(f"timesync: {gcs.results['timesync']}")
 
     # 6. Armed on the ground: the motor outputs.
-    until_accepted(gcs, mav.MAV_CMD_DO_SET_MODE,
-                   [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]], "guided")
-    gcs.wait_type("HEARTBEAT", 3.0, "guided", lambda m: mavutil.mode_string_v10(m) == "GUIDED")
-    until_accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm")
-    gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
+    arm_in_guided(gcs)
     start = gcs.boot_s
     wait_vehicle_s(gcs, 1.0, "armed")
     servo = [m for t, m in frames.seen if t > start and m.get_type() == "SERVO_OUTPUT_RAW"]

@@ -27,7 +27,7 @@ named waypoint of each item past the take-off that a download returns).
 import math
 import time
 
-from gcs_common import ACM_MODES, Failed, distance_m, enum_name, main, mav, mavutil, VEHICLE
+from gcs_common import ACM_MODES, arm_in_guided, distance_m, enum_name, Failed, main, mav, VEHICLE
 
 HOME = (6.79710, 79.90170)
 TAKEOFF_M = 10.0
@@ -102,28 +102,8 @@ def download(gcs, step):
     return names
 
 
-def until_accepted(gcs, cmd, params, step, timeout_s=30.0):
-    """COMMAND_LONG, asked again every second until ACCEPTED: a vehicle refuses GUIDED and arming
-    until its position estimate is good (Kestrel: GUIDED; ArduCopter: arming)."""
-    end = time.monotonic() + timeout_s
-    p = list(params) + [0.0] * (7 - len(params))
-    while True:
-        gcs.conn.mav.command_long_send(*VEHICLE, cmd, 0, *p)
-        ack = gcs.wait_type("COMMAND_ACK", 3.0, step, lambda m: m.command == cmd)
-        if ack.result == mav.MAV_RESULT_ACCEPTED:
-            return
-        if time.monotonic() > end:
-            raise Failed(step, f"still refused after {timeout_s} s: {gcs.statustexts[-3:]}")
-        gcs.quiet(1.0)
 
 
-def arm_in_guided(gcs):
-    """GUIDED, then armed, each asked for until the vehicle takes it."""
-    until_accepted(gcs, mav.MAV_CMD_DO_SET_MODE,
-                   [mav.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, ACM_MODES["GUIDED"]], "guided")
-    gcs.wait_type("HEARTBEAT", 3.0, "guided", lambda m: mavutil.mode_string_v10(m) == "GUIDED")
-    until_accepted(gcs, mav.MAV_CMD_COMPONENT_ARM_DISARM, [1], "arm")
-    gcs.wait_type("HEARTBEAT", 3.0, "arm", lambda m: m.base_mode & mav.MAV_MODE_FLAG_SAFETY_ARMED)
 
 
 def change(gcs, items, step):
