@@ -223,16 +223,21 @@ async fn run_graph(
             None => (None, None),
         },
     };
-    // A write error is reported at once on `sensor_health` (src/recorder/write_watch.rs).
-    let write_watch = match &recorder {
-        Some(r) => Some((
-            r.failure_probe(),
+    // A write error is reported at once on `sensor_health` (src/recorder/write_watch.rs). The
+    // runtime is a publisher of that topic whenever something reads it, recorder or not, so a
+    // graph that routes it to the link (config/sim.toml) also builds with recording off
+    // (tests/config_bench.rs `every_config_builds_or_names_the_hardware_it_lacks`).
+    let reads_health = graph.is_subscribed("sensor_health", SensorHealth::TYPE_NAME);
+    let health = if recorder.is_some() || reads_health {
+        Some(
             graph
                 .runtime_publisher::<SensorHealth>("sensor_health")
                 .map_err(|m| RunError::Config(vec![source.error(m)]))?,
-        )),
-        None => None,
+        )
+    } else {
+        None
     };
+    let write_watch = recorder.as_ref().zip(health).map(|(r, health)| (r.failure_probe(), health));
     let truth = graph.observe::<GroundTruth>("ground_truth", Doorbell::new());
     let commander = graph.observe::<VehicleStatus>("vehicle_status", Doorbell::new());
     let topics = graph
