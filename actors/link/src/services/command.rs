@@ -304,8 +304,8 @@ impl CommandService {
     /// vehicle must be in GUIDED unless param2 carries MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, which
     /// switches to GUIDED first. The ground speed (param1, m/s; negative or NaN: the default) and
     /// the heading (param4, degrees; NaN: the heading held) are flown as the MAVLink definition
-    /// and PX4 say; ArduCopter 4.7 ignores both (`handle_command_int_do_reposition`). A zero or
-    /// infinite speed, or an infinite heading, is DENIED. Out of GUIDED (`guided`, the last
+    /// and PX4 say; ArduCopter 4.7 ignores both (`handle_command_int_do_reposition`). A speed of zero
+    /// or less is the default; an infinite speed or heading is DENIED. Out of GUIDED (`guided`, the last
     /// status) without the change-mode flag it is DENIED here; a target the commander refuses
     /// (beyond the fence) is FAILED, as ArduCopter answers both (`on_answer`). Held by
     /// `tests::reposition_flies_its_speed_and_heading` and
@@ -324,9 +324,10 @@ impl CommandService {
             None if p[1].is_nan() => false,
             None => return denied(),
         };
+        // MAVSDK's `goto_location` leaves the speed 0: no speed asked, as PX4 reads it.
         let speed_m_s = match p[0] {
-            s if s.is_nan() || s < 0.0 => None,
-            s if s.is_finite() && s > 0.0 => Some(s),
+            s if s.is_nan() || s <= 0.0 => None,
+            s if s.is_finite() => Some(s),
             _ => return denied(),
         };
         let yaw_rad = match p[3] {
