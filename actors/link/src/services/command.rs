@@ -326,9 +326,9 @@ impl CommandService {
         };
         // MAVSDK's `goto_location` leaves the speed 0: no speed asked, as PX4 reads it.
         let speed_m_s = match p[0] {
+            s if s.is_infinite() => return denied(),
             s if s.is_nan() || s <= 0.0 => None,
-            s if s.is_finite() => Some(s),
-            _ => return denied(),
+            s => Some(s),
         };
         let yaw_rad = match p[3] {
             y if y.is_nan() => None,

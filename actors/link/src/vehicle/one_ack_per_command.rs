@@ -92,7 +92,12 @@ proptest! {
             prop_assert!(out.graph.is_empty(), "{command:?} is unsupported yet reached the graph: {:?}", out.graph);
         }
         if !asked.is_empty() {
-            let want = if refused { MavResult::MAV_RESULT_DENIED } else { MavResult::MAV_RESULT_ACCEPTED };
+            // A refused DO_REPOSITION is FAILED, as ArduCopter answers a destination it will not fly.
+            let want = match (refused, command) {
+                (false, _) => MavResult::MAV_RESULT_ACCEPTED,
+                (true, MavCmd::MAV_CMD_DO_REPOSITION) => MavResult::MAV_RESULT_FAILED,
+                (true, _) => MavResult::MAV_RESULT_DENIED,
+            };
             prop_assert_eq!(result, want, "{:?}: the commander's answer", command);
         }
     }

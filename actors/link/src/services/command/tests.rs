@@ -358,7 +358,7 @@ fn reposition_flies_its_speed_and_heading() {
     assert_eq!(t.speed_m_s, None, "NaN: the default speed");
     let Some(Command::PositionTarget(t)) = graph(&go(&mut s, 0.0, 10.0)) else { panic!("a target") };
     assert_eq!(t.speed_m_s, None, "0 (MAVSDK's goto_location): the default speed");
-    for (speed, yaw) in [(f64::INFINITY, 0.0), (1.0, f64::INFINITY)] {
+    for (speed, yaw) in [(f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0), (1.0, f64::INFINITY)] {
         let out = go(&mut s, speed, yaw);
         assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_DENIED, "{speed} {yaw}");
         assert!(out.graph.is_empty());
