@@ -212,11 +212,21 @@ impl Graph {
     /// Subscribes an observer outside the graph (status line, tests) to `name`, if it exists
     /// with type `T`; its unread messages never hold the lockstep clock.
     pub fn observe<T: Message>(&mut self, name: &str, doorbell: Arc<Doorbell>) -> Option<Arc<Mailbox<T>>> {
+        self.observe_as(name, MailboxKind::Latest, doorbell)
+    }
+
+    /// [`Graph::observe`] with a mailbox of `kind`: a queue where no message may be missed.
+    pub fn observe_as<T: Message>(
+        &mut self,
+        name: &str,
+        kind: MailboxKind,
+        doorbell: Arc<Doorbell>,
+    ) -> Option<Arc<Mailbox<T>>> {
         if self.topics.get(name)?.type_name != T::TYPE_NAME {
             return None;
         }
         let topic = self.topic::<T>(name).ok()?;
-        let mailbox = Mailbox::observer(format!("{name} → observer"), MailboxKind::Latest, doorbell);
+        let mailbox = Mailbox::observer(format!("{name} → observer"), kind, doorbell);
         topic.subscribe(Arc::clone(&mailbox));
         Some(mailbox)
     }

@@ -37,6 +37,7 @@ pub mod hil;
 pub mod locks;
 pub mod log_replay;
 pub mod mailbox;
+pub mod reboot;
 pub mod recorder;
 pub mod registry;
 pub mod replay;

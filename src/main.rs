@@ -27,17 +27,20 @@ fn main() -> ExitCode {
     std::panic::set_hook(Box::new(|info| tracing::error!(target: "kestrel::panic", "{info}")));
 
     let result = match cli.command {
-        Command::Run(args) => cmd::run::run(args),
-        Command::Fuzzy(args) => cmd::fuzzy::run(args),
-        Command::Replay(args) => cmd::replay::run(args),
-        Command::Calibrate(args) => cmd::calibrate::run(args),
-        Command::Disparity(args) => cmd::disparity::run(args),
-        Command::Stereo(args) => cmd::stereo::run(args),
-        Command::Report(args) => cmd::report::run(args),
-        Command::Sitl(args) => cmd::sitl::run(args),
+        Command::Run(args) => cmd::run::run(args).map(|ended| match ended {
+            cmd::run::Ended::Done => ExitCode::SUCCESS,
+            cmd::run::Ended::Reboot => ExitCode::from(kestrel::reboot::REBOOT_EXIT_CODE),
+        }),
+        Command::Fuzzy(args) => cmd::fuzzy::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Replay(args) => cmd::replay::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Calibrate(args) => cmd::calibrate::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Disparity(args) => cmd::disparity::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Stereo(args) => cmd::stereo::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Report(args) => cmd::report::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Sitl(args) => cmd::sitl::run(args).map(|()| ExitCode::SUCCESS),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(message) => {
             eprintln!("error: {message}");
             ExitCode::FAILURE

@@ -4,11 +4,13 @@
 //! the flight log.
 
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use kestrel_proto::messages::{GroundTruth, SensorHealth, SupervisorEvent, VehicleCommand, VehicleStatus};
+use kestrel_proto::messages::{
+    CommandResult, GroundTruth, SensorHealth, SupervisorEvent, VehicleCommand, VehicleStatus,
+};
 use kestrel_proto::{Clock, Message, Time};
 use tokio_util::sync::CancellationToken;
 
@@ -85,6 +87,9 @@ pub struct RunReport {
     pub supervisor_events: Vec<SupervisorEvent>,
     /// The flight log, if one was written.
     pub recording: Option<RecordingSummary>,
+    /// The run ended on an accepted reboot: `kestrel run` exits with
+    /// [`crate::reboot::REBOOT_EXIT_CODE`].
+    pub reboot: bool,
 }
 
 /// Builds every actor of `config` once into `graph`, the graph's vehicle handed on
@@ -209,6 +214,12 @@ async fn run_graph(
     let device_locks = graph.take_device_locks();
     let vehicle = vehicle_handles(&mut graph).map_err(|m| RunError::Config(vec![source.error(m)]))?;
     let alive = graph.observe::<VehicleStatus>("vehicle_status", Doorbell::new());
+    let reboot_watch = {
+        let doorbell = Doorbell::new();
+        graph
+            .observe_as::<CommandResult>("command_result", MailboxKind::Queue(64), Arc::clone(&doorbell))
+            .map(|results| crate::reboot::RebootWatch { results, doorbell })
+    };
     let record_path = options.record.clone().or_else(|| config.graph.record.path.clone());
     // One file when one is named; else the vehicle's numbered logs when a log directory is set.
     let (recorder, onboard_status) = match record_path.as_deref() {
@@ -272,6 +283,10 @@ async fn run_graph(
         service.clone(),
         shutdown.clone(),
     ));
+    let reboot = Arc::new(AtomicBool::new(false));
+    if let Some(watch) = reboot_watch {
+        tokio::spawn(crate::reboot::on_reboot(watch, Arc::clone(&reboot), shutdown.clone()));
+    }
     service.ready(&format!("running {}", source.path.display()));
     tokio::spawn(service.clone().feed_watchdog(alive, shutdown.clone()));
     if options.status && run_cfg.status_period_s > 0.0 {
@@ -342,6 +357,7 @@ async fn run_graph(
             .collect(),
         supervisor_events,
         recording,
+        reboot: reboot.load(Ordering::SeqCst),
     })
 }
 

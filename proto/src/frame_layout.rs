@@ -78,6 +78,28 @@ impl FrameLayout {
         })
     }
 
+    /// The layout with `count` motors, if Kestrel flies one (each it flies has its own count).
+    pub fn with_motor_count(count: usize) -> Option<FrameLayout> {
+        [FrameLayout::QuadX, FrameLayout::HexaX, FrameLayout::OctoX]
+            .into_iter()
+            .find(|l| l.motor_count() == count)
+    }
+
+    /// The motors (0-based, mixer order) in ArduPilot's test order, the numbering of
+    /// MAV_CMD_DO_MOTOR_TEST: clockwise from the first at or right of forward, by bearing.
+    /// Entries past `motor_count` are unused (0). Quad-X: 1, 4, 2, 3 (front-right, rear-right,
+    /// rear-left, front-left), as ArduCopter's motor test A..D.
+    pub fn test_order(self) -> [usize; crate::messages::MAX_MOTORS] {
+        let bearings = self.bearings();
+        let mut order = [0; crate::messages::MAX_MOTORS];
+        for (i, slot) in order.iter_mut().enumerate().take(bearings.len()) {
+            *slot = i;
+        }
+        let key = |i: usize| bearings[i].0.rem_euclid(360.0);
+        order[..bearings.len()].sort_by(|&a, &b| key(a).total_cmp(&key(b)));
+        order
+    }
+
     fn bearings(self) -> &'static [(f64, Spin)] {
         match self {
             FrameLayout::QuadX => &QUAD_X,
@@ -101,6 +123,21 @@ mod tests {
             assert_eq!(yaw, 0.0, "{layout:?}");
             assert!(motors.iter().all(|m| (m.position_frd_m.norm() - 0.25).abs() < 1e-12));
         }
+    }
+
+    /// ArduPilot's `AP_MotorsMatrix` test order numbers (1-based) for its motors 1..n.
+    #[test]
+    fn test_order_is_ardupilots_for_every_frame() {
+        let one_based = |l: FrameLayout| -> Vec<usize> {
+            l.test_order()[..l.motor_count()].iter().map(|m| m + 1).collect()
+        };
+        assert_eq!(one_based(FrameLayout::QuadX), [1, 4, 2, 3]);
+        assert_eq!(one_based(FrameLayout::HexaX), [5, 1, 4, 6, 2, 3]);
+        assert_eq!(one_based(FrameLayout::OctoX), [1, 3, 8, 4, 2, 6, 7, 5]);
+        for l in [FrameLayout::QuadX, FrameLayout::HexaX, FrameLayout::OctoX] {
+            assert_eq!(FrameLayout::with_motor_count(l.motor_count()), Some(l));
+        }
+        assert_eq!(FrameLayout::with_motor_count(5), None);
     }
 
     #[test]

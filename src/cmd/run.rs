@@ -7,14 +7,24 @@ use kestrel::{LoadedConfig, Registry, RunError, RunOptions};
 
 use crate::cli::RunArgs;
 
-/// Runs the graph `args` name until its duration passes or a signal arrives.
-pub fn run(args: RunArgs) -> Result<(), String> {
+/// What a finished `kestrel run` asks of the process.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Ended {
+    /// The run is over: exit 0.
+    Done,
+    /// A ground station's reboot was accepted: exit [`kestrel::reboot::REBOOT_EXIT_CODE`] so the
+    /// service manager starts it again.
+    Reboot,
+}
+
+/// Runs the graph `args` name until its duration passes, a signal arrives or a reboot is taken.
+pub fn run(args: RunArgs) -> Result<Ended, String> {
     let config_path = locate_config(&args.config)?;
     let mut config = LoadedConfig::load(&config_path).map_err(|e| e.to_string())?;
     if args.print_config {
         let text = config.merged_toml().map_err(|e| format!("cannot print the merged config: {e}"))?;
         print!("{text}");
-        return Ok(());
+        return Ok(Ended::Done);
     }
     if args.print_graph {
         let hil = kestrel::hil::HilOptions::new();
@@ -29,7 +39,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         if bench.is_some() {
             std::fs::remove_dir_all(&hil.dir).ok();
         }
-        return wiring.map(|_| ());
+        return wiring.map(|_| Ended::Done);
     }
     // Before anything is built: a second run of this instance must not touch the first's
     // devices or ports (kestrel::locks).
@@ -90,7 +100,11 @@ pub fn run(args: RunArgs) -> Result<(), String> {
             rec.path.display()
         );
     }
-    Ok(())
+    if report.reboot {
+        tracing::warn!("exiting with {} for the reboot", kestrel::reboot::REBOOT_EXIT_CODE);
+        return Ok(Ended::Reboot);
+    }
+    Ok(Ended::Done)
 }
 
 /// Resolves the log directory (`--log-dir`, else `[record] dir`; `instance-N` added for

@@ -6,7 +6,9 @@ mod common;
 
 use common::Flight;
 use kestrel_control::CommanderParams;
-use kestrel_proto::messages::{Command, FlightMode, LandedState, OrbitYaw};
+use kestrel_proto::messages::{
+    CalibrationStatus, CalibrationStep, Command, FlightMode, LandedState, MotorTestThrottle, OrbitYaw,
+};
 use nalgebra::Vector2;
 
 /// Armed in GUIDED and up at `height_m`, holding.
@@ -177,15 +179,34 @@ fn brake_stops_from_five_metres_a_second_within_the_tilt_limited_distance_and_ho
 }
 
 #[test]
-fn reboot_is_refused_armed_and_motor_test_unless_disarmed_and_landed() {
+fn reboot_is_taken_disarmed_and_forced_only_on_the_ground() {
     let mut f = Flight::new(CommanderParams::default());
-    let test = Command::MotorTest { first: 1, count: 1, throttle: 0.1, duration_s: 0.5 };
-    // Disarmed on the ground both are still refused: neither is carried out by this vehicle yet,
-    // and nothing is acknowledged that is not done.
-    assert!(f.command(Command::Reboot).expect_err("not restarted").0.contains("restart the kestrel service"));
-    assert!(f.command(test).expect_err("no test path").0.contains("not supported"));
+    f.command(Command::Reboot { force: false }).expect("disarmed: taken");
+    f.command(Command::Arm).expect("pre-arm checks pass");
+    assert!(f.command(Command::Reboot { force: false }).expect_err("armed").0.contains("armed"));
+    assert!(f.commander.armed());
+    f.command(Command::Reboot { force: true }).expect("forced on the ground: taken");
+    assert!(!f.commander.armed(), "a forced reboot disarms first");
     let mut f = airborne(5.0);
-    assert!(f.command(Command::Reboot).expect_err("armed").0.contains("armed"));
-    assert!(f.command(test).expect_err("armed").0.contains("armed"));
+    assert!(f.command(Command::Reboot { force: false }).expect_err("armed").0.contains("armed"));
+    assert!(f.command(Command::Reboot { force: true }).expect_err("flying").0.contains("flying"));
     assert!(f.commander.armed(), "the refusals changed nothing");
+}
+
+#[test]
+fn motor_test_is_taken_only_disarmed_landed_and_where_something_spins_them() {
+    let test =
+        Command::MotorTest { first: 1, count: 1, throttle: MotorTestThrottle::Share(0.1), duration_s: 0.5 };
+    let mut f = Flight::new(CommanderParams::default());
+    assert!(f.command(test).expect_err("no runner").0.contains("nothing in this graph"));
+    let now = f.now();
+    let status = |running| CalibrationStatus { time: now, missing: Vec::new(), running };
+    f.commander.on_calibration(&status(Some(CalibrationStep::Mag)));
+    assert!(f.command(test).expect_err("calibrating").0.contains("calibration running"));
+    f.commander.on_calibration(&status(None));
+    f.command(test).expect("disarmed on the ground with a runner: taken");
+    let mut f = airborne(5.0);
+    f.commander.on_calibration(&CalibrationStatus { time: f.now(), missing: Vec::new(), running: None });
+    assert!(f.command(test).expect_err("armed").0.contains("armed"));
+    assert!(f.commander.armed(), "the refusal changed nothing");
 }

@@ -8,9 +8,9 @@ use std::time::Duration;
 
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, CalibrationCommand, CalibrationEvent,
-    CommandResult, DepthGrid, EstimatorStatus, FailureInjection, FailureInjectionResult, FencePlan, GpsFix,
-    GroundTruth, ImuSample, ManualControl, Mission, NavState, ParamDecl, ParamSet, RallyPoints,
-    RangefinderSample, SensorHealth, Setpoint, VehicleCommand, VehicleStatus,
+    CommandResult, DepthGrid, EscPulses, EstimatorStatus, FailureInjection, FailureInjectionResult,
+    FencePlan, GpsFix, GroundTruth, ImuSample, ManualControl, Mission, NavState, ParamDecl, ParamSet,
+    RallyPoints, RangefinderSample, SensorHealth, Setpoint, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Clock, Context, Publisher, Setup, Time};
 
@@ -52,6 +52,9 @@ pub enum LinkInput {
     Baro(BaroSample),
     /// The mixer's newest motor outputs (port `actuator_outputs`; optional): SERVO_OUTPUT_RAW.
     Actuators(ActuatorOutputs),
+    /// Pulses driven directly while disarmed (port `esc_pulses`; optional, `latest`): a motor
+    /// test's or an ESC calibration's, shown in SERVO_OUTPUT_RAW while they are obeyed.
+    EscPulses(EscPulses),
     /// The commander's newest setpoint (port `setpoint`; optional, `latest`):
     /// POSITION_TARGET_LOCAL_NED, POSITION_TARGET_GLOBAL_INT, NAV_CONTROLLER_OUTPUT.
     Setpoint(Setpoint),
@@ -227,6 +230,7 @@ impl Actor for LinkActor {
         setup.input("imu", LinkInput::Imu);
         setup.input("baro", LinkInput::Baro);
         setup.input("actuator_outputs", LinkInput::Actuators);
+        setup.input("esc_pulses", LinkInput::EscPulses);
         setup.input("setpoint", LinkInput::Setpoint);
         setup.input("sticks", LinkInput::Sticks);
         setup.input("rangefinder_up", LinkInput::Rangefinder);
@@ -354,6 +358,10 @@ impl Actor for LinkActor {
                 }
                 LinkInput::Actuators(actuators) => {
                     hub.vehicle().on_actuators(actuators);
+                    Vec::new()
+                }
+                LinkInput::EscPulses(pulses) => {
+                    hub.vehicle().on_esc_pulses(pulses);
                     Vec::new()
                 }
                 LinkInput::Setpoint(setpoint) => {

@@ -10,9 +10,9 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::messages::{
     ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, CalibrationEvent, CalibrationUpdate,
-    Command, CommandResult, DepthGrid, EstimatorStatus, FAILURE_INJECTION_ENABLE, FailureInjectionResult,
-    FlightMode, GpsFix, GroundTruth, ImuSample, NavState, ParamDecl, RangefinderSample, SensorHealth,
-    VehicleStatus,
+    Command, CommandResult, DepthGrid, EscPulses, EstimatorStatus, FAILURE_INJECTION_ENABLE,
+    FailureInjectionResult, FlightMode, GpsFix, GroundTruth, ImuSample, NavState, ParamDecl,
+    RangefinderSample, SensorHealth, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
     AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
@@ -426,6 +426,11 @@ impl Vehicle {
     /// The mixer's newest motor outputs (for SERVO_OUTPUT_RAW).
     pub fn on_actuators(&mut self, actuators: ActuatorOutputs) {
         self.telemetry.snapshot.actuators = Some(actuators);
+    }
+
+    /// Pulses driven directly while disarmed (a motor test's), for SERVO_OUTPUT_RAW.
+    pub fn on_esc_pulses(&mut self, pulses: EscPulses) {
+        self.telemetry.snapshot.esc_pulses = Some(pulses);
     }
 
     /// The newest sticks on the graph (for RC_CHANNELS).

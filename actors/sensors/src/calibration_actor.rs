@@ -12,6 +12,11 @@
 //! drives the motors: repeated every 20 ms while a calibration drives them, released when it
 //! ends). The `tick` timer runs at 50 Hz so the pulses repeat even when nothing else arrives.
 //!
+//! It also runs MAV_CMD_DO_MOTOR_TEST ([`MotorTest`]) on the same pulses: started by the
+//! commander's acceptance on `command_result` ([`CommandResult`]), spinning the outputs the
+//! motor owner declares on `param_decl` (`SERVOn_MIN/MAX`), stopped by any other command on
+//! `vehicle_command` (whose heartbeats keep it going), a calibration request, or arming.
+//!
 //! It lives apart from the sensor drivers so the simulator and the hardware share one session,
 //! and apart from the link so MAVLink stays a transport of requests and results.
 
@@ -20,13 +25,14 @@ use std::time::Duration;
 use kestrel_proto::calibration::{CALIBRATION_PARAMS, CalibrationParams};
 use kestrel_proto::messages::{
     BatteryStatus, CalibrationCommand, CalibrationEvent, CalibrationMotion, CalibrationStatus,
-    CalibrationStep, Command, EscPulses, EscTelemetry, ImuSample, MAX_MOTORS, MagSample, ParamDecl,
-    VehicleCommand, VehicleStatus,
+    CalibrationStep, CalibrationUpdate, Command, CommandResult, EscPulses, EscTelemetry, ImuSample,
+    MAX_MOTORS, MagSample, ParamDecl, Severity, VehicleCommand, VehicleStatus,
 };
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 
 use crate::calibration::{Session, SessionSettings};
+use crate::motor_test::MotorTest;
 
 /// `[actors.calibration.params]`.
 #[derive(Clone, Debug, Deserialize)]
@@ -56,6 +62,7 @@ pub enum CalibrationInput {
     Decl(ParamDecl),
     Esc(EscTelemetry),
     VehicleCommand(VehicleCommand),
+    CommandResult(CommandResult),
     Battery(BatteryStatus),
     Tick(Time),
 }
@@ -66,6 +73,7 @@ const PULSE_REPEAT: Duration = Duration::from_millis(20);
 
 pub struct CalibrationActor {
     session: Session,
+    motor_test: MotorTest,
     required: Vec<CalibrationStep>,
     event: Publisher<CalibrationEvent>,
     motion: Publisher<CalibrationMotion>,
@@ -79,6 +87,18 @@ pub struct CalibrationActor {
 }
 
 impl CalibrationActor {
+    fn text(&self, now: Time, severity: Severity, text: String) {
+        self.event
+            .publish(CalibrationEvent { time: now, update: CalibrationUpdate::Text { severity, text } });
+    }
+
+    /// Stops a motor test under way, saying why.
+    fn stop_motor_test(&mut self, now: Time, why: &str) {
+        if self.motor_test.stop() {
+            self.text(now, Severity::Info, format!("finished motor test: {why}"));
+        }
+    }
+
     fn publish(&mut self, now: Time) {
         for update in self.session.take_updates() {
             self.event.publish(CalibrationEvent { time: now, update });
@@ -88,7 +108,11 @@ impl CalibrationActor {
             self.motion.publish(CalibrationMotion { time: now, motion });
             self.last_motion = Some(motion);
         }
-        match (self.session.esc_pulses_us(), self.last_pulses) {
+        if let Some(why) = self.motor_test.update(now) {
+            self.text(now, Severity::Info, format!("finished motor test: {why}"));
+        }
+        let pulses = self.session.esc_pulses_us().or_else(|| self.motor_test.pulses_us(now));
+        match (pulses, self.last_pulses) {
             (Some(pulses_us), last)
                 if last.is_none_or(|(at, p)| p != pulses_us || now.saturating_since(at) >= PULSE_REPEAT) =>
             {
@@ -147,10 +171,12 @@ impl Actor for CalibrationActor {
         setup.input("param_decl", CalibrationInput::Decl);
         setup.input("esc_telemetry", CalibrationInput::Esc);
         setup.input("vehicle_command", CalibrationInput::VehicleCommand);
+        setup.input("command_result", CalibrationInput::CommandResult);
         setup.input("battery", CalibrationInput::Battery);
         setup.timer("tick", PULSE_REPEAT, CalibrationInput::Tick);
         Ok(CalibrationActor {
             session: Session::new(SessionSettings::new(field)),
+            motor_test: MotorTest::default(),
             required: params.required.clone(),
             event: setup.output("event"),
             motion: setup.output("motion"),
@@ -166,6 +192,7 @@ impl Actor for CalibrationActor {
     async fn handle(&mut self, _ctx: &Context, input: CalibrationInput) -> Result<(), ActorError> {
         let now = match input {
             CalibrationInput::Command(c) => {
+                self.stop_motor_test(c.time, "calibration requested");
                 self.session.on_request(c.id, c.request, c.time);
                 c.time
             }
@@ -178,11 +205,15 @@ impl Actor for CalibrationActor {
                 s.time
             }
             CalibrationInput::Status(s) => {
+                if s.armed {
+                    self.stop_motor_test(s.time, "armed");
+                }
                 self.session.set_vehicle(s.armed, s.landed);
                 s.time
             }
             CalibrationInput::Decl(d) => {
                 // The owner of the sensor path declares the calibration parameters it flies with.
+                self.motor_test.on_decl(&d);
                 if d.params.iter().any(|p| p.name == CALIBRATION_PARAMS[0].name) {
                     let current =
                         d.params.iter().fold(CalibrationParams::default(), |c, p| c.with(&p.name, p.value));
@@ -198,7 +229,24 @@ impl Actor for CalibrationActor {
                 if c.command == Command::Arm {
                     self.session.on_arm_request();
                 }
+                match c.command {
+                    Command::Heartbeat { .. } => self.motor_test.on_heartbeat(c.time),
+                    // A new test replaces this one once the commander takes it.
+                    Command::MotorTest { .. } => {}
+                    _ => self.stop_motor_test(c.time, "another command"),
+                }
                 c.time
+            }
+            CalibrationInput::CommandResult(r) => {
+                if let (Command::MotorTest { first, count, throttle, duration_s }, None) =
+                    (r.command, &r.refusal)
+                {
+                    match self.motor_test.start(first, count, throttle, duration_s, r.time) {
+                        Ok(()) => self.text(r.time, Severity::Info, "starting motor test".into()),
+                        Err(e) => self.text(r.time, Severity::Critical, e.to_string()),
+                    }
+                }
+                r.time
             }
             CalibrationInput::Battery(b) => {
                 self.session.on_battery(b.voltage_v);

@@ -41,6 +41,7 @@ pub mod imu_decimator;
 pub mod linux;
 pub mod live_calibration;
 pub mod motor_actor;
+pub mod motor_test;
 pub mod mpu9250;
 pub mod ms5611;
 pub mod nmea;

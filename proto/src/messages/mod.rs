@@ -72,7 +72,9 @@ pub use setpoint::{Setpoint, SetpointTarget, TrajectorySetpoint};
 pub use sim_fault::{SimFault, SimFaultPhase};
 pub use stereo_frame::{FrameSizeError, StereoFrame};
 pub use supervisor::{SupervisorEvent, SupervisorEventKind};
-pub use vehicle_command::{Command, CommandResult, OrbitYaw, VehicleCommand};
+pub use vehicle_command::{
+    Command, CommandResult, MOTOR_TEST_MAX_S, MotorTestThrottle, OrbitYaw, VehicleCommand,
+};
 pub use vehicle_status::{
     FENCE_ALT_MAX, FENCE_ALT_MIN, FENCE_CIRCLE, FENCE_POLYGON, Failsafe, FailsafeAction, FailsafeCause,
     FenceStatus, FlightMode, Home, LandedState, MissionProgress, SpeedCapStatus, VehicleStatus,

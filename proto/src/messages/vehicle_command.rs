@@ -85,12 +85,32 @@ pub enum Command {
         centre_ne_m: Option<[f64; 2]>,
         centre_down_m: Option<f64>,
     },
-    /// Restart the flight stack (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN 1): only while disarmed.
-    Reboot,
+    /// Restart the flight stack (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN 1): while disarmed; armed
+    /// only with `force` (ArduPilot's param6 magic 20190226) and on the ground, disarming first.
+    /// Once accepted the process exits with `kestrel::reboot::REBOOT_EXIT_CODE`.
+    Reboot { force: bool },
     /// Spin motors for a test (MAV_CMD_DO_MOTOR_TEST), only disarmed and landed: motor
-    /// `first` (1-based, in the frame's test order) and the `count` - 1 after it in turn, each at
-    /// `throttle` (share of full, 0..=1) for `duration_s`.
-    MotorTest { first: u8, count: u8, throttle: f64, duration_s: f64 },
+    /// `first` (1-based, in the frame's test order: clockwise from the front) and the
+    /// `count` - 1 after it in turn, each at `throttle` for `duration_s` (s, at most
+    /// `MOTOR_TEST_MAX_S`), with half that at rest between two, as ArduCopter's
+    /// `motor_test_output` sequences them.
+    MotorTest { first: u8, count: u8, throttle: MotorTestThrottle, duration_s: f64 },
+}
+
+/// Longest a motor test spins one motor (s): ArduCopter's `MOTOR_TEST_TIMEOUT_SEC`; a longer
+/// timeout is cut to it.
+pub const MOTOR_TEST_MAX_S: f64 = 600.0;
+
+/// How hard a motor test spins a motor (MAV_CMD_DO_MOTOR_TEST param2 and param3).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MotorTestThrottle {
+    /// Share of the output's range, 0..=1: its `SERVOn_MIN` plus this share of the way to
+    /// `SERVOn_MAX` (MOTOR_TEST_THROTTLE_PERCENT / 100).
+    Share(f64),
+    /// This pulse (µs), within `esc::SAFE_PULSE_MIN_US..=SAFE_PULSE_MAX_US`
+    /// (MOTOR_TEST_THROTTLE_PWM).
+    PulseUs(f64),
 }
 
 /// Where the nose points while orbiting (MAVLink ORBIT_YAW_BEHAVIOUR).

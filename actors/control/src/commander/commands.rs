@@ -142,7 +142,7 @@ impl Commander {
             Command::Orbit { radius_m, speed_m_s, yaw, centre_ne_m, centre_down_m } => {
                 self.orbit(now, radius_m, speed_m_s, yaw, centre_ne_m, centre_down_m)
             }
-            Command::Reboot => self.reboot(),
+            Command::Reboot { force } => self.reboot(force),
             Command::MotorTest { .. } => self.motor_test(),
             Command::PauseMission | Command::ContinueMission
                 if self.mode != FlightMode::Auto || self.mission.runner.is_none() =>
@@ -168,18 +168,31 @@ impl Commander {
         self.refused(result)
     }
 
-    /// MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: refused while armed, as ArduCopter refuses it (its
-    /// ACK FAILED, ours DENIED). Disarmed it is refused too: nothing in the runtime restarts the
-    /// process on it yet, and a command is never acknowledged unless it is carried out.
-    fn reboot(&mut self) -> Result<(), Refusal> {
+    /// MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: taken disarmed; the runtime then ends the process with
+    /// `kestrel::reboot::REBOOT_EXIT_CODE`, which the systemd unit restarts. Armed it is refused,
+    /// as ArduCopter refuses it (its ACK FAILED, ours DENIED), unless `force` (ArduPilot's
+    /// param6 magic) asks for it on the ground: then the vehicle disarms first. In the air a
+    /// forced reboot is refused too, where ArduCopter would stop its motors. Held by
+    /// `tests/modes.rs::reboot_is_taken_disarmed_and_forced_only_on_the_ground`.
+    fn reboot(&mut self, force: bool) -> Result<(), Refusal> {
         if self.armed {
-            return refuse("reboot refused: vehicle is armed");
+            if !force {
+                return refuse("reboot refused: vehicle is armed");
+            }
+            if self.landing.state() != LandedState::OnGround {
+                return refuse("reboot refused: vehicle is flying");
+            }
+            self.disarm("reboot");
         }
-        refuse("reboot refused: restart the kestrel service instead")
+        tracing::warn!("reboot requested: the process restarts");
+        Ok(())
     }
 
-    /// MAV_CMD_DO_MOTOR_TEST: refused unless disarmed and landed, as ArduCopter's
-    /// `mavlink_motor_test_check` ("vehicle not landed", and a test only starts disarmed).
+    /// MAV_CMD_DO_MOTOR_TEST: taken only disarmed and landed, as ArduCopter's
+    /// `mavlink_motor_test_check` ("vehicle not landed"; a test starts disarmed), and only where
+    /// a calibration actor reports (it spins the motors on this answer, `motor_test.rs` in the
+    /// sensors crate) and runs no calibration. Held by
+    /// `tests/modes.rs::motor_test_is_taken_only_disarmed_landed_and_where_something_spins_them`.
     fn motor_test(&mut self) -> Result<(), Refusal> {
         if self.armed {
             return refuse("motor test refused: armed");
@@ -187,7 +200,13 @@ impl Commander {
         if self.landing.state() != LandedState::OnGround {
             return refuse("motor test refused: vehicle not landed");
         }
-        refuse("motor test refused: not supported by this vehicle's outputs")
+        match &self.calibration {
+            None => refuse("motor test refused: nothing in this graph drives the motors directly"),
+            Some(c) => match c.running {
+                Some(step) => refuse(format!("motor test refused: {} calibration running", step.name())),
+                None => Ok(()),
+            },
+        }
     }
 
     fn start_flip(&mut self, now: Time) -> Result<(), Refusal> {

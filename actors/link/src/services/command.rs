@@ -16,10 +16,11 @@
 use std::time::Duration;
 
 use kestrel_proto::Time;
+use kestrel_proto::esc::{SAFE_PULSE_MAX_US, SAFE_PULSE_MIN_US};
 use kestrel_proto::geo::{Geodetic, LocalFrame, deg_from_e7};
 use kestrel_proto::messages::{
-    AltitudeFrame, Command, CommandResult, FailureInjection, FailureInjectionResult, FlightMode,
-    MissionPoint, OrbitYaw, PositionTarget,
+    AltitudeFrame, Command, CommandResult, FailureInjection, FailureInjectionResult, FlightMode, MAX_MOTORS,
+    MOTOR_TEST_MAX_S, MissionPoint, MotorTestThrottle, OrbitYaw, PositionTarget,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
@@ -265,8 +266,11 @@ impl CommandService {
                 Err(result) => return refuse(result),
             },
             // param1 1 reboots the autopilot; 0 (nothing), 2 (shut down), 3 (bootloader) and the
-            // companion's params are not something this process does.
-            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if p[0] == 1.0 => Command::Reboot,
+            // companion's params are not something this process does. param6 FORCE_REBOOT_MAGIC
+            // asks for it while armed, as ArduPilot's `handle_preflight_reboot` reads it.
+            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN if p[0] == 1.0 => {
+                Command::Reboot { force: p[5] == FORCE_REBOOT_MAGIC }
+            }
             MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN => return refuse(MavResult::MAV_RESULT_UNSUPPORTED),
             MavCmd::MAV_CMD_DO_MOTOR_TEST => match motor_test(&p) {
                 Ok(command) => command,
@@ -562,27 +566,43 @@ fn reposition_target(request: &CommandRequest) -> Result<Option<MissionPoint>, M
     home_target(&as_home)
 }
 
-/// MAV_CMD_DO_MOTOR_TEST's params as ArduCopter reads them: param1 the motor (1-based, in the
-/// test order), param2 the throttle type — only MOTOR_TEST_THROTTLE_PERCENT (0) is taken, PWM
-/// and pilot pass-through are UNSUPPORTED — param3 the throttle (0..=100 %), param4 the time
-/// (s, > 0), param5 how many motors in sequence (0 counts as 1), param6 the order (0 default or
-/// 2 board order; 1, sequence, is ArduPilot's numbering too). What is out of range is DENIED.
+/// MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN's param6 that asks for a reboot while armed (ArduPilot's
+/// `magic_force_reboot_value`); the commander still refuses it in the air.
+const FORCE_REBOOT_MAGIC: f64 = 20190226.0;
+
+/// MAV_CMD_DO_MOTOR_TEST's params as ArduCopter's `mavlink_motor_test_start` reads them:
+/// param1 the motor (1-based, in the test order, at most `MAX_MOTORS`), param2 the throttle
+/// type — MOTOR_TEST_THROTTLE_PERCENT (0: param3 0..=100 %) or MOTOR_TEST_THROTTLE_PWM (1:
+/// param3 a pulse within `esc::SAFE_PULSE_MIN_US..=SAFE_PULSE_MAX_US`, ArduCopter's
+/// `MOTOR_TEST_PWM_MIN/MAX`); pilot pass-through (2) and compass calibration (3) are
+/// UNSUPPORTED, as no radio throttle or per-motor compass learning is here — param4 the time
+/// (s, > 0; above `MOTOR_TEST_MAX_S` cut to it, as ArduCopter does), param5 how many motors in
+/// sequence (0 counts as 1; past the last motor DENIED). param6 (order) is ignored, as
+/// ArduCopter ignores it. What is out of range is DENIED.
 fn motor_test(p: &[f64; 7]) -> Result<Command, MavResult> {
-    let first = whole(p[0], u8::MAX.into()).filter(|&m| m >= 1).ok_or(MavResult::MAV_RESULT_DENIED)?;
-    match whole(p[1], 2) {
-        Some(0) => {}
-        Some(_) => return Err(MavResult::MAV_RESULT_UNSUPPORTED),
-        None => return Err(MavResult::MAV_RESULT_DENIED),
-    }
-    if !((0.0..=100.0).contains(&p[2]) && p[3].is_finite() && p[3] > 0.0) {
+    let max = MAX_MOTORS as u32;
+    let first = whole(p[0], max).filter(|&m| m >= 1).ok_or(MavResult::MAV_RESULT_DENIED)?;
+    let throttle = match whole(p[1], 3) {
+        Some(0) if (0.0..=100.0).contains(&p[2]) => MotorTestThrottle::Share(p[2] / 100.0),
+        Some(1) if (SAFE_PULSE_MIN_US..=SAFE_PULSE_MAX_US).contains(&p[2]) => {
+            MotorTestThrottle::PulseUs(p[2])
+        }
+        Some(2 | 3) => return Err(MavResult::MAV_RESULT_UNSUPPORTED),
+        _ => return Err(MavResult::MAV_RESULT_DENIED),
+    };
+    if !(p[3].is_finite() && p[3] > 0.0) {
         return Err(MavResult::MAV_RESULT_DENIED);
     }
-    let count = whole(p[4], u8::MAX.into()).ok_or(MavResult::MAV_RESULT_DENIED)?.max(1);
+    let count = whole(p[4], max).ok_or(MavResult::MAV_RESULT_DENIED)?.max(1);
+    if first + count - 1 > max {
+        return Err(MavResult::MAV_RESULT_DENIED);
+    }
+    // Both at most MAX_MOTORS (8): they fit.
     Ok(Command::MotorTest {
-        first: u8::try_from(first).map_err(|_| MavResult::MAV_RESULT_DENIED)?,
-        count: u8::try_from(count).map_err(|_| MavResult::MAV_RESULT_DENIED)?,
-        throttle: p[2] / 100.0,
-        duration_s: p[3],
+        first: first as u8,
+        count: count as u8,
+        throttle,
+        duration_s: p[3].min(MOTOR_TEST_MAX_S),
     })
 }
 

@@ -15,8 +15,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::geo::Geodetic;
 use kestrel_proto::messages::{
-    ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, DepthGrid, EstimatorStatus, GpsFix,
-    GroundTruth, ImuSample, ManualControl, NavState, RangefinderSample, Setpoint, VehicleStatus,
+    ActuatorOutputs, AvoidanceCommand, BaroSample, BatteryStatus, DepthGrid, EscPulses, EstimatorStatus,
+    GpsFix, GroundTruth, ImuSample, ManualControl, NavState, RangefinderSample, Setpoint, VehicleStatus,
 };
 use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
@@ -51,6 +51,8 @@ pub struct Snapshot {
     pub baro: Option<BaroSample>,
     /// The mixer's newest motor outputs (for SERVO_OUTPUT_RAW).
     pub actuators: Option<ActuatorOutputs>,
+    /// The newest direct pulses (a motor test's, for SERVO_OUTPUT_RAW while obeyed).
+    pub esc_pulses: Option<EscPulses>,
     /// The commander's newest setpoint (for POSITION_TARGET_LOCAL_NED / GLOBAL_INT and
     /// NAV_CONTROLLER_OUTPUT).
     pub setpoint: Option<Setpoint>,

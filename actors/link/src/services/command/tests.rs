@@ -309,7 +309,12 @@ fn reboot_and_motor_test_go_to_the_commander_and_what_we_do_not_do_is_unsupporte
         request(MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
         Time::ZERO,
     );
-    assert_eq!(graph(&reboot.expect("handled")), Some(Command::Reboot));
+    assert_eq!(graph(&reboot.expect("handled")), Some(Command::Reboot { force: false }));
+    let forced = s.handle(
+        request(MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, [1.0, 0.0, 0.0, 0.0, 0.0, 20190226.0, 0.0]),
+        Time::ZERO,
+    );
+    assert_eq!(graph(&forced.expect("handled")), Some(Command::Reboot { force: true }));
     for param1 in [0.0, 2.0, 3.0] {
         let out = s
             .handle(
@@ -319,18 +324,54 @@ fn reboot_and_motor_test_go_to_the_commander_and_what_we_do_not_do_is_unsupporte
             .expect("handled");
         assert_eq!(result(&out.mav[0]).1, MavResult::MAV_RESULT_UNSUPPORTED, "param1 {param1}");
     }
-    let test =
-        s.handle(request(MavCmd::MAV_CMD_DO_MOTOR_TEST, [2.0, 0.0, 15.0, 1.5, 0.0, 0.0, 0.0]), Time::ZERO);
-    assert_eq!(
-        graph(&test.expect("handled")),
-        Some(Command::MotorTest { first: 2, count: 1, throttle: 0.15, duration_s: 1.5 })
-    );
+    for (params, command) in [
+        (
+            [2.0, 0.0, 15.0, 1.5, 0.0, 0.0, 0.0],
+            Command::MotorTest {
+                first: 2,
+                count: 1,
+                throttle: MotorTestThrottle::Share(0.15),
+                duration_s: 1.5,
+            },
+        ),
+        (
+            [1.0, 1.0, 1100.0, 2.0, 4.0, 2.0, 0.0],
+            Command::MotorTest {
+                first: 1,
+                count: 4,
+                throttle: MotorTestThrottle::PulseUs(1100.0),
+                duration_s: 2.0,
+            },
+        ),
+        (
+            [8.0, 0.0, 100.0, 1e6, 1.0, 0.0, 0.0],
+            Command::MotorTest {
+                first: 8,
+                count: 1,
+                throttle: MotorTestThrottle::Share(1.0),
+                duration_s: 600.0,
+            },
+        ),
+    ] {
+        let out = s.handle(request(MavCmd::MAV_CMD_DO_MOTOR_TEST, params), Time::ZERO);
+        assert_eq!(graph(&out.expect("handled")), Some(command), "{params:?}");
+    }
     for (params, answer) in [
-        ([2.0, 1.0, 1100.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_UNSUPPORTED),
+        ([2.0, 2.0, 0.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_UNSUPPORTED),
+        ([2.0, 3.0, 0.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_UNSUPPORTED),
+        ([2.0, 4.0, 10.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([2.0, 1.0, 799.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([2.0, 1.0, 2201.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
         ([0.0, 0.0, 10.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([9.0, 0.0, 10.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([1.5, 0.0, 10.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([5.0, 0.0, 10.0, 1.0, 5.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
         ([1.0, 0.0, 101.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([1.0, 0.0, -1.0, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
         ([1.0, 0.0, 10.0, 0.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([1.0, 0.0, 10.0, f64::INFINITY, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
         ([1.0, 0.0, f64::NAN, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
+        ([1.0, 1.0, f64::NAN, 1.0, 1.0, 0.0, 0.0], MavResult::MAV_RESULT_DENIED),
     ] {
         let out = s.handle(request(MavCmd::MAV_CMD_DO_MOTOR_TEST, params), Time::ZERO).expect("handled");
         assert_eq!(result(&out.mav[0]).1, answer, "{params:?}");

@@ -96,9 +96,10 @@ pub fn build(snap: &Snapshot, id: u32, now: Time) -> Option<MavMessage> {
         RAW_IMU_DATA::ID => MavMessage::RAW_IMU(raw_imu::raw_imu(snap.imu.as_ref()?)),
         SCALED_IMU_DATA::ID => MavMessage::SCALED_IMU(scaled_imu::scaled_imu(snap.imu.as_ref()?)),
         HIGHRES_IMU_DATA::ID => MavMessage::HIGHRES_IMU(highres_imu::highres_imu(snap.imu.as_ref()?)),
-        SERVO_OUTPUT_RAW_DATA::ID => {
-            MavMessage::SERVO_OUTPUT_RAW(servo_output_raw::servo_output_raw(snap.actuators.as_ref()?))
-        }
+        SERVO_OUTPUT_RAW_DATA::ID => MavMessage::SERVO_OUTPUT_RAW(servo_output_raw::servo_output_raw(
+            snap.actuators.as_ref()?,
+            snap.esc_pulses.as_ref(),
+        )),
         RC_CHANNELS_DATA::ID => {
             MavMessage::RC_CHANNELS(rc_channels::rc_channels(snap.sticks.as_ref()?, now, boot_ms)?)
         }
