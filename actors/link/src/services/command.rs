@@ -236,6 +236,8 @@ impl CommandService {
             // is the caller's to map onto the plan (`Vehicle`), and nothing else reaches here.
             MavCmd::MAV_CMD_MISSION_START if p[0] == 0.0 && p[1] == 0.0 => Command::MissionStart,
             MavCmd::MAV_CMD_MISSION_START => return refuse(MavResult::MAV_RESULT_DENIED),
+            // ArduCopter's AUTO RTL: on at the nearest DO_LAND_START, FAILED without one.
+            MavCmd::MAV_CMD_DO_LAND_START => Command::LandStart,
             // param2 the speed (m/s; param1's airspeed/ground speed is one to a multirotor);
             // -1 and -2 (no change, default) are DENIED rather than read as a speed.
             MavCmd::MAV_CMD_DO_CHANGE_SPEED if p[1].is_finite() && p[1] > 0.0 => {
