@@ -168,8 +168,19 @@ impl Commander {
         self.act(now, action);
     }
 
-    /// Takes a failsafe's `action` now.
+    /// Takes a failsafe's `action` now. A mode it changes starts the geofence's manual
+    /// recovery while breached, as every mode change of ArduCopter's does (`Copter::set_mode`;
+    /// its SITL says "Manual recovery started" right after a fence's own RTL): no new breach
+    /// counts, nor does the breach clear, for the next 10 s.
     fn act(&mut self, now: Time, action: FailsafeAction) {
+        let before = self.mode;
+        self.take(now, action);
+        if self.armed && self.mode != before {
+            self.geofence.manual_recovery_start(now);
+        }
+    }
+
+    fn take(&mut self, now: Time, action: FailsafeAction) {
         let on_ground = self.landing.on_ground();
         let position_ok = self.mode_allowed_ignoring_failsafe(now, FlightMode::ReturnToLaunch);
         match action {

@@ -476,10 +476,14 @@ impl CommandService {
 
     /// The answer to the command passed on with `id` (the commander's or the calibration's).
     /// A refused DO_REPOSITION is FAILED, as ArduCopter answers a GUIDED destination it will not
-    /// fly (beyond the fence: `tests/gcs_fence.rs`); any other refusal is DENIED.
+    /// fly (beyond the fence: `tests/gcs_fence.rs`), and so is a refused DO_LAND_START, as
+    /// ArduCopter answers one without a landing sequence (the same test); any other refusal is
+    /// DENIED.
     pub fn on_answer(&mut self, id: u32, refused: bool) -> Option<MavMessage> {
-        let reposition =
-            self.pending.iter().any(|p| p.id == id && p.request.command == MavCmd::MAV_CMD_DO_REPOSITION);
+        let reposition = self.pending.iter().any(|p| {
+            p.id == id
+                && matches!(p.request.command, MavCmd::MAV_CMD_DO_REPOSITION | MavCmd::MAV_CMD_DO_LAND_START)
+        });
         let answer = match (refused, reposition) {
             (false, _) => MavResult::MAV_RESULT_ACCEPTED,
             (true, true) => MavResult::MAV_RESULT_FAILED,

@@ -135,16 +135,20 @@ fn an_exclusion_zone_breach_returns_counts_once_and_clears_back_outside_it() {
     // Still inside a moment later: the same breach, not a new one.
     hover_at(&mut c, 5000, [36.0, 0.0, -10.0]);
     assert_eq!(c.status(Time(5000)).fence.breach_count, 1);
-    // Back out of the circle (RTL flies home): cleared, announced, the count kept.
+    // Back out of the circle (RTL flies home) during the 10 s manual recovery the RTL's mode
+    // change started: nothing changes, as ArduCopter's FENCE_STATUS stays breached.
     hover_at(&mut c, 6000, [25.0, 0.0, -10.0]);
-    let s = c.status(Time(6000));
+    assert_eq!(c.status(Time(6000)).fence.breaches, FENCE_POLYGON);
+    // After it: cleared, announced, the count kept.
+    fly_at(&mut c, 10.1, [25.0, 0.0, -10.0]);
+    let s = c.status(Time(10_100_000));
     assert_eq!(s.failsafe, None);
     assert_eq!((s.fence.breaches, s.fence.breach_count), (0, 1));
     assert_eq!(s.last_refusal.as_deref(), Some("Fence breach cleared"));
     assert_eq!(c.mode(), FlightMode::ReturnToLaunch, "the RTL it started goes on, as ArduCopter's");
     // A second entry is a second breach.
-    hover_at(&mut c, 7000, [40.0, 0.0, -10.0]);
-    assert_eq!(c.status(Time(7000)).fence.breach_count, 2);
+    fly_at(&mut c, 10.2, [40.0, 0.0, -10.0]);
+    assert_eq!(c.status(Time(10_200_000)).fence.breach_count, 2);
 }
 
 #[test]
@@ -190,8 +194,9 @@ fn the_floor_counts_once_climbed_above_and_never_while_landing() {
     assert_eq!(c.status(Time(4000)).fence.breaches, FENCE_ALT_MIN);
     assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
     at(&mut c, 4000, Command::SetMode(FlightMode::Land)).expect("land");
-    hover_at(&mut c, 5000, [0.0, 0.0, -3.0]);
-    assert_eq!(c.status(Time(5000)).fence.breaches, 0, "landing: the floor is not judged");
+    // Once the manual recovery the mode changes started is over (10 s).
+    fly_at(&mut c, 10.1, [0.0, 0.0, -3.0]);
+    assert_eq!(c.status(Time(10_100_000)).fence.breaches, 0, "landing: the floor is not judged");
 }
 
 #[test]
@@ -238,22 +243,27 @@ fn a_vehicle_staying_outside_is_breached_again_20_m_further() {
     c.on_param("FENCE_ACTION", 4.0).expect("taken");
     fly_at(&mut c, 1.0, [0.0, 0.0, -125.0]);
     assert_eq!((c.status(Time(1_000_000)).fence.breach_count, c.mode()), (1, FlightMode::PosHold));
-    // Drifting up, still within 20 m of where the breach was counted: the same breach.
-    fly_at(&mut c, 2.0, [0.0, 0.0, -144.0]);
-    assert_eq!(c.status(Time(2_000_000)).fence.breach_count, 1);
-    // 20 m above it: a new breach, counted, and the action taken again.
-    fly_at(&mut c, 3.0, [0.0, 0.0, -145.5]);
-    assert_eq!(c.status(Time(3_000_000)).fence.breach_count, 2);
+    // The hold's mode change started a 10 s manual recovery: nothing new counts in it.
+    fly_at(&mut c, 5.0, [0.0, 0.0, -150.0]);
+    assert_eq!(c.status(Time(5_000_000)).fence.breach_count, 1);
+    // After it, still within 20 m of where the breach was counted: the same breach.
+    fly_at(&mut c, 11.5, [0.0, 0.0, -144.0]);
+    assert_eq!(c.status(Time(11_500_000)).fence.breach_count, 1);
+    // 20 m above it: a new breach, counted, and the action taken again (the same mode: no
+    // new recovery).
+    fly_at(&mut c, 12.0, [0.0, 0.0, -145.5]);
+    assert_eq!(c.status(Time(12_000_000)).fence.breach_count, 2);
     // The backup moved up with it: the next one is 20 m above 145.5 m.
-    fly_at(&mut c, 4.0, [0.0, 0.0, -160.0]);
-    assert_eq!(c.status(Time(4_000_000)).fence.breach_count, 2);
+    fly_at(&mut c, 13.0, [0.0, 0.0, -160.0]);
+    assert_eq!(c.status(Time(13_000_000)).fence.breach_count, 2);
     // Beyond the circle too: a new breach of another fence counts on its own.
-    fly_at(&mut c, 5.0, [310.0, 0.0, -160.0]);
-    assert_eq!(c.status(Time(5_000_000)).fence.breach_count, 3);
-    fly_at(&mut c, 6.0, [329.0, 0.0, -160.0]);
-    assert_eq!(c.status(Time(6_000_000)).fence.breach_count, 3);
-    fly_at(&mut c, 7.0, [331.0, 0.0, -160.0]);
-    assert_eq!(c.status(Time(7_000_000)).fence.breach_count, 4);
+    fly_at(&mut c, 14.0, [310.0, 0.0, -160.0]);
+    assert_eq!(c.status(Time(14_000_000)).fence.breach_count, 3);
+    fly_at(&mut c, 15.0, [329.0, 0.0, -160.0]);
+    assert_eq!(c.status(Time(15_000_000)).fence.breach_count, 3);
+    fly_at(&mut c, 16.0, [331.0, 0.0, -160.0]);
+    assert_eq!(c.status(Time(16_000_000)).fence.breach_count, 4);
+    assert_eq!(c.mode(), FlightMode::PosHold);
 }
 
 #[test]
