@@ -6,6 +6,7 @@
 //! message must not start a mission) and the next run, by AUTO or MISSION_START, starts there,
 //! as ArduPilot resumes at its current item.
 
+use kestrel_proto::Time;
 use kestrel_proto::messages::{CameraAction, FlightMode, Mission, MissionProgress};
 
 use super::arming::{Refusal, refuse};
