@@ -186,19 +186,20 @@ def fence(gcs):
     above = gcs.pump(lambda m: m.get_type() == "FENCE_STATUS" and m.breach_status == 1, 10.0,
                      "ceiling breach")
     gcs.pump(lambda m: gcs.mode == "RTL", 10.0, "ceiling breach action")
-    # The first 3 s of the vehicle's own time (its boot clock: ArduCopter runs 10x real time),
-    # before RTL's loiter at home (5 s on both) ends in the descent.
+    # The first 2 s of the vehicle's own time (its boot clock: ArduCopter runs 10x real time),
+    # before RTL's loiter at home (ArduCopter's RTL_LOITER_TIME 5 s, Kestrel's 2 s once within
+    # 1 m of home) ends in the descent.
     low, start = [gcs.rel_alt_m], gcs.boot_s
 
     def lowest(m):
         low[0] = min(low[0], gcs.rel_alt_m)
-        return gcs.boot_s >= start + 3.0
+        return gcs.boot_s >= start + 2.0
 
     gcs.pump(lowest, 30.0, "rtl from above")
     gcs.results["rtl_from_above"] = {"mode": gcs.mode,
                                      "type": enum_name("FENCE_BREACH", above.breach_type),
                                      "kept_altitude": low[0] >= 11.0}
-    gcs.log(f"RTL from above: lowest {low[0]:.2f} m in 3 s")
+    gcs.log(f"RTL from above: lowest {low[0]:.2f} m in 2 s")
 
     # 10. MAV_CMD_DO_LAND_START: FAILED with no landing sequence; with a mission holding one,
     # ACCEPTED and the mission flown from it (ArduCopter calls the mode AUTO RTL, 27; Kestrel AUTO).
@@ -210,8 +211,9 @@ def fence(gcs):
              waypoint(0.0, 20.0, 10.0), waypoint(0.0, 20.0, 0.0, mav.MAV_CMD_NAV_LAND)]
     if upload_mission(gcs, items) != "MAV_MISSION_ACCEPTED":
         raise Failed("mission upload", "refused")
-    gcs.mission_currents.clear()
     ack = gcs.command(mav.MAV_CMD_DO_LAND_START, [], "land start")
+    # What the mission flies from now on (MISSION_CURRENT changes only): never its first leg.
+    gcs.mission_currents.clear()
     gcs.pump(lambda m: gcs.mission_current is not None and gcs.mission_current >= 3, 10.0,
              "landing sequence")
     gcs.pump(lambda m: m.get_type() == "GLOBAL_POSITION_INT"
