@@ -272,6 +272,7 @@ fn a_pilot_taking_control_in_breach_has_ten_seconds() {
     fly_at(&mut c, 1.0, [0.0, 0.0, -125.0]);
     assert_eq!(c.mode(), FlightMode::ReturnToLaunch, "FENCE_ACTION 1");
     // The pilot takes the vehicle back while still above the ceiling: allowed, as ArduCopter.
+    fly_at(&mut c, 1.5, [0.0, 0.0, -125.0]);
     at(&mut c, 1_500_000, Command::SetMode(FlightMode::Guided)).expect("manual recovery");
     // For 10 s no new breach counts, even 30 m further up.
     fly_at(&mut c, 5.0, [0.0, 0.0, -155.0]);
