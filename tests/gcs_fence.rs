@@ -12,7 +12,15 @@
 //! each DO_REPOSITION beyond the fence is FAILED and the vehicle stays put; the leg across the
 //! circle is ACCEPTED and breaches at the circle's edge (about 35 m north): RTL, FENCE_STATUS
 //! breached, 1 breach, BOUNDARY; once out of the circle, "Fence breach cleared", FENCE_STATUS
-//! back to 0 with the count kept, still in RTL.
+//! back to 0 with the count kept, still in RTL (about 10 s after the breach: the RTL's mode
+//! change started a manual recovery, "Manual recovery started", in which nothing changes).
+//! Then: FENCE_TOTAL reads 7 (4 vertices, 1 circle, +2); an RTL from 6 m under FENCE_ALT_MAX 14
+//! climbs to 12.0 m (RTL_ALT 15 capped at the ceiling less FENCE_MARGIN 2); the ceiling lowered
+//! to 10 m under a vehicle at 12 m breaches it (MAXALT, RTL) and the RTL keeps its altitude;
+//! MAV_CMD_DO_LAND_START is FAILED with no DO_LAND_START in the mission ("Mode change to AUTO
+//! RTL failed: No landing sequence found"), then ACCEPTED with one ("Landing sequence start"):
+//! the mission goes on from the item after it, in mode AUTO_RTL (27). Kestrel reports that mode
+//! as AUTO (3): it has no AUTO RTL mode of its own, so the mode is not compared.
 
 mod support;
 use support::{arducopter, sim_vehicle};
@@ -27,6 +35,8 @@ const SCRIPT: &str = "gcs_fence.py";
 /// how far from it either stack may notice: FENCE_STATUS at 4 Hz of a vehicle doing up to 10 m/s.
 const CIRCLE_EDGE_M: f64 = 35.0;
 const EDGE_TOLERANCE_M: f64 = 6.0;
+/// RTL_ALT (15 m on both) capped by FENCE_ALT_MAX 14 less FENCE_MARGIN 2.
+const RTL_CAP_M: f64 = 12.0;
 
 fn results(v: &Value) -> &Value {
     let r = &v["results"];
@@ -73,6 +83,23 @@ fn assert_as_arducopter(stack: &str, r: &Value) {
         json!({"status": 0, "count": 1, "type": "FENCE_BREACH_NONE", "mode": "RTL", "text": true}),
         "{stack}: recovery"
     );
+    assert_eq!(r["fence_total"], json!(7.0), "{stack}: FENCE_TOTAL of 4 vertices and a circle");
+    let peak = r["rtl_capped"]["peak_m"].as_f64().expect("peak_m");
+    assert!(
+        (RTL_CAP_M - 1.0..=RTL_CAP_M + 1.0).contains(&peak),
+        "{stack}: RTL under a 14 m ceiling flew up to {peak} m"
+    );
+    assert_eq!(
+        r["rtl_from_above"],
+        json!({"mode": "RTL", "type": "FENCE_BREACH_MAXALT", "kept_altitude": true}),
+        "{stack}: RTL from above the ceiling"
+    );
+    let land_start = &r["land_start"];
+    assert_eq!(
+        (&land_start["no_sequence"], &land_start["ack"], &land_start["first_leg_flown"], &land_start["text"]),
+        (&json!("MAV_RESULT_FAILED"), &json!("MAV_RESULT_ACCEPTED"), &json!(false), &json!(true)),
+        "{stack}: DO_LAND_START {land_start}"
+    );
 }
 
 #[test]
@@ -90,7 +117,16 @@ fn an_uploaded_fence_refuses_targets_and_its_breach_returns_as_arducopter() {
     println!("ArduCopter half: {:.1} s", sitl_started.elapsed().as_secs_f64());
     let theirs = results(&ardu);
     assert_as_arducopter("arducopter", theirs);
-    for key in ["fence_capability", "params", "malformed", "upload", "targets", "cleared"] {
+    for key in [
+        "fence_capability",
+        "params",
+        "malformed",
+        "upload",
+        "targets",
+        "cleared",
+        "fence_total",
+        "rtl_from_above",
+    ] {
         assert_eq!(ours[key], theirs[key], "{key}: kestrel against ArduCopter");
     }
     let _ = std::fs::remove_dir_all(&dir);

@@ -158,7 +158,100 @@ def fence(gcs):
                               "type": enum_name("FENCE_BREACH", cleared.breach_type),
                               "mode": gcs.mode,
                               "text": any("Fence breach cleared" in t for t in gcs.statustexts)}
+
+    # 7. FENCE_TOTAL: the count of stored items, as ArduCopter derives it (4 vertices, 1 circle, +2).
+    gcs.results["fence_total"] = gcs.read_param("FENCE_TOTAL", "FENCE_TOTAL")
+
+    # 8. RTL under a ceiling: down to 6 m in GUIDED, FENCE_ALT_MAX 14 (less FENCE_MARGIN 2: 12 m),
+    # then RTL, whose RTL_ALT (15 m on both) the ceiling caps; the highest it flies on the way.
+    gcs.set_mode_command("GUIDED", "guided after the breach")
+    reposition(gcs, 30.0, 0.0, 6.0, "down to 6 m")
+    gcs.pump(lambda m: gcs.rel_alt_m is not None and gcs.rel_alt_m <= 6.5, 40.0, "descend")
+    gcs.set_param("FENCE_ALT_MAX", 14.0, "ceiling 14 m")
+    gcs.set_mode_command("RTL", "rtl under the ceiling")
+    peak = [0.0]
+
+    def homewards(m):
+        peak[0] = max(peak[0], gcs.rel_alt_m or 0.0)
+        return m.get_type() == "GLOBAL_POSITION_INT" and distance_m(HOME, gcs.position) < 8.0
+
+    gcs.pump(homewards, 60.0, "rtl home")
+    gcs.results["rtl_capped"] = {"peak_m": round(peak[0], 1)}
+    gcs.log(f"RTL under the ceiling: highest {peak[0]:.2f} m")
+
+    # 9. RTL from above: hovering at 12 m, the ceiling lowered to 10 m breaches it; the RTL the
+    # breach starts returns at the altitude it is at rather than descend to the ceiling.
+    gcs.set_mode_command("GUIDED", "guided at home")
+    gcs.set_param("FENCE_ALT_MAX", 10.0, "ceiling 10 m")
+    above = gcs.pump(lambda m: m.get_type() == "FENCE_STATUS" and m.breach_status == 1, 10.0,
+                     "ceiling breach")
+    gcs.pump(lambda m: gcs.mode == "RTL", 10.0, "ceiling breach action")
+    # The first 2 s of the vehicle's own time (its boot clock: ArduCopter runs 10x real time),
+    # before RTL's loiter at home (ArduCopter's RTL_LOITER_TIME 5 s, Kestrel's 2 s once within
+    # 1 m of home) ends in the descent.
+    low, start = [gcs.rel_alt_m], gcs.boot_s
+
+    def lowest(m):
+        low[0] = min(low[0], gcs.rel_alt_m)
+        return gcs.boot_s >= start + 2.0
+
+    gcs.pump(lowest, 30.0, "rtl from above")
+    gcs.results["rtl_from_above"] = {"mode": gcs.mode,
+                                     "type": enum_name("FENCE_BREACH", above.breach_type),
+                                     "kept_altitude": low[0] >= 11.0}
+    gcs.log(f"RTL from above: lowest {low[0]:.2f} m in 2 s")
+
+    # 10. MAV_CMD_DO_LAND_START: FAILED with no landing sequence; with a mission holding one,
+    # ACCEPTED and the mission flown from it (ArduCopter calls the mode AUTO RTL, 27; Kestrel AUTO).
+    no_sequence = gcs.command(mav.MAV_CMD_DO_LAND_START, [], "land start without a sequence",
+                              expect=mav.MAV_RESULT_FAILED)
+    items = [waypoint(0.0, 0.0, 0.0), waypoint(60.0, 0.0, 10.0),
+             dict(frame=mav.MAV_FRAME_MISSION, command=mav.MAV_CMD_DO_LAND_START, autocontinue=1,
+                  params=[0.0, 0.0, 0.0, 0.0], x=0, y=0, alt=0.0),
+             waypoint(0.0, 20.0, 10.0), waypoint(0.0, 20.0, 0.0, mav.MAV_CMD_NAV_LAND)]
+    if upload_mission(gcs, items) != "MAV_MISSION_ACCEPTED":
+        raise Failed("mission upload", "refused")
+    ack = gcs.command(mav.MAV_CMD_DO_LAND_START, [], "land start")
+    # What the mission flies from now on (MISSION_CURRENT changes only): never its first leg.
+    gcs.mission_currents.clear()
+    gcs.pump(lambda m: gcs.mission_current is not None and gcs.mission_current >= 3, 10.0,
+             "landing sequence")
+    gcs.pump(lambda m: m.get_type() == "GLOBAL_POSITION_INT"
+             and distance_m(offset_deg(0.0, 20.0), gcs.position) < 4.0, 40.0, "landing leg")
+    gcs.results["land_start"] = {
+        "no_sequence": enum_name("MAV_RESULT", no_sequence.result),
+        "ack": enum_name("MAV_RESULT", ack.result),
+        "first_leg_flown": 1 in gcs.mission_currents,
+        "mode": gcs.mode,
+        "text": any("Landing sequence start" in t for t in gcs.statustexts),
+    }
     gcs.log(f"results: {gcs.results}")
 
 
-main(fence, deadline_s=140.0)
+def upload_mission(gcs, items):
+    """MISSION_COUNT and every requested item of a mission; returns the MISSION_ACK's result."""
+    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mav.MAV_MISSION_TYPE_MISSION)
+    while True:
+        m = gcs.pump(lambda m: gcs.from_vehicle(m) and m.get_type() in
+                     ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK")
+                     and m.mission_type == mav.MAV_MISSION_TYPE_MISSION, 5.0, "mission upload")
+        if m.get_type() == "MISSION_ACK":
+            return enum_name("MAV_MISSION_RESULT", m.type)
+        it = items[m.seq]
+        gcs.conn.mav.mission_item_int_send(
+            *VEHICLE, m.seq, it["frame"], it["command"], 0, it["autocontinue"], *it["params"],
+            it["x"], it["y"], it["alt"], mav.MAV_MISSION_TYPE_MISSION)
+
+
+def offset_deg(north_m, east_m):
+    x, y = offset(north_m, east_m)
+    return x / 1e7, y / 1e7
+
+
+def waypoint(north_m, east_m, alt_m, command=mav.MAV_CMD_NAV_WAYPOINT):
+    x, y = offset(north_m, east_m)
+    return dict(frame=mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command=command, autocontinue=1,
+                params=[0.0, 0.0, 0.0, 0.0], x=x, y=y, alt=alt_m)
+
+
+main(fence, deadline_s=220.0)

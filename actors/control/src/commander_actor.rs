@@ -240,6 +240,8 @@ impl Actor for CommanderActor {
             }
             CommanderInput::Fence(plan) => {
                 self.commander.on_fence(plan);
+                // FENCE_TOTAL follows the fence.
+                self.param_decl.publish(self.commander.param_decl(&self.name, false, ctx.now()));
                 self.step(ctx, ctx.now());
             }
             CommanderInput::Rally(rally) => {

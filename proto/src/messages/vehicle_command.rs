@@ -27,6 +27,9 @@ pub enum Command {
     ReturnToLaunch,
     /// Start (or restart) the uploaded mission.
     MissionStart,
+    /// Go on in AUTO at the mission's landing sequence: the DO_LAND_START item nearest the
+    /// vehicle (MAV_CMD_DO_LAND_START, ArduCopter's AUTO RTL); refused without one.
+    LandStart,
     /// In ACRO: a full 360° roll.
     Flip,
     /// In GUIDED: fly to this NED position (m) from home.

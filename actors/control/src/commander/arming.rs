@@ -81,10 +81,13 @@ impl Commander {
 
     /// Whether `mode` can be flown with what the commander knows now.
     pub(crate) fn mode_allowed(&self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
+        // A geofence breach does not hold the pilot in its action: a mode asked for while
+        // breached starts a manual recovery (`Geofence::manual_recovery_start`), as
+        // ArduCopter's (its `FENCE_OPTIONS` bit 0, off for a copter, would refuse it).
         if let Some(f) = self
             .faults
             .monitor
-            .worst()
+            .worst_except(kestrel_proto::messages::FailsafeCause::GeofenceBreach)
             .filter(|f| f.action >= kestrel_proto::messages::FailsafeAction::ReturnToLaunch)
             && self.armed
             && mode != FlightMode::Land

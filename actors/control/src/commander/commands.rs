@@ -126,6 +126,7 @@ impl Commander {
                 Ok(())
             }
             Command::SetMissionCurrent { index } => self.set_mission_current(index),
+            Command::LandStart => self.jump_to_landing_sequence(now),
             Command::ChangeSpeed { speed_m_s } => self.change_speed(speed_m_s),
             Command::Yaw { .. } | Command::RegionOfInterest { .. }
                 if !matches!(self.mode, FlightMode::Guided | FlightMode::Auto) =>

@@ -134,6 +134,17 @@ impl FailsafeMonitor {
         })
     }
 
+    /// The active failsafe whose action takes precedence among all but `cause`'s.
+    pub fn worst_except(&self, cause: FailsafeCause) -> Option<Failsafe> {
+        self.active.iter().flatten().filter(|f| f.cause != cause).copied().fold(
+            None,
+            |best: Option<Failsafe>, f| match best {
+                Some(b) if b.action > f.action || (b.action == f.action && b.since <= f.since) => Some(b),
+                _ => Some(f),
+            },
+        )
+    }
+
     /// Every firing so far.
     pub fn log(&self) -> &[FailsafeRecord] {
         &self.log
@@ -196,5 +207,18 @@ mod tests {
         assert_eq!(m.worst().map(|f| f.cause), Some(FailsafeCause::BatteryCritical));
         assert!(!m.is_active(FailsafeCause::DataLinkLost));
         assert_eq!(m.log().len(), 3);
+    }
+
+    #[test]
+    fn worst_except_leaves_one_cause_out() {
+        let mut m = FailsafeMonitor::default();
+        m.set(Time(1), FailsafeCause::GeofenceBreach, true, FailsafeAction::Land);
+        assert_eq!(m.worst_except(FailsafeCause::GeofenceBreach), None);
+        m.set(Time(2), FailsafeCause::DataLinkLost, true, FailsafeAction::ReturnToLaunch);
+        assert_eq!(m.worst().map(|f| f.cause), Some(FailsafeCause::GeofenceBreach));
+        assert_eq!(
+            m.worst_except(FailsafeCause::GeofenceBreach).map(|f| f.cause),
+            Some(FailsafeCause::DataLinkLost)
+        );
     }
 }

@@ -2,7 +2,8 @@
 //! (`FailsafeMonitor` keeps them and their log), a flight-critical actor's failure, the motor
 //! check, and the strongest action applied so far this flight. An action is applied once, when
 //! it is stronger than the one before (PX4's precedence: warn < hold < RTL < land < disarm); the
-//! pilot may then only switch to LAND while it is RTL or stronger (`arming::mode_allowed`). On
+//! pilot may then only switch to LAND while it is RTL or stronger (`arming::mode_allowed`), but
+//! for a geofence breach, which the pilot may fly out of (`Geofence::manual_recovery_start`). On
 //! the ground, an RTL or a landing disarms.
 
 use kestrel_proto::Time;
@@ -120,7 +121,10 @@ impl Commander {
     /// The geofence's judgement at `now` (`Geofence::update`): the action its breach takes, or
     /// `None` inside (or off, or disarmed). An RTL more than `GIVE_UP_M` beyond the ceiling or
     /// the circle lands instead, as ArduCopter's `fence_check` does. A breach ending is
-    /// announced ("Fence breach cleared", ArduCopter's notice).
+    /// announced ("Fence breach cleared", ArduCopter's notice). A new breach of a vehicle
+    /// already breached (a backup fence crossed, `geofence::BACKUP_M`) takes the action again,
+    /// as ArduCopter acts on every new breach: the first one goes through the failsafe monitor
+    /// like any cause.
     fn judge_fence(
         &mut self,
         now: Time,
@@ -130,8 +134,8 @@ impl Commander {
         let landing = self.mode == FlightMode::Land || self.landing.state() != LandedState::InAir;
         let home = nav.map_or_else(Vector3::zeros, |n| self.home.or_here(n));
         let before = self.geofence.status().breaches;
-        let breaches = self.geofence.update(now, nav, &home, &self.params.geofence, self.armed, landing);
-        if breaches == 0 {
+        let check = self.geofence.update(now, nav, &home, &self.params.geofence, self.armed, landing);
+        if check.breaches == 0 {
             if before != 0 && self.armed {
                 self.announce("Fence breach cleared".to_owned());
             }
@@ -141,11 +145,42 @@ impl Commander {
             let p = Vector3::from(n.position_ned_m);
             self.geofence.breach_distance(&p, &home, &self.params.geofence) > GIVE_UP_M
         });
-        Some(if far && action == FailsafeAction::ReturnToLaunch { FailsafeAction::Land } else { action })
+        let action =
+            if far && action == FailsafeAction::ReturnToLaunch { FailsafeAction::Land } else { action };
+        let stronger_elsewhere = self
+            .faults
+            .monitor
+            .worst_except(FailsafeCause::GeofenceBreach)
+            .is_some_and(|f| f.action > action);
+        if check.new != 0
+            && before != 0
+            && self.faults.monitor.is_active(FailsafeCause::GeofenceBreach)
+            && !stronger_elsewhere
+        {
+            tracing::warn!(breaches = check.breaches, ?action, "geofence breached again");
+            self.act(now, action);
+        }
+        Some(action)
     }
 
     fn apply_failsafe(&mut self, now: Time) {
         let Some(action) = self.faults.escalation(self.armed) else { return };
+        self.act(now, action);
+    }
+
+    /// Takes a failsafe's `action` now. A mode it changes starts the geofence's manual
+    /// recovery while breached, as every mode change of ArduCopter's does (`Copter::set_mode`;
+    /// its SITL says "Manual recovery started" right after a fence's own RTL): no new breach
+    /// counts, nor does the breach clear, for the next 10 s.
+    fn act(&mut self, now: Time, action: FailsafeAction) {
+        let before = self.mode;
+        self.take(now, action);
+        if self.armed && self.mode != before {
+            self.geofence.manual_recovery_start(now);
+        }
+    }
+
+    fn take(&mut self, now: Time, action: FailsafeAction) {
         let on_ground = self.landing.on_ground();
         let position_ok = self.mode_allowed_ignoring_failsafe(now, FlightMode::ReturnToLaunch);
         match action {

@@ -9,11 +9,16 @@
 //! As ArduCopter's `AC_Fence`: each fence newly breached counts one breach (FENCE_STATUS); the
 //! floor counts only once the vehicle has climbed above it this flight and never while landing;
 //! a breach more than [`GIVE_UP_M`] beyond the ceiling or the circle lands instead of returning.
+//! A vehicle that stays outside is breached anew, and its action taken again, once it goes
+//! [`BACKUP_M`] further above the ceiling, below the floor or beyond the circle than where the
+//! last breach was counted (a polygon has no such backup fence); a pilot who changes mode while
+//! breached has [`MANUAL_RECOVERY`] in which no new breach is counted.
+//! `FENCE_TOTAL` is the count of stored fence items as ArduCopter derives it ([`fence_total`]).
 
 use kestrel_proto::Time;
 use kestrel_proto::geo::LocalFrame;
 use kestrel_proto::messages::{
-    FENCE_ALT_MAX, FENCE_ALT_MIN, FENCE_CIRCLE, FENCE_POLYGON, FencePlan, FenceStatus, NavState,
+    FENCE_ALT_MAX, FENCE_ALT_MIN, FENCE_CIRCLE, FENCE_POLYGON, FencePlan, FenceStatus, FenceZone, NavState,
 };
 use nalgebra::Vector3;
 
@@ -23,6 +28,41 @@ use super::params::GeofenceParams;
 /// Beyond this distance outside the ceiling or the circle (m), ArduCopter's breach action lands
 /// rather than returning (`AC_FENCE_GIVE_UP_DISTANCE`).
 pub(crate) const GIVE_UP_M: f64 = 100.0;
+
+/// How much further (m) above the ceiling, below the floor or beyond the circle a vehicle still
+/// outside must go for a new breach (`AC_FENCE_ALT_MAX_BACKUP_DISTANCE`,
+/// `AC_FENCE_ALT_MIN_BACKUP_DISTANCE`, `AC_FENCE_CIRCLE_RADIUS_BACKUP_DISTANCE`: 20 m for a
+/// copter). Held by `tests::fence::a_vehicle_staying_outside_is_breached_again_20_m_further`.
+pub(crate) const BACKUP_M: f64 = 20.0;
+
+/// After a mode change asked for while breached, no new breach is counted for this long
+/// (`AC_FENCE_MANUAL_RECOVERY_TIME_MIN`, 10 s): the pilot flies back in without the breach
+/// action taking the vehicle from them again. Held by
+/// `tests::fence::a_pilot_taking_control_in_breach_has_ten_seconds`.
+pub(crate) const MANUAL_RECOVERY: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// ArduCopter's `FENCE_TOTAL` for an uploaded fence (`AC_PolyFence_loader::write_fence`): every
+/// polygon vertex and every circle counted, plus 2 (the old FENCE_POINT protocol's return and
+/// closing points) when that makes at least 3; 0 otherwise. A return point is not counted.
+pub(crate) fn fence_total(plan: Option<&FencePlan>) -> u16 {
+    let items: usize = plan.map_or(0, |p| {
+        p.zones
+            .iter()
+            .map(|z| match z {
+                FenceZone::Polygon { vertices_deg, .. } => vertices_deg.len(),
+                FenceZone::Circle { .. } => 1,
+            })
+            .sum()
+    });
+    if items >= 3 { u16::try_from(items + 2).unwrap_or(u16::MAX) } else { 0 }
+}
+
+/// One check's outcome: the fences breached now and those newly breached (the action's cue).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct FenceCheck {
+    pub breaches: u8,
+    pub new: u8,
+}
 
 /// Whether the fence is on, its shapes in the local frame, and its breaches.
 #[derive(Debug)]
@@ -39,7 +79,23 @@ pub(crate) struct Geofence {
     frame: Option<LocalFrame>,
     /// The vehicle has been above the floor this flight (ArduCopter's auto-enabled floor).
     floor_reached: bool,
+    /// Heights above home (m) and distance from home (m) past which a vehicle still outside
+    /// the ceiling, the floor and the circle is breached anew; `None` while inside.
+    backup: Backup,
+    /// When a mode change was asked for while breached ([`MANUAL_RECOVERY`]).
+    manual_recovery_since: Option<Time>,
     status: FenceStatus,
+}
+
+/// The backup fences of a vehicle still outside ([`BACKUP_M`] past the last breach).
+#[derive(Clone, Copy, Debug, Default)]
+struct Backup {
+    /// Height above home (m).
+    ceiling_m: Option<f64>,
+    /// Height above home (m).
+    floor_m: Option<f64>,
+    /// Distance from home (m).
+    radius_m: Option<f64>,
 }
 
 impl Default for Geofence {
@@ -51,6 +107,8 @@ impl Default for Geofence {
             zones: Vec::new(),
             frame: None,
             floor_reached: false,
+            backup: Backup::default(),
+            manual_recovery_since: None,
             status: FenceStatus::default(),
         }
     }
@@ -153,9 +211,10 @@ impl Geofence {
     }
 
     /// Judges the vehicle at `nav` at `now` and keeps the breach bookkeeping (ArduCopter's
-    /// `AC_Fence::check`, once per commander update): the fences breached now (0 when off,
-    /// disarmed or without a position), each new one counted. `landing` leaves the floor out.
-    /// Returns the fences breached now.
+    /// `AC_Fence::check`, once per commander update): the fences breached now (none when off,
+    /// disarmed or without a position) and those newly breached, each new one counted: a fence
+    /// entered from inside, or a backup fence ([`BACKUP_M`] further out) crossed by a vehicle
+    /// still outside. During a manual recovery nothing changes. `landing` leaves the floor out.
     pub fn update(
         &mut self,
         now: Time,
@@ -164,28 +223,73 @@ impl Geofence {
         limits: &GeofenceParams,
         armed: bool,
         landing: bool,
-    ) -> u8 {
+    ) -> FenceCheck {
         let placed = nav.filter(|n| n.valid.horizontal_position && n.valid.vertical_position);
         if !armed {
             self.floor_reached = false;
+            self.manual_recovery_since = None;
         }
-        let bits = match placed {
+        if let Some(since) = self.manual_recovery_since {
+            if now.saturating_since(since) < MANUAL_RECOVERY {
+                return FenceCheck { breaches: self.status.breaches, new: 0 };
+            }
+            self.manual_recovery_since = None;
+        }
+        let (bits, height, radius) = match placed {
             Some(n) if self.enabled && armed => {
                 let p = Vector3::from(n.position_ned_m);
-                if home.z - p.z > limits.min_altitude_m {
+                let height = home.z - p.z;
+                if height > limits.min_altitude_m {
                     self.floor_reached = true;
                 }
-                self.breaches_at(&p, home, limits, self.floor_reached && !landing)
+                let radius = (p.x - home.x).hypot(p.y - home.y);
+                (self.breaches_at(&p, home, limits, self.floor_reached && !landing), height, radius)
             }
-            _ => 0,
+            _ => (0, 0.0, 0.0),
         };
-        let new = bits & !self.status.breaches;
+        let before = self.status.breaches;
+        let mut new = bits & !before;
+        // A vehicle still outside: past its backup fence it is breached anew, and the backup
+        // moves out again from where it is now; back inside, the backup goes.
+        let b = &mut self.backup;
+        if bits & FENCE_ALT_MAX == 0 {
+            b.ceiling_m = None;
+        } else if new & FENCE_ALT_MAX != 0 || b.ceiling_m.is_some_and(|c| height >= c) {
+            new |= FENCE_ALT_MAX;
+            b.ceiling_m = Some(height + BACKUP_M);
+        }
+        if bits & FENCE_ALT_MIN == 0 {
+            b.floor_m = None;
+        } else if new & FENCE_ALT_MIN != 0 || b.floor_m.is_some_and(|f| height <= f) {
+            new |= FENCE_ALT_MIN;
+            b.floor_m = Some(height - BACKUP_M);
+        }
+        if bits & FENCE_CIRCLE == 0 {
+            b.radius_m = None;
+        } else if new & FENCE_CIRCLE != 0 || b.radius_m.is_some_and(|r| radius >= r) {
+            new |= FENCE_CIRCLE;
+            b.radius_m = Some(radius + BACKUP_M);
+        }
         if new != 0 {
             self.status.breach_count = self.status.breach_count.saturating_add(new.count_ones() as u16);
             self.status.breach_time = Some(now);
         }
         self.status.breaches = bits;
-        bits
+        FenceCheck { breaches: bits, new }
+    }
+
+    /// A mode change was asked for (by the pilot or a ground station) at `now`: while breached,
+    /// no new breach is counted for [`MANUAL_RECOVERY`] (ArduCopter's `manual_recovery_start`).
+    /// Inside the fence it does nothing.
+    pub fn manual_recovery_start(&mut self, now: Time) {
+        if self.status.breaches != 0 {
+            self.manual_recovery_since = Some(now);
+        }
+    }
+
+    /// `FENCE_TOTAL`: the count of uploaded fence items ([`fence_total`]).
+    pub fn total(&self) -> u16 {
+        fence_total(self.plan.as_ref())
     }
 
     /// How far (m) the NED point is beyond the ceiling and the circle it breaches, the larger;
@@ -270,6 +374,7 @@ impl super::Commander {
     /// next update, in every mode, and judged against every target and mission from now on.
     pub fn on_fence(&mut self, plan: FencePlan) {
         self.geofence.set_plan(plan);
+        self.params.geofence.total = self.geofence.total();
     }
 }
 

@@ -400,6 +400,19 @@ pub const LIVE_PARAMS: &[ParamDef<CommanderParams>] = &[
         set: |p, v| p.geofence.margin_m = v,
     },
     ParamDef {
+        name: "FENCE_TOTAL",
+        unit: "",
+        // The range the link checks is the value itself (`Commander::param_decl`): the count
+        // follows the uploaded fence, and with no FENCE_POINT protocol another count would
+        // mean nothing.
+        min: 0.0,
+        max: 65535.0,
+        description: "Count of stored fence items (vertices and circles, +2 when at least 3); set by a MISSION_TYPE_FENCE upload",
+        while_armed: WhileArmed::Tunable,
+        get: |p| f64::from(p.geofence.total),
+        set: |_, _| {},
+    },
+    ParamDef {
         name: "FD_ACT_EN",
         unit: "",
         min: 0.0,

@@ -6,6 +6,7 @@
 //! message must not start a mission) and the next run, by AUTO or MISSION_START, starts there,
 //! as ArduPilot resumes at its current item.
 
+use kestrel_proto::Time;
 use kestrel_proto::messages::{CameraAction, FlightMode, Mission, MissionProgress};
 
 use super::arming::{Refusal, refuse};
@@ -152,6 +153,50 @@ impl Commander {
             self.mission.start_next_run_at(i);
         }
         tracing::info!(index, "mission item made current");
+        Ok(())
+    }
+
+    /// MAV_CMD_DO_LAND_START: AUTO from the mission's DO_LAND_START nearest the vehicle, as
+    /// ArduCopter's `jump_to_landing_sequence_auto_RTL` (which it reports as mode AUTO RTL, 27;
+    /// Kestrel reports AUTO). Refused, in ArduCopter's words, without a landing sequence, and
+    /// whenever AUTO could not be entered (disarmed, no position, a failsafe). Held by
+    /// `tests::mission::do_land_start_flies_the_nearest_landing_sequence_in_auto`.
+    pub(super) fn jump_to_landing_sequence(&mut self, now: Time) -> Result<(), Refusal> {
+        if !self.armed {
+            return refuse("AUTO RTL refused: not armed");
+        }
+        self.mode_allowed(now, FlightMode::Auto)?;
+        let (Some(nav), Some(frame)) = (self.nav.latest(), self.home.frame()) else {
+            return refuse("AUTO RTL refused: no position");
+        };
+        let pos = nalgebra::Vector3::from(nav.position_ned_m);
+        let home = self.home.ned().unwrap_or(pos);
+        let mut runner = match self.mission.runner.take() {
+            Some(runner) if self.mode == FlightMode::Auto => runner,
+            other => {
+                self.mission.runner = other;
+                match self.mission.new_runner() {
+                    Some(runner) => runner,
+                    None => return refuse("Auto needs a mission"),
+                }
+            }
+        };
+        let jumped = runner.jump_to_landing_sequence(&pos, &frame, &home);
+        if !jumped {
+            if self.mode == FlightMode::Auto {
+                self.mission.runner = Some(runner);
+            }
+            return refuse("Mode change to AUTO RTL failed: No landing sequence found");
+        }
+        if self.mode != FlightMode::Auto {
+            self.geofence.manual_recovery_start(now);
+        }
+        self.boot_mode = false;
+        // Drop what the mode before latched (a landing under way, a held position).
+        self.enter(FlightMode::Auto);
+        self.mission.runner = Some(runner);
+        self.announce("Landing sequence start".to_owned());
+        tracing::info!(index = ?self.mission.progress().current, "landing sequence");
         Ok(())
     }
 }

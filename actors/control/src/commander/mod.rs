@@ -191,7 +191,13 @@ impl Commander {
     /// The commander's live parameters with their current values, for the link (`param_decl`;
     /// `start` when the actor has just started).
     pub fn param_decl(&self, owner: &str, start: bool, now: Time) -> ParamDecl {
-        kestrel_proto::param_def::declare(live_params::LIVE_PARAMS, &self.params, owner, start, now)
+        let mut decl =
+            kestrel_proto::param_def::declare(live_params::LIVE_PARAMS, &self.params, owner, start, now);
+        // FENCE_TOTAL takes only its own value: an upload changes it, a PARAM_SET cannot.
+        for p in decl.params.iter_mut().filter(|p| p.name == "FENCE_TOTAL") {
+            (p.min, p.max) = (p.value, p.value);
+        }
+        decl
     }
 
     pub fn armed(&self) -> bool {

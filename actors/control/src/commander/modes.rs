@@ -98,6 +98,10 @@ impl Commander {
     pub(super) fn set_mode(&mut self, now: Time, mode: FlightMode) -> Result<(), Refusal> {
         self.mode_allowed(now, mode)?;
         self.boot_mode = false;
+        // ArduCopter starts a manual recovery on a change of mode only, not on the same one.
+        if self.armed && mode != self.mode {
+            self.geofence.manual_recovery_start(now);
+        }
         if mode == FlightMode::Auto && (self.mission.runner.is_none() || self.mode != FlightMode::Auto) {
             self.mission.start_run();
         }
@@ -462,7 +466,7 @@ impl Commander {
         let yaw = *self.latched.hold.yaw_rad.get_or_insert(heading(nav));
         match self.latched.rtl {
             RtlPhase::Climb => {
-                let down = pos.z.min(launch.z - self.params.rtl_altitude_m).min(home.z.min(launch.z));
+                let down = self.rtl_down_m(&pos, &launch, &home);
                 let start = *self.latched.hold.position.get_or_insert(pos);
                 let down = *self.latched.hold.down_m.get_or_insert(down);
                 // Held under something overhead, the climb ends there and the return sets off
@@ -513,6 +517,21 @@ impl Commander {
             }
             RtlPhase::Land => self.land_at(now, dt_s, nav, Some([home.x, home.y])),
         }
+    }
+
+    /// The altitude RTL returns at (NED down, m), as ArduCopter's `compute_return_target`: the
+    /// highest of the RTL altitude, the current one and the return target's, then no higher
+    /// than the ceiling less its margin (`FENCE_ALT_MAX - FENCE_MARGIN` above home) while the
+    /// ceiling is enforced, and never below the current altitude: a vehicle above the ceiling
+    /// returns where it is rather than descend on the way. Held by
+    /// `tests::fence::rtl_returns_under_the_ceiling_and_never_descends_to_it`.
+    pub(super) fn rtl_down_m(&self, pos: &Vector3<f64>, launch: &Vector3<f64>, home: &Vector3<f64>) -> f64 {
+        let mut down = pos.z.min(launch.z - self.params.rtl_altitude_m).min(home.z.min(launch.z));
+        let limits = &self.params.geofence;
+        if self.geofence.enabled() && limits.types & kestrel_proto::messages::FENCE_ALT_MAX != 0 {
+            down = down.max(launch.z - (limits.max_altitude_m - limits.margin_m));
+        }
+        down.min(pos.z)
     }
 
     /// Descends onto `xy` (NED north/east, m), flying there first if it is far; without a

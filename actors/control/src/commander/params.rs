@@ -272,6 +272,10 @@ pub struct GeofenceParams {
     pub margin_m: f64,
     /// Inclusion polygon as `[lat_deg, lon_deg]` vertices; empty for none.
     pub polygon: Vec<[f64; 2]>,
+    /// `FENCE_TOTAL`: not configured, but what the uploaded fence makes it
+    /// (`geofence::fence_total`); a ground station reads it, and may set it only to itself.
+    #[serde(skip)]
+    pub total: u16,
 }
 
 impl Default for GeofenceParams {
@@ -284,6 +288,7 @@ impl Default for GeofenceParams {
             min_altitude_m: -10.0,
             margin_m: 2.0,
             polygon: Vec::new(),
+            total: 0,
         }
     }
 }

@@ -237,6 +237,8 @@ impl CommandService {
             // is the caller's to map onto the plan (`Vehicle`), and nothing else reaches here.
             MavCmd::MAV_CMD_MISSION_START if p[0] == 0.0 && p[1] == 0.0 => Command::MissionStart,
             MavCmd::MAV_CMD_MISSION_START => return refuse(MavResult::MAV_RESULT_DENIED),
+            // ArduCopter's AUTO RTL: on at the nearest DO_LAND_START, FAILED without one.
+            MavCmd::MAV_CMD_DO_LAND_START => Command::LandStart,
             // param2 the speed (m/s; param1's airspeed/ground speed is one to a multirotor);
             // -1 and -2 (no change, default) are DENIED rather than read as a speed.
             MavCmd::MAV_CMD_DO_CHANGE_SPEED if p[1].is_finite() && p[1] > 0.0 => {
@@ -478,10 +480,14 @@ impl CommandService {
 
     /// The answer to the command passed on with `id` (the commander's or the calibration's).
     /// A refused DO_REPOSITION is FAILED, as ArduCopter answers a GUIDED destination it will not
-    /// fly (beyond the fence: `tests/gcs_fence.rs`); any other refusal is DENIED.
+    /// fly (beyond the fence: `tests/gcs_fence.rs`), and so is a refused DO_LAND_START, as
+    /// ArduCopter answers one without a landing sequence (the same test); any other refusal is
+    /// DENIED.
     pub fn on_answer(&mut self, id: u32, refused: bool) -> Option<MavMessage> {
-        let reposition =
-            self.pending.iter().any(|p| p.id == id && p.request.command == MavCmd::MAV_CMD_DO_REPOSITION);
+        let reposition = self.pending.iter().any(|p| {
+            p.id == id
+                && matches!(p.request.command, MavCmd::MAV_CMD_DO_REPOSITION | MavCmd::MAV_CMD_DO_LAND_START)
+        });
         let answer = match (refused, reposition) {
             (false, _) => MavResult::MAV_RESULT_ACCEPTED,
             (true, true) => MavResult::MAV_RESULT_FAILED,

@@ -92,10 +92,13 @@ proptest! {
             prop_assert!(out.graph.is_empty(), "{command:?} is unsupported yet reached the graph: {:?}", out.graph);
         }
         if !asked.is_empty() {
-            // A refused DO_REPOSITION is FAILED, as ArduCopter answers a destination it will not fly.
+            // A refused DO_REPOSITION is FAILED, as ArduCopter answers a destination it will not
+            // fly, and so is a refused DO_LAND_START, as it answers one with no landing sequence.
             let want = match (refused, command) {
                 (false, _) => MavResult::MAV_RESULT_ACCEPTED,
-                (true, MavCmd::MAV_CMD_DO_REPOSITION) => MavResult::MAV_RESULT_FAILED,
+                (true, MavCmd::MAV_CMD_DO_REPOSITION | MavCmd::MAV_CMD_DO_LAND_START) => {
+                    MavResult::MAV_RESULT_FAILED
+                }
                 (true, _) => MavResult::MAV_RESULT_DENIED,
             };
             prop_assert_eq!(result, want, "{:?}: the commander's answer", command);

@@ -135,16 +135,20 @@ fn an_exclusion_zone_breach_returns_counts_once_and_clears_back_outside_it() {
     // Still inside a moment later: the same breach, not a new one.
     hover_at(&mut c, 5000, [36.0, 0.0, -10.0]);
     assert_eq!(c.status(Time(5000)).fence.breach_count, 1);
-    // Back out of the circle (RTL flies home): cleared, announced, the count kept.
+    // Back out of the circle (RTL flies home) during the 10 s manual recovery the RTL's mode
+    // change started: nothing changes, as ArduCopter's FENCE_STATUS stays breached.
     hover_at(&mut c, 6000, [25.0, 0.0, -10.0]);
-    let s = c.status(Time(6000));
+    assert_eq!(c.status(Time(6000)).fence.breaches, FENCE_POLYGON);
+    // After it: cleared, announced, the count kept.
+    fly_at(&mut c, 10.1, [25.0, 0.0, -10.0]);
+    let s = c.status(Time(10_100_000));
     assert_eq!(s.failsafe, None);
     assert_eq!((s.fence.breaches, s.fence.breach_count), (0, 1));
     assert_eq!(s.last_refusal.as_deref(), Some("Fence breach cleared"));
     assert_eq!(c.mode(), FlightMode::ReturnToLaunch, "the RTL it started goes on, as ArduCopter's");
     // A second entry is a second breach.
-    hover_at(&mut c, 7000, [40.0, 0.0, -10.0]);
-    assert_eq!(c.status(Time(7000)).fence.breach_count, 2);
+    fly_at(&mut c, 10.2, [40.0, 0.0, -10.0]);
+    assert_eq!(c.status(Time(10_200_000)).fence.breach_count, 2);
 }
 
 #[test]
@@ -190,8 +194,9 @@ fn the_floor_counts_once_climbed_above_and_never_while_landing() {
     assert_eq!(c.status(Time(4000)).fence.breaches, FENCE_ALT_MIN);
     assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
     at(&mut c, 4000, Command::SetMode(FlightMode::Land)).expect("land");
-    hover_at(&mut c, 5000, [0.0, 0.0, -3.0]);
-    assert_eq!(c.status(Time(5000)).fence.breaches, 0, "landing: the floor is not judged");
+    // Once the manual recovery the mode changes started is over (10 s).
+    fly_at(&mut c, 10.1, [0.0, 0.0, -3.0]);
+    assert_eq!(c.status(Time(10_100_000)).fence.breaches, 0, "landing: the floor is not judged");
 }
 
 #[test]
@@ -222,4 +227,97 @@ fn a_fence_uploaded_before_the_origin_is_placed_when_it_is_known() {
     hover_at(&mut c, 1500, [150.0, 0.0, 0.0]);
     let why = cmd(&mut c, Command::Arm).expect_err("outside the square");
     assert!(why.contains("outside the geofence"), "{why}");
+}
+
+/// The vehicle at `pos` (NED, m) at `t_s` seconds, the battery fresh.
+fn fly_at(c: &mut Commander, t_s: f64, pos: [f64; 3]) {
+    let t = (t_s * 1e6) as u64;
+    c.on_battery(&full_battery(Time(t)));
+    hover_at(c, t, pos);
+}
+
+#[test]
+fn a_vehicle_staying_outside_is_breached_again_20_m_further() {
+    // FENCE_ACTION 4 (brake and hold): the vehicle stays where the breach found it.
+    let mut c = guided_hover();
+    c.on_param("FENCE_ACTION", 4.0).expect("taken");
+    fly_at(&mut c, 1.0, [0.0, 0.0, -125.0]);
+    assert_eq!((c.status(Time(1_000_000)).fence.breach_count, c.mode()), (1, FlightMode::PosHold));
+    // The hold's mode change started a 10 s manual recovery: nothing new counts in it.
+    fly_at(&mut c, 5.0, [0.0, 0.0, -150.0]);
+    assert_eq!(c.status(Time(5_000_000)).fence.breach_count, 1);
+    // After it, still within 20 m of where the breach was counted: the same breach.
+    fly_at(&mut c, 11.5, [0.0, 0.0, -144.0]);
+    assert_eq!(c.status(Time(11_500_000)).fence.breach_count, 1);
+    // 20 m above it: a new breach, counted, and the action taken again (the same mode: no
+    // new recovery).
+    fly_at(&mut c, 12.0, [0.0, 0.0, -145.5]);
+    assert_eq!(c.status(Time(12_000_000)).fence.breach_count, 2);
+    // The backup moved up with it: the next one is 20 m above 145.5 m.
+    fly_at(&mut c, 13.0, [0.0, 0.0, -160.0]);
+    assert_eq!(c.status(Time(13_000_000)).fence.breach_count, 2);
+    // Beyond the circle too: a new breach of another fence counts on its own.
+    fly_at(&mut c, 14.0, [310.0, 0.0, -160.0]);
+    assert_eq!(c.status(Time(14_000_000)).fence.breach_count, 3);
+    fly_at(&mut c, 15.0, [329.0, 0.0, -160.0]);
+    assert_eq!(c.status(Time(15_000_000)).fence.breach_count, 3);
+    fly_at(&mut c, 16.0, [331.0, 0.0, -160.0]);
+    assert_eq!(c.status(Time(16_000_000)).fence.breach_count, 4);
+    assert_eq!(c.mode(), FlightMode::PosHold);
+}
+
+#[test]
+fn a_pilot_taking_control_in_breach_has_ten_seconds() {
+    let mut c = guided_hover();
+    fly_at(&mut c, 1.0, [0.0, 0.0, -125.0]);
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch, "FENCE_ACTION 1");
+    // The pilot takes the vehicle back while still above the ceiling: allowed, as ArduCopter.
+    fly_at(&mut c, 1.5, [0.0, 0.0, -125.0]);
+    at(&mut c, 1_500_000, Command::SetMode(FlightMode::Guided)).expect("manual recovery");
+    // For 10 s no new breach counts, even 30 m further up.
+    fly_at(&mut c, 5.0, [0.0, 0.0, -155.0]);
+    fly_at(&mut c, 11.4, [0.0, 0.0, -155.0]);
+    assert_eq!((c.status(Time(11_400_000)).fence.breach_count, c.mode()), (1, FlightMode::Guided));
+    // After them, beyond the backup fence: breached anew, the action taken again.
+    fly_at(&mut c, 11.6, [0.0, 0.0, -155.0]);
+    assert_eq!(c.status(Time(11_600_000)).fence.breach_count, 2);
+    assert_eq!(c.mode(), FlightMode::ReturnToLaunch);
+}
+
+#[test]
+fn rtl_returns_under_the_ceiling_and_never_descends_to_it() {
+    let mut c = hovering();
+    c.on_param("FENCE_ALT_MAX", 14.0).expect("in range");
+    let home = c.home_ned().expect("home");
+    // From 5 m: RTL_ALT 15 m capped at 14 - 2 (FENCE_MARGIN) = 12 m above home.
+    let low = nalgebra::Vector3::new(30.0, 0.0, home.z - 5.0);
+    assert!((c.rtl_down_m(&low, &home, &home) - (home.z - 12.0)).abs() < 1e-9);
+    // From 20 m, above the ceiling: home at 20 m, no descent on the way.
+    let high = nalgebra::Vector3::new(30.0, 0.0, home.z - 20.0);
+    assert!((c.rtl_down_m(&high, &home, &home) - high.z).abs() < 1e-9);
+    // The ceiling not enforced (FENCE_TYPE without bit 1, or the fence off): RTL_ALT.
+    c.on_param("FENCE_TYPE", 6.0).expect("circle and polygons");
+    assert!((c.rtl_down_m(&low, &home, &home) - (home.z - 15.0)).abs() < 1e-9);
+    c.on_param("FENCE_TYPE", 7.0).expect("back");
+    c.on_param("FENCE_ENABLE", 0.0).expect("off");
+    assert!((c.rtl_down_m(&low, &home, &home) - (home.z - 15.0)).abs() < 1e-9);
+}
+
+#[test]
+fn fence_total_counts_vertices_and_circles_as_arducopter() {
+    use crate::commander::geofence::fence_total;
+    assert_eq!(fence_total(None), 0);
+    assert_eq!(fence_total(Some(&uploaded())), 4 + 1 + 2, "a square and a circle");
+    let circle = FenceZone::Circle { kind: FenceKind::Inclusion, center_deg: deg(0.0, 0.0), radius_m: 50.0 };
+    let circles = |n| FencePlan { time: Time(1000), zones: vec![circle.clone(); n] };
+    assert_eq!(fence_total(Some(&circles(2))), 0, "fewer than 3 items");
+    assert_eq!(fence_total(Some(&circles(3))), 5);
+    let mut c = hovering();
+    c.on_fence(uploaded());
+    let decl = c.param_decl("commander", false, Time(3000));
+    let total = decl.params.iter().find(|p| p.name == "FENCE_TOTAL").expect("declared");
+    assert_eq!((total.value, total.min, total.max), (7.0, 7.0, 7.0), "only its own value");
+    c.on_fence(FencePlan { time: Time(4000), zones: Vec::new() });
+    let decl = c.param_decl("commander", false, Time(4000));
+    assert_eq!(decl.params.iter().find(|p| p.name == "FENCE_TOTAL").map(|p| p.value), Some(0.0));
 }

@@ -216,3 +216,37 @@ fn change_speed_sets_the_missions_leg_speed_within_the_limit() {
     }
     assert_eq!(speed(&mut c, 4000), Some(2.5), "a refused change keeps the speed");
 }
+
+#[test]
+fn do_land_start_flies_the_nearest_landing_sequence_in_auto() {
+    let mut c = super::fixtures::hovering();
+    let why = at(&mut c, 2100, Command::LandStart).expect_err("no mission");
+    assert!(why.contains("mission"), "{why}");
+    c.on_mission(three_waypoints()).expect("uploaded");
+    let why = at(&mut c, 2200, Command::LandStart).expect_err("no DO_LAND_START");
+    assert_eq!(why, "Mode change to AUTO RTL failed: No landing sequence found");
+    assert_eq!(c.mode(), FlightMode::PosHold, "nothing changed");
+    let wp = |north_m| MissionItem::Waypoint {
+        point: point_north(north_m, 10.0, AltitudeFrame::RelativeHome),
+        acceptance_radius_m: 1.0,
+        hold_s: 0.0,
+    };
+    let landing = point_north(10.0, 0.0, AltitudeFrame::RelativeHome);
+    let mission = Mission {
+        time: Time::ZERO,
+        items: vec![
+            wp(20.0),
+            wp(40.0),
+            MissionItem::LandStart { point: None },
+            wp(10.0),
+            MissionItem::Land { point: landing },
+        ],
+        cruise_speed_m_s: 5.0,
+    };
+    c.on_mission(mission).expect("uploaded");
+    at(&mut c, 2300, Command::LandStart).expect("a landing sequence");
+    assert_eq!(c.mode(), FlightMode::Auto);
+    hover_at(&mut c, 2400, [0.0, 0.0, -5.0]);
+    let current = c.status(kestrel_proto::Time(2400)).mission.current;
+    assert!(current >= 3, "flying the sequence after DO_LAND_START, at {current}");
+}
