@@ -102,7 +102,9 @@ impl CompanionActor {
 
     /// The flight controller's endpoint, then the ground stations'.
     fn all_endpoints(&self) -> Vec<EndpointConfig> {
-        std::iter::once(self.params.flight_controller.clone()).chain(self.params.ground_stations.clone()).collect()
+        std::iter::once(self.params.flight_controller.clone())
+            .chain(self.params.ground_stations.clone())
+            .collect()
     }
 }
 

@@ -15,11 +15,12 @@ use kestrel_proto::messages::{
     VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
-    AUTOPILOT_VERSION_DATA, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
-    MISSION_ITEM_REACHED_DATA, MavMessage, MavProtocolCapability, MavSeverity, MavType,
+    AUTOPILOT_VERSION_DATA, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA,
+    MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, MavMessage, MavProtocolCapability, MavSeverity, MavType,
 };
 use mavlink::{Message, MessageData};
 
+use crate::frame::Frame;
 use crate::services::command::{self, CommandRequest, CommandService};
 use crate::services::events::{status_changes, statustext};
 use crate::services::ftp::FtpServer;
@@ -30,11 +31,10 @@ use crate::services::offboard::{
     OffboardRejects, attitude_target, global_target, local_target, manual_control,
 };
 use crate::services::params::ParamTable;
+use crate::services::params::render_param_file;
 use crate::services::telemetry::{Telemetry, home};
 use crate::services::{Outputs, Sender, Service, ToGraph};
 use crate::services::{calibration, estimator_text, timesync};
-use crate::frame::Frame;
-use crate::services::params::render_param_file;
 use crate::station::{EndpointIndex, Station, StationOut};
 
 /// Our component id (MAV_COMP_ID_AUTOPILOT1).

@@ -139,7 +139,8 @@ mod tests {
     fn exchange(c: &mut FcClock, sent_us: u64, offset_us: i64, up_us: u64, down_us: u64) -> bool {
         let request = c.request(Time::from_micros(sent_us), (1, 1));
         let fc_us = sent_us as i64 + up_us as i64 + offset_us;
-        let answer = TIMESYNC_DATA { tc1: fc_us * 1000, ts1: request.ts1, target_system: 1, target_component: 196 };
+        let answer =
+            TIMESYNC_DATA { tc1: fc_us * 1000, ts1: request.ts1, target_system: 1, target_component: 196 };
         c.on_timesync(&answer, Time::from_micros(sent_us + up_us + down_us))
     }
 

@@ -14,12 +14,8 @@ use std::time::Duration;
 use kestrel_proto::Time;
 use kestrel_proto::attitude::quaternion_from_euler;
 use kestrel_proto::geo::{Geodetic, LocalFrame};
-use kestrel_proto::messages::{
-    FlightMode, Home, LandedState, NavState, NavValidity, VehicleStatus,
-};
-use mavlink::dialects::ardupilotmega::{
-    MavAutopilot, MavFrame, MavLandedState, MavMessage, MavModeFlag,
-};
+use kestrel_proto::messages::{FlightMode, Home, LandedState, NavState, NavValidity, VehicleStatus};
+use mavlink::dialects::ardupilotmega::{MavAutopilot, MavFrame, MavLandedState, MavMessage, MavModeFlag};
 
 use super::fc_clock::FcClock;
 use super::fc_modes;
@@ -87,7 +83,13 @@ impl FcState {
 
     /// A message from the flight controller (system and component already checked), arrived
     /// at `now`.
-    pub fn on_message(&mut self, msg: &MavMessage, autopilot: MavAutopilot, clock: &mut FcClock, now: Time) -> Published {
+    pub fn on_message(
+        &mut self,
+        msg: &MavMessage,
+        autopilot: MavAutopilot,
+        clock: &mut FcClock,
+        now: Time,
+    ) -> Published {
         match msg {
             MavMessage::ATTITUDE_QUATERNION(a) => {
                 self.boot(a.time_boot_ms, clock);
@@ -126,7 +128,9 @@ impl FcState {
                 let v = [o.vx, o.vy, o.vz].map(f64::from);
                 let velocity_ned_m_s = match o.child_frame_id {
                     MavFrame::MAV_FRAME_LOCAL_NED => v,
-                    MavFrame::MAV_FRAME_BODY_FRD => rotate([o.q[0], o.q[1], o.q[2], o.q[3]].map(f64::from), v),
+                    MavFrame::MAV_FRAME_BODY_FRD => {
+                        rotate([o.q[0], o.q[1], o.q[2], o.q[3]].map(f64::from), v)
+                    }
                     _ => return Published::default(),
                 };
                 self.on_local(position_ned_m, velocity_ned_m_s, now);
@@ -142,9 +146,8 @@ impl FcState {
                 if !local_ned_m.iter().all(|v| v.is_finite()) || !(-90.0..=90.0).contains(&geodetic.lat_deg) {
                     return Published::default();
                 }
-                let moved = self.home.is_none_or(|old| {
-                    old.geodetic != geodetic || old.local_ned_m != local_ned_m
-                });
+                let moved =
+                    self.home.is_none_or(|old| old.geodetic != geodetic || old.local_ned_m != local_ned_m);
                 if moved {
                     self.home_revision = self.home_revision.wrapping_add(1);
                     self.home = Some(HomeFix { geodetic, local_ned_m });
@@ -196,8 +199,17 @@ impl FcState {
         if let Some(last) = self.last_boot_ms
             && boot_ms + 1000 < last
         {
-            tracing::warn!(last_ms = last, now_ms = boot_ms, "flight controller rebooted: its state and clock are relearnt");
-            *self = FcState { reboots: self.reboots + 1, unsynced: self.unsynced, unknown_modes: self.unknown_modes, ..FcState::default() };
+            tracing::warn!(
+                last_ms = last,
+                now_ms = boot_ms,
+                "flight controller rebooted: its state and clock are relearnt"
+            );
+            *self = FcState {
+                reboots: self.reboots + 1,
+                unsynced: self.unsynced,
+                unknown_modes: self.unknown_modes,
+                ..FcState::default()
+            };
             clock.reset();
         }
         self.last_boot_ms = Some(boot_ms);
@@ -209,7 +221,14 @@ impl FcState {
         }
     }
 
-    fn on_attitude(&mut self, boot_ms: u32, q: [f64; 4], rates_rad_s: [f64; 3], clock: &FcClock, now: Time) -> Published {
+    fn on_attitude(
+        &mut self,
+        boot_ms: u32,
+        q: [f64; 4],
+        rates_rad_s: [f64; 3],
+        clock: &FcClock,
+        now: Time,
+    ) -> Published {
         if !q.iter().chain(&rates_rad_s).all(|v| v.is_finite()) {
             return Published::default();
         }

@@ -28,7 +28,7 @@ use kestrel_proto::messages::{NavState, ObstacleSectors, VehicleStatus};
 use mavlink::dialects::ardupilotmega::{
     COMMAND_ACK_DATA, HEARTBEAT_DATA, MavAutopilot, MavMessage, MavModeFlag, MavResult, MavState, MavType,
 };
-use mavlink::{Message, MessageData};
+use mavlink::Message;
 
 use crate::frame::Frame;
 use crate::services::Sender;
@@ -51,7 +51,7 @@ const TIMESYNC_FAST: Duration = Duration::from_millis(100);
 const TIMESYNC_SLOW: Duration = Duration::from_secs(1);
 
 /// The flight controller as its heartbeat announced it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FlightController {
     pub system_id: u8,
     pub component_id: u8,
@@ -162,7 +162,10 @@ fn is_autopilot(hb: &HEARTBEAT_DATA) -> bool {
     hb.autopilot != MavAutopilot::MAV_AUTOPILOT_INVALID
         && !matches!(
             hb.mavtype,
-            MavType::MAV_TYPE_GCS | MavType::MAV_TYPE_ONBOARD_CONTROLLER | MavType::MAV_TYPE_GIMBAL | MavType::MAV_TYPE_CAMERA
+            MavType::MAV_TYPE_GCS
+                | MavType::MAV_TYPE_ONBOARD_CONTROLLER
+                | MavType::MAV_TYPE_GIMBAL
+                | MavType::MAV_TYPE_CAMERA
         )
 }
 
@@ -208,8 +211,13 @@ impl Station for Companion {
             && sender.component_id == AUTOPILOT_COMPONENT_ID
             && let Ok(system_id) = u8::try_from(sender.system_id)
         {
-            let fc = FlightController { system_id, component_id: sender.component_id, autopilot: hb.autopilot };
-            tracing::info!(?fc, "flight controller heard: the companion speaks as its component {}", self.component_id);
+            let fc =
+                FlightController { system_id, component_id: sender.component_id, autopilot: hb.autopilot };
+            tracing::info!(
+                ?fc,
+                "flight controller heard: the companion speaks as its component {}",
+                self.component_id
+            );
             self.fc = Some(fc);
         }
         match self.fc {

@@ -140,7 +140,13 @@ mod tests {
     use super::*;
 
     fn sectors(distances_cm: Vec<u16>, increment_deg: f32, angle_offset_deg: f32) -> ObstacleSectors {
-        ObstacleSectors { distances_cm, increment_deg, angle_offset_deg, min_distance_cm: 20, max_distance_cm: 1200 }
+        ObstacleSectors {
+            distances_cm,
+            increment_deg,
+            angle_offset_deg,
+            min_distance_cm: 20,
+            max_distance_cm: 1200,
+        }
     }
 
     /// A clock whose flight controller reads ours plus 1 s.
@@ -166,7 +172,10 @@ mod tests {
         out.on_sectors(Time::from_micros(10_000_000), &s);
         let m = out.due(Time::from_micros(10_050_000), &synced()).expect("fresh and synced");
         assert_eq!(m.distances.to_vec(), d);
-        assert_eq!((m.time_usec, m.frame, m.increment_f, m.angle_offset), (11_000_000, MavFrame::MAV_FRAME_BODY_FRD, 5.0, 0.0));
+        assert_eq!(
+            (m.time_usec, m.frame, m.increment_f, m.angle_offset),
+            (11_000_000, MavFrame::MAV_FRAME_BODY_FRD, 5.0, 0.0)
+        );
         assert_eq!((m.min_distance, m.max_distance), (20, 1200));
     }
 

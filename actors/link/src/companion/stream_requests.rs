@@ -8,11 +8,11 @@
 use std::time::Duration;
 
 use kestrel_proto::Time;
+use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::{
     ATTITUDE_QUATERNION_DATA, COMMAND_LONG_DATA, EXTENDED_SYS_STATE_DATA, GLOBAL_POSITION_INT_DATA,
     HOME_POSITION_DATA, LOCAL_POSITION_NED_DATA, MavCmd, MavMessage,
 };
-use mavlink::MessageData;
 
 /// Shortest time between two requests for one message.
 pub const RETRY: Duration = Duration::from_secs(1);
@@ -82,7 +82,10 @@ mod tests {
         out.iter()
             .map(|m| match m {
                 MavMessage::COMMAND_LONG(c) => {
-                    assert_eq!((c.command, c.target_system, c.target_component), (MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, 1, 1));
+                    assert_eq!(
+                        (c.command, c.target_system, c.target_component),
+                        (MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL, 1, 1)
+                    );
                     c.param1 as u32
                 }
                 other => panic!("{other:?}"),
@@ -105,15 +108,16 @@ mod tests {
             s.heard(LOCAL_POSITION_NED_DATA::ID, t(ms));
         }
         // Past RETRY: the quiet ones are asked again, the streaming ones are not.
+        assert_eq!(asked_ids(&s.due(t(2100), (1, 1))), vec![GLOBAL_POSITION_INT_DATA::ID]);
         assert_eq!(
-            asked_ids(&s.due(t(2100), (1, 1))),
-            vec![GLOBAL_POSITION_INT_DATA::ID]
+            asked_ids(&s.due(t(3600), (1, 1))),
+            vec![
+                ATTITUDE_QUATERNION_DATA::ID,
+                LOCAL_POSITION_NED_DATA::ID,
+                GLOBAL_POSITION_INT_DATA::ID,
+                EXTENDED_SYS_STATE_DATA::ID,
+            ],
+            "the attitude went quiet; HOME_POSITION waits five periods"
         );
-        assert_eq!(asked_ids(&s.due(t(3600), (1, 1))), vec![
-            ATTITUDE_QUATERNION_DATA::ID,
-            LOCAL_POSITION_NED_DATA::ID,
-            GLOBAL_POSITION_INT_DATA::ID,
-            EXTENDED_SYS_STATE_DATA::ID,
-        ], "the attitude went quiet; HOME_POSITION waits five periods");
     }
 }

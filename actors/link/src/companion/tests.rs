@@ -94,7 +94,8 @@ impl Bench {
             .expect("a TIMESYNC request to the flight controller");
         assert_eq!((request.target_system, request.target_component), (1, 1));
         let tc1 = (now.as_micros() as i64 - behind_ms * 1000) * 1000;
-        let answer = TIMESYNC_DATA { tc1, ts1: request.ts1, target_system: 1, target_component: DEFAULT_COMPONENT_ID };
+        let answer =
+            TIMESYNC_DATA { tc1, ts1: request.ts1, target_system: 1, target_component: DEFAULT_COMPONENT_ID };
         self.from_fc(MavMessage::TIMESYNC(answer), now);
         assert!(self.hub.station().fc_clock().synced());
     }
@@ -123,7 +124,11 @@ fn silent_until_the_flight_controller_is_heard_then_an_onboard_controller_of_its
     b.hub.on_tick(t(1000));
     assert!(Bench::sent(&mut b.fc_rx).is_empty() && Bench::sent(&mut b.gcs_rx).is_empty());
     // A ground station's heartbeat on the flight controller's link is not a flight controller.
-    let gcs_hb = HEARTBEAT_DATA { mavtype: MavType::MAV_TYPE_GCS, autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID, ..Default::default() };
+    let gcs_hb = HEARTBEAT_DATA {
+        mavtype: MavType::MAV_TYPE_GCS,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        ..Default::default()
+    };
     b.feed(b.fc, &encode(GCS, &MavMessage::HEARTBEAT(gcs_hb), None), t(1000));
     assert_eq!(b.hub.station().flight_controller(), None);
     b.heartbeat(false, 0, t(1010));
@@ -135,7 +140,10 @@ fn silent_until_the_flight_controller_is_heard_then_an_onboard_controller_of_its
         let (f, m) = &sent[0];
         assert_eq!((f.system_id, f.component_id), (1, 196));
         let MavMessage::HEARTBEAT(hb) = m else { panic!("{m:?}") };
-        assert_eq!((hb.mavtype, hb.autopilot), (MavType::MAV_TYPE_ONBOARD_CONTROLLER, MavAutopilot::MAV_AUTOPILOT_INVALID));
+        assert_eq!(
+            (hb.mavtype, hb.autopilot),
+            (MavType::MAV_TYPE_ONBOARD_CONTROLLER, MavAutopilot::MAV_AUTOPILOT_INVALID)
+        );
     }
 }
 
@@ -144,7 +152,7 @@ fn the_flight_controller_state_is_published_on_our_clock_and_invalid_once_stale(
     let mut b = Bench::new();
     b.heartbeat(true, 4, t(10_000));
     // Before the clocks are aligned no NavState is published.
-    assert!(b.from_fc(attitude(5_000), t(10_000)).is_empty());
+    assert!(b.from_fc(attitude(3_000), t(10_000)).is_empty());
     // The flight controller booted 7 s after us: its 3 s is our 10 s.
     b.answer_timesync(t(10_000), 7_000);
     b.from_fc(
@@ -177,7 +185,13 @@ fn the_flight_controller_state_is_published_on_our_clock_and_invalid_once_stale(
     assert_eq!(nav.position_ned_m, [4.0, 5.0, -6.0]);
     assert_eq!(nav.velocity_ned_m_s, [1.0, 0.0, -0.5]);
     assert!((nav.attitude[3] - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-6);
-    assert_eq!(nav.valid, kestrel_proto::messages::NavValidity { horizontal_velocity_from_drag: false, ..kestrel_proto::messages::NavValidity::ALL });
+    assert_eq!(
+        nav.valid,
+        kestrel_proto::messages::NavValidity {
+            horizontal_velocity_from_drag: false,
+            ..kestrel_proto::messages::NavValidity::ALL
+        }
+    );
     let origin = nav.origin.expect("origin from home");
     assert!((origin.lat_deg - (6.7971 - 1.0 / 111_000.0)).abs() < 1e-6, "{origin:?}");
     // The heartbeat gives the status: GUIDED, armed, home in the local frame.
@@ -222,7 +236,13 @@ fn obstacle_distance_goes_to_the_flight_controller_in_its_clock() {
     Bench::sent(&mut b.fc_rx);
     let mut d = vec![kestrel_proto::messages::SECTOR_UNKNOWN; 72];
     d[0] = 250;
-    let sectors = ObstacleSectors { distances_cm: d, increment_deg: 5.0, angle_offset_deg: 0.0, min_distance_cm: 20, max_distance_cm: 1200 };
+    let sectors = ObstacleSectors {
+        distances_cm: d,
+        increment_deg: 5.0,
+        angle_offset_deg: 0.0,
+        min_distance_cm: 20,
+        max_distance_cm: 1200,
+    };
     b.hub.station().on_sectors(t(10_050), &sectors);
     // 10 Hz or more for as long as the sectors are fresh: 20 Hz over 400 ms is 8 or 9.
     let mut sent = Vec::new();
@@ -236,7 +256,10 @@ fn obstacle_distance_goes_to_the_flight_controller_in_its_clock() {
     assert!((8..=9).contains(&sent.len()), "{}", sent.len());
     let (f, o) = &sent[0];
     assert_eq!((f.system_id, f.component_id), (1, 196));
-    assert_eq!((o.time_usec, o.frame, o.increment_f, o.distances[0], o.distances[1]), (3_050_000, MavFrame::MAV_FRAME_BODY_FRD, 5.0, 250, u16::MAX));
+    assert_eq!(
+        (o.time_usec, o.frame, o.increment_f, o.distances[0], o.distances[1]),
+        (3_050_000, MavFrame::MAV_FRAME_BODY_FRD, 5.0, 250, u16::MAX)
+    );
     // Stale: nothing more.
     for ms in (10_560..=11_000).step_by(20) {
         b.hub.on_tick(t(ms));
@@ -248,10 +271,22 @@ fn obstacle_distance_goes_to_the_flight_controller_in_its_clock() {
 fn routing_as_mavlink_router_each_frame_once_and_signed_frames_unchanged() {
     let mut b = Bench::new();
     b.heartbeat(false, 0, t(10_000));
-    b.feed(b.gcs, &encode(GCS, &MavMessage::HEARTBEAT(HEARTBEAT_DATA { mavtype: MavType::MAV_TYPE_GCS, ..Default::default() }), None), t(10_000));
+    b.feed(
+        b.gcs,
+        &encode(
+            GCS,
+            &MavMessage::HEARTBEAT(HEARTBEAT_DATA { mavtype: MavType::MAV_TYPE_GCS, ..Default::default() }),
+            None,
+        ),
+        t(10_000),
+    );
     Bench::sent(&mut b.fc_rx);
     let to_gcs = Bench::sent(&mut b.gcs_rx);
-    assert_eq!(to_gcs.iter().filter(|(f, _)| (f.system_id, f.component_id) == (1, 1)).count(), 1, "the FC's heartbeat, once");
+    assert_eq!(
+        to_gcs.iter().filter(|(f, _)| (f.system_id, f.component_id) == (1, 1)).count(),
+        1,
+        "the FC's heartbeat, once"
+    );
     // A ground station's command to the flight controller: to the FC once, byte for byte, and
     // unanswered by us. A signed frame (whatever its signature) is forwarded as it came.
     let arm = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
@@ -269,18 +304,37 @@ fn routing_as_mavlink_router_each_frame_once_and_signed_frames_unchanged() {
         assert!(Bench::sent(&mut b.gcs_rx).is_empty(), "not answered, not echoed");
     }
     // The FC's answer goes to the ground station once and is not read as ours.
-    b.from_fc(MavMessage::COMMAND_ACK(COMMAND_ACK_DATA { command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM, target_system: 255, target_component: 190, ..Default::default() }), t(10_020));
+    b.from_fc(
+        MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            target_system: 255,
+            target_component: 190,
+            ..Default::default()
+        }),
+        t(10_020),
+    );
     assert_eq!(Bench::sent(&mut b.gcs_rx).len(), 1);
     assert!(Bench::sent(&mut b.fc_rx).is_empty());
     // A command to the companion alone: one UNSUPPORTED answer to the GCS, not forwarded.
-    let to_us = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA { target_system: 1, target_component: 196, command: MavCmd::MAV_CMD_REQUEST_MESSAGE, ..Default::default() });
+    let to_us = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        target_system: 1,
+        target_component: 196,
+        command: MavCmd::MAV_CMD_REQUEST_MESSAGE,
+        ..Default::default()
+    });
     b.feed(b.gcs, &encode(GCS, &to_us, None), t(10_030));
     assert!(Bench::sent(&mut b.fc_rx).is_empty(), "not forwarded to the flight controller");
     let answers = Bench::sent(&mut b.gcs_rx);
     assert_eq!(answers.len(), 1);
-    assert!(matches!(&answers[0].1, MavMessage::COMMAND_ACK(a) if a.result == MavResult::MAV_RESULT_UNSUPPORTED && a.target_system == 255));
+    assert!(
+        matches!(&answers[0].1, MavMessage::COMMAND_ACK(a) if a.result == MavResult::MAV_RESULT_UNSUPPORTED && a.target_system == 255)
+    );
     // Our own frames coming back (a loop) are dropped unrouted.
-    let looped = encode(MavHeader { system_id: 1, component_id: 196, sequence: 0 }, &b.hub.station().heartbeat().expect("known"), None);
+    let looped = encode(
+        MavHeader { system_id: 1, component_id: 196, sequence: 0 },
+        &b.hub.station().heartbeat().expect("known"),
+        None,
+    );
     b.feed(b.gcs, &looped, t(10_040));
     assert!(Bench::sent(&mut b.fc_rx).is_empty());
     assert_eq!(b.hub.stats().own_id_refused, 1);

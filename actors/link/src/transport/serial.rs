@@ -8,8 +8,8 @@ use std::time::Duration;
 
 use tokio_serial::{FlowControl, SerialPortBuilderExt, SerialStream};
 
-use crate::station::Station;
 use super::{EndpointError, LinkSigning, OpenEndpoint, Shared, stream};
+use crate::station::Station;
 
 /// First wait before reopening a port that closed; doubled after each failed attempt up to
 /// [`REOPEN_MAX`], so a radio that returns is serving again within about a second.

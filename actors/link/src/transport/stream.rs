@@ -4,17 +4,22 @@
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWrite, AsyncWriteExt};
 use tokio::sync::mpsc;
 
-use crate::station::Station;
 use super::{LinkSigning, Shared};
 use crate::frame::FrameParser;
 use crate::hub::Tx;
+use crate::station::Station;
 
 /// Frames a stream link may have queued for writing before new ones are dropped (and counted).
 const WRITE_QUEUE: usize = 256;
 
 /// Registers the stream as a link and runs it on its own tasks until EOF, an error or shutdown.
-pub fn spawn<S: Station, R, W>(name: String, reader: R, writer: W, signing: Option<LinkSigning>, shared: Shared<S>)
-where
+pub fn spawn<S: Station, R, W>(
+    name: String,
+    reader: R,
+    writer: W,
+    signing: Option<LinkSigning>,
+    shared: Shared<S>,
+) where
     R: AsyncRead + Unpin + Send + 'static,
     W: AsyncWrite + Unpin + Send + 'static,
 {

@@ -4,8 +4,8 @@ use std::net::SocketAddr;
 
 use tokio::net::TcpListener;
 
-use crate::station::Station;
 use super::{EndpointError, LinkSigning, OpenEndpoint, Shared, stream};
+use crate::station::Station;
 
 /// Listens on `bind` and serves connections until shutdown.
 pub async fn open_server<S: Station>(

@@ -11,11 +11,11 @@ use std::time::{Duration, Instant};
 use tokio::net::UdpSocket;
 
 use super::udp_peers::{Admission, PeerStats, PeerTable};
-use crate::station::Station;
 use super::{EndpointError, LinkSigning, OpenEndpoint, Shared, Verdict};
 use crate::frame::FrameParser;
 use crate::hub::Tx;
 use crate::router::LinkId;
+use crate::station::Station;
 
 /// Largest datagram we read (MAVLink frames are at most 280 bytes; several may share one).
 const DATAGRAM: usize = 65_536;
@@ -168,7 +168,12 @@ async fn serve<S: Station>(
                         hub.remove_link(old);
                     }
                     let tx = Tx::Udp { socket: Arc::clone(&socket), peer };
-                    let id = hub.add_endpoint_link(shared.endpoint, format!("udp peer {peer}"), tx, signing.clone());
+                    let id = hub.add_endpoint_link(
+                        shared.endpoint,
+                        format!("udp peer {peer}"),
+                        tx,
+                        signing.clone(),
+                    );
                     drop(hub);
                     peers.insert(peer, id, parser, now);
                     match &verdicts {
