@@ -12,7 +12,7 @@ ground-station endpoints, and everything it sees and sends goes through Kestrel'
 The last line's `results`: `companion_heartbeat` (type, autopilot), `max_rel_alt_m`,
 `proximity_cm` (orientation -> the last current_distance ArduCopter reported), `obstacle_distance`
 (count, frame, increment_f, and the first 24 distances of the last one seen), `duplicates`
-(frames from system 1 seen twice with the same component and sequence number in a row).
+(frames from system 1 seen twice in a row: same component, sequence number and type).
 """
 
 import os
@@ -33,11 +33,12 @@ def flight(gcs):
     def watch_all(m):
         src = (m.get_srcSystem(), m.get_srcComponent())
         if src[0] == 1 and m.get_type() != "BAD_DATA":
-            seq = m.get_seq()
-            key = (src, m.get_type())
-            if last_seq.get(key) == seq:
+            # A source numbers its frames one by one: the same number and type twice in a row
+            # from one source is one frame delivered twice.
+            this = (m.get_seq(), m.get_type())
+            if last_seq.get(src) == this:
                 duplicates[0] += 1
-            last_seq[key] = seq
+            last_seq[src] = this
         if src == COMPANION:
             if m.get_type() == "HEARTBEAT" and not companion:
                 companion["type"] = m.type

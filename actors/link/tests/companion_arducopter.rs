@@ -88,13 +88,21 @@ fn sectors() -> ObstacleSectors {
         *v = 300;
     }
     d[18] = 750;
-    ObstacleSectors { distances_cm: d, increment_deg: 5.0, angle_offset_deg: 0.0, min_distance_cm: 20, max_distance_cm: 1200 }
+    ObstacleSectors {
+        distances_cm: d,
+        increment_deg: 5.0,
+        angle_offset_deg: 0.0,
+        min_distance_cm: 20,
+        max_distance_cm: 1200,
+    }
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_ground_station_flies_arducopter_through_the_companion_and_arducopter_reads_its_distances() {
     let Some(binary) = std::env::var_os("KESTREL_ARDUCOPTER").map(PathBuf::from) else {
-        println!("KESTREL_ARDUCOPTER is not set: SKIPPED (set it to the arducopter binary, e.g. /work/shared/ardupilot/arducopter)");
+        println!(
+            "KESTREL_ARDUCOPTER is not set: SKIPPED (set it to the arducopter binary, e.g. /work/shared/ardupilot/arducopter)"
+        );
         return;
     };
     assert!(binary.is_file(), "KESTREL_ARDUCOPTER={} is not a file", binary.display());
@@ -132,7 +140,10 @@ async fn a_ground_station_flies_arducopter_through_the_companion_and_arducopter_
     };
     let loopback = |port| SocketAddr::from((Ipv4Addr::LOCALHOST, port));
     let endpoints = [
-        EndpointConfig { kind: EndpointKind::UdpIn { bind: loopback(0), max_peers: 2 }, signing_key_file: None },
+        EndpointConfig {
+            kind: EndpointKind::UdpIn { bind: loopback(0), max_peers: 2 },
+            signing_key_file: None,
+        },
         EndpointConfig {
             kind: EndpointKind::UdpOut { address: loopback(gcs_port), bind: None, per_instance: false },
             signing_key_file: None,
@@ -154,7 +165,8 @@ async fn a_ground_station_flies_arducopter_through_the_companion_and_arducopter_
                 let mut hub = ticker.hub();
                 // A stereo pipeline's 15 Hz, captured 60 ms ago.
                 if n % 3 == 0 {
-                    hub.station().on_sectors(Time::from_micros(now.as_micros().saturating_sub(60_000)), &sectors);
+                    hub.station()
+                        .on_sectors(Time::from_micros(now.as_micros().saturating_sub(60_000)), &sectors);
                 }
                 if n.is_multiple_of(50) {
                     hub.send_heartbeat();
@@ -167,11 +179,16 @@ async fn a_ground_station_flies_arducopter_through_the_companion_and_arducopter_
 
     // ArduCopter SITL, its serial 0 on the companion.
     let (instance, _lock) = free_instance();
-    let dir = std::env::temp_dir().join(format!("kestrel-companion-arducopter-{}-{instance}", std::process::id()));
+    let dir =
+        std::env::temp_dir().join(format!("kestrel-companion-arducopter-{}-{instance}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("SITL dir");
     std::fs::write(dir.join("companion.parm"), PARAMS).expect("parm file");
-    let defaults = format!("{},{}", binary.with_file_name("copter.parm").display(), dir.join("companion.parm").display());
+    let defaults = format!(
+        "{},{}",
+        binary.with_file_name("copter.parm").display(),
+        dir.join("companion.parm").display()
+    );
     let log = File::create(dir.join("arducopter.log")).expect("SITL log");
     let mut sitl = Proc(
         Command::new(&binary)
@@ -216,7 +233,11 @@ async fn a_ground_station_flies_arducopter_through_the_companion_and_arducopter_
     let wall_s = started.elapsed().as_secs_f64();
     let sitl_log = std::fs::read_to_string(dir.join("arducopter.log")).unwrap_or_default();
     let tail: Vec<&str> = sitl_log.lines().rev().take(20).collect();
-    assert!(status.is_some_and(|s| s.success()), "client {status:?} after {wall_s:.1} s\nSITL:\n{}", tail.join("\n"));
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "client {status:?} after {wall_s:.1} s\nSITL:\n{}",
+        tail.join("\n")
+    );
     let last = transcript.last().expect("a result line");
     let result: serde_json::Value = serde_json::from_str(last).expect("JSON result");
     let r = &result["results"];
@@ -229,8 +250,10 @@ async fn a_ground_station_flies_arducopter_through_the_companion_and_arducopter_
     assert_eq!(r["obstacle_distance"]["frame"], 12, "MAV_FRAME_BODY_FRD: {r:#}");
     assert_eq!(r["duplicates"], 0, "{r:#}");
     // The companion read ArduCopter's state into the graph.
-    let navs = published.lock().expect("published").iter().filter(|o| matches!(o, CompanionOut::Nav(_))).count();
-    let statuses = published.lock().expect("published").iter().filter(|o| matches!(o, CompanionOut::Status(_))).count();
+    let navs =
+        published.lock().expect("published").iter().filter(|o| matches!(o, CompanionOut::Nav(_))).count();
+    let statuses =
+        published.lock().expect("published").iter().filter(|o| matches!(o, CompanionOut::Status(_))).count();
     assert!(navs > 50 && statuses > 2, "{navs} NavStates, {statuses} statuses published");
     shutdown.cancel();
     drop(sitl);

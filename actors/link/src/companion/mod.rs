@@ -25,10 +25,10 @@ use std::time::Duration;
 
 use kestrel_proto::Time;
 use kestrel_proto::messages::{NavState, ObstacleSectors, VehicleStatus};
+use mavlink::Message;
 use mavlink::dialects::ardupilotmega::{
     COMMAND_ACK_DATA, HEARTBEAT_DATA, MavAutopilot, MavMessage, MavModeFlag, MavResult, MavState, MavType,
 };
-use mavlink::Message;
 
 use crate::frame::Frame;
 use crate::services::Sender;
