@@ -73,7 +73,7 @@ impl Outputs {
     fn publish(&self, out: Vec<CompanionOut>) {
         for o in out {
             match o {
-                CompanionOut::Nav(n) => self.nav.publish(n),
+                CompanionOut::Nav(n) => self.nav.publish(*n),
                 CompanionOut::Status(s) => self.status.publish(*s),
             }
         }

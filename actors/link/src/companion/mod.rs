@@ -62,7 +62,7 @@ pub struct FlightController {
 #[derive(Clone, Debug, PartialEq)]
 pub enum CompanionOut {
     /// The flight controller's state, on our clock (port `nav_state`).
-    Nav(NavState),
+    Nav(Box<NavState>),
     /// Its mode, armed state and home (port `vehicle_status`).
     Status(Box<VehicleStatus>),
 }
@@ -117,7 +117,7 @@ impl Companion {
         (self.obstacles.stale, self.obstacles.unsynced)
     }
 
-    fn from_fc(&mut self, sender: Sender, msg: &MavMessage, now: Time) -> StationOut<CompanionOut> {
+    fn on_fc_message(&mut self, sender: Sender, msg: &MavMessage, now: Time) -> StationOut<CompanionOut> {
         let mut out = StationOut::default();
         let Some(fc) = self.fc else { return out };
         self.streams.heard(msg.message_id(), now);
@@ -129,7 +129,7 @@ impl Companion {
             return out;
         }
         let published = self.state.on_message(msg, fc.autopilot, &mut self.clock, now);
-        out.graph.extend(published.nav.map(CompanionOut::Nav));
+        out.graph.extend(published.nav.map(|n| CompanionOut::Nav(Box::new(n))));
         out.graph.extend(published.status.map(|s| CompanionOut::Status(Box::new(s))));
         out
     }
@@ -221,7 +221,7 @@ impl Station for Companion {
             self.fc = Some(fc);
         }
         match self.fc {
-            Some(fc) if sender.system_id == u32::from(fc.system_id) => self.from_fc(sender, msg, now),
+            Some(fc) if sender.system_id == u32::from(fc.system_id) => self.on_fc_message(sender, msg, now),
             _ => StationOut::default(),
         }
     }
@@ -251,7 +251,7 @@ impl Station for Companion {
         if let Some(o) = self.obstacles.due(now, &self.clock) {
             out.mav.push(MavMessage::OBSTACLE_DISTANCE(o));
         }
-        out.graph.extend(self.state.on_tick(now).map(CompanionOut::Nav));
+        out.graph.extend(self.state.on_tick(now).map(|n| CompanionOut::Nav(Box::new(n))));
         out
     }
 

@@ -45,7 +45,7 @@ impl Bench {
         frames.iter().flat_map(|f| self.hub.on_frame(link, f, now)).collect()
     }
 
-    fn from_fc(&mut self, msg: MavMessage, now: Time) -> Vec<CompanionOut> {
+    fn fc_sends(&mut self, msg: MavMessage, now: Time) -> Vec<CompanionOut> {
         self.fc_seq = self.fc_seq.wrapping_add(1);
         let bytes = encode(MavHeader { sequence: self.fc_seq, ..FC }, &msg, None);
         self.feed(self.fc, &bytes, now)
@@ -54,7 +54,7 @@ impl Bench {
     fn heartbeat(&mut self, armed: bool, custom_mode: u32, now: Time) -> Vec<CompanionOut> {
         let base_mode = if armed { MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED } else { MavModeFlag::empty() }
             | MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
-        self.from_fc(
+        self.fc_sends(
             MavMessage::HEARTBEAT(HEARTBEAT_DATA {
                 custom_mode,
                 mavtype: MavType::MAV_TYPE_QUADROTOR,
@@ -96,7 +96,7 @@ impl Bench {
         let tc1 = (now.as_micros() as i64 - behind_ms * 1000) * 1000;
         let answer =
             TIMESYNC_DATA { tc1, ts1: request.ts1, target_system: 1, target_component: DEFAULT_COMPONENT_ID };
-        self.from_fc(MavMessage::TIMESYNC(answer), now);
+        self.fc_sends(MavMessage::TIMESYNC(answer), now);
         assert!(self.hub.station().fc_clock().synced());
     }
 }
@@ -152,10 +152,10 @@ fn the_flight_controller_state_is_published_on_our_clock_and_invalid_once_stale(
     let mut b = Bench::new();
     b.heartbeat(true, 4, t(10_000));
     // Before the clocks are aligned no NavState is published.
-    assert!(b.from_fc(attitude(3_000), t(10_000)).is_empty());
+    assert!(b.fc_sends(attitude(3_000), t(10_000)).is_empty());
     // The flight controller booted 7 s after us: its 3 s is our 10 s.
     b.answer_timesync(t(10_000), 7_000);
-    b.from_fc(
+    b.fc_sends(
         MavMessage::HOME_POSITION(HOME_POSITION_DATA {
             latitude: 67_971_000,
             longitude: 799_017_000,
@@ -167,7 +167,7 @@ fn the_flight_controller_state_is_published_on_our_clock_and_invalid_once_stale(
         }),
         t(10_005),
     );
-    b.from_fc(
+    b.fc_sends(
         MavMessage::LOCAL_POSITION_NED(LOCAL_POSITION_NED_DATA {
             time_boot_ms: 3_005,
             x: 4.0,
@@ -179,7 +179,7 @@ fn the_flight_controller_state_is_published_on_our_clock_and_invalid_once_stale(
         }),
         t(10_010),
     );
-    let out = b.from_fc(attitude(3_020), t(10_021));
+    let out = b.fc_sends(attitude(3_020), t(10_021));
     let [CompanionOut::Nav(nav)] = out.as_slice() else { panic!("{out:?}") };
     assert_eq!(nav.time, t(10_020), "the attitude's boot time on our clock");
     assert_eq!(nav.position_ned_m, [4.0, 5.0, -6.0]);
@@ -200,7 +200,7 @@ fn the_flight_controller_state_is_published_on_our_clock_and_invalid_once_stale(
     assert_eq!((status.armed, status.mode), (true, FlightMode::Guided));
     assert_eq!(status.home.map(|h| h.position_ned_m), Some([1.0, -2.0, 0.5]));
     // Position goes quiet first: the next state says so.
-    let out = b.from_fc(attitude(3_600), t(10_600));
+    let out = b.fc_sends(attitude(3_600), t(10_600));
     let [CompanionOut::Nav(nav)] = out.as_slice() else { panic!("{out:?}") };
     assert!(nav.valid.attitude && !nav.valid.horizontal_position && !nav.valid.vertical_velocity);
     // Then the attitude: within STALE nothing, past it an invalid state, repeated at 10 Hz.
@@ -219,11 +219,11 @@ fn a_rebooted_flight_controller_is_relearnt_before_anything_is_published() {
     let mut b = Bench::new();
     b.heartbeat(false, 0, t(10_000));
     b.answer_timesync(t(10_000), 7_000);
-    assert_eq!(b.from_fc(attitude(3_000), t(10_000)).len(), 1);
+    assert_eq!(b.fc_sends(attitude(3_000), t(10_000)).len(), 1);
     // Boot time back to 0.5 s: the old offset would put this state 2.5 s in the past.
-    assert!(b.from_fc(attitude(500), t(10_100)).is_empty());
+    assert!(b.fc_sends(attitude(500), t(10_100)).is_empty());
     b.answer_timesync(t(10_200), 10_200 - 600);
-    let out = b.from_fc(attitude(610), t(10_210));
+    let out = b.fc_sends(attitude(610), t(10_210));
     let [CompanionOut::Nav(nav)] = out.as_slice() else { panic!("{out:?}") };
     assert_eq!(nav.time, t(10_210));
 }
@@ -304,7 +304,7 @@ fn routing_as_mavlink_router_each_frame_once_and_signed_frames_unchanged() {
         assert!(Bench::sent(&mut b.gcs_rx).is_empty(), "not answered, not echoed");
     }
     // The FC's answer goes to the ground station once and is not read as ours.
-    b.from_fc(
+    b.fc_sends(
         MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
             command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
             target_system: 255,
