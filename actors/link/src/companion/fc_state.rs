@@ -197,7 +197,7 @@ impl FcState {
 
     fn boot(&mut self, boot_ms: u32, clock: &mut FcClock) {
         if let Some(last) = self.last_boot_ms
-            && boot_ms + 1000 < last
+            && boot_ms.saturating_add(1000) < last
         {
             tracing::warn!(
                 last_ms = last,
