@@ -44,6 +44,7 @@ impl Registry {
             .with::<kestrel_control::CommanderActor>("commander")
             .with::<kestrel_control::ControllerActor>("controller")
             .with::<kestrel_link::LinkActor>("link")
+            .with::<kestrel_link::CompanionActor>("companion_link")
             .with::<kestrel_sensors::CalibrationActor>("calibration")
             .with::<kestrel_sensors::BaroActor>("ms5611")
             .with::<kestrel_sensors::ImuActor>("mpu9250")

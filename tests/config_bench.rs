@@ -8,7 +8,7 @@ use std::time::Duration;
 use kestrel::{LoadedConfig, Registry, RunError, RunOptions, run, unwired_parameters};
 
 /// Devices and driver files the hardware graphs open, per config.
-const HARDWARE: [(&str, &[&str]); 2] = [
+const HARDWARE: [(&str, &[&str]); 4] = [
     (
         "navio2.toml",
         &[
@@ -20,6 +20,9 @@ const HARDWARE: [(&str, &[&str]); 2] = [
         ],
     ),
     ("bench-sensors.toml", &["/dev/spidev0.1", "/dev/i2c-1", "/dev/ttyAMA0", "/sys/kernel/rcio/rcin/ch0"]),
+    // The flight controller's UART and the stereo camera.
+    ("companion-ardupilot.toml", &["/dev/ttyTHS1", "/dev/video0"]),
+    ("companion-px4.toml", &["/dev/ttyTHS1", "/dev/video0"]),
 ];
 
 /// A topic each hardware-less graph must have published on within its short run (the link

@@ -297,6 +297,7 @@ impl Actor for LinkActor {
             shutdown: ctx.shutdown().clone(),
             graph,
             param_writer: self.param_writer.clone(),
+            endpoint: 0,
         };
         self.endpoints = open_all(&self.params.endpoints, &self.config_dir, &shared)
             .await

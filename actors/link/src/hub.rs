@@ -9,7 +9,7 @@ use std::net::SocketAddr;
 use std::sync::Arc;
 
 use kestrel_proto::Time;
-use mavlink::dialects::ardupilotmega::{COMMAND_ACK_DATA, MavMessage, SETUP_SIGNING_DATA};
+use mavlink::dialects::ardupilotmega::{MavMessage, SETUP_SIGNING_DATA};
 use mavlink::{MavHeader, Message, MessageData};
 use tokio::net::UdpSocket;
 use tokio::sync::mpsc;
@@ -17,8 +17,9 @@ use tokio::sync::mpsc;
 use crate::frame::{Frame, encode};
 use crate::router::{LinkId, Router};
 use crate::services::{Outputs, Sender, ToGraph};
+use crate::station::{EndpointIndex, Station, StationOut};
 use crate::transport::{LinkSigning, SigningStats, Verdict, setup_signing};
-use crate::vehicle::{COMPONENT_ID, Vehicle};
+use crate::vehicle::Vehicle;
 
 /// How a link sends.
 #[derive(Debug)]
@@ -53,6 +54,8 @@ pub struct LinkStats {
 
 struct LinkState {
     name: String,
+    /// The config endpoint that opened it.
+    endpoint: EndpointIndex,
     tx: Tx,
     signing: Option<LinkSigning>,
     sequence: u8,
@@ -89,9 +92,9 @@ pub struct HubStats {
     pub own_id_refused: u64,
 }
 
-/// Every link, the router and the vehicle.
-pub struct Hub {
-    vehicle: Vehicle,
+/// Every link, the router and the station (the vehicle, or a companion computer).
+pub struct Hub<S: Station = Vehicle> {
+    station: S,
     router: Router,
     links: BTreeMap<LinkId, LinkState>,
     next_id: LinkId,
@@ -99,11 +102,24 @@ pub struct Hub {
     own_id_refused: u64,
 }
 
-impl Hub {
+impl Hub<Vehicle> {
+    /// The vehicle (for the actor's inputs and for tests).
+    pub fn vehicle(&mut self) -> &mut Vehicle {
+        &mut self.station
+    }
+
+    /// Sends the services' messages and returns what goes to the graph.
+    pub fn dispatch(&mut self, out: Outputs) -> Vec<ToGraph> {
+        self.send_messages(&out.mav);
+        out.graph
+    }
+}
+
+impl<S: Station> Hub<S> {
     /// A hub with no links yet.
-    pub fn new(vehicle: Vehicle) -> Hub {
+    pub fn new(station: S) -> Hub<S> {
         Hub {
-            vehicle,
+            station,
             router: Router::new(),
             links: BTreeMap::new(),
             next_id: 1,
@@ -112,13 +128,24 @@ impl Hub {
         }
     }
 
-    /// The vehicle (for the actor's inputs and for tests).
-    pub fn vehicle(&mut self) -> &mut Vehicle {
-        &mut self.vehicle
+    /// The station (for the actor's inputs and for tests).
+    pub fn station(&mut self) -> &mut S {
+        &mut self.station
     }
 
-    /// Adds a link; `signing` on means signed output and only validly signed input.
+    /// Adds a link of endpoint 0; `signing` on means signed output and only validly signed input.
     pub fn add_link(&mut self, name: String, tx: Tx, signing: Option<LinkSigning>) -> LinkId {
+        self.add_endpoint_link(0, name, tx, signing)
+    }
+
+    /// Adds a link opened by `endpoint` (its index in the config's endpoint list).
+    pub fn add_endpoint_link(
+        &mut self,
+        endpoint: EndpointIndex,
+        name: String,
+        tx: Tx,
+        signing: Option<LinkSigning>,
+    ) -> LinkId {
         let id = self.next_id;
         self.next_id += 1;
         tracing::info!(link = %name, "MAVLink link up");
@@ -126,6 +153,7 @@ impl Hub {
             id,
             LinkState {
                 name,
+                endpoint,
                 tx,
                 signing,
                 sequence: 0,
@@ -156,13 +184,13 @@ impl Hub {
         HubStats {
             undecodable: self.undecodable,
             unroutable: self.router.unroutable(),
-            unhandled: self.vehicle.unhandled,
+            unhandled: self.station.unhandled(),
             own_id_refused: self.own_id_refused,
         }
     }
 
     /// A frame arrived on `link`: check its signature, route, and handle it if it is for us.
-    pub fn on_frame(&mut self, link: LinkId, frame: &Frame, now: Time) -> Vec<ToGraph> {
+    pub fn on_frame(&mut self, link: LinkId, frame: &Frame, now: Time) -> Vec<S::Graph> {
         self.on_checked_frame(link, frame, None, now)
     }
 
@@ -174,7 +202,7 @@ impl Hub {
         frame: &Frame,
         verdict: Option<Verdict>,
         now: Time,
-    ) -> Vec<ToGraph> {
+    ) -> Vec<S::Graph> {
         let Some(state) = self.links.get_mut(&link) else { return Vec::new() };
         if let Some(verdict) = verdict.or_else(|| state.signing.as_ref().map(|s| s.check(frame))) {
             state.stats.signing.count(verdict);
@@ -183,12 +211,13 @@ impl Hub {
             }
         }
         state.stats.frames_in += 1;
+        let endpoint = state.endpoint;
         // Only this process speaks with our system id: a frame that claims it is a loop, a
         // second vehicle configured with our id, or a forgery (an "armed" HEARTBEAT, a position of
         // 1e38 m). Routing it would show the ground station a vehicle that is not there, and
         // learning it would route our own traffic back; mavlink-router and ArduPilot drop such
         // frames too. Counted, and said once in the log.
-        if frame.system_id == u32::from(self.vehicle.system_id()) {
+        if self.station.claims_ours(frame) {
             if self.own_id_refused == 0 {
                 tracing::warn!(link = %state.name, "a frame claimed our system id: dropped (counted in own_id_refused)");
             }
@@ -201,76 +230,75 @@ impl Hub {
             self.undecodable += 1;
         }
         let target = msg.as_ref().ok().and_then(|m| m.target_system_id());
+        let target_component = msg.as_ref().ok().and_then(|m| m.target_component_id());
+        let ours = matches!((target, target_component), (Some(s), Some(c)) if self.station.consumes(s, c));
         // SETUP_SIGNING carries a secret key: it goes no further than the link it came on, even
         // broadcast (held by `setup_signing_is_never_forwarded`).
         let dests = match frame.message_id {
             SETUP_SIGNING_DATA::ID => Vec::new(),
+            _ if ours => Vec::new(),
             _ => self.router.destinations(Some(link), target),
         };
         for dest in dests {
             self.send_raw(dest, frame.bytes().to_vec());
         }
-        let Ok(msg) = msg else {
-            // QGroundControl (command 0) and MAVProxy (1..6) confirm an accelerometer calibration
-            // position with a COMMAND_ACK naming no MAV_CMD, which the dialect cannot decode; that
-            // an acknowledgement came is all ArduPilot's snoop reads of it.
-            if frame.message_id == COMMAND_ACK_DATA::ID {
-                let out = self.vehicle.on_gcs_ack();
-                return self.dispatch(out);
-            }
-            return Vec::new();
-        };
-        if let MavMessage::RADIO_STATUS(r) = &msg
+        if let Ok(MavMessage::RADIO_STATUS(r)) = &msg
             && let Some(state) = self.links.get_mut(&link)
         {
             state.txbuf = Some(r.txbuf);
         }
-        if !self.vehicle.is_for_us(&msg) {
-            return Vec::new();
-        }
-        if let MavMessage::SETUP_SIGNING(setup) = &msg {
-            let signing = self.links.get(&link).and_then(|l| l.signing.as_ref());
-            let answer = setup_signing::handle(signing, setup);
-            self.send_own(&answer, false);
+        if let Ok(m @ MavMessage::SETUP_SIGNING(setup)) = &msg {
+            if self.station.is_for_us(m) {
+                let signing = self.links.get(&link).and_then(|l| l.signing.as_ref());
+                let answer = setup_signing::handle(signing, setup);
+                self.send_own(&answer, false);
+            }
             return Vec::new();
         }
         let sender = Sender { system_id: frame.system_id, component_id: frame.component_id };
-        let out = self.vehicle.on_message(sender, &msg, now);
-        self.dispatch(out)
+        let out = self.station.receive(endpoint, sender, frame, msg.as_ref().ok(), now);
+        self.apply(out)
     }
 
-    /// Sends the services' messages and returns what goes to the graph.
-    pub fn dispatch(&mut self, out: Outputs) -> Vec<ToGraph> {
-        for msg in &out.mav {
-            self.send_own(msg, false);
+    /// Sends a station's messages and returns what goes to the graph.
+    pub fn apply(&mut self, out: StationOut<S::Graph>) -> Vec<S::Graph> {
+        self.send_messages(&out.mav);
+        for msg in &out.telemetry {
+            self.send_own(msg, true);
         }
         out.graph
     }
 
-    /// Our HEARTBEAT on every link.
+    /// Sends `mav` under our identity (never thinned).
+    pub fn send_messages(&mut self, mav: &[MavMessage]) {
+        for msg in mav {
+            self.send_own(msg, false);
+        }
+    }
+
+    /// Our HEARTBEAT on every link (none while the station does not know who it is).
     pub fn send_heartbeat(&mut self) {
-        let hb = self.vehicle.heartbeat();
-        self.send_own(&hb, false);
+        if let Some(hb) = self.station.heartbeat() {
+            self.send_own(&hb, false);
+        }
     }
 
     /// Periodic work: timeouts and due telemetry.
-    pub fn on_tick(&mut self, now: Time) -> Vec<ToGraph> {
-        let (out, telemetry) = self.vehicle.on_tick(now);
-        for msg in &telemetry {
-            self.send_own(msg, true);
-        }
-        self.dispatch(out)
+    pub fn on_tick(&mut self, now: Time) -> Vec<S::Graph> {
+        let out = self.station.on_tick(now);
+        self.apply(out)
     }
 
     fn send_own(&mut self, msg: &MavMessage, telemetry: bool) {
-        let system_id = u32::from(self.vehicle.system_id());
+        let Some((system_id, component_id)) = self.station.identity() else { return };
+        let system_id = u32::from(system_id);
         for dest in self.router.destinations(None, msg.target_system_id()) {
             let Some(state) = self.links.get_mut(&dest) else { continue };
             if telemetry && !state.keep_telemetry() {
                 state.stats.thinned += 1;
                 continue;
             }
-            let header = MavHeader { system_id, component_id: COMPONENT_ID, sequence: state.sequence };
+            let header = MavHeader { system_id, component_id, sequence: state.sequence };
             state.sequence = state.sequence.wrapping_add(1);
             let bytes = encode(header, msg, state.signing.as_ref());
             if state.tx.send(bytes) {

@@ -27,6 +27,8 @@
 //! timers `heartbeat` (1 Hz) and `tick` (50 Hz, telemetry and timeouts).
 
 pub mod actor;
+pub mod companion;
+pub mod companion_actor;
 pub mod config;
 pub mod frame;
 pub mod hub;
@@ -34,9 +36,11 @@ pub mod modes;
 pub mod router;
 pub mod services;
 pub mod sim_gcs;
+pub mod station;
 pub mod transport;
 pub mod vehicle;
 
 pub use actor::{LinkActor, LinkInput};
+pub use companion_actor::{CompanionActor, CompanionParams};
 pub use config::{EndpointConfig, EndpointKind, LinkParams, ParamKind, ParamSpec};
 pub use sim_gcs::SimGcsActor;

@@ -15,11 +15,12 @@ use kestrel_proto::messages::{
     RangefinderSample, SensorHealth, VehicleStatus,
 };
 use mavlink::dialects::ardupilotmega::{
-    AUTOPILOT_VERSION_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA, MISSION_CURRENT_DATA,
-    MISSION_ITEM_REACHED_DATA, MavMessage, MavProtocolCapability, MavSeverity, MavType,
+    AUTOPILOT_VERSION_DATA, COMMAND_ACK_DATA, COMMAND_INT_DATA, COMMAND_LONG_DATA, HOME_POSITION_DATA,
+    MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, MavMessage, MavProtocolCapability, MavSeverity, MavType,
 };
 use mavlink::{Message, MessageData};
 
+use crate::frame::Frame;
 use crate::services::command::{self, CommandRequest, CommandService};
 use crate::services::events::{status_changes, statustext};
 use crate::services::ftp::FtpServer;
@@ -30,9 +31,11 @@ use crate::services::offboard::{
     OffboardRejects, attitude_target, global_target, local_target, manual_control,
 };
 use crate::services::params::ParamTable;
+use crate::services::params::render_param_file;
 use crate::services::telemetry::{Telemetry, home};
 use crate::services::{Outputs, Sender, Service, ToGraph};
 use crate::services::{calibration, estimator_text, timesync};
+use crate::station::{EndpointIndex, Station, StationOut};
 
 /// Our component id (MAV_COMP_ID_AUTOPILOT1).
 pub const COMPONENT_ID: u8 = 1;
@@ -482,6 +485,63 @@ fn command_int(from: Sender, c: &COMMAND_INT_DATA) -> CommandRequest {
         ],
         frame: Some(c.frame),
         sender: from,
+    }
+}
+
+impl Station for Vehicle {
+    type Graph = ToGraph;
+
+    fn identity(&self) -> Option<(u8, u8)> {
+        Some((self.system_id, COMPONENT_ID))
+    }
+
+    /// Only this process speaks with our system id, whatever the component.
+    fn claims_ours(&self, frame: &Frame) -> bool {
+        frame.system_id == u32::from(self.system_id)
+    }
+
+    fn is_for_us(&self, msg: &MavMessage) -> bool {
+        Vehicle::is_for_us(self, msg)
+    }
+
+    fn receive(
+        &mut self,
+        _endpoint: EndpointIndex,
+        sender: Sender,
+        frame: &Frame,
+        msg: Option<&MavMessage>,
+        now: Time,
+    ) -> StationOut<ToGraph> {
+        let out = match msg {
+            // QGroundControl (command 0) and MAVProxy (1..6) confirm an accelerometer calibration
+            // position with a COMMAND_ACK naming no MAV_CMD, which the dialect cannot decode; that
+            // an acknowledgement came is all ArduPilot's snoop reads of it.
+            None if frame.message_id == COMMAND_ACK_DATA::ID => self.on_gcs_ack(),
+            Some(msg) if Vehicle::is_for_us(self, msg) => self.on_message(sender, msg, now),
+            _ => Outputs::none(),
+        };
+        StationOut { mav: out.mav, telemetry: Vec::new(), graph: out.graph }
+    }
+
+    fn heartbeat(&self) -> Option<MavMessage> {
+        Some(Vehicle::heartbeat(self))
+    }
+
+    fn on_tick(&mut self, now: Time) -> StationOut<ToGraph> {
+        let (out, telemetry) = Vehicle::on_tick(self, now);
+        StationOut { mav: out.mav, telemetry, graph: out.graph }
+    }
+
+    fn unhandled(&self) -> u64 {
+        self.unhandled
+    }
+
+    fn take_param_text(&mut self) -> Option<String> {
+        self.take_params_changed().then(|| render_param_file(&self.params))
+    }
+
+    fn signing_store_id(&self) -> u8 {
+        self.system_id
     }
 }
 

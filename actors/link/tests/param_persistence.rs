@@ -47,6 +47,7 @@ fn shared(writer: ParamWriter) -> (Shared, LinkId, mpsc::Receiver<Vec<u8>>) {
         shutdown: CancellationToken::new(),
         graph: Arc::new(|_| {}),
         param_writer: Some(Arc::new(writer)),
+        endpoint: 0,
     };
     (shared, id, rx)
 }

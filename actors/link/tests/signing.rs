@@ -195,6 +195,7 @@ async fn a_key_file_others_may_read_is_refused_naming_the_file_and_its_mode() {
         shutdown: shutdown.clone(),
         graph: Arc::new(|_| {}),
         param_writer: None,
+        endpoint: 0,
     };
     let result = open_all(&[signed(udp_in())], &dir, &shared).await;
     shutdown.cancel();

@@ -24,8 +24,8 @@ use crate::config::{EndpointConfig, EndpointKind};
 use crate::frame::Frame;
 use crate::hub::Hub;
 use crate::router::LinkId;
-use crate::services::ToGraph;
-use crate::services::params::render_param_file;
+use crate::station::{EndpointIndex, Station};
+use crate::vehicle::Vehicle;
 
 pub use param_writer::{ParamWriter, WriterStats, write_atomically};
 pub use signing::{LinkSigning, SigningStats, Streams, Verdict};
@@ -33,7 +33,7 @@ pub use signing_key::{KeyError, SigningKey};
 pub use udp_peers::{EVICTABLE_AFTER, PeerStats};
 
 /// Where messages for the graph go (the actor's publishers, or a test's collector).
-pub type GraphSink = Arc<dyn Fn(Vec<ToGraph>) + Send + Sync>;
+pub type GraphSink<G = crate::services::ToGraph> = Arc<dyn Fn(Vec<G>) + Send + Sync>;
 
 /// Why an endpoint could not be opened.
 #[derive(Debug, thiserror::Error)]
@@ -59,20 +59,39 @@ pub enum EndpointError {
 }
 
 /// What every endpoint task shares.
-#[derive(Clone)]
-pub struct Shared {
-    pub hub: Arc<Mutex<Hub>>,
+pub struct Shared<S: Station = Vehicle> {
+    pub hub: Arc<Mutex<Hub<S>>>,
     pub clock: Arc<dyn Clock>,
     pub shutdown: CancellationToken,
-    pub graph: GraphSink,
+    pub graph: GraphSink<S::Graph>,
     /// Persists accepted parameter changes off the receive path (`None`: not persisted).
     pub param_writer: Option<Arc<ParamWriter>>,
+    /// The endpoint whose tasks hold this copy (set by `open_all`): links it opens carry it.
+    pub endpoint: EndpointIndex,
 }
 
-impl Shared {
+impl<S: Station> Clone for Shared<S> {
+    fn clone(&self) -> Self {
+        Shared {
+            hub: Arc::clone(&self.hub),
+            clock: Arc::clone(&self.clock),
+            shutdown: self.shutdown.clone(),
+            graph: Arc::clone(&self.graph),
+            param_writer: self.param_writer.clone(),
+            endpoint: self.endpoint,
+        }
+    }
+}
+
+impl<S: Station> Shared<S> {
     /// The hub, even if a task panicked while holding it (its state stays usable).
-    pub fn hub(&self) -> MutexGuard<'_, Hub> {
+    pub fn hub(&self) -> MutexGuard<'_, Hub<S>> {
         self.hub.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Adds a link of this endpoint to the hub.
+    pub fn add_link(&self, name: String, tx: crate::hub::Tx, signing: Option<LinkSigning>) -> LinkId {
+        self.hub().add_endpoint_link(self.endpoint, name, tx, signing)
     }
 
     /// Hands frames from link `id` to the hub, then publishes what it produced and queues
@@ -95,14 +114,12 @@ impl Shared {
         let now = self.clock.now();
         let (out, params) = {
             let mut hub = self.hub();
-            let out: Vec<ToGraph> = frames
+            let out: Vec<S::Graph> = frames
                 .iter()
                 .enumerate()
                 .flat_map(|(i, f)| hub.on_checked_frame(id, f, verdicts.and_then(|v| v.get(i)).copied(), now))
                 .collect();
-            let vehicle = hub.vehicle();
-            let params = (vehicle.take_params_changed() && self.param_writer.is_some())
-                .then(|| render_param_file(vehicle.params()));
+            let params = if self.param_writer.is_some() { hub.station().take_param_text() } else { None };
             (out, params)
         };
         if let (Some(text), Some(writer)) = (params, &self.param_writer) {
@@ -118,6 +135,8 @@ impl Shared {
 #[derive(Clone, Debug)]
 pub struct OpenEndpoint {
     pub name: String,
+    /// Its index in the endpoint list it was opened from.
+    pub endpoint: EndpointIndex,
     pub local_addr: Option<SocketAddr>,
     /// A UDP server's peer counters (admitted, refused, evicted), updated as they change.
     pub peer_stats: Option<Arc<Mutex<PeerStats>>>,
@@ -126,20 +145,21 @@ pub struct OpenEndpoint {
 /// Opens every endpoint and spawns its tasks; `config_dir` resolves relative key paths and
 /// holds the stored signing timestamp. Every signing endpoint shares one [`Streams`] (one
 /// replay table, one timestamp), and endpoints naming the same key file share its key.
-pub async fn open_all(
+pub async fn open_all<S: Station>(
     endpoints: &[EndpointConfig],
     config_dir: &Path,
-    shared: &Shared,
+    shared: &Shared<S>,
 ) -> Result<Vec<OpenEndpoint>, EndpointError> {
     let streams = endpoints.iter().any(|e| e.signing_key_file.is_some()).then(|| {
-        let system_id = shared.hub().vehicle().system_id();
+        let system_id = shared.hub().station().signing_store_id();
         start_signing_clock(config_dir, system_id, &shared.shutdown)
     });
     let mut keys: HashMap<PathBuf, Arc<SigningKey>> = HashMap::new();
     let mut open = Vec::new();
     let mut failed = None;
-    for e in endpoints {
+    for (index, e) in endpoints.iter().enumerate() {
         let link_id = u8::try_from(open.len()).unwrap_or(0);
+        let shared = Shared { endpoint: index, ..shared.clone() };
         let signing = match (&e.signing_key_file, &streams) {
             (Some(file), Some(streams)) => {
                 let path = config_dir.join(file);
@@ -159,7 +179,7 @@ pub async fn open_all(
             _ => Ok(None),
         };
         match signing {
-            Ok(signing) => match open_one(e, signing, shared).await {
+            Ok(signing) => match open_one(e, signing, &shared).await {
                 Ok(opened) => open.push(opened),
                 Err(error) => failed = Some(not_opened(e, error)),
             },
@@ -199,10 +219,10 @@ fn start_signing_clock(config_dir: &Path, system_id: u8, shutdown: &Cancellation
     streams
 }
 
-async fn open_one(
+async fn open_one<S: Station>(
     e: &EndpointConfig,
     signing: Option<LinkSigning>,
-    shared: &Shared,
+    shared: &Shared<S>,
 ) -> Result<OpenEndpoint, EndpointError> {
     match &e.kind {
         EndpointKind::UdpOut { address, bind, .. } => {

@@ -9,6 +9,7 @@ use std::time::Duration;
 use tokio_serial::{FlowControl, SerialPortBuilderExt, SerialStream};
 
 use super::{EndpointError, LinkSigning, OpenEndpoint, Shared, stream};
+use crate::station::Station;
 
 /// First wait before reopening a port that closed; doubled after each failed attempt up to
 /// [`REOPEN_MAX`], so a radio that returns is serving again within about a second.
@@ -17,14 +18,15 @@ const REOPEN_FIRST: Duration = Duration::from_millis(100);
 const REOPEN_MAX: Duration = Duration::from_secs(1);
 
 /// Opens `device` and runs it as one link, reopened after end-of-file or an error.
-pub fn open(
+pub fn open<S: Station>(
     device: &Path,
     baud: u32,
     flow_control: bool,
     signing: Option<LinkSigning>,
-    shared: &Shared,
+    shared: &Shared<S>,
 ) -> Result<OpenEndpoint, EndpointError> {
     let port = open_port(device, baud, flow_control)?;
+    let endpoint = shared.endpoint;
     let name = format!("serial {}", device.display());
     let device = device.to_owned();
     let shared = shared.clone();
@@ -54,7 +56,7 @@ pub fn open(
             }
         }
     });
-    Ok(OpenEndpoint { name, local_addr: None, peer_stats: None })
+    Ok(OpenEndpoint { name, endpoint, local_addr: None, peer_stats: None })
 }
 
 fn open_port(device: &Path, baud: u32, flow_control: bool) -> Result<SerialStream, EndpointError> {

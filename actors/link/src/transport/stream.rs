@@ -7,13 +7,19 @@ use tokio::sync::mpsc;
 use super::{LinkSigning, Shared};
 use crate::frame::FrameParser;
 use crate::hub::Tx;
+use crate::station::Station;
 
 /// Frames a stream link may have queued for writing before new ones are dropped (and counted).
 const WRITE_QUEUE: usize = 256;
 
 /// Registers the stream as a link and runs it on its own tasks until EOF, an error or shutdown.
-pub fn spawn<R, W>(name: String, reader: R, writer: W, signing: Option<LinkSigning>, shared: Shared)
-where
+pub fn spawn<S: Station, R, W>(
+    name: String,
+    reader: R,
+    writer: W,
+    signing: Option<LinkSigning>,
+    shared: Shared<S>,
+) where
     R: AsyncRead + Unpin + Send + 'static,
     W: AsyncWrite + Unpin + Send + 'static,
 {
@@ -22,18 +28,18 @@ where
 
 /// Registers the stream as a link, runs it until EOF, an error or shutdown, and removes the
 /// link; the writer runs on a task of its own, which ends when the link is removed.
-pub async fn run<R, W>(
+pub async fn run<S: Station, R, W>(
     name: String,
     mut reader: R,
     mut writer: W,
     signing: Option<LinkSigning>,
-    shared: Shared,
+    shared: Shared<S>,
 ) where
     R: AsyncRead + Unpin + Send + 'static,
     W: AsyncWrite + Unpin + Send + 'static,
 {
     let (tx, mut rx) = mpsc::channel::<Vec<u8>>(WRITE_QUEUE);
-    let id = shared.hub().add_link(name.clone(), Tx::Stream(tx), signing);
+    let id = shared.add_link(name.clone(), Tx::Stream(tx), signing);
     let shutdown = shared.shutdown.clone();
     let writer_name = name.clone();
     tokio::spawn(async move {

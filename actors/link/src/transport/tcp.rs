@@ -5,13 +5,15 @@ use std::net::SocketAddr;
 use tokio::net::TcpListener;
 
 use super::{EndpointError, LinkSigning, OpenEndpoint, Shared, stream};
+use crate::station::Station;
 
 /// Listens on `bind` and serves connections until shutdown.
-pub async fn open_server(
+pub async fn open_server<S: Station>(
     bind: SocketAddr,
     signing: Option<LinkSigning>,
-    shared: &Shared,
+    shared: &Shared<S>,
 ) -> Result<OpenEndpoint, EndpointError> {
+    let endpoint = shared.endpoint;
     let listener = TcpListener::bind(bind).await.map_err(|source| EndpointError::Bind {
         what: "TCP server",
         addr: bind,
@@ -39,5 +41,10 @@ pub async fn open_server(
             }
         }
     });
-    Ok(OpenEndpoint { name: format!("tcp server {local}"), local_addr: Some(local), peer_stats: None })
+    Ok(OpenEndpoint {
+        name: format!("tcp server {local}"),
+        endpoint,
+        local_addr: Some(local),
+        peer_stats: None,
+    })
 }

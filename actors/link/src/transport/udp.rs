@@ -15,6 +15,7 @@ use super::{EndpointError, LinkSigning, OpenEndpoint, Shared, Verdict};
 use crate::frame::FrameParser;
 use crate::hub::Tx;
 use crate::router::LinkId;
+use crate::station::Station;
 
 /// Largest datagram we read (MAVLink frames are at most 280 bytes; several may share one).
 const DATAGRAM: usize = 65_536;
@@ -28,11 +29,11 @@ const CLIENT_EXTRA_PEERS: usize = 8;
 
 /// Opens the UDP client endpoint towards `address`: from an ephemeral port, or from `bind` as a
 /// server that always has `address` for a peer.
-pub async fn open_client(
+pub async fn open_client<S: Station>(
     address: SocketAddr,
     bind: Option<SocketAddr>,
     signing: Option<LinkSigning>,
-    shared: &Shared,
+    shared: &Shared<S>,
 ) -> Result<OpenEndpoint, EndpointError> {
     if let Some(bind) = bind {
         return serve(bind, CLIENT_EXTRA_PEERS, Some(address), signing, shared).await;
@@ -42,9 +43,10 @@ pub async fn open_client(
     } else {
         (Ipv4Addr::UNSPECIFIED, 0).into()
     };
+    let endpoint = shared.endpoint;
     let socket = bind_socket(bind, "UDP client").await?;
     let local = socket.local_addr().ok();
-    let id = shared.hub().add_link(
+    let id = shared.add_link(
         format!("udp client -> {address}"),
         Tx::Udp { socket: Arc::clone(&socket), peer: address },
         signing,
@@ -63,15 +65,20 @@ pub async fn open_client(
             feed(&shared, id, &mut parser, &buf[..n]);
         }
     });
-    Ok(OpenEndpoint { name: format!("udp client -> {address}"), local_addr: local, peer_stats: None })
+    Ok(OpenEndpoint {
+        name: format!("udp client -> {address}"),
+        endpoint,
+        local_addr: local,
+        peer_stats: None,
+    })
 }
 
 /// Opens the UDP server endpoint on `bind`, answering at most `max_peers` peers at once.
-pub async fn open_server(
+pub async fn open_server<S: Station>(
     bind: SocketAddr,
     max_peers: usize,
     signing: Option<LinkSigning>,
-    shared: &Shared,
+    shared: &Shared<S>,
 ) -> Result<OpenEndpoint, EndpointError> {
     if max_peers == 0 {
         return Err(EndpointError::NoPeers { bind });
@@ -81,13 +88,14 @@ pub async fn open_server(
 
 /// A server on `bind` for up to `max_peers` peers that talk first, and `fixed`, a peer it
 /// sends to from the start and never forgets.
-async fn serve(
+async fn serve<S: Station>(
     bind: SocketAddr,
     max_peers: usize,
     fixed: Option<SocketAddr>,
     signing: Option<LinkSigning>,
-    shared: &Shared,
+    shared: &Shared<S>,
 ) -> Result<OpenEndpoint, EndpointError> {
+    let endpoint = shared.endpoint;
     let socket = bind_socket(bind, "UDP server").await?;
     let local = socket.local_addr().ok();
     let name = match fixed {
@@ -96,7 +104,7 @@ async fn serve(
     };
     let fixed = fixed.map(|address| {
         let tx = Tx::Udp { socket: Arc::clone(&socket), peer: address };
-        (address, shared.hub().add_link(name.clone(), tx, signing.clone()), FrameParser::new())
+        (address, shared.add_link(name.clone(), tx, signing.clone()), FrameParser::new())
     });
     let peer_stats = Arc::new(Mutex::new(PeerStats::default()));
     let published = Arc::clone(&peer_stats);
@@ -160,7 +168,12 @@ async fn serve(
                         hub.remove_link(old);
                     }
                     let tx = Tx::Udp { socket: Arc::clone(&socket), peer };
-                    let id = hub.add_link(format!("udp peer {peer}"), tx, signing.clone());
+                    let id = hub.add_endpoint_link(
+                        shared.endpoint,
+                        format!("udp peer {peer}"),
+                        tx,
+                        signing.clone(),
+                    );
                     drop(hub);
                     peers.insert(peer, id, parser, now);
                     match &verdicts {
@@ -173,14 +186,14 @@ async fn serve(
         }
         tracing::info!(server = %server, stats = ?peers.stats(), "UDP server peer counters");
     });
-    Ok(OpenEndpoint { name, local_addr: local, peer_stats: Some(peer_stats) })
+    Ok(OpenEndpoint { name, endpoint, local_addr: local, peer_stats: Some(peer_stats) })
 }
 
 async fn bind_socket(addr: SocketAddr, what: &'static str) -> Result<Arc<UdpSocket>, EndpointError> {
     UdpSocket::bind(addr).await.map(Arc::new).map_err(|source| EndpointError::Bind { what, addr, source })
 }
 
-fn feed(shared: &Shared, id: LinkId, parser: &mut FrameParser, datagram: &[u8]) {
+fn feed<S: Station>(shared: &Shared<S>, id: LinkId, parser: &mut FrameParser, datagram: &[u8]) {
     let mut frames = Vec::new();
     parser.push(datagram, &mut frames);
     shared.handle_frames(id, &frames);

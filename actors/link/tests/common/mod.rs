@@ -71,6 +71,7 @@ impl Harness {
             shutdown: shutdown.clone(),
             graph: Arc::new(move |out| sink.lock().expect("graph sink").extend(out)),
             param_writer: None,
+            endpoint: 0,
         };
         let endpoints = open_all(endpoints, config_dir, &shared).await.expect("endpoints open");
         let ticker = shared.clone();
