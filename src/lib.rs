@@ -18,6 +18,8 @@
 //!
 //! And the tools around it: [`replay`] and [`log_replay`] (the estimator over a recorded log),
 //! [`flight_log`] (reading our MCAP and PX4 ULog), [`flight_plots`] (`kestrel report`),
+//! [`side_by_side`] (one flight by Kestrel and by ArduCopter SITL, scored alike: `kestrel sitl
+//! compare`),
 //! [`serde_name`] (names for display). The command line itself is `src/main.rs` and `src/cmd/`.
 
 pub mod activity;
@@ -45,6 +47,7 @@ pub mod run;
 pub mod serde_name;
 pub mod service_manager;
 pub mod shutdown;
+pub mod side_by_side;
 pub mod status;
 pub mod supervisor;
 pub mod topic;

@@ -1,12 +1,15 @@
-//! Both stacks on the same flights (tests/support/side_by_side.rs): each row flies one plan in
-//! one world with Kestrel's own stack and with ArduCopter SITL on Kestrel's physics, scores both
+//! Both stacks on the same flights (`kestrel::side_by_side`, which `kestrel sitl compare` runs for
+//! one row): each row flies one plan in one world with Kestrel's own stack and with ArduCopter
+//! SITL on Kestrel's physics, scores both
 //! on the simulator's truth, and the table on docs/src/results/side-by-side.md must be what they
 //! gave (`KESTREL_UPDATE_DOCS=1` rewrites it, and draws each row's paths over one map as a PNG
 //! beside the page). Skipped, with a message, when `KESTREL_ARDUCOPTER` is unset.
 //!
 //! Rows: the square in calm air; the square in an 8 m/s wind with gusts; the 100 m leg at 5 m/s;
-//! a hexa losing motor 1 mid-way along that leg. The rows fly in parallel, each stack in lockstep
-//! (Kestrel as fast as the host allows, ArduCopter at its largest speed-up).
+//! a hexa losing motor 1 mid-way along that leg (14 s after take-off for both stacks; Kestrel's
+//! take-off time measured by a fault-free flight of the same row). The windy row's gusts run from
+//! take-off, seed 1 for both: the same gust series. The rows fly in parallel, each stack in
+//! lockstep (Kestrel as fast as the host allows, ArduCopter at its largest speed-up).
 //!
 //! Kestrel's figures are deterministic in lockstep: its rows must match the page bit for bit.
 //! ArduCopter's run also depends on when the ground station's commands land in its time, which
@@ -15,11 +18,10 @@
 
 mod support;
 use support::results_page::{self, GeneratedTable};
-use support::side_by_side::{Flown, Scenario, Score, fly_arducopter, fly_kestrel, row_dir};
+use support::side_by_side::{Flown, HEADER, Scenario, Score, fly_row, row, tools};
 use support::{arducopter, flights::repo};
 
-use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 const TABLE: GeneratedTable = GeneratedTable {
     page: "docs/src/results/side-by-side.md",
@@ -27,9 +29,32 @@ const TABLE: GeneratedTable = GeneratedTable {
     end: "<!-- side-by-side:end -->",
 };
 
+/// One row of the page: what to fly (paths relative to the repository).
+struct Row {
+    name: &'static str,
+    plan: &'static str,
+    world: &'static str,
+    vehicle: &'static str,
+    parm: &'static str,
+    faults_from_take_off: bool,
+}
+
+impl Row {
+    fn scenario(&self) -> Scenario {
+        Scenario {
+            name: self.name.into(),
+            plan: repo().join(self.plan),
+            world: repo().join(self.world),
+            vehicle: repo().join(self.vehicle),
+            parm: repo().join(self.parm),
+            faults_from_take_off: self.faults_from_take_off,
+        }
+    }
+}
+
 /// The rows, in page order.
-const SCENARIOS: [Scenario; 4] = [
-    Scenario {
+const ROWS: [Row; 4] = [
+    Row {
         name: "square, calm",
         plan: "config/missions/square.plan",
         world: "config/worlds/empty.toml",
@@ -37,7 +62,7 @@ const SCENARIOS: [Scenario; 4] = [
         parm: "config/ardupilot/quad-x.parm",
         faults_from_take_off: false,
     },
-    Scenario {
+    Row {
         name: "square, 8 m/s wind + gusts",
         plan: "config/missions/square.plan",
         world: "config/worlds/wind-8ms-gusts.toml",
@@ -45,7 +70,7 @@ const SCENARIOS: [Scenario; 4] = [
         parm: "config/ardupilot/quad-x.parm",
         faults_from_take_off: false,
     },
-    Scenario {
+    Row {
         name: "100 m leg at 5 m/s",
         plan: "config/missions/leg-100m.plan",
         world: "config/worlds/empty.toml",
@@ -53,7 +78,7 @@ const SCENARIOS: [Scenario; 4] = [
         parm: "config/ardupilot/quad-x.parm",
         faults_from_take_off: false,
     },
-    Scenario {
+    Row {
         name: "hexa, motor 1 lost mid-leg",
         plan: "config/missions/leg-100m.plan",
         world: "config/worlds/motor-lost-mid-leg.toml",
@@ -62,38 +87,6 @@ const SCENARIOS: [Scenario; 4] = [
         faults_from_take_off: true,
     },
 ];
-
-/// Wall time one ArduCopter flight may take, EKF3's GPS wait included.
-const ARDUCOPTER_LIMIT: Duration = Duration::from_secs(150);
-
-/// `x` rounded to a multiple of `step`, printed with `decimals`.
-fn round_to(x: f64, step: f64, decimals: usize) -> String {
-    if !x.is_finite() {
-        return "–".into();
-    }
-    let r = (x / step).round() * step;
-    // No "-0.0".
-    let r = if r == 0.0 { 0.0 } else { r };
-    format!("{r:.decimals$}")
-}
-
-/// One table row.
-fn row(scenario: &str, stack: &str, s: &Score) -> String {
-    format!(
-        "| {scenario} | {stack} | {} / {} | {} / {} | {} | {} / {} | {} | {} | {} | {} |",
-        round_to(s.tracking_rms_m, 0.01, 2),
-        round_to(s.tracking_max_m, 0.01, 2),
-        round_to(s.est_horizontal_rms_m, 0.01, 2),
-        round_to(s.est_vertical_rms_m, 0.01, 2),
-        round_to(s.est_velocity_rms_m_s, 0.01, 2),
-        round_to(s.est_roll_pitch_rms_deg, 0.01, 2),
-        round_to(s.est_yaw_rms_deg, 0.01, 2),
-        round_to(s.flight_s, 0.1, 1),
-        round_to(s.landing_error_m, 0.01, 2),
-        round_to(s.energy_wh, 0.01, 2),
-        s.outcome,
-    )
-}
 
 /// How far an ArduCopter figure may move between runs (see the module docs), per numeric cell
 /// in table order: an absolute allowance, or 30 % of the committed value when that is larger.
@@ -136,64 +129,36 @@ fn arducopter_row_holds(committed: &str, measured: &str) -> Result<(), String> {
     Ok(())
 }
 
-const HEADER: &str = "| Flight | Stack | Tracking RMS / worst (m) | Position estimate RMS horizontal / vertical (m) \
-                      | Velocity estimate RMS (m/s) | Attitude estimate RMS roll-pitch / yaw (°) \
-                      | Take-off to touchdown (s) | Landing error (m) | Energy (Wh) | Outcome |\n\
-                      |---|---|---|---|---|---|---|---|---|---|";
-
 #[test]
 fn both_stacks_fly_the_same_flights_and_the_page_holds_their_figures() {
     let Some(binary) = arducopter::binary() else { return };
     let started = Instant::now();
-    // Kestrel's take-off time on the plain leg: the hexa row's motor fault counts from it.
-    let (take_off_tx, take_off_rx) = mpsc::channel::<f64>();
-    let mut take_off_tx = Some(take_off_tx);
-    let mut take_off_rx = Some(take_off_rx);
+    let tools = tools(&binary);
+    let dir = support::flights::scratch("side-by-side", "rows");
     // SIDE_BY_SIDE_ONLY=WORDS flies only the rows whose name contains WORDS (and checks no page).
     let only = std::env::var("SIDE_BY_SIDE_ONLY").ok();
-    let handles: Vec<_> = SCENARIOS
-        .iter()
-        .filter(|s| only.as_ref().is_none_or(|o| s.name.contains(o.as_str())))
-        .map(|scenario| {
-            let scenario = scenario.clone();
-            let binary = binary.clone();
-            let tx = if scenario.plan.ends_with("leg-100m.plan") && !scenario.faults_from_take_off {
-                take_off_tx.take()
-            } else {
-                None
-            };
-            let rx = if scenario.faults_from_take_off { take_off_rx.take() } else { None };
-            // Flown alone, the hexa row takes Kestrel's take-off time from a quad leg of its own.
-            let rx = rx.filter(|_| only.is_none());
-            std::thread::spawn(move || {
-                let ardupilot = std::thread::spawn({
-                    let scenario = scenario.clone();
-                    move || {
-                        fly_arducopter(
-                            &binary,
-                            &scenario,
-                            &row_dir(scenario.name, "arducopter"),
-                            ARDUCOPTER_LIMIT,
-                        )
-                    }
-                });
-                let offset_s = rx.map_or(0.0, |rx| rx.recv().expect("the plain leg's take-off time"));
-                let kestrel = fly_kestrel(&scenario, &row_dir(scenario.name, "kestrel"), offset_s);
-                if let Some(tx) = tx {
-                    let _ = tx.send(kestrel.score.take_off_s);
-                }
-                let ardupilot =
-                    ardupilot.join().unwrap_or_else(|_| panic!("{}: ArduCopter's flight", scenario.name));
-                (scenario, kestrel, ardupilot, offset_s)
+    let flown: Vec<(Scenario, Flown, Flown)> = std::thread::scope(|s| {
+        let handles: Vec<_> = ROWS
+            .iter()
+            .filter(|r| only.as_ref().is_none_or(|o| r.name.contains(o.as_str())))
+            .map(|r| {
+                let (scenario, tools, dir) = (r.scenario(), &tools, &dir);
+                // A row whose faults count from take-off measures Kestrel's take-off time with a
+                // fault-free flight of its own first (`fly_row`'s `None`).
+                s.spawn(move || {
+                    let (kestrel, ardupilot) = fly_row(tools, &scenario, dir, None)
+                        .unwrap_or_else(|e| panic!("{}: {e}", scenario.name));
+                    (scenario, kestrel, ardupilot)
+                })
             })
-        })
-        .collect();
-    let flown: Vec<(Scenario, Flown, Flown, f64)> =
-        handles.into_iter().map(|h| h.join().expect("a row's flights")).collect();
+            .collect();
+        handles.into_iter().map(|h| h.join().expect("a row's flights")).collect()
+    });
+    let _ = std::fs::remove_dir_all(&dir);
     let wall_s = started.elapsed().as_secs_f64();
 
     let (mut kestrel_rows, mut arducopter_rows) = (Vec::new(), Vec::new());
-    for (scenario, kestrel, ardupilot, offset_s) in &flown {
+    for (scenario, kestrel, ardupilot) in &flown {
         for (stack, f) in [("Kestrel", kestrel), ("ArduCopter", ardupilot)] {
             let s = &f.score;
             println!(
@@ -218,18 +183,8 @@ fn both_stacks_fly_the_same_flights_and_the_page_holds_their_figures() {
                 f.wall_s,
             );
         }
-        if scenario.faults_from_take_off {
-            // The fault came at the same time after take-off for both stacks: for Kestrel it was
-            // scheduled from the plain leg's take-off, which the hexa must share.
-            let late_s = kestrel.score.take_off_s - offset_s;
-            assert!(
-                late_s.abs() < 0.5,
-                "{}: Kestrel's hexa took off {late_s} s after the quad",
-                scenario.name
-            );
-        }
-        kestrel_rows.push(row(scenario.name, "Kestrel", &kestrel.score));
-        arducopter_rows.push(row(scenario.name, "ArduCopter", &ardupilot.score));
+        kestrel_rows.push(row(&scenario.name, "Kestrel", &kestrel.score));
+        arducopter_rows.push(row(&scenario.name, "ArduCopter", &ardupilot.score));
         for (stack, f) in [("Kestrel", kestrel), ("ArduCopter", ardupilot)] {
             assert!(
                 f.score.est_samples > 20,
@@ -245,7 +200,7 @@ fn both_stacks_fly_the_same_flights_and_the_page_holds_their_figures() {
         return;
     }
     if results_page::updating() {
-        for (scenario, kestrel, ardupilot, _) in &flown {
+        for (scenario, kestrel, ardupilot) in &flown {
             draw_paths(scenario, &kestrel.score, &ardupilot.score);
         }
     }
@@ -356,7 +311,7 @@ fn an_arducopter_row_holds_within_its_slack_and_not_beyond() {
 /// (blue) and ArduCopter's (red), north up, over a 10 m grid.
 fn draw_paths(scenario: &Scenario, kestrel: &Score, ardupilot: &Score) {
     use plotters::prelude::*;
-    let plan = support::side_by_side::PlannedPath::read(&repo().join(scenario.plan));
+    let plan = support::side_by_side::PlannedPath::read(&scenario.plan).expect("the plan");
     let all: Vec<(f64, f64)> =
         plan.vertices_ne_m.iter().chain(&kestrel.path_ne_m).chain(&ardupilot.path_ne_m).copied().collect();
     let (n0, n1) = all.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), p| (a.min(p.0), b.max(p.0)));

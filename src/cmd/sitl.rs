@@ -37,6 +37,46 @@ pub struct SitlArgs {
 pub enum SitlTarget {
     /// ArduCopter SITL on Kestrel's physics (its JSON physics backend).
     Ardupilot(ArdupilotArgs),
+    /// One flight by Kestrel's own stack and by ArduCopter SITL on Kestrel's physics, scored
+    /// alike on the simulator's truth; prints the two table rows of docs' side-by-side page.
+    Compare(CompareArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct CompareArgs {
+    /// The mission (QGroundControl `.plan`): take-off, waypoints, then RTL or LAND.
+    #[arg(long, value_name = "FILE.plan")]
+    pub mission: PathBuf,
+    /// The world both stacks fly in (wind, obstacles, `[[faults]]`).
+    #[arg(long, value_name = "FILE")]
+    pub world: PathBuf,
+    /// Kestrel's vehicle file; ArduCopter flies the same airframe on the JSON backend.
+    #[arg(long, default_value = "config/vehicles/quad_x.toml", value_name = "FILE")]
+    pub vehicle: PathBuf,
+    /// ArduCopter's parameter file for the frame (config/ardupilot/side-by-side.parm follows it).
+    #[arg(long, default_value = "config/ardupilot/quad-x.parm", value_name = "FILE")]
+    pub parm: PathBuf,
+    /// Count the world's `[[faults]]` `at_s` from take-off for both stacks (ArduCopter takes off
+    /// after EKF3's GPS wait, at no time known in advance); Kestrel's take-off time is measured by
+    /// a fault-free flight first.
+    #[arg(long)]
+    pub faults_from_take_off: bool,
+    /// The row's name in the table.
+    #[arg(long, default_value = "this flight")]
+    pub name: String,
+    /// The repository (config/, tests/python/ardupilot_square.py).
+    #[arg(long, default_value = ".", value_name = "DIR")]
+    pub repo: PathBuf,
+    /// The Python with pymavlink that flies ArduCopter; default the repository's `.venv`, else
+    /// `python3`.
+    #[arg(long, value_name = "FILE")]
+    pub python: Option<PathBuf>,
+    /// The ArduCopter SITL binary, when `KESTREL_ARDUCOPTER` is unset.
+    #[arg(long, value_name = "FILE")]
+    pub arducopter: Option<PathBuf>,
+    /// Print the ground station's transcript as it comes.
+    #[arg(long)]
+    pub verbose: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -78,7 +118,55 @@ pub struct ArdupilotArgs {
 pub fn run(args: SitlArgs) -> Result<(), String> {
     match args.target {
         SitlTarget::Ardupilot(args) => ardupilot(args),
+        SitlTarget::Compare(args) => compare(args),
     }
+}
+
+fn compare(args: CompareArgs) -> Result<(), String> {
+    use kestrel::side_by_side::{HEADER, Scenario, Tools, fly_row, row};
+    let arducopter = std::env::var_os(ARDUCOPTER_ENV)
+        .map(PathBuf::from)
+        .or(args.arducopter)
+        .ok_or_else(|| format!("no ArduCopter SITL binary: set {ARDUCOPTER_ENV} or give --arducopter"))?;
+    let file = |p: &Path, what: &str| -> Result<PathBuf, String> {
+        if p.is_file() { Ok(absolute(p)) } else { Err(format!("{what} {} is not a file", p.display())) }
+    };
+    let repo = absolute(&args.repo);
+    let python = match args.python {
+        Some(p) => file(&p, "--python")?,
+        None => {
+            Some(repo.join(".venv/bin/python")).filter(|p| p.is_file()).unwrap_or_else(|| "python3".into())
+        }
+    };
+    let tools = Tools {
+        kestrel: std::env::current_exe().map_err(|e| format!("this program's path: {e}"))?,
+        arducopter: file(&arducopter, "ArduCopter SITL binary")?,
+        python,
+        repo: repo.clone(),
+        echo_transcript: args.verbose,
+    };
+    file(&repo.join("tests/python/ardupilot_square.py"), "--repo's ground station script")?;
+    let scenario = Scenario {
+        name: args.name,
+        plan: file(&args.mission, "--mission")?,
+        world: file(&args.world, "--world")?,
+        vehicle: file(&args.vehicle, "--vehicle")?,
+        parm: file(&args.parm, "--parm")?,
+        faults_from_take_off: args.faults_from_take_off,
+    };
+    let dir = std::env::temp_dir().join(format!("kestrel-sitl-compare-{}", std::process::id()));
+    let flown = fly_row(&tools, &scenario, &dir, None);
+    let _ = std::fs::remove_dir_all(&dir);
+    let (kestrel, arducopter) = flown?;
+    println!("{HEADER}");
+    println!("{}", row(&scenario.name, "Kestrel", &kestrel.score));
+    println!("{}", row(&scenario.name, "ArduCopter", &arducopter.score));
+    tracing::info!(
+        "wall time: Kestrel {:.1} s, ArduCopter {:.1} s (in parallel)",
+        kestrel.wall_s,
+        arducopter.wall_s
+    );
+    Ok(())
 }
 
 fn ardupilot(args: ArdupilotArgs) -> Result<(), String> {

@@ -7,7 +7,11 @@ Environment: PLAN (the .plan file), DEADLINE_S (wall seconds the session may tak
 (the GUIDED take-off height, default 10 m), ESTIMATE=1 (also report ArduCopter's estimate: every
 LOCAL_POSITION_NED and ATTITUDE seen, stamped with its time_boot_ms; tests/sitl_side_by_side.rs
 compares them with the simulator's truth at the same instants), GROUND_DISARM_S (a vehicle still
-armed that long on the ground after the mission is disarmed by force, and the results say so).
+armed that long on the ground after the mission is disarmed by force, and the results say so),
+ENGINE_FAIL_MASK and ENGINE_FAIL_AFTER_S (SIM_ENGINE_MUL 0 and SIM_ENGINE_FAIL set to the mask
+of servos that long, of its time, after the vehicle first rose 0.2 m above home: SITL cuts those
+motors on its own physics and on Kestrel's alike; the results hold `engine_failed_s`, seconds
+after that take-off).
 
 1. identify the vehicle, ask for its telemetry streams (ArduCopter sends only what is asked for);
 2. upload the plan (home as item 0, as ArduPilot numbers it);
@@ -96,10 +100,12 @@ def wait_disarmed_or_force(gcs, ground_s):
 
 
 def record_estimate(gcs):
-    """Keeps every LOCAL_POSITION_NED ([t_ms, x, y, z, vx, vy, vz], m and m/s from EKF3's origin)
-    and ATTITUDE ([t_ms, roll, pitch, yaw], rad) in the results."""
+    """Keeps every LOCAL_POSITION_NED ([t_ms, x, y, z, vx, vy, vz], m and m/s from EKF3's origin),
+    ATTITUDE ([t_ms, roll, pitch, yaw], rad) and, on SITL's own physics, SIMSTATE ([t_ms, lat,
+    lon (deg), roll, pitch, yaw (rad)]: its truth) in the results."""
     positions = gcs.results.setdefault("local_position_ned", [])
     attitudes = gcs.results.setdefault("attitude", [])
+    truth = gcs.results.setdefault("simstate", [])
 
     def watch(m):
         kind = m.get_type()
@@ -107,6 +113,34 @@ def record_estimate(gcs):
             positions.append([m.time_boot_ms, m.x, m.y, m.z, m.vx, m.vy, m.vz])
         elif kind == "ATTITUDE":
             attitudes.append([m.time_boot_ms, m.roll, m.pitch, m.yaw])
+        elif kind == "SIMSTATE" and gcs.boot_s is not None:
+            # SITL's physics state (its own model's truth), stamped with the last boot time seen.
+            truth.append([round(gcs.boot_s * 1000), m.lat * 1e-7, m.lng * 1e-7, m.roll, m.pitch,
+                          m.yaw])
+
+    gcs.watchers.append(watch)
+
+
+def fail_engines_after_take_off(gcs, mask, after_s):
+    """SIM_ENGINE_MUL 0 then SIM_ENGINE_FAIL `mask` once `after_s` of the vehicle's time have
+    passed since it first rose 0.2 m above home: SITL scales those servos' pulses towards 1000 us
+    (no thrust, no reaction torque), as Kestrel's `motor_lost` fault takes a motor's."""
+    state = {"take_off_s": None, "sent": False}
+
+    def watch(m):
+        if gcs.boot_s is None or state["sent"]:
+            return
+        if state["take_off_s"] is None:
+            if gcs.armed and (gcs.rel_alt_m or 0.0) > 0.2:
+                state["take_off_s"] = gcs.boot_s
+            return
+        if gcs.boot_s - state["take_off_s"] >= after_s:
+            state["sent"] = True
+            gcs.log(f"-> SIM_ENGINE_MUL 0, SIM_ENGINE_FAIL {mask}")
+            gcs.conn.mav.param_set_send(*VEHICLE, b"SIM_ENGINE_MUL", 0.0, mav.MAV_PARAM_TYPE_REAL32)
+            gcs.conn.mav.param_set_send(*VEHICLE, b"SIM_ENGINE_FAIL", float(mask),
+                                        mav.MAV_PARAM_TYPE_INT32)
+            gcs.results["engine_failed_s"] = round(gcs.boot_s - state["take_off_s"], 2)
 
     gcs.watchers.append(watch)
 
@@ -114,6 +148,9 @@ def record_estimate(gcs):
 def flight(gcs):
     if os.environ.get("ESTIMATE") == "1":
         record_estimate(gcs)
+    if "ENGINE_FAIL_MASK" in os.environ:
+        fail_engines_after_take_off(gcs, int(os.environ["ENGINE_FAIL_MASK"]),
+                                    float(os.environ["ENGINE_FAIL_AFTER_S"]))
     gcs.identify(timeout_s=30.0, types=(mav.MAV_TYPE_QUADROTOR, mav.MAV_TYPE_HEXAROTOR))
     # 4 Hz of ArduCopter's time: at ten times real time and more, faster streams overrun a Python
     # client's socket and lose COMMAND_ACKs.

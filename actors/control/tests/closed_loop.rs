@@ -26,7 +26,12 @@ fn hover_holds_position_in_still_air() {
 #[test]
 fn hover_in_five_metre_per_second_wind_with_gusts_holds_within_the_acceptance_bounds() {
     let world = World {
-        wind: WindParams { steady_ned_m_s: [5.0, 0.0, 0.0], gust_std_m_s: 1.5, gust_time_constant_s: 2.0 },
+        wind: WindParams {
+            steady_ned_m_s: [5.0, 0.0, 0.0],
+            gust_std_m_s: 1.5,
+            gust_time_constant_s: 2.0,
+            ..WindParams::default()
+        },
         ..World::default()
     };
     let mut l = Loop::new(world, [0.0, 0.0, -10.0], UnitQuaternion::identity());

@@ -391,7 +391,7 @@ impl Simulator {
         let tick_time = Time(self.time.0 + self.tick_us);
         self.apply_faults(tick_time);
         let velocity_before = self.state.velocity_ned_m_s;
-        let air_ned_m_s = self.wind.advance(tick_s, self.effects.wind.as_ref());
+        let air_ned_m_s = self.wind.advance(self.tick_us, !self.ground.landed, self.effects.wind.as_ref());
         let weight_ned_n = Vector3::new(0.0, 0.0, self.body.mass_kg * GRAVITY_M_S2);
         let handled = self.handle_vehicle(tick_time, tick_s);
         for _ in 0..if handled { 0 } else { self.substeps } {

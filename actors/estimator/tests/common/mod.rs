@@ -158,7 +158,12 @@ pub struct FlightLog {
 /// The simulated world: Moratuwa, wind from the south-west with gusts.
 pub fn world() -> World {
     World {
-        wind: WindParams { steady_ned_m_s: [2.0, 1.5, 0.0], gust_std_m_s: 0.8, gust_time_constant_s: 2.0 },
+        wind: WindParams {
+            steady_ned_m_s: [2.0, 1.5, 0.0],
+            gust_std_m_s: 0.8,
+            gust_time_constant_s: 2.0,
+            ..WindParams::default()
+        },
         ..World::default()
     }
 }
