@@ -39,6 +39,7 @@ impl Registry {
         Registry::new()
             .with::<kestrel_estimator::EstimatorActor>("estimator")
             .with::<kestrel_avoider::AvoiderActor>("avoider")
+            .with::<kestrel_avoider::ProximityActor>("proximity")
             .with::<kestrel_vision::CameraActor>("camera")
             .with::<kestrel_vision::StereoActor>("stereo")
             .with::<kestrel_control::CommanderActor>("commander")

@@ -13,6 +13,8 @@
 //!   `config/avoider/thesis.fll`.
 //! * [`Avoider`] is the avoider's pure core (depth grid and desired speed in, body-frame
 //!   velocity correction out) and [`AvoiderActor`] its actor shell.
+//! * [`SurroundSectors`] turns depth grids and the obstacle memory into full-surround
+//!   `OBSTACLE_DISTANCE` sectors for a flight controller; [`ProximityActor`] is its shell.
 
 mod actor;
 pub mod avoidance;
@@ -24,6 +26,7 @@ pub mod evaluation;
 pub mod fll;
 pub mod hedge;
 pub mod norms;
+pub mod proximity;
 pub mod rule;
 pub mod rule_file;
 mod spec;
@@ -41,6 +44,9 @@ pub use error::{Cause, InputError, LoadError};
 pub use evaluation::{Evaluation, evaluate};
 pub use hedge::Hedge;
 pub use norms::{SNorm, TNorm};
+pub use proximity::SurroundSectors;
+pub use proximity::actor::{ProximityActor, ProximityInput};
+pub use proximity::params::ProximityParams;
 pub use term::{Shape, Term};
 pub use variable::{InputVariable, OutputVariable};
 

@@ -41,6 +41,12 @@ pub enum GridError {
     /// finite positive angle, or an offset that is not finite (degrees).
     #[error("depth grid sectors: {field} = {value} is not a usable angle")]
     BadSectors { field: &'static str, value: f32 },
+    /// The sectors are not MAVLink's 72 (`OBSTACLE_DISTANCE`'s fixed array).
+    #[error("depth grid sectors: {got} distances, expected {expected}")]
+    SectorCount { got: usize, expected: usize },
+    /// The sectors' reported range is empty, or its top is the "unknown" value (cm).
+    #[error("depth grid sectors: range {min_cm}..{max_cm} cm must be increasing and below 65535")]
+    SectorRange { min_cm: u16, max_cm: u16 },
     /// The grid is not newer than the last accepted one.
     #[error("depth grid captured at {time} is not newer than the last accepted one ({last})")]
     OutOfOrder { time: Time, last: Time },

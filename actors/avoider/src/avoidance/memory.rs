@@ -27,7 +27,7 @@
 //! Storage is a fixed-capacity vector made once; no step allocates.
 
 use kestrel_proto::Time;
-use kestrel_proto::messages::{ObstacleSectors, SECTOR_UNKNOWN};
+use kestrel_proto::messages::{NavState, ObstacleSectors, SECTOR_UNKNOWN};
 
 /// A remembered point at a sector's measured range within this much (m) of what a newer frame
 /// measures in the same sector counts as seen again and is replaced by the new one: about a
@@ -51,6 +51,18 @@ pub struct Pose {
 }
 
 impl Pose {
+    /// The pose of an estimator state, `None` unless its position (horizontal and vertical)
+    /// and attitude are valid and finite: what the memory holds could not be placed with it.
+    pub fn from_nav(nav: &NavState) -> Option<Pose> {
+        let valid = nav.valid.horizontal_position && nav.valid.attitude && nav.valid.vertical_position;
+        if !valid || !nav.position_ned_m.iter().chain(&nav.attitude).all(|v| v.is_finite()) {
+            return None;
+        }
+        let [w, x, y, z] = nav.attitude;
+        let yaw_rad = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
+        Some(Pose { time: nav.time, ned_m: nav.position_ned_m, yaw_rad })
+    }
+
     /// The horizontal body-frame bearing (rad, clockwise from forward) and range (m) of a NED
     /// point.
     fn bearing_range(&self, north_m: f64, east_m: f64) -> (f64, f64) {

@@ -59,7 +59,7 @@ mod low_pass;
 pub mod memory;
 pub mod params;
 pub mod path;
-mod pose_history;
+pub(crate) mod pose_history;
 pub mod region_inputs;
 mod view;
 
@@ -82,10 +82,10 @@ const BOXED_IN_TURNS: u32 = 2;
 /// its capture time (s): five of the pose history's 20 ms slots, 0.5 m at 5 m/s. Poses further
 /// off mean the estimator's state stopped coming, which the flight side flies through blind for
 /// up to `failsafe.nav_stale_s` (1 s, 5 m at 5 m/s).
-const CAPTURE_POSE_GAP_S: f64 = 0.1;
+pub(crate) const CAPTURE_POSE_GAP_S: f64 = 0.1;
 
 /// Seconds between two times, either way round.
-fn pose_gap_s(a: Time, b: Time) -> f64 {
+pub(crate) fn pose_gap_s(a: Time, b: Time) -> f64 {
     a.saturating_since(b).max(b.saturating_since(a)).as_secs_f64()
 }
 pub use desired_speed::desired_speed_m_s;
@@ -246,17 +246,14 @@ impl Avoider {
     /// Takes the estimator's pose for the obstacle memory. A state without a valid horizontal
     /// position or attitude empties the memory: what it holds can no longer be placed.
     pub fn set_pose(&mut self, nav: &NavState) {
-        let valid = nav.valid.horizontal_position && nav.valid.attitude && nav.valid.vertical_position;
-        if !valid || !nav.position_ned_m.iter().chain(&nav.attitude).all(|v| v.is_finite()) {
+        let Some(pose) = Pose::from_nav(nav) else {
             self.poses.clear();
             self.memory.clear();
             self.sidestep.start_ne_m = None;
             return;
-        }
+        };
         self.ground.set_attitude(nav.attitude);
-        let [w, x, y, z] = nav.attitude;
-        let yaw_rad = (2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z));
-        self.poses.push(Pose { time: nav.time, ned_m: nav.position_ned_m, yaw_rad });
+        self.poses.push(pose);
     }
 
     /// Home's NED position in the estimator's frame, from the commander's status (`None`: no
