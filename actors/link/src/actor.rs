@@ -20,7 +20,9 @@ use crate::services::ToGraph;
 use crate::services::events::statustext;
 use crate::services::mission::PlanStore;
 use crate::services::params::{ParamTable, parse_param_file};
-use crate::transport::{GraphSink, OpenEndpoint, ParamWriter, Shared, file_writer, open_all, param_writer_for};
+use crate::transport::{
+    GraphSink, OpenEndpoint, ParamWriter, Shared, file_writer, open_all, param_writer_for,
+};
 use crate::vehicle::Vehicle;
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
@@ -284,9 +286,9 @@ impl Actor for LinkActor {
             let write = file_writer(path.clone());
             let writer = param_writer_for(&self.hub, Arc::clone(&graph), Arc::clone(&self.clock), write)
                 .map_err(|source| ActorError::Io {
-                what: format!("parameter writer thread for {}", path.display()),
-                source,
-            })?;
+                    what: format!("parameter writer thread for {}", path.display()),
+                    source,
+                })?;
             self.param_writer = Some(Arc::new(writer));
         }
         let shared = Shared {

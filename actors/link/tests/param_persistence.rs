@@ -49,8 +49,13 @@ where
     let graph: Arc<dyn Fn(Vec<_>) + Send + Sync> = Arc::new(|_| {});
     let writer: ParamWriter =
         param_writer_for(&hub, graph.clone(), Arc::clone(&clock), write).expect("writer thread");
-    let shared =
-        Shared { hub, clock, shutdown: CancellationToken::new(), graph, param_writer: Some(Arc::new(writer)) };
+    let shared = Shared {
+        hub,
+        clock,
+        shutdown: CancellationToken::new(),
+        graph,
+        param_writer: Some(Arc::new(writer)),
+    };
     (shared, id, rx)
 }
 
@@ -182,8 +187,8 @@ fn a_write_that_fails_answers_with_the_old_value_and_why() {
     shared.handle_frames(id, &[set("TEST_P1", 50.0)]);
     let writer = shared.param_writer.clone().expect("writer");
     writer.finish();
-    let (values, texts) = answers(&mut rx);
-    assert_eq!(values, [("TEST_P1".to_owned(), 1.0)], "the value the file still holds");
+    let (echoed, texts) = answers(&mut rx);
+    assert_eq!(echoed, [("TEST_P1".to_owned(), 1.0)], "the value the file still holds");
     assert_eq!(texts, ["Param TEST_P1 not saved: read-only"]);
     // The set text, then the table as it is again (the value put back), each tried once.
     let tried: Vec<String> = written.try_iter().collect();
