@@ -280,6 +280,67 @@ fn a_parameter_set_over_mavlink_survives_a_restart() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A directory nothing can be written to, for as long as it lives: a read-only tmpfs mounted on
+/// it where the test may mount (as root: permission bits do not stop root), else its permission
+/// bits cleared; `None` when neither keeps a write out.
+struct ReadOnlyDir {
+    path: PathBuf,
+    mounted: bool,
+}
+
+impl ReadOnlyDir {
+    fn new(path: PathBuf) -> Option<ReadOnlyDir> {
+        std::fs::create_dir_all(&path).expect("directory");
+        let mounted = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", "ro,size=64k", "tmpfs"])
+            .arg(&path)
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        if !mounted {
+            use std::os::unix::fs::PermissionsExt;
+            std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o555)).expect("chmod 555");
+        }
+        let dir = ReadOnlyDir { path, mounted };
+        let probe = dir.path.join("probe");
+        if std::fs::write(&probe, "x").is_ok() {
+            let _ = std::fs::remove_file(&probe);
+            return None;
+        }
+        Some(dir)
+    }
+}
+
+impl Drop for ReadOnlyDir {
+    fn drop(&mut self) {
+        if self.mounted {
+            let _ = Command::new("umount").arg(&self.path).status();
+        } else {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = std::fs::set_permissions(&self.path, std::fs::Permissions::from_mode(0o755));
+        }
+    }
+}
+
+/// ArduPilot answers a set only once its storage took it; ours answers once the parameter file
+/// holds it. A file that cannot be written answers with the value the vehicle still uses and a
+/// STATUSTEXT saying why (docs/src/decisions/0048-a-parameter-is-set-once-it-is-stored.md).
+#[test]
+fn a_parameter_set_that_cannot_be_stored_is_answered_with_the_old_value_and_why() {
+    let dir = temp_dir("params-read-only");
+    let Some(read_only) = ReadOnlyDir::new(dir.join("read-only")) else {
+        println!("skipped: this host lets every write through (no mount, and root ignores modes)");
+        return;
+    };
+    let how = if read_only.mounted { "a read-only tmpfs" } else { "mode 555" };
+    let in_it = |port| link_params(port, "", "params.param_file = \"read-only/params.txt\"\n");
+    let flight = fly(&dir, "params-read-only", "gcs_params.py", &["unsaved", "RTL_ALT_M", "42.5"], in_it);
+    let result = flight.transcript.last().expect("result");
+    println!("figure: PARAM_SET with the parameter file on {how}: {result}");
+    drop(read_only);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn a_parameter_whose_owner_never_hears_the_set_keeps_its_old_value() {
     let dir = temp_dir("params-unrouted");

@@ -3,7 +3,8 @@
 //! while the vehicle flies. Every [`POLL`] the watch asks the writer
 //! ([`WriteFailureProbe`]); from the first failure on it logs the error once and publishes a
 //! `sensor_health` report each second (sensor `recorder`, the file and the error as the device,
-//! one error), which the link sends as a STATUSTEXT warning, as it does for a failing driver.
+//! one error), which the link sends as a STATUSTEXT warning as it does for a failing driver: at
+//! once, then every 30 s while disarmed (`actors/link/src/services/sensor_health.rs`).
 //! `tests/log_recorder.rs` holds it: `kestrel run --record /dev/full` reports within a second.
 
 use std::sync::Arc;

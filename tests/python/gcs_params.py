@@ -4,6 +4,8 @@ Usage: gcs_params.py set NAME VALUE      set it (PARAM_VALUE echo), as run 1
        gcs_params.py expect NAME VALUE   the list and a read by name show it, as run 2
        gcs_params.py unapplied NAME VALUE   the owner never gets the set (its param_set input
                                          unrouted): the echo and a read keep the old value
+       gcs_params.py unsaved NAME VALUE  the parameter file cannot be written: the echo and a
+                                         read keep the old value, a STATUSTEXT says why
 (run by tests/gcs_pymavlink.rs; see gcs_common.py for the transcript)
 """
 
@@ -20,9 +22,8 @@ def params(gcs):
     listed = gcs.fetch_params()
     gcs.results["listed"] = listed
     if ACTION == "set":
+        # The echo comes once the parameter file holds the value.
         gcs.set_param(NAME, VALUE, "param set")
-        # Nothing acknowledges the write to disk; give the link a moment before the restart.
-        gcs.quiet(0.5)
     elif ACTION == "unapplied":
         old = listed[NAME]
         gcs.set_param(NAME, VALUE, "param set", expect_echo=old)
@@ -30,6 +31,16 @@ def params(gcs):
         if not math.isclose(read, old):
             raise Failed("unapplied", f"{NAME}: read {read} after an unapplied set, wanted {old}")
         gcs.results["unapplied"] = f"{NAME}={VALUE} not taken, {old} echoed and read"
+    elif ACTION == "unsaved":
+        old = listed[NAME]
+        gcs.set_param(NAME, VALUE, "param set", expect_echo=old)
+        why = f"Param {NAME} not saved"
+        gcs.pump(lambda m: any(t.startswith(why) for t in gcs.statustexts), 3.0, "why STATUSTEXT")
+        read = gcs.read_param(NAME, "param read")
+        if not math.isclose(read, old):
+            raise Failed("unsaved", f"{NAME}: read {read} after an unsaved set, wanted {old}")
+        text = next(t for t in gcs.statustexts if t.startswith(why))
+        gcs.results["unsaved"] = f"{NAME}={VALUE} not stored: {old} echoed and read, STATUSTEXT {text!r}"
     elif ACTION == "expect":
         read = gcs.read_param(NAME, "param read")
         if not (math.isclose(listed.get(NAME, math.nan), VALUE) and math.isclose(read, VALUE)):

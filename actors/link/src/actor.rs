@@ -19,8 +19,10 @@ use crate::hub::Hub;
 use crate::services::ToGraph;
 use crate::services::events::statustext;
 use crate::services::mission::PlanStore;
-use crate::services::params::{ParamTable, parse_param_file, render_param_file};
-use crate::transport::{GraphSink, OpenEndpoint, ParamWriter, Shared, open_all};
+use crate::services::params::{ParamTable, parse_param_file};
+use crate::transport::{
+    GraphSink, OpenEndpoint, ParamWriter, Shared, file_writer, open_all, param_writer_for,
+};
 use crate::vehicle::Vehicle;
 use mavlink::dialects::ardupilotmega::MavSeverity;
 
@@ -285,10 +287,12 @@ impl Actor for LinkActor {
         let clock = Arc::clone(&self.clock);
         let graph: GraphSink = Arc::new(move |out| outputs.publish(out, clock.now()));
         if let Some(path) = param_path(&self.params, &self.config_dir) {
-            let writer = ParamWriter::to_file(path.clone()).map_err(|source| ActorError::Io {
-                what: format!("parameter writer thread for {}", path.display()),
-                source,
-            })?;
+            let write = file_writer(path.clone());
+            let writer = param_writer_for(&self.hub, Arc::clone(&graph), Arc::clone(&self.clock), write)
+                .map_err(|source| ActorError::Io {
+                    what: format!("parameter writer thread for {}", path.display()),
+                    source,
+                })?;
             self.param_writer = Some(Arc::new(writer));
         }
         let shared = Shared {
@@ -395,10 +399,10 @@ impl Actor for LinkActor {
                 }
                 LinkInput::ParamDecl(d) => {
                     let out = hub.vehicle().on_param_decl(&d, d.time);
-                    if hub.vehicle().take_params_changed()
-                        && let Some(writer) = &self.param_writer
+                    if let Some(writer) = &self.param_writer
+                        && let Some(write) = hub.vehicle().take_param_write()
                     {
-                        writer.submit(render_param_file(hub.vehicle().params()));
+                        writer.submit_tagged(write.batch, write.text);
                     }
                     hub.dispatch(out)
                 }

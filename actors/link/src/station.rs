@@ -74,8 +74,9 @@ pub trait Station: Send + 'static {
         0
     }
 
-    /// The parameter file's new text, once after each change (`None`: unchanged or none kept).
-    fn take_param_text(&mut self) -> Option<String> {
+    /// The parameter file's new text, once after each change, tagged for the writer's answer
+    /// (`None`: unchanged or none kept).
+    fn take_param_write(&mut self) -> Option<crate::services::params::ParamWrite> {
         None
     }
 

@@ -30,8 +30,8 @@ use crate::services::mission::MissionService;
 use crate::services::offboard::{
     OffboardRejects, attitude_target, global_target, local_target, manual_control,
 };
-use crate::services::params::ParamTable;
-use crate::services::params::render_param_file;
+use crate::services::params::{ParamTable, ParamWrite};
+use crate::services::sensor_health::HealthAnnouncer;
 use crate::services::telemetry::{Telemetry, home};
 use crate::services::{Outputs, Sender, Service, ToGraph};
 use crate::services::{calibration, estimator_text, timesync};
@@ -76,6 +76,8 @@ pub struct Vehicle {
     pub unhandled: u64,
     /// The last id of a STATUSTEXT sent in chunks.
     text_id: u16,
+    /// Which health reports are said (`services/sensor_health.rs`).
+    health: HealthAnnouncer,
     /// A ground station's COMMAND_ACK confirming an accelerometer calibration position.
     accelcal: calibration::AccelcalSnoop,
     logs: LogDownload,
@@ -95,6 +97,7 @@ impl Vehicle {
             offboard_rejects: OffboardRejects::default(),
             unhandled: 0,
             text_id: 0,
+            health: HealthAnnouncer::default(),
             accelcal: calibration::AccelcalSnoop::default(),
             logs: LogDownload::new(None),
             ftp: FtpServer::new(None),
@@ -138,9 +141,19 @@ impl Vehicle {
         self.missions.finish_store();
     }
 
-    /// True once after each change the parameter file must follow.
-    pub fn take_params_changed(&mut self) -> bool {
-        self.params.take_changed()
+    /// The parameter file text to write after a change, once per change.
+    pub fn take_param_write(&mut self) -> Option<ParamWrite> {
+        self.params.take_write()
+    }
+
+    /// Echo parameter sets only once the parameter file holds them (the link has one).
+    pub fn hold_param_echoes_until_saved(&mut self) {
+        self.params.hold_echoes_until_saved();
+    }
+
+    /// The parameter file write `batch` ended: held echoes, or the old values put back.
+    pub fn on_params_saved(&mut self, batch: u64, result: Result<(), &str>, now: Time) -> Outputs {
+        self.params.on_saved(batch, result, now)
     }
 
     /// Whether `msg` is for us: no target, broadcast, or our system (and component 0 or ours).
@@ -290,6 +303,7 @@ impl Vehicle {
     /// goes to the parameter table, which refuses disarmed-only parameters while armed.
     pub fn on_status(&mut self, status: VehicleStatus) -> Outputs {
         self.params.set_armed(status.armed);
+        self.health.set_armed(status.armed);
         self.logs.set_armed(status.armed);
         let old = self.telemetry.snapshot.status.take();
         self.missions.set_flying(status.armed && status.mode == FlightMode::Auto);
@@ -387,14 +401,11 @@ impl Vehicle {
         self.telemetry.snapshot.depth = Some(depth);
     }
 
-    /// A driver's health report: errors in its window are a STATUSTEXT warning (one per report,
-    /// so at most one a second per driver), as ArduPilot reports a failing sensor.
+    /// A driver's or the recorder's health report: an error is a STATUSTEXT warning when
+    /// [`HealthAnnouncer`] says it is due (at once when new, then as ArduCopter repeats a failing
+    /// pre-arm check).
     pub fn on_sensor_health(&mut self, health: &SensorHealth) -> Outputs {
-        if health.errors == 0 {
-            return Outputs::none();
-        }
-        let text =
-            format!("{}: {} errors in the last second ({})", health.sensor, health.errors, health.device);
+        let Some(text) = self.health.on_report(health) else { return Outputs::none() };
         Outputs {
             mav: calibration::chunked(MavSeverity::MAV_SEVERITY_WARNING, &text, &mut self.text_id),
             graph: Vec::new(),
@@ -536,8 +547,8 @@ impl Station for Vehicle {
         self.unhandled
     }
 
-    fn take_param_text(&mut self) -> Option<String> {
-        self.take_params_changed().then(|| render_param_file(&self.params))
+    fn take_param_write(&mut self) -> Option<ParamWrite> {
+        Vehicle::take_param_write(self)
     }
 
     fn signing_store_id(&self) -> u8 {

@@ -33,13 +33,18 @@
 //!   on time with every pixel 0; `camera_frozen` publishes the pixels of the last frame before
 //!   the fault with the new stamp and sequence number; `camera_glare` washes a region of one or
 //!   both images towards white; `camera_capped` blacks out one image. The simulator actor logs
-//!   and publishes their start and end (`sim_fault`); the camera only applies them.
+//!   and publishes their start and end (`sim_fault`); the camera only applies them. Camera
+//!   faults the simulator adds while it runs (MAV_CMD_INJECT_FAILURE on the avoidance unit,
+//!   `live_faults.rs`) come on the optional `sim_fault` input: each start beyond the world
+//!   file's own faults joins the camera's schedule at its time, each end ends it (the camera and
+//!   the simulator fly the same world, so the world's entries have the same indices in both).
+//!   Held by `tests/camera_actor.rs` and, in flight, by `tests/gcs_camera_fault.rs`.
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use kestrel_proto::messages::{GroundTruth, StereoFrame};
+use kestrel_proto::messages::{GroundTruth, SimFault, SimFaultPhase, StereoFrame};
 use kestrel_proto::{Actor, ActorError, Context, Publisher, Setup, Time};
 use serde::Deserialize;
 use tokio::task::JoinHandle;
@@ -48,7 +53,7 @@ use crate::camera::{
     CapturePose, DepthImage, RenderBuffers, Scene, StereoCamera, StereoCameraParams, StereoRender,
 };
 use crate::error::InvalidParam;
-use crate::faults::{CameraFaults, FaultSchedule};
+use crate::faults::{CameraFaults, FaultSchedule, fault_of_message};
 use crate::world::World;
 
 /// Renders started but not yet published, at most.
@@ -114,8 +119,15 @@ struct Pending {
     render: JoinHandle<(StereoRender, RenderBuffers)>,
 }
 
-/// Ground truth → rendered stereo frames; ports `ground_truth` (input) and `stereo_frame`
-/// (output).
+/// What the camera actor handles: poses to render from, and the simulator's fault events.
+#[derive(Debug)]
+pub enum CameraInput {
+    Truth(GroundTruth),
+    Fault(SimFault),
+}
+
+/// Ground truth → rendered stereo frames; ports `ground_truth` and `sim_fault` (inputs) and
+/// `stereo_frame` (output).
 pub struct CameraSimActor {
     /// Shared, read-only, with the renders in flight.
     camera: Arc<StereoCamera>,
@@ -136,8 +148,12 @@ pub struct CameraSimActor {
     spare: Vec<RenderBuffers>,
     /// True depth of the last published frame's left image.
     last_depth: Option<DepthImage>,
-    /// The world's faults; only the camera's apply here.
+    /// The world's faults, then those the simulator added; only the camera's apply here.
     faults: FaultSchedule,
+    /// How many faults the world file has: a `sim_fault` of a higher index was added live.
+    world_faults: usize,
+    /// The simulator's index of each live camera fault and its index in `faults`.
+    live: Vec<(u32, usize)>,
     /// The last frame published healthy, which `camera_frozen` repeats.
     last_frame: Option<StereoFrame>,
     out: Publisher<StereoFrame>,
@@ -266,20 +282,58 @@ impl CameraSimActor {
     }
 }
 
+impl CameraSimActor {
+    /// A fault the simulator started or ended while running: camera kinds join (or leave) the
+    /// schedule at the event's time; the world file's own faults are in it already.
+    fn on_sim_fault(&mut self, event: &SimFault) -> Result<(), ActorError> {
+        if (event.index as usize) < self.world_faults || !event.kind.starts_with("camera_") {
+            return Ok(());
+        }
+        match event.phase {
+            SimFaultPhase::Started => {
+                let fault = fault_of_message(event).map_err(ActorError::Failed)?;
+                self.faults.push(fault);
+                self.live.push((event.index, self.faults.faults().len() - 1));
+            }
+            SimFaultPhase::Ended => {
+                if let Some(&(_, at)) = self.live.iter().find(|(index, _)| *index == event.index) {
+                    self.faults.end_after(at, Time(event.time.0.saturating_sub(1)));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Delivers what is due, captures if a frame is due, then delivers again so that a zero
+    /// latency publishes the capture sample's own frame.
+    async fn on_truth(&mut self, truth: GroundTruth) -> Result<(), ActorError> {
+        self.deliver(truth.time).await?;
+        let origin = *self.origin.get_or_insert(truth.time);
+        if truth.time >= self.due(origin, self.next_slot) {
+            self.capture(&truth);
+            while self.due(origin, self.next_slot) <= truth.time {
+                self.next_slot += 1;
+            }
+        }
+        self.deliver(truth.time).await
+    }
+}
+
 impl Actor for CameraSimActor {
     type Params = CameraSimParams;
-    type Input = GroundTruth;
+    type Input = CameraInput;
 
     fn build(
         params: &CameraSimParams,
-        setup: &mut impl Setup<GroundTruth>,
+        setup: &mut impl Setup<CameraInput>,
     ) -> Result<CameraSimActor, ActorError> {
         params.validate().map_err(|e| ActorError::Params(e.to_string()))?;
         let camera = StereoCamera::new(&params.camera)
             .map_err(|e| ActorError::Params(e.within("camera").to_string()))?;
         let world = World::load(&setup.config_dir().join(&params.world))
             .map_err(|e| ActorError::Params(e.to_string()))?;
-        setup.input("ground_truth", |truth| truth);
+        setup.input("ground_truth", CameraInput::Truth);
+        setup.input("sim_fault", CameraInput::Fault);
         Ok(CameraSimActor {
             camera: Arc::new(camera),
             scene: Arc::new(Scene::new(&world.obstacles)),
@@ -293,22 +347,17 @@ impl Actor for CameraSimActor {
             spare: Vec::with_capacity(MAX_IN_FLIGHT),
             last_depth: None,
             faults: FaultSchedule::new(&world.faults),
+            world_faults: world.faults.len(),
+            live: Vec::new(),
             last_frame: None,
             out: setup.output("stereo_frame"),
         })
     }
 
-    /// Delivers what is due, captures if a frame is due, then delivers again so that a zero
-    /// latency publishes the capture sample's own frame.
-    async fn handle(&mut self, _ctx: &Context, truth: GroundTruth) -> Result<(), ActorError> {
-        self.deliver(truth.time).await?;
-        let origin = *self.origin.get_or_insert(truth.time);
-        if truth.time >= self.due(origin, self.next_slot) {
-            self.capture(&truth);
-            while self.due(origin, self.next_slot) <= truth.time {
-                self.next_slot += 1;
-            }
+    async fn handle(&mut self, _ctx: &Context, input: CameraInput) -> Result<(), ActorError> {
+        match input {
+            CameraInput::Truth(truth) => self.on_truth(truth).await,
+            CameraInput::Fault(event) => self.on_sim_fault(&event),
         }
-        self.deliver(truth.time).await
     }
 }

@@ -38,7 +38,7 @@ mod world;
 
 pub use actor::{SimActor, SimActorParams, SimInput};
 pub use battery::BatteryParams;
-pub use camera_actor::{CameraSimActor, CameraSimParams};
+pub use camera_actor::{CameraInput, CameraSimActor, CameraSimParams};
 pub use drag::DragParams;
 pub use error::{ConfigError, InvalidParam};
 pub use faults::{Fault, FaultEffects, FaultKind, FaultSchedule};

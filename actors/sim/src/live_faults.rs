@@ -8,7 +8,9 @@
 //! at the next tick. The names are ours where ArduPilot's differ in unit or meaning (its
 //! `SIM_GPS_GLITCH_*` are degrees of latitude; ours are metres), ArduPilot's where they agree
 //! (`SIM_BARO_DRIFT` m/s, `SIM_ENGINE_MUL`, `SIM_WIND_SPD`/`_DIR`/`_TURB`, the direction the
-//! wind blows *from*). The camera's faults are the camera actor's and stay in the world file.
+//! wind blows *from*). The stereo camera's faults are injected on `FAILURE_UNIT_SYSTEM_AVOIDANCE`
+//! (the camera is what the avoider sees through; MAVLink has no camera unit): they join this
+//! schedule, and the camera actor applies them from their `sim_fault` start and end.
 
 use kestrel_proto::messages::{
     FAILURE_INJECTION_ENABLE, FailureInjection, FailureType, FailureUnit, InjectionOutcome,
@@ -16,7 +18,7 @@ use kestrel_proto::messages::{
 use kestrel_proto::param_def::{ParamDef, WhileArmed};
 
 use crate::error::InvalidParam;
-use crate::faults::FaultKind;
+use crate::faults::{CameraLens, FaultKind};
 use crate::simulator::Simulator;
 
 /// The live parameters' values, in their MAVLink units.
@@ -309,6 +311,11 @@ impl LiveFaultParams {
     }
 }
 
+/// The glare MAV_CMD_INJECT_FAILURE puts on the stereo camera: full white over the middle 60 %
+/// of both images, over the avoider's centre region (the sun ahead, thesis §4.2.4).
+pub const CAMERA_GLARE: FaultKind =
+    FaultKind::CameraGlare { region: [0.2, 0.2, 0.8, 0.8], intensity: 1.0, lens: CameraLens::Both };
+
 /// A failure injected by MAV_CMD_INJECT_FAILURE, until a `FAILURE_TYPE_OK` for its unit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Injected {
@@ -389,7 +396,10 @@ impl LiveFaults {
 /// The fault a unit and type inject, as PX4's SITL reads them: `OFF` stops a sensor, `STUCK`
 /// freezes it, `WRONG` makes it lie by the fault matrix's amount (GPS 50 m north, the
 /// magnetometer +0.3 G forward, the barometer drifting 1 m/s). The simulator has one of each
-/// sensor: instance 0 (all) or 1. A motor needs its number.
+/// sensor: instance 0 (all) or 1. A motor needs its number. The stereo camera
+/// (`SYSTEM_AVOIDANCE`): `WRONG` is glare over the middle of both images ([`CAMERA_GLARE`], the
+/// sun ahead), `STUCK` frozen frames, `OFF` a lens capped (instance 1 left, 2 right, 0 both:
+/// black frames).
 fn injected_kind(
     unit: FailureUnit,
     failure: FailureType,
@@ -397,8 +407,15 @@ fn injected_kind(
     motors: usize,
 ) -> Result<FaultKind, InjectionOutcome> {
     use FailureType::{Off, Stuck, Wrong};
-    use FailureUnit::{SensorAccel, SensorBaro, SensorGps, SensorGyro, SensorMag, SystemMotor};
-    if unit != SystemMotor && instance > 1 {
+    use FailureUnit::{
+        SensorAccel, SensorBaro, SensorGps, SensorGyro, SensorMag, SystemAvoidance, SystemMotor,
+    };
+    if unit == SystemAvoidance && instance > 2 {
+        return Err(InjectionOutcome::Denied(format!(
+            "the stereo camera's lenses are 1 (left) and 2 (right), or 0 (both); not {instance}"
+        )));
+    }
+    if unit != SystemMotor && unit != SystemAvoidance && instance > 1 {
         return Err(InjectionOutcome::Denied(format!(
             "the simulator has one {unit:?}, not instance {instance}"
         )));
@@ -411,6 +428,13 @@ fn injected_kind(
         (SensorMag, Wrong) => FaultKind::MagAnomaly { gauss: [0.3, 0.0, 0.0] },
         (SensorBaro, Stuck) => FaultKind::BaroStuck,
         (SensorBaro, Wrong) => FaultKind::BaroDrift { m_s: 1.0 },
+        (SystemAvoidance, Wrong) => CAMERA_GLARE,
+        (SystemAvoidance, Stuck) => FaultKind::CameraFrozen,
+        (SystemAvoidance, Off) => match instance {
+            1 => FaultKind::CameraCapped { lens: CameraLens::Left },
+            2 => FaultKind::CameraCapped { lens: CameraLens::Right },
+            _ => FaultKind::CameraBlack,
+        },
         (SystemMotor, Off) if (1..=motors).contains(&usize::from(instance)) => {
             FaultKind::MotorLost { motor: instance }
         }
@@ -561,6 +585,10 @@ mod tests {
             (SensorBaro, Stuck, 0, Some("baro_stuck")),
             (SensorBaro, Wrong, 0, Some("baro_drift")),
             (SystemMotor, Off, 3, Some("motor_lost")),
+            (SystemAvoidance, Wrong, 0, Some("camera_glare")),
+            (SystemAvoidance, Off, 2, Some("camera_capped lens = \"right\"")),
+            (SystemAvoidance, Off, 0, Some("camera_black")),
+            (SystemAvoidance, Stuck, 0, Some("camera_frozen")),
         ] {
             let outcome = live.inject(&request(unit, failure, instance), &mut sim);
             let InjectionOutcome::Accepted(what) = outcome else {
@@ -568,12 +596,14 @@ mod tests {
             };
             assert!(what.starts_with(expect.unwrap()), "{what}");
         }
-        for (unit, failure, instance) in [(SystemMotor, Off, 0), (SystemMotor, Off, 5), (SensorGps, Off, 2)] {
+        for (unit, failure, instance) in
+            [(SystemMotor, Off, 0), (SystemMotor, Off, 5), (SensorGps, Off, 2), (SystemAvoidance, Off, 3)]
+        {
             let outcome = live.inject(&request(unit, failure, instance), &mut sim);
             assert!(matches!(outcome, InjectionOutcome::Denied(_)), "{unit:?} {instance}: {outcome:?}");
         }
         for (unit, failure) in
-            [(SensorGps, Garbage), (SensorAirspeed, Off), (SystemAvoidance, Off), (SensorGyro, Slow)]
+            [(SensorGps, Garbage), (SensorAirspeed, Off), (SystemAvoidance, Slow), (SensorGyro, Slow)]
         {
             let outcome = live.inject(&request(unit, failure, 0), &mut sim);
             assert!(matches!(outcome, InjectionOutcome::Unsupported(_)), "{unit:?} {failure:?}: {outcome:?}");

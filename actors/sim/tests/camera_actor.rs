@@ -4,12 +4,12 @@
 use std::path::Path;
 use std::time::Duration;
 
-use kestrel_proto::messages::{GroundTruth, StereoFrame};
+use kestrel_proto::messages::{GroundTruth, SimFault, SimFaultPhase, StereoFrame};
 use kestrel_proto::testing::TestSetup;
 use kestrel_proto::{Actor, ActorError, Time};
-use kestrel_sim::{CameraSimActor, CameraSimParams};
+use kestrel_sim::{CameraInput, CameraSimActor, CameraSimParams};
 
-fn setup() -> TestSetup<GroundTruth> {
+fn setup() -> TestSetup<CameraInput> {
     TestSetup::new("camera", Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config"))
 }
 
@@ -80,7 +80,7 @@ async fn captures_at_its_rate_and_delivers_latency_later_stamped_with_the_captur
     let params = params("");
     assert_eq!((params.rate_hz, params.latency_s), (15.0, 0.04));
     CameraSimActor::build(&params, &mut setup).unwrap();
-    assert_eq!(setup.input_ports(), ["ground_truth"]);
+    assert_eq!(setup.input_ports(), ["ground_truth", "sim_fault"]);
     assert_eq!(setup.output_ports(), ["stereo_frame"]);
 
     let (frames, actor) = fly(&params, 0.0, false).await;
@@ -126,6 +126,48 @@ async fn a_latency_longer_than_four_frames_skips_captures_instead_of_queueing() 
     assert!(frames.iter().enumerate().all(|(i, f)| f.sequence == i as u64));
     assert!(frames.iter().all(|f| f.published_us >= f.stamp_us + 300_000));
     assert!(frames.iter().all(|f| f.published_us < f.stamp_us + 320_000));
+}
+
+/// A `sim_fault` event of the simulator's fault `index` (beyond the world's own) at `time_us`.
+fn sim_fault(index: u32, phase: SimFaultPhase, time_us: u64, kind: &str, values: &str) -> SimFault {
+    SimFault {
+        time: Time(time_us),
+        index,
+        phase,
+        kind: kind.into(),
+        values: values.into(),
+        at_s: time_us as f64 * 1e-6,
+        for_s: None,
+    }
+}
+
+#[tokio::test]
+async fn a_camera_fault_the_simulator_adds_while_running_applies_from_its_start_to_its_end() {
+    let mut setup = setup();
+    let mut actor = CameraSimActor::build(&params("latency_s = 0.0"), &mut setup).unwrap();
+    let ctx = setup.context();
+    for i in 0..50u64 {
+        let time_us = i * 20_000;
+        if time_us == 300_000 {
+            let start = sim_fault(3, SimFaultPhase::Started, time_us, "camera_capped", "lens = \"right\"");
+            actor.handle(&ctx, setup.input("sim_fault", start)).await.unwrap();
+            // Another sensor's fault is none of the camera's business.
+            let gps = sim_fault(4, SimFaultPhase::Started, time_us, "gps_off", "");
+            actor.handle(&ctx, setup.input("sim_fault", gps)).await.unwrap();
+        }
+        if time_us == 700_000 {
+            let end = sim_fault(3, SimFaultPhase::Ended, time_us, "camera_capped", "lens = \"right\"");
+            actor.handle(&ctx, setup.input("sim_fault", end)).await.unwrap();
+        }
+        let truth = truth(time_us, 0.0);
+        setup.manual_clock().set(truth.time);
+        actor.handle(&ctx, setup.input("ground_truth", truth)).await.unwrap();
+    }
+    let frames = setup.published::<StereoFrame>("stereo_frame");
+    let capped: Vec<u64> =
+        frames.iter().filter(|f| f.right().iter().all(|&p| p == 0)).map(|f| f.time.0 / 1000).collect();
+    assert_eq!(capped, [340, 400, 480, 540, 600, 680], "captured from 300 ms up to 700 ms");
+    assert!(frames.iter().all(|f| f.left().iter().any(|&p| p != 0)), "the left lens still sees");
 }
 
 #[test]

@@ -14,6 +14,7 @@ pub mod mission;
 pub mod offboard;
 pub mod param_pack;
 pub mod params;
+pub mod sensor_health;
 pub mod telemetry;
 pub mod timesync;
 

@@ -36,7 +36,9 @@ use super::{Outputs, Sender, Service, ToGraph};
 use crate::config::{ParamKind, ParamSpec};
 
 mod file;
+mod saving;
 pub use file::{parse_param_file, render_param_file};
+pub use saving::{ParamWrite, short_reason};
 
 /// Why a parameter table could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -95,6 +97,12 @@ pub struct ParamTable {
     /// one arrives (the link starts with the vehicle on the ground, and an owner that knows the
     /// armed state refuses a locked set on its own as well).
     armed: bool,
+    /// Echoes wait for the parameter file (`saving.rs`): set when the link has one.
+    hold_echoes: bool,
+    /// Changes taken and not yet known to be on disk, oldest first.
+    unsaved: Vec<saving::Unsaved>,
+    /// The number of the last parameter file text handed out (`take_write`).
+    next_batch: u64,
 }
 
 /// PARAM_VALUEs sent per scheduler tick while a parameter list is streaming: a burst of hundreds
@@ -144,6 +152,9 @@ impl ParamTable {
             list_cursor: None,
             changed: false,
             armed: false,
+            hold_echoes: false,
+            unsaved: Vec::new(),
+            next_batch: 0,
         })
     }
 
@@ -299,22 +310,23 @@ impl ParamTable {
             }
             let restored = self.awaiting.remove(at).restored;
             let entry = &mut self.entries[i];
+            let previous = (entry.spec.value, entry.persist);
             entry.spec = spec;
             if entry.spec.value == wanted {
                 entry.persist = true;
-                if restored {
-                    return;
+                if !restored {
+                    done.persist_changed = true;
+                    self.echo_when_saved(i, previous, &mut done.out.mav);
                 }
-                done.persist_changed = true;
-            } else {
-                let text = format!(
-                    "Param {}: refused by {}, keeps {}",
-                    entry.spec.name,
-                    entry.owner_name(),
-                    entry.spec.value
-                );
-                done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
+                return;
             }
+            let text = format!(
+                "Param {}: refused by {}, keeps {}",
+                entry.spec.name,
+                entry.owner_name(),
+                entry.spec.value
+            );
+            done.out.mav.push(statustext(MavSeverity::MAV_SEVERITY_WARNING, &text));
             done.out.mav.extend(self.value_msg(i));
             return;
         }
@@ -451,11 +463,16 @@ impl ParamTable {
                 deadline: now + CONFIRM_TIMEOUT,
                 restored: false,
             });
+            self.changed = true;
             return Outputs { mav: Vec::new(), graph: vec![ToGraph::Param(set)] };
         }
+        self.changed = true;
+        let previous = (spec.value, entry.persist);
         spec.value = value;
         entry.persist = true;
-        Outputs { mav: self.value_msg(i).into_iter().collect(), graph: vec![ToGraph::Param(set)] }
+        let mut out = Outputs { mav: Vec::new(), graph: vec![ToGraph::Param(set)] };
+        self.echo_when_saved(i, previous, &mut out.mav);
+        out
     }
 
     /// The next part of a parameter list being streamed, and the sets whose owner did not
@@ -518,9 +535,7 @@ impl Service for ParamTable {
             }
             MavMessage::PARAM_SET(s) => {
                 let name = s.param_id.to_str().unwrap_or_default().trim_end_matches('\0').to_owned();
-                let out = self.set(&name, s.param_value, now);
-                self.changed |= !out.graph.is_empty();
-                out
+                self.set(&name, s.param_value, now)
             }
             _ => return None,
         })

@@ -1,6 +1,7 @@
 //! The I/O shell: sockets and serial ports feeding the [`crate::hub::Hub`]. Every task
 //! ends when the actor's shutdown token is cancelled.
 
+mod param_persistence;
 mod param_writer;
 mod serial;
 pub mod setup_signing;
@@ -27,7 +28,8 @@ use crate::router::LinkId;
 use crate::station::{EndpointIndex, Station};
 use crate::vehicle::Vehicle;
 
-pub use param_writer::{ParamWriter, WriterStats, write_atomically};
+pub use param_persistence::param_writer_for;
+pub use param_writer::{ParamWriter, Report, WriterStats, file_writer, write_atomically};
 pub use signing::{LinkSigning, SigningStats, Streams, Verdict};
 pub use signing_key::{KeyError, SigningKey};
 pub use udp_peers::{EVICTABLE_AFTER, PeerStats};
@@ -119,11 +121,11 @@ impl<S: Station> Shared<S> {
                 .enumerate()
                 .flat_map(|(i, f)| hub.on_checked_frame(id, f, verdicts.and_then(|v| v.get(i)).copied(), now))
                 .collect();
-            let params = if self.param_writer.is_some() { hub.station().take_param_text() } else { None };
+            let params = self.param_writer.as_ref().and_then(|_| hub.station().take_param_write());
             (out, params)
         };
-        if let (Some(text), Some(writer)) = (params, &self.param_writer) {
-            writer.submit(text);
+        if let (Some(write), Some(writer)) = (params, &self.param_writer) {
+            writer.submit_tagged(write.batch, write.text);
         }
         if !out.is_empty() {
             (self.graph)(out);

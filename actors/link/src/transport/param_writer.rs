@@ -2,6 +2,10 @@
 //! (write + fsync + rename + fsync of the directory: tens of milliseconds on an SD card) runs on
 //! a thread of its own. Sets that arrive while a write is in progress collapse into one pending
 //! text, so a burst from a ground station costs at most one more write and the last value wins.
+//!
+//! Each text carries a tag (the parameter table's batch number); a writer built with a report
+//! hands the outcome of every write, tagged, back on its own thread, and takes from the report an
+//! optional text to write next (`transport::param_persistence` wires it to the table).
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -21,10 +25,14 @@ pub struct WriterStats {
     pub failed: u64,
 }
 
+/// What a writer hands back after a write: the tag of the text written and how it went; the
+/// answer is a `(tag, text)` to write next (a text that replaces any pending one), if any.
+pub type Report = Box<dyn FnMut(u64, &std::io::Result<()>) -> Option<(u64, String)> + Send>;
+
 #[derive(Default)]
 struct Slot {
-    /// The newest text not yet written.
-    pending: Option<String>,
+    /// The newest text not yet written, with its tag.
+    pending: Option<(u64, String)>,
     /// Set by [`ParamWriter::finish`]: write what is pending, then stop.
     closing: bool,
     stats: WriterStats,
@@ -51,16 +59,20 @@ pub struct ParamWriter {
 impl ParamWriter {
     /// A writer that replaces `path` atomically (see [`write_atomically`]).
     pub fn to_file(path: PathBuf) -> std::io::Result<ParamWriter> {
-        let name = path.display().to_string();
-        ParamWriter::spawn(move |text| {
-            write_atomically(&path, text).inspect_err(|e| {
-                tracing::error!(path = %name, error = %e, "cannot persist parameters");
-            })
-        })
+        ParamWriter::spawn(file_writer(path))
     }
 
     /// A writer that hands every (coalesced) text to `write` on its own thread.
-    pub fn spawn<F>(mut write: F) -> std::io::Result<ParamWriter>
+    pub fn spawn<F>(write: F) -> std::io::Result<ParamWriter>
+    where
+        F: FnMut(&str) -> std::io::Result<()> + Send + 'static,
+    {
+        ParamWriter::spawn_reporting(write, Box::new(|_, _| None))
+    }
+
+    /// [`ParamWriter::spawn`], handing the outcome of each write to `report` on the writer's
+    /// thread (see [`Report`]).
+    pub fn spawn_reporting<F>(mut write: F, mut report: Report) -> std::io::Result<ParamWriter>
     where
         F: FnMut(&str) -> std::io::Result<()> + Send + 'static,
     {
@@ -68,22 +80,32 @@ impl ParamWriter {
         let worker = Arc::clone(&inner);
         let thread = std::thread::Builder::new().name("kestrel-params".into()).spawn(move || {
             loop {
-                let text = {
+                let (tag, text) = {
                     let mut slot = worker.slot();
                     while slot.pending.is_none() && !slot.closing {
                         slot = worker.wake.wait(slot).unwrap_or_else(|e| e.into_inner());
                     }
                     match slot.pending.take() {
-                        Some(text) => text,
+                        Some(pending) => pending,
                         None => return,
                     }
                 };
-                let ok = write(&text).is_ok();
-                let mut slot = worker.slot();
-                if ok {
-                    slot.stats.written += 1;
-                } else {
-                    slot.stats.failed += 1;
+                let result = write(&text);
+                {
+                    let mut slot = worker.slot();
+                    if result.is_ok() {
+                        slot.stats.written += 1;
+                    } else {
+                        slot.stats.failed += 1;
+                    }
+                }
+                // Outside the slot's lock: the report takes the link's hub, whose holders submit.
+                if let Some(next) = report(tag, &result) {
+                    let mut slot = worker.slot();
+                    slot.stats.submitted += 1;
+                    if slot.pending.replace(next).is_some() {
+                        slot.stats.coalesced += 1;
+                    }
                 }
             }
         })?;
@@ -93,9 +115,14 @@ impl ParamWriter {
     /// Queues `text` to be written, replacing any text not yet written. Never waits for a
     /// write.
     pub fn submit(&self, text: String) {
+        self.submit_tagged(0, text);
+    }
+
+    /// [`ParamWriter::submit`] with the tag its report will carry.
+    pub fn submit_tagged(&self, tag: u64, text: String) {
         let mut slot = self.inner.slot();
         slot.stats.submitted += 1;
-        if slot.pending.replace(text).is_some() {
+        if slot.pending.replace((tag, text)).is_some() {
             slot.stats.coalesced += 1;
         }
         drop(slot);
@@ -126,6 +153,16 @@ impl Drop for ParamWriter {
     fn drop(&mut self) {
         self.inner.slot().closing = true;
         self.inner.wake.notify_one();
+    }
+}
+
+/// Writes each text to `path` atomically, logging a failure with the file's name.
+pub fn file_writer(path: PathBuf) -> impl FnMut(&str) -> std::io::Result<()> + Send + 'static {
+    let name = path.display().to_string();
+    move |text| {
+        write_atomically(&path, text).inspect_err(|e| {
+            tracing::error!(path = %name, error = %e, "cannot persist parameters");
+        })
     }
 }
 

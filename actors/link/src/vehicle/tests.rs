@@ -40,7 +40,7 @@ fn vehicle(params: usize) -> Vehicle {
 }
 
 #[test]
-fn driver_errors_become_one_warning_per_report() {
+fn a_driver_error_is_a_warning_at_once_and_not_again_the_next_second() {
     let mut v = vehicle(0);
     let health = |errors| SensorHealth {
         time: Time::ZERO,
@@ -60,6 +60,7 @@ fn driver_errors_become_one_warning_per_report() {
         text.push_str(String::from_utf8_lossy(&t.text.to_vec()).trim_end_matches('\0'));
     }
     assert_eq!(text, "motors: 20 errors in the last second (/sys/class/pwm/pwmchip0)");
+    assert!(v.on_sensor_health(&health(20)).mav.is_empty(), "repeated every 30 s, not every report");
 }
 
 fn status(reached: u32) -> VehicleStatus {

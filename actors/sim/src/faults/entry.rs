@@ -255,9 +255,43 @@ pub(crate) fn check_for_vehicle(faults: &[Fault], motor_count: usize) -> Result<
     Ok(())
 }
 
+/// The fault a `sim_fault` start describes (its `kind` and `values` as the world file spells
+/// them), from the message's time on, open-ended: the inverse of `FaultSchedule::message`, for
+/// an actor that applies faults the simulator added while running (the camera's). The error
+/// says what did not read.
+pub fn fault_of_message(msg: &kestrel_proto::messages::SimFault) -> Result<Fault, String> {
+    #[derive(Deserialize)]
+    struct One {
+        fault: Fault,
+    }
+    let values = if msg.values.is_empty() { String::new() } else { format!(", {}", msg.values) };
+    let text = format!("fault = {{ at_s = {:?}, kind = {:?}{values} }}", msg.time.as_secs_f64(), msg.kind);
+    toml::from_str::<One>(&text).map(|one| one.fault).map_err(|e| format!("sim_fault {}: {e}", msg.kind))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sim_fault_start_reads_back_as_the_fault_it_reports() {
+        use kestrel_proto::Time;
+
+        use crate::faults::FaultSchedule;
+        use crate::live_faults::CAMERA_GLARE;
+        for kind in [
+            CAMERA_GLARE,
+            FaultKind::CameraCapped { lens: CameraLens::Right },
+            FaultKind::CameraBlack,
+            FaultKind::GpsJump { ned_m: [50.0, -3.5, 0.0] },
+        ] {
+            let mut schedule = FaultSchedule::default();
+            schedule.push(Fault { at_s: 12.0, for_s: None, kind: kind.clone() });
+            let event = schedule.poll(Time::from_micros(12_020_000)).remove(0);
+            let fault = fault_of_message(&schedule.message(&event)).expect("reads back");
+            assert_eq!(fault, Fault { at_s: event.time.as_secs_f64(), for_s: None, kind });
+        }
+    }
 
     /// The faults of a world file's text (only `[[faults]]` entries), or the first error.
     fn parse(text: &str) -> Result<Vec<Fault>, (usize, InvalidParam)> {

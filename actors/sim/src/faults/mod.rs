@@ -25,7 +25,7 @@ mod entry;
 mod kind;
 mod schedule;
 
-pub use entry::entry_lines;
 pub(crate) use entry::{check_entries, check_for_vehicle};
+pub use entry::{entry_lines, fault_of_message};
 pub use kind::{CameraLens, Fault, FaultKind, KINDS};
 pub use schedule::{CameraFaults, FaultEffects, FaultEvent, FaultSchedule, Glare};

@@ -346,3 +346,57 @@ fn an_owner_that_never_answers_leaves_the_old_value_and_says_so() {
     assert_eq!(render_param_file(&t), "");
     assert!(t.tick(Time::from_secs_f64(2.0)).is_empty(), "said once");
 }
+
+#[test]
+fn a_set_is_echoed_only_after_the_file_holds_it() {
+    let mut t = table();
+    t.hold_echoes_until_saved();
+    let out = t.set("RTL_ALT_M", 40.0, Time::ZERO);
+    assert!(values(&out.mav).is_empty(), "no echo before the file is written: {:?}", out.mav);
+    assert_eq!(value(&t.read("RTL_ALT_M", -1).expect("known")).1, 40.0, "in use at once");
+    let first = t.take_write().expect("a text to write");
+    assert_eq!(first.text, "RTL_ALT_M=40\n");
+    assert_eq!(t.take_write(), None, "one text per change");
+    // A second set while the first write is on its way: its text replaces the first.
+    let _ = t.set("RTL_ALT_M", 50.0, Time::ZERO);
+    let second = t.take_write().expect("a text to write");
+    assert!(second.batch > first.batch);
+    // The writer wrote the newest text only: both sets are answered with the values they set.
+    let out = t.on_saved(second.batch, Ok(()), Time::ZERO);
+    assert_eq!(values(&out.mav), [("RTL_ALT_M".to_owned(), 40.0), ("RTL_ALT_M".to_owned(), 50.0)]);
+    assert!(t.on_saved(second.batch, Ok(()), Time::ZERO).mav.is_empty(), "each set answered once");
+}
+
+#[test]
+fn a_failed_write_echoes_the_old_value_with_why() {
+    let mut t = table();
+    t.hold_echoes_until_saved();
+    let _ = t.set("RTL_ALT_M", 40.0, Time::ZERO);
+    let w = t.take_write().expect("a text");
+    let out = t.on_saved(w.batch, Err("read-only"), Time::ZERO);
+    let texts: Vec<String> = out.mav.iter().filter_map(text_of).collect();
+    assert_eq!(texts, ["Param RTL_ALT_M not saved: read-only"]);
+    assert_eq!(values(&out.mav), [("RTL_ALT_M".to_owned(), 30.0)], "the value the file holds");
+    assert_eq!(value(&t.read("RTL_ALT_M", -1).expect("known")).1, 30.0, "put back in use");
+    // The table is written again without the value put back (a later text may hold it).
+    assert_eq!(t.take_write().expect("rewrite").text, "");
+    assert_eq!(render_param_file(&t), "");
+}
+
+#[test]
+fn a_failed_write_sends_an_owned_value_back_to_its_owner() {
+    let mut t = ParamTable::new(Vec::new()).expect("empty table");
+    t.hold_echoes_until_saved();
+    t.declare(&decl("nav", true, &[("WPNAV_SPEED", 5.0)]), Time::ZERO);
+    assert_eq!(t.set("WPNAV_SPEED", 8.0, Time::ZERO).graph, vec![param_set("WPNAV_SPEED", 8.0)]);
+    let done = t.declare(&decl("nav", false, &[("WPNAV_SPEED", 8.0)]), Time::ZERO);
+    assert!(values(&done.out.mav).is_empty(), "taken, held until saved");
+    let w = t.take_write().expect("a text");
+    assert_eq!(w.text, "WPNAV_SPEED=8\n");
+    let out = t.on_saved(w.batch, Err("disk full"), Time::ZERO);
+    assert_eq!(out.graph, vec![restored("WPNAV_SPEED", 5.0)]);
+    assert_eq!(values(&out.mav), [("WPNAV_SPEED".to_owned(), 5.0)]);
+    // The owner takes the old value back: no second echo.
+    let done = t.declare(&decl("nav", false, &[("WPNAV_SPEED", 5.0)]), Time::ZERO);
+    assert!(done.out.mav.is_empty(), "{:?}", done.out.mav);
+}
