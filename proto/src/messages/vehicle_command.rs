@@ -3,6 +3,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use super::follow_target::FollowTarget;
 use super::guided_target::{AttitudeTarget, PositionTarget};
 use super::mission::MissionPoint;
 use super::vehicle_status::FlightMode;
@@ -91,6 +92,8 @@ pub enum Command {
     /// `first` (1-based, in the frame's test order) and the `count` - 1 after it in turn, each at
     /// `throttle` (share of full, 0..=1) for `duration_s`.
     MotorTest { first: u8, count: u8, throttle: f64, duration_s: f64 },
+    /// Another system's position report (FOLLOW_TARGET, GLOBAL_POSITION_INT), for FOLLOW.
+    FollowTarget(FollowTarget),
 }
 
 /// Where the nose points while orbiting (MAVLink ORBIT_YAW_BEHAVIOUR).
