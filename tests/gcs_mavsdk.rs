@@ -169,3 +169,9 @@ fn mavsdk_geofence_upload_refuses_a_goto_outside_and_a_breach_returns() {
     let t = fly("geofence", &[]);
     println!("outside: {}; breach: {}", detail(&t, "goto_location outside"), detail(&t, "breach"));
 }
+
+#[test]
+fn mavsdk_follow_me_starts_follow_and_the_vehicle_keeps_its_place_behind_a_walking_target() {
+    let t = fly("follow_me", &[]);
+    println!("plugin: {}; follow: {}", detail(&t, "set_target_location in FOLLOW"), detail(&t, "follow"));
+}

@@ -31,6 +31,7 @@ when every check held, 1 with `FAILED step: why` otherwise.
 
 import asyncio
 import gc
+import json
 import math
 import os
 import sys
@@ -39,14 +40,18 @@ import time
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.action import ActionAsync
 from mavsdk.asyncio.plugins.failure import FailureAsync
+from mavsdk.asyncio.plugins.follow_me import FollowMeAsync
 from mavsdk.asyncio.plugins.geofence import GeofenceAsync
 from mavsdk.asyncio.plugins.log_files import LogFilesAsync
+from mavsdk.asyncio.plugins.mavlink_direct import MavlinkDirectAsync
 from mavsdk.asyncio.plugins.mission_raw import MissionRawAsync
 from mavsdk.asyncio.plugins.offboard import OffboardAsync
 from mavsdk.asyncio.plugins.param import ParamAsync
 from mavsdk.asyncio.plugins.telemetry import TelemetryAsync
 from mavsdk.plugins.action import ActionError, OrbitYawBehavior
 from mavsdk.plugins.failure import FailureError, FailureResult, FailureType, FailureUnit
+from mavsdk.plugins.follow_me import FollowMeError, TargetLocation
+from mavsdk.plugins.mavlink_direct import MavlinkMessage
 from mavsdk.plugins.geofence import Circle, FenceType, GeofenceData, Point, Polygon
 from mavsdk.plugins.offboard import VelocityBodyYawspeed, VelocityNedYaw
 from mavsdk.plugins.telemetry import FlightMode, LandedState
@@ -96,6 +101,8 @@ class Vehicle:
         self.param = ParamAsync(system)
         self.log_files = LogFilesAsync(system)
         self.geofence = GeofenceAsync(system)
+        self.follow_me = FollowMeAsync(system)
+        self.mavlink_direct = MavlinkDirectAsync(system)
 
     async def ready(self):
         health = await until("health: armable, global position, home",
@@ -485,9 +492,97 @@ async def body_circle(v, speed_m_s=2.0, rate_deg_s=30.0):
         raise Failed(f"circle: ground speed {speed:.2f} m/s, asked {speed_m_s}")
 
 
+
+async def follow_me(v, speed_m_s=3.0, walk_s=15.0, ahead_m=5.0):
+    home = await v.ready()
+    # Kestrel declares its parameters REAL32 (ArduCopter's FOLL_ENABLE is an INT8).
+    await v.param.set_param_float("FOLL_ENABLE", 1.0)
+    await v.action.set_takeoff_altitude(10.0)
+    await v.arm()
+    await v.action.takeoff()
+
+    async def up():
+        return await v.relative_altitude() > 9.5
+    await until("at take-off height", up, 40.0)
+    await asyncio.sleep(2.0)
+    start = await v.telemetry.position()
+    north_m = lambda p: (p.latitude_deg - home.latitude_deg) * 110_574.0
+    east_m = lambda p: (p.longitude_deg - home.longitude_deg) * 111_320.0 * math.cos(math.radians(home.latitude_deg))
+    n0, e0 = north_m(start), east_m(start)
+
+    def target_at(t_s):
+        walked = speed_m_s * min(max(t_s, 0.0), walk_s)
+        lat = home.latitude_deg + (n0 + ahead_m + walked) / 110_574.0
+        lon = start.longitude_deg
+        v_n = speed_m_s if 0.0 <= t_s < walk_s else 0.0
+        return lat, lon, home.absolute_altitude_m, v_n
+
+    lat, lon, alt, _ = target_at(0.0)
+    # MAVSDK's own answer on an ArduPilot vehicle, recorded as it is.
+    try:
+        await v.follow_me.set_target_location(TargetLocation(lat, lon, alt, 0.0, 0.0, 0.0))
+        plugin = "SUCCESS"
+    except FollowMeError as e:
+        plugin = e.result.name
+    log("set_target_location before start", plugin)
+
+    async def send(t_s):
+        lat, lon, alt, v_n = target_at(t_s)
+        fields = {
+            "timestamp": int(t_s * 1000), "est_capabilities": 1,
+            "lat": int(round(lat * 1e7)), "lon": int(round(lon * 1e7)), "alt": alt,
+            "vel": [v_n, 0.0, 0.0], "acc": [0.0, 0.0, 0.0], "attitude_q": [1.0, 0.0, 0.0, 0.0],
+            "rates": [0.0, 0.0, 0.0], "position_cov": [0.0, 0.0, 0.0], "custom_state": 0,
+        }
+        await v.mavlink_direct.send_message(MavlinkMessage("FOLLOW_TARGET", 0, 0, 0, 0, json.dumps(fields)))
+
+    await send(0.0)
+    await v.follow_me.start()
+    await until("flight mode FOLLOW_ME", lambda: _mode_is(v, FlightMode.FOLLOW_ME), 5.0)
+    try:
+        await v.follow_me.set_target_location(TargetLocation(lat, lon, alt, 0.0, 0.0, 0.0))
+        plugin = "SUCCESS"
+    except FollowMeError as e:
+        plugin = e.result.name
+    log("set_target_location in FOLLOW", plugin)
+    if plugin != "NOT_ACTIVE":
+        raise Failed(f"follow_me: set_target_location answered {plugin}: MAVSDK now sends on ArduPilot, "
+                     "drop the MavlinkDirect stand-in")
+    t0 = time.monotonic()
+    errors = []
+    while True:
+        t = (time.monotonic() - t0) * SPEEDUP
+        if t > walk_s + 8.0:
+            break
+        await send(t)
+        p = await v.telemetry.position()
+        tl, _, _, _ = target_at(t)
+        # Where the vehicle should be: its place at the start, moved with the target.
+        behind = (tl - home.latitude_deg) * 110_574.0 - ahead_m - north_m(p)
+        side = east_m(p) - e0
+        if t > 5.0:
+            errors.append((t, behind, side, p.relative_altitude_m))
+        await asyncio.sleep(0.2 / SPEEDUP)
+    walking = [e for e in errors if e[0] < walk_s]
+    stopped = [e for e in errors if e[0] > walk_s + 5.0]
+    lag = sum(e[1] for e in walking) / len(walking)
+    worst_side = max(abs(e[2]) for e in errors)
+    worst_alt = max(abs(e[3] - 10.0) for e in errors)
+    final = sum(abs(e[1]) for e in stopped) / len(stopped)
+    end = await v.telemetry.position()
+    log("follow", f"walking: {lag:.2f} m behind its place on average (position-only reports), "
+                  f"{worst_side:.2f} m off the line at worst, height within {worst_alt:.2f} m of 10 m; "
+                  f"stopped: {final:.2f} m from its place; flew {north_m(end) - n0:.1f} m north")
+    if not (north_m(end) - n0 > 0.8 * speed_m_s * walk_s and final < 1.5 and worst_side < 1.5 and worst_alt < 1.5):
+        raise Failed("follow: the vehicle did not keep its place relative to the target")
+    await v.follow_me.stop()
+    await v.action.land()
+    await v.landed_and_disarmed(60.0)
+
+
 SCENARIOS = {"takeoff_land": takeoff_land, "mission": mission, "offboard": offboard,
              "goto_hold_rtl": goto_hold_rtl, "failure_gps": failure_gps, "log_files": log_files,
-             "geofence": geofence}
+             "geofence": geofence, "follow_me": follow_me}
 
 
 async def run(name, args):

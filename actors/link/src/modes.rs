@@ -15,6 +15,7 @@
 //! | Circle | 7 | CIRCLE (also what DO_ORBIT starts) |
 //! | Land | 9 | LAND |
 //! | Brake | 17 | BRAKE (MAVSDK's `hold` asks for it) |
+//! | Follow | 23 | FOLLOW (MAVSDK's `follow_me.start` asks for it) |
 
 use kestrel_proto::messages::FlightMode;
 
@@ -31,6 +32,7 @@ pub fn custom_mode(mode: FlightMode) -> u32 {
         FlightMode::Circle => 7,
         FlightMode::Land => 9,
         FlightMode::Brake => 17,
+        FlightMode::Follow => 23,
     }
 }
 
@@ -49,6 +51,7 @@ pub fn flight_mode(custom_mode: u32) -> Option<FlightMode> {
         9 => FlightMode::Land,
         // MAVSDK 4's `hold` asks for BRAKE: it stops, then holds.
         17 => FlightMode::Brake,
+        23 => FlightMode::Follow,
         _ => return None,
     })
 }
@@ -67,6 +70,7 @@ pub fn mode_name(mode: FlightMode) -> &'static str {
         FlightMode::Land => "LAND",
         FlightMode::Circle => "CIRCLE",
         FlightMode::Brake => "BRAKE",
+        FlightMode::Follow => "FOLLOW",
     }
 }
 
@@ -87,6 +91,7 @@ mod tests {
             FlightMode::Land,
             FlightMode::Circle,
             FlightMode::Brake,
+            FlightMode::Follow,
         ] {
             assert_eq!(flight_mode(custom_mode(mode)), Some(mode));
         }

@@ -23,6 +23,7 @@ use mavlink::{Message, MessageData};
 use crate::frame::Frame;
 use crate::services::command::{self, CommandRequest, CommandService};
 use crate::services::events::{status_changes, statustext};
+use crate::services::follow;
 use crate::services::ftp::FtpServer;
 use crate::services::heartbeat::{GcsEvent, GcsWatch, vehicle_heartbeat};
 use crate::services::log_download::{LogDirectory, LogDownload};
@@ -261,6 +262,16 @@ impl Vehicle {
                 let home = home(&self.telemetry.snapshot);
                 let c = global_target(m, home, &mut self.offboard_rejects);
                 Outputs { mav: Vec::new(), graph: vec![ToGraph::Command(c)] }
+            }
+            MavMessage::FOLLOW_TARGET(_) | MavMessage::GLOBAL_POSITION_INT(_) => {
+                match follow::report(from, msg) {
+                    Some(Ok(command)) => Outputs { mav: Vec::new(), graph: vec![ToGraph::Command(command)] },
+                    Some(Err(why)) => {
+                        tracing::debug!(system_id = from.system_id, %why, "position report not passed on");
+                        Outputs::none()
+                    }
+                    None => Outputs::none(),
+                }
             }
             MavMessage::SET_ATTITUDE_TARGET(m) => Outputs {
                 mav: Vec::new(),

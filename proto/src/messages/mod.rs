@@ -12,6 +12,7 @@ mod esc_telemetry;
 mod estimator_status;
 mod failure_injection;
 mod fence_plan;
+mod follow_target;
 mod gps;
 mod ground_truth;
 mod guided_target;
@@ -55,6 +56,7 @@ pub use failure_injection::{
     InjectionOutcome,
 };
 pub use fence_plan::{FenceKind, FencePlan, FenceZone};
+pub use follow_target::{FollowSource, FollowTarget};
 pub use gps::{GpsFix, GpsFixType};
 pub use ground_truth::GroundTruth;
 pub use guided_target::{AttitudeTarget, PositionTarget};

@@ -3,6 +3,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use super::follow_target::FollowTarget;
 use super::guided_target::{AttitudeTarget, PositionTarget};
 use super::mission::MissionPoint;
 use super::vehicle_status::FlightMode;
@@ -98,6 +99,8 @@ pub enum Command {
     /// `MOTOR_TEST_MAX_S`), with half that at rest between two, as ArduCopter's
     /// `motor_test_output` sequences them.
     MotorTest { first: u8, count: u8, throttle: MotorTestThrottle, duration_s: f64 },
+    /// Another system's position report (FOLLOW_TARGET, GLOBAL_POSITION_INT), for FOLLOW.
+    FollowTarget(FollowTarget),
 }
 
 /// Longest a motor test spins one motor (s): ArduCopter's `MOTOR_TEST_TIMEOUT_SEC`; a longer

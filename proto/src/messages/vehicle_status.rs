@@ -34,6 +34,8 @@ pub enum FlightMode {
     Circle,
     /// Stop as fast as the vehicle can and hold there (ArduCopter BRAKE).
     Brake,
+    /// Fly after another system at an offset, from its position reports (ArduCopter FOLLOW).
+    Follow,
 }
 
 /// Whether the vehicle is on the ground.

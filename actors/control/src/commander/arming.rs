@@ -27,6 +27,7 @@ pub fn needs_position(mode: FlightMode) -> bool {
             | FlightMode::ReturnToLaunch
             | FlightMode::Circle
             | FlightMode::Brake
+            | FlightMode::Follow
     )
 }
 
@@ -105,6 +106,10 @@ impl Commander {
         if mode == FlightMode::AltHold && !nav.is_some_and(|n| n.valid.vertical_position) {
             return refuse("AltHold needs a height estimate");
         }
+        if mode == FlightMode::Follow && !self.params.follow.enabled {
+            // ArduCopter's `ModeFollow::init` says exactly this and refuses the mode.
+            return refuse("Set FOLL_ENABLE = 1");
+        }
         if mode == FlightMode::Auto && self.mission.uploaded.is_none() {
             return refuse("Auto needs a mission");
         }
@@ -127,11 +132,15 @@ impl Commander {
         self.vehicle_ready(now)?;
         if matches!(
             self.mode,
-            FlightMode::ReturnToLaunch | FlightMode::Land | FlightMode::Circle | FlightMode::Brake
+            FlightMode::ReturnToLaunch
+                | FlightMode::Land
+                | FlightMode::Circle
+                | FlightMode::Brake
+                | FlightMode::Follow
         ) {
             // ArduCopter's RTL and LAND do not allow arming: the vehicle would take off only to
             // come straight back down, or sit armed waiting for the land detector. Nor do its
-            // CIRCLE and BRAKE (`allows_arming` false): they fly only once in the air.
+            // CIRCLE, BRAKE and FOLLOW (`allows_arming` false): they fly only once in the air.
             return refuse(format!("arming refused: not in {:?} (choose GUIDED, LOITER or AUTO)", self.mode));
         }
         self.sticks_ready(now)?;

@@ -145,6 +145,10 @@ impl Commander {
             }
             Command::Reboot { force } => self.reboot(force),
             Command::MotorTest { .. } => self.motor_test(),
+            Command::FollowTarget(t) => {
+                self.on_follow_target(now, &t);
+                Ok(())
+            }
             Command::PauseMission | Command::ContinueMission
                 if self.mode != FlightMode::Auto || self.mission.runner.is_none() =>
             {

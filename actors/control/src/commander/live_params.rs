@@ -558,7 +558,11 @@ pub fn apply(params: &mut CommanderParams, name: &str, value: f64) -> Result<Par
     {
         return Err(ParamRefused::Invalid { name: name.to_owned(), reason: codes.why_not(value) });
     }
-    param_def::apply(LIVE_PARAMS, params, name, value, CommanderParams::validate)
+    match param_def::apply(LIVE_PARAMS, params, name, value, CommanderParams::validate)? {
+        // FOLLOW's `FOLL_*` live beside the mode (`follow`).
+        ParamChange::NotMine => super::follow::apply_param(params, name, value),
+        change => Ok(change),
+    }
 }
 
 #[cfg(test)]

@@ -35,6 +35,7 @@ mod failsafe_actions;
 mod faults;
 mod feasibility;
 mod fence_zones;
+mod follow;
 mod geofence;
 mod guided;
 mod guided_setpoint;
@@ -69,6 +70,10 @@ pub use avoidance::{cap_braking, frd_to_ned};
 pub use brake::{BRAKE_DECEL_M_S2, Brake, BrakeTarget};
 pub use circle::{Circle, CircleParams, CircleTarget};
 pub use failsafe::{FailsafeMonitor, FailsafeRecord, HeldFor, NetHeldFor};
+pub use follow::{
+    FOLLOW_PARAMS, FollowAltitude, FollowParams, FollowPoint, FollowTracker, FollowYaw, NoTarget,
+    OffsetFrame, Predicted, Report, TARGET_TIMEOUT_S,
+};
 pub use kestrel_proto::param_def::{ParamChange, ParamRefused};
 pub use land_detector::LandDetector;
 pub use mission_runner::{MissionRunner, MissionStep};
@@ -136,6 +141,8 @@ pub struct Commander {
     /// The rangefinders, a landing moving off an obstacle's top, and the vertical limit
     /// reported (`vertical_limit`).
     vertical: vertical_limit::VerticalLimit,
+    /// Other systems' position reports and the one FOLLOW flies after (`follow`).
+    follow: follow::FollowTracker,
 }
 
 impl Commander {
@@ -164,6 +171,7 @@ impl Commander {
             last_update: None,
             avoidance: avoidance::AvoidanceLoop::default(),
             vertical: vertical_limit::VerticalLimit::default(),
+            follow: follow::FollowTracker::default(),
         })
     }
 
@@ -197,6 +205,9 @@ impl Commander {
         for p in decl.params.iter_mut().filter(|p| p.name == "FENCE_TOTAL") {
             (p.min, p.max) = (p.value, p.value);
         }
+        let follow =
+            kestrel_proto::param_def::declare(follow::FOLLOW_PARAMS, &self.params, owner, start, now);
+        decl.params.extend(follow.params);
         decl
     }
 

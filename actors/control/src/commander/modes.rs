@@ -10,6 +10,7 @@ use super::arming::Refusal;
 use super::avoidance::{Blend, Leg, Limits};
 use super::brake::Brake;
 use super::circle::Circle;
+use super::follow::FollowLatch;
 use super::guided::GuidedTarget;
 use super::mission_runner::MissionStep;
 use super::{Commander, heading};
@@ -57,6 +58,8 @@ pub(crate) struct ModeLatches {
     pub circle: Option<Circle>,
     /// BRAKE's velocity still to shed, then the point held.
     pub brake: Option<Brake>,
+    /// FOLLOW's offset taken on entry and its stop while there is no target.
+    pub follow: FollowLatch,
 }
 
 impl Default for ModeLatches {
@@ -68,6 +71,7 @@ impl Default for ModeLatches {
             flip: None,
             circle: None,
             brake: None,
+            follow: FollowLatch::default(),
         }
     }
 }
@@ -193,7 +197,10 @@ impl Commander {
                 }
                 traj([Some(p.x), Some(p.y), Some(down)], [None; 3], Some(yaw))
             }
-            FlightMode::Circle | FlightMode::Brake if on_ground => SetpointTarget::MotorsOff,
+            FlightMode::Circle | FlightMode::Brake | FlightMode::Follow if on_ground => {
+                SetpointTarget::MotorsOff
+            }
+            FlightMode::Follow => self.follow(now, dt_s, &nav),
             FlightMode::Circle => self.circle(dt_s, &nav),
             FlightMode::Brake => self.brake(dt_s, &nav),
             FlightMode::ReturnToLaunch => self.rtl(now, dt_s, &nav),

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::circle::CircleParams;
 use super::failsafe_actions;
+use super::follow::FollowParams;
 use super::rally::RallyParams;
 use super::vertical::VerticalParams;
 use crate::error::{InvalidParam, positive, within};
@@ -79,6 +80,8 @@ pub struct CommanderParams {
     pub vertical: VerticalParams,
     /// `[circle]`: CIRCLE's radius, rate and acceleration (`circle`).
     pub circle: CircleParams,
+    /// `[follow]`: FOLLOW's `FOLL_*` (`follow`).
+    pub follow: FollowParams,
     /// `[rally]`: which rally point RTL may return to (`rally`).
     pub rally: RallyParams,
 }
@@ -116,6 +119,7 @@ impl Default for CommanderParams {
             feasibility: FeasibilityParams::default(),
             vertical: VerticalParams::default(),
             circle: CircleParams::default(),
+            follow: FollowParams::default(),
             rally: RallyParams::default(),
         }
     }
@@ -366,6 +370,7 @@ impl CommanderParams {
         within("feasibility.min_height_m", self.feasibility.min_height_m, -100.0, 100.0)?;
         self.vertical.validate()?;
         self.circle.validate()?;
+        self.follow.validate()?;
         within("rally.limit_km", self.rally.limit_km, 0.0, 100.0)?;
         within("throttle_deadband", self.throttle_deadband, 0.0, 0.5)?;
         within("failsafe.battery_low", self.failsafe.battery_low, 0.0, 1.0)?;

@@ -35,7 +35,11 @@ pub fn vehicle_heartbeat(status: Option<&VehicleStatus>) -> HEARTBEAT_DATA {
         FlightMode::Guided | FlightMode::Takeoff | FlightMode::Brake => {
             MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED
         }
-        FlightMode::Auto | FlightMode::ReturnToLaunch | FlightMode::Land | FlightMode::Circle => {
+        FlightMode::Auto
+        | FlightMode::ReturnToLaunch
+        | FlightMode::Land
+        | FlightMode::Circle
+        | FlightMode::Follow => {
             MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED | MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED
         }
     };

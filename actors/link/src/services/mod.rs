@@ -7,6 +7,7 @@ pub mod command;
 pub mod estimator_text;
 pub mod events;
 pub mod failure;
+pub mod follow;
 pub mod ftp;
 pub mod heartbeat;
 pub mod log_download;
