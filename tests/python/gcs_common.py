@@ -324,41 +324,73 @@ def same_float(a, b):
     return (math.isnan(a) and math.isnan(b)) or a == b
 
 
-def upload_and_download(gcs, items):
-    """Mission protocol both ways; fails unless the download equals the upload field by field."""
-    t0 = time.monotonic()
-    gcs.log(f"-> MISSION_COUNT {len(items)}")
-    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mav.MAV_MISSION_TYPE_MISSION)
+def item_int(command, frame, params=(0.0, 0.0, 0.0, 0.0), at=(0.0, 0.0), alt=0.0, autocontinue=1):
+    """One plan item as `upload` sends it: MISSION_ITEM_INT's fields, `at` (latitude, longitude in
+    degrees; (0, 0) for an item without a place) as 1e-7 degree."""
+    lat, lon = at
+    return dict(command=command, frame=frame, params=[float(p) for p in params],
+                x=int(round(lat * 1e7)), y=int(round(lon * 1e7)), alt=float(alt),
+                autocontinue=autocontinue)
+
+
+def upload(gcs, items, step, mission_type=mav.MAV_MISSION_TYPE_MISSION, timeout_s=3.0,
+           legacy_ok=True):
+    """The mission protocol's upload of `items` (dicts with `item_int`'s keys) as `mission_type`:
+    MISSION_COUNT, then the item each MISSION_REQUEST_INT asks for, as MISSION_ITEM_INT, until the
+    MISSION_ACK; returns its result's name (`MAV_MISSION_ACCEPTED`, ...). A legacy MISSION_REQUEST
+    is answered the same way, or fails the step without `legacy_ok`."""
+    kind = enum_name("MAV_MISSION_TYPE", mission_type)
+    gcs.log(f"-> MISSION_COUNT {len(items)} ({kind})")
+    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mission_type)
     requested = []
     while True:
         m = gcs.pump(lambda m: gcs.from_vehicle(m)
-                     and m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"),
-                     3.0, "mission upload")
+                     and m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK")
+                     and m.mission_type == mission_type, timeout_s, step)
         if m.get_type() == "MISSION_ACK":
-            if m.type != mav.MAV_MISSION_ACCEPTED:
-                raise Failed("mission upload", enum_name("MAV_MISSION_RESULT", m.type))
-            break
-        if m.get_type() != "MISSION_REQUEST_INT":
-            raise Failed("mission upload", "the vehicle asked with legacy MISSION_REQUEST")
+            result = enum_name("MAV_MISSION_RESULT", m.type)
+            gcs.log(f"MISSION_ACK {result} ({step}) after requests for {requested}")
+            return result
+        if m.get_type() == "MISSION_REQUEST" and not legacy_ok:
+            raise Failed(step, "the vehicle asked with legacy MISSION_REQUEST")
+        if m.seq >= len(items):
+            raise Failed(step, f"the vehicle asked for item {m.seq} of {len(items)}")
         requested.append(m.seq)
         it = items[m.seq]
         gcs.conn.mav.mission_item_int_send(
-            *VEHICLE, m.seq, it["frame"], it["command"], 0, it["autocontinue"],
-            *it["params"], it["x"], it["y"], it["alt"], mav.MAV_MISSION_TYPE_MISSION)
-    upload_s = time.monotonic() - t0
-    gcs.log(f"MISSION_ACK ACCEPTED after MISSION_REQUEST_INT for {requested} in {upload_s:.3f} s")
+            *VEHICLE, m.seq, it["frame"], it["command"], 0, it["autocontinue"], *it["params"],
+            it["x"], it["y"], it["alt"], mission_type)
 
-    t0 = time.monotonic()
-    gcs.log("-> MISSION_REQUEST_LIST")
-    gcs.conn.mav.mission_request_list_send(*VEHICLE, mav.MAV_MISSION_TYPE_MISSION)
-    count = gcs.wait_type("MISSION_COUNT", 3.0, "mission count").count
+
+def download(gcs, step, mission_type=mav.MAV_MISSION_TYPE_MISSION, timeout_s=3.0):
+    """The mission protocol's download of `mission_type`: MISSION_REQUEST_LIST, each item by
+    MISSION_REQUEST_INT, the closing MISSION_ACK; returns the MISSION_ITEM_INTs in order."""
+    gcs.conn.mav.mission_request_list_send(*VEHICLE, mission_type)
+    count = gcs.wait_type("MISSION_COUNT", timeout_s, step,
+                          lambda m: m.mission_type == mission_type).count
     back = []
     for seq in range(count):
-        gcs.conn.mav.mission_request_int_send(*VEHICLE, seq, mav.MAV_MISSION_TYPE_MISSION)
-        back.append(gcs.wait_type("MISSION_ITEM_INT", 3.0, "mission download",
-                                  lambda m, s=seq: m.seq == s))
-    gcs.conn.mav.mission_ack_send(*VEHICLE, mav.MAV_MISSION_ACCEPTED, mav.MAV_MISSION_TYPE_MISSION)
+        gcs.conn.mav.mission_request_int_send(*VEHICLE, seq, mission_type)
+        back.append(gcs.wait_type("MISSION_ITEM_INT", timeout_s, step,
+                                  lambda m, s=seq: m.seq == s and m.mission_type == mission_type))
+    gcs.conn.mav.mission_ack_send(*VEHICLE, mav.MAV_MISSION_ACCEPTED, mission_type)
+    gcs.log(f"{step}: {count} items ({enum_name('MAV_MISSION_TYPE', mission_type)}), commands "
+            f"{[b.command for b in back]}")
+    return back
+
+
+def upload_and_download(gcs, items):
+    """Mission protocol both ways; fails unless the download equals the upload field by field."""
+    t0 = time.monotonic()
+    result = upload(gcs, items, "mission upload", legacy_ok=False)
+    if result != "MAV_MISSION_ACCEPTED":
+        raise Failed("mission upload", result)
+    upload_s = time.monotonic() - t0
+
+    t0 = time.monotonic()
+    back = download(gcs, "mission download")
     download_s = time.monotonic() - t0
+    count = len(back)
     if count != len(items):
         raise Failed("mission download", f"{count} items, uploaded {len(items)}")
     for it, b in zip(items, back):

@@ -24,7 +24,7 @@ count, type}) and `cleared` ({status, count, type, text}).
 
 import math
 
-from gcs_common import arm_in_guided, distance_m, enum_name, Failed, main, mav, VEHICLE
+from gcs_common import arm_in_guided, distance_m, download, enum_name, Failed, main, mav, upload, VEHICLE
 
 STREAM_HZ = 4
 HOME = (6.79710, 79.90170)
@@ -43,35 +43,23 @@ def offset(north_m, east_m):
     return int(round(lat * 1e7)), int(round(lon * 1e7))
 
 
-def vertex(kind, count, north_m, east_m):
+def fence_item(kind, param1, north_m, east_m):
+    """A fence item `north_m`, `east_m` from home, as ground stations send fences (relative
+    altitude frame, no altitude)."""
     x, y = offset(north_m, east_m)
-    return dict(command=kind, param1=float(count), x=x, y=y)
+    return dict(command=kind, frame=mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                params=[float(param1), 0.0, 0.0, 0.0], x=x, y=y, alt=0.0, autocontinue=1)
 
 
 def square(count=4):
     s = SQUARE_M
     kind = mav.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
-    return [vertex(kind, count, n, e) for n, e in ((-s, -s), (s, -s), (s, s), (-s, s))]
+    return [fence_item(kind, count, n, e) for n, e in ((-s, -s), (s, -s), (s, s), (-s, s))]
 
 
 def upload_fence(gcs, items, step):
-    """MISSION_COUNT and every requested item of a fence; returns the MISSION_ACK's result."""
-    gcs.log(f"-> MISSION_COUNT {len(items)} (fence)")
-    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mav.MAV_MISSION_TYPE_FENCE)
-    while True:
-        m = gcs.pump(lambda m: gcs.from_vehicle(m) and m.get_type() in
-                     ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK")
-                     and m.mission_type == mav.MAV_MISSION_TYPE_FENCE, 5.0, step)
-        if m.get_type() == "MISSION_ACK":
-            result = enum_name("MAV_MISSION_RESULT", m.type)
-            gcs.log(f"MISSION_ACK {result} ({step})")
-            return result
-        it = items[m.seq]
-        gcs.conn.mav.mission_item_int_send(
-            *VEHICLE, m.seq, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, it["command"], 0, 1,
-            it["param1"], 0, 0, 0, it["x"], it["y"], 0.0, mav.MAV_MISSION_TYPE_FENCE)
-
-
+    """The fence upload; the MISSION_ACK's result name."""
+    return upload(gcs, items, step, mav.MAV_MISSION_TYPE_FENCE, timeout_s=5.0)
 
 
 def reposition(gcs, north_m, east_m, alt_m, step):
@@ -111,20 +99,16 @@ def fence(gcs):
 
     # 3. Malformed uploads.
     mixed = square()
-    mixed[2]["param1"] = 5.0
+    mixed[2]["params"][0] = 5.0
     gcs.results["malformed"] = {
         "two_vertices": upload_fence(gcs, square(2)[:2], "two vertices"),
         "counts_differ": upload_fence(gcs, mixed, "counts differ"),
     }
 
     # 4. The fence.
-    x, y = offset(CIRCLE_NORTH_M, 0.0)
-    circle = dict(command=mav.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, param1=CIRCLE_RADIUS_M, x=x, y=y)
+    circle = fence_item(mav.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, CIRCLE_RADIUS_M, CIRCLE_NORTH_M, 0.0)
     ack = upload_fence(gcs, square() + [circle], "fence upload")
-    gcs.conn.mav.mission_request_list_send(*VEHICLE, mav.MAV_MISSION_TYPE_FENCE)
-    count = gcs.wait_type("MISSION_COUNT", 3.0, "fence count",
-                          lambda m: m.mission_type == mav.MAV_MISSION_TYPE_FENCE).count
-    gcs.conn.mav.mission_ack_send(*VEHICLE, mav.MAV_MISSION_ACCEPTED, mav.MAV_MISSION_TYPE_FENCE)
+    count = len(download(gcs, "fence count", mav.MAV_MISSION_TYPE_FENCE))
     gcs.results["upload"] = {"ack": ack, "count": count}
     if ack != "MAV_MISSION_ACCEPTED":
         raise Failed("fence upload", ack)

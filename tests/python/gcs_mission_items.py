@@ -26,7 +26,7 @@ import json
 import math
 import os
 
-from gcs_common import arm_in_guided, enum_name, Failed, main, mav, VEHICLE
+from gcs_common import arm_in_guided, download, Failed, item_int, main, mav, upload, VEHICLE
 
 HOME = (6.79710, 79.90170)
 TAKEOFF_M = 10.0
@@ -40,10 +40,7 @@ def offset(north_m, east_m):
 
 
 def item(command, frame=mav.MAV_FRAME_MISSION, params=(0.0, 0.0, 0.0, 0.0), at=None, alt=0.0):
-    lat, lon = at if at is not None else (0.0, 0.0)
-    return dict(command=command, frame=frame, params=[float(p) for p in params],
-                x=int(round(lat * 1e7)), y=int(round(lon * 1e7)), lat=lat, lon=lon, alt=float(alt),
-                autocontinue=1)
+    return item_int(command, frame, params, at if at is not None else (0.0, 0.0), alt)
 
 
 def numbered(items):
@@ -55,37 +52,6 @@ def numbered(items):
 def home_and_takeoff():
     return [item(mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL, at=HOME, alt=20.0),
             item(mav.MAV_CMD_NAV_TAKEOFF, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, at=HOME, alt=TAKEOFF_M)]
-
-
-def upload(gcs, items, step):
-    """MISSION_COUNT, an item for each MISSION_REQUEST_INT; the MISSION_ACK's result name."""
-    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mav.MAV_MISSION_TYPE_MISSION)
-    while True:
-        m = gcs.pump(lambda m: gcs.from_vehicle(m)
-                     and m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"),
-                     3.0, step)
-        if m.get_type() == "MISSION_ACK":
-            result = enum_name("MAV_MISSION_RESULT", m.type)
-            gcs.log(f"{step}: MISSION_ACK {result}")
-            return result
-        it = items[m.seq]
-        gcs.conn.mav.mission_item_int_send(
-            *VEHICLE, m.seq, it["frame"], it["command"], 0, it["autocontinue"], *it["params"],
-            it["x"], it["y"], it["alt"], mav.MAV_MISSION_TYPE_MISSION)
-
-
-def download(gcs, step):
-    """The stored mission: (command, x, y) of each item."""
-    gcs.conn.mav.mission_request_list_send(*VEHICLE, mav.MAV_MISSION_TYPE_MISSION)
-    count = gcs.wait_type("MISSION_COUNT", 3.0, step).count
-    back = []
-    for seq in range(count):
-        gcs.conn.mav.mission_request_int_send(*VEHICLE, seq, mav.MAV_MISSION_TYPE_MISSION)
-        m = gcs.wait_type("MISSION_ITEM_INT", 3.0, step, lambda m, s=seq: m.seq == s)
-        back.append((m.command, m.x, m.y))
-    gcs.conn.mav.mission_ack_send(*VEHICLE, mav.MAV_MISSION_ACCEPTED, mav.MAV_MISSION_TYPE_MISSION)
-    gcs.log(f"{step}: {count} items, commands {[c for c, _, _ in back]}")
-    return back
 
 
 def survey_items():
@@ -156,7 +122,7 @@ def flight(gcs):
 
     survey = survey_items()
     ack = upload(gcs, survey, "survey")
-    back = download(gcs, "survey download")
+    back = [(b.command, b.x, b.y) for b in download(gcs, "survey download")]
     sent = [(it["command"], it["x"], it["y"]) for it in survey[1:]]
     gcs.results["survey"] = {"ack": ack, "items": len(survey),
                              "downloaded_identical": ack == "MAV_MISSION_ACCEPTED" and back[1:] == sent}

@@ -5,7 +5,7 @@ quiet and come back, then downloads everything again. Prints one JSON line: what
 what each download gave, field by field."""
 from pymavlink import mavutil
 
-from gcs_common import VEHICLE, Failed, main, mav_f32
+from gcs_common import Failed, download, main, mav_f32, upload
 
 mav = mavutil.mavlink
 
@@ -39,36 +39,17 @@ NAMES = {mav.MAV_MISSION_TYPE_MISSION: "mission", mav.MAV_MISSION_TYPE_FENCE: "f
          mav.MAV_MISSION_TYPE_RALLY: "rally"}
 
 
-def upload(gcs, t, items):
-    gcs.log(f"-> MISSION_COUNT {len(items)} {NAMES[t]}")
-    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), t)
-    while True:
-        m = gcs.pump(lambda m: gcs.from_vehicle(m)
-                     and m.get_type() in ("MISSION_REQUEST_INT", "MISSION_ACK"), 3.0, f"{NAMES[t]} upload")
-        if m.get_type() == "MISSION_ACK":
-            if m.type != mav.MAV_MISSION_ACCEPTED:
-                raise Failed(f"{NAMES[t]} upload", f"MISSION_ACK {m.type}")
-            return
-        it = items[m.seq]
-        gcs.conn.mav.mission_item_int_send(
-            *VEHICLE, m.seq, it["frame"], it["command"], 0, it["autocontinue"],
-            *it["params"], it["x"], it["y"], it["alt"], t)
+def upload_plan(gcs, t, items):
+    result = upload(gcs, items, f"{NAMES[t]} upload", t)
+    if result != "MAV_MISSION_ACCEPTED":
+        raise Failed(f"{NAMES[t]} upload", result)
 
 
-def download(gcs, t):
-    gcs.conn.mav.mission_request_list_send(*VEHICLE, t)
-    count = gcs.wait_type("MISSION_COUNT", 3.0, f"{NAMES[t]} count",
-                          lambda m: m.mission_type == t).count
-    back = []
-    for seq in range(count):
-        gcs.conn.mav.mission_request_int_send(*VEHICLE, seq, t)
-        m = gcs.wait_type("MISSION_ITEM_INT", 3.0, f"{NAMES[t]} download", lambda m, s=seq: m.seq == s)
-        # NaN is not JSON: its text form compares as well.
-        back.append([m.seq, m.command, m.frame, m.autocontinue] + [repr(v) for v in
-                    (m.param1, m.param2, m.param3, m.param4)] + [m.x, m.y, repr(m.z)])
-    gcs.conn.mav.mission_ack_send(*VEHICLE, mav.MAV_MISSION_ACCEPTED, t)
-    gcs.log(f"{NAMES[t]}: {count} items downloaded")
-    return back
+def download_plan(gcs, t):
+    # NaN is not JSON: its text form compares as well.
+    return [[m.seq, m.command, m.frame, m.autocontinue]
+            + [repr(v) for v in (m.param1, m.param2, m.param3, m.param4)] + [m.x, m.y, repr(m.z)]
+            for m in download(gcs, f"{NAMES[t]} download", t)]
 
 
 def sent(items):
@@ -78,14 +59,14 @@ def sent(items):
 
 
 def snapshot(gcs):
-    return {"plans": {NAMES[t]: download(gcs, t) for t in PLANS},
+    return {"plans": {NAMES[t]: download_plan(gcs, t) for t in PLANS},
             "params": {n: gcs.read_param(n, f"read {n}") for n in PARAMS}}
 
 
 def body(gcs):
     gcs.wait_ready()
     for t, items in PLANS.items():
-        upload(gcs, t, items)
+        upload_plan(gcs, t, items)
     for name, value in PARAMS.items():
         gcs.set_param(name, value, f"set {name}")
     before = snapshot(gcs)

@@ -1,7 +1,8 @@
 """Drives MAVProxy (mavproxy.py from the test venv) against `kestrel run`, as an operator types.
 
 Usage: mavproxy_session.py   (run by tests/gcs_pymavlink.rs; `MAVPROXY_SCENARIO=calibrate` by
-tests/gcs_calibration.rs: the sensor calibrations as an operator types them)
+tests/gcs_calibration.rs: the sensor calibrations as an operator types them). `MavProxy` and
+`run` are what tests/python/mavproxy_plans.py drives its own scenario with.
 
 MAVProxy listens on an ephemeral UDP port on 127.0.0.1 (`--master udpin:...`, as it listens on
 14550 by default); `PORT <n>` is printed first so the test points the vehicle's `udp_out` there.
@@ -29,7 +30,6 @@ import time
 
 # MAVProxy's periodic noise, left out of the transcript.
 NOISE = ("Unloading module", "Time has wrapped")
-DEADLINE_S = 90.0 if os.environ.get("MAVPROXY_SCENARIO") == "calibrate" else 50.0
 
 
 class Failed(Exception):
@@ -49,9 +49,11 @@ def free_udp_port():
 class MavProxy:
     """One mavproxy.py process with its console lines collected by a reader thread."""
 
-    def __init__(self, port, state_dir):
+    def __init__(self, port, state_dir, deadline_s):
         self.t0 = time.monotonic()
-        self.deadline = self.t0 + DEADLINE_S
+        self.deadline = self.t0 + deadline_s
+        # Where MAVProxy keeps its state and logs, and where a scenario writes the files it loads.
+        self.state_dir = state_dir
         self.lines = queue.Queue()
         self.seen = []
         mavproxy = os.path.join(os.path.dirname(sys.executable), "mavproxy.py")
@@ -228,13 +230,15 @@ def wait_altitude(mp, alt_m, timeout_s, step):
     raise Failed(step, f"below {alt_m} m after {timeout_s} s")
 
 
-def main():
+def run(scenario, deadline_s):
+    """Runs `scenario(mp, results)` against a fresh MAVProxy listening on a free port (printed
+    first) and ends the process with its outcome as the last JSON line; the whole session must
+    end within `deadline_s` of wall time."""
     port = free_udp_port()
     print("PORT", port, flush=True)
     results = {}
     with tempfile.TemporaryDirectory(prefix="kestrel-mavproxy-") as state_dir:
-        mp = MavProxy(port, state_dir)
-        scenario = calibration if os.environ.get("MAVPROXY_SCENARIO") == "calibrate" else session
+        mp = MavProxy(port, state_dir, deadline_s)
         try:
             scenario(mp, results)
         except Failed as e:
@@ -247,4 +251,8 @@ def main():
     print(json.dumps({"ok": True, "results": results}), flush=True)
 
 
-main()
+if __name__ == "__main__":
+    if os.environ.get("MAVPROXY_SCENARIO") == "calibrate":
+        run(calibration, 90.0)
+    else:
+        run(session, 50.0)

@@ -27,7 +27,8 @@ named waypoint of each item past the take-off that a download returns).
 import math
 import time
 
-from gcs_common import ACM_MODES, arm_in_guided, distance_m, enum_name, Failed, main, mav, VEHICLE
+from gcs_common import (ACM_MODES, arm_in_guided, distance_m, download, Failed, item_int, main, mav,
+                        upload, VEHICLE)
 
 HOME = (6.79710, 79.90170)
 TAKEOFF_M = 10.0
@@ -54,10 +55,11 @@ WAYPOINTS = {
 
 def mission(*names):
     """Home, a take-off to TAKEOFF_M, then a waypoint at TAKEOFF_M for each name."""
-    items = [(mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL, HOME, 20.0),
-             (mav.MAV_CMD_NAV_TAKEOFF, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, HOME, TAKEOFF_M)]
-    items += [(mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, WAYPOINTS[n], TAKEOFF_M)
-              for n in names]
+    items = [item_int(mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL, at=HOME, alt=20.0),
+             item_int(mav.MAV_CMD_NAV_TAKEOFF, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, at=HOME,
+                      alt=TAKEOFF_M)]
+    items += [item_int(mav.MAV_CMD_NAV_WAYPOINT, mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                       at=WAYPOINTS[n], alt=TAKEOFF_M) for n in names]
     return items
 
 
@@ -67,43 +69,17 @@ def nearest(position, limit_m=5.0):
     return name if d <= limit_m else None
 
 
-def upload(gcs, items, step):
-    """MISSION_COUNT, an item for each MISSION_REQUEST_INT; returns the MISSION_ACK's result name
-    and the STATUSTEXTs that came during the upload."""
+def upload_said(gcs, items, step):
+    """The mission upload; the MISSION_ACK's result name and the STATUSTEXTs that came meanwhile."""
     texts_before = len(gcs.statustexts)
-    gcs.log(f"-> MISSION_COUNT {len(items)}")
-    gcs.conn.mav.mission_count_send(*VEHICLE, len(items), mav.MAV_MISSION_TYPE_MISSION)
-    while True:
-        m = gcs.pump(lambda m: gcs.from_vehicle(m)
-                     and m.get_type() in ("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"),
-                     3.0, step)
-        if m.get_type() == "MISSION_ACK":
-            result = enum_name("MAV_MISSION_RESULT", m.type)
-            gcs.log(f"MISSION_ACK {result}")
-            return result, gcs.statustexts[texts_before:]
-        command, frame, (lat, lon), alt = items[m.seq]
-        gcs.conn.mav.mission_item_int_send(
-            *VEHICLE, m.seq, frame, command, 0, 1, 0.0, 0.0, 0.0, 0.0,
-            int(round(lat * 1e7)), int(round(lon * 1e7)), alt, mav.MAV_MISSION_TYPE_MISSION)
+    return upload(gcs, items, step), gcs.statustexts[texts_before:]
 
 
-def download(gcs, step):
+def download_names(gcs, step):
     """The stored mission's items past the take-off, each as the named waypoint it is at."""
-    gcs.conn.mav.mission_request_list_send(*VEHICLE, mav.MAV_MISSION_TYPE_MISSION)
-    count = gcs.wait_type("MISSION_COUNT", 3.0, step).count
-    names = []
-    for seq in range(count):
-        gcs.conn.mav.mission_request_int_send(*VEHICLE, seq, mav.MAV_MISSION_TYPE_MISSION)
-        item = gcs.wait_type("MISSION_ITEM_INT", 3.0, step, lambda m, s=seq: m.seq == s)
-        if seq >= 2:
-            names.append(nearest((item.x / 1e7, item.y / 1e7), 1.0) or f"({item.x},{item.y})")
-    gcs.conn.mav.mission_ack_send(*VEHICLE, mav.MAV_MISSION_ACCEPTED, mav.MAV_MISSION_TYPE_MISSION)
-    gcs.log(f"downloaded {count} items: {names} past the take-off")
+    names = [nearest((m.x / 1e7, m.y / 1e7), 1.0) or f"({m.x},{m.y})" for m in download(gcs, step)[2:]]
+    gcs.log(f"downloaded: {names} past the take-off")
     return names
-
-
-
-
 
 
 def change(gcs, items, step):
@@ -111,7 +87,7 @@ def change(gcs, items, step):
     where it stops, a mission over)."""
     before = gcs.mission_current
     reached_before = len(gcs.reached)
-    ack, texts = upload(gcs, items, step)
+    ack, texts = upload_said(gcs, items, step)
     gcs.log(f"{step}: MISSION_ACK {ack} while flying item {before}; said {texts}")
     # MISSION_CURRENT from the ACK on: the last one before the item is reached is the item the
     # vehicle flew to.
@@ -145,7 +121,7 @@ def change(gcs, items, step):
     }
     gcs.log(f"{step}: MISSION_CURRENT {currents}, reached {reached} at {record['flew_to']} "
             f"({ {n: round(distance_m(gcs.position, p), 1) for n, p in WAYPOINTS.items()} })")
-    record["download"] = download(gcs, f"{step}: download")
+    record["download"] = download_names(gcs, f"{step}: download")
     return record
 
 
@@ -153,7 +129,7 @@ def flight(gcs):
     gcs.identify()
     # ArduCopter streams on a port only what is asked for (REQUEST_DATA_STREAM, 10 Hz).
     gcs.conn.mav.request_data_stream_send(*VEHICLE, mav.MAV_DATA_STREAM_ALL, 10, 1)
-    ack, _ = upload(gcs, mission("A1", "A2"), "upload A")
+    ack = upload(gcs, mission("A1", "A2"), "upload A")
     if ack != "MAV_MISSION_ACCEPTED":
         raise Failed("upload A", ack)
     arm_in_guided(gcs)

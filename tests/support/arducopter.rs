@@ -80,6 +80,18 @@ impl ArduCopter {
         frame_json: Option<&Path>,
         parms: &[&Path],
     ) -> ArduCopter {
+        ArduCopter::start_at(binary, gcs_port, frame, frame_json, parms, SPEEDUP)
+    }
+
+    /// As [`ArduCopter::start_model`], at `speedup` simulated seconds per wall second.
+    pub fn start_at(
+        binary: &Path,
+        gcs_port: u16,
+        frame: &str,
+        frame_json: Option<&Path>,
+        parms: &[&Path],
+        speedup: u32,
+    ) -> ArduCopter {
         let copter_parm = binary.with_file_name("copter.parm");
         assert!(copter_parm.is_file(), "no {} beside the ArduCopter binary", copter_parm.display());
         let defaults = std::iter::once(copter_parm.as_path())
@@ -102,7 +114,7 @@ impl ArduCopter {
         let process = Proc(
             Command::new(binary)
                 .current_dir(&dir)
-                .args(["--model", &model, "--speedup", &SPEEDUP.to_string(), "--defaults"])
+                .args(["--model", &model, "--speedup", &speedup.to_string(), "--defaults"])
                 .arg(&defaults)
                 .args(["--home", HOME, "-w", "-I", &instance.to_string(), "--serial0"])
                 .arg(format!("udpclient:127.0.0.1:{gcs_port}"))
@@ -163,12 +175,23 @@ const CLIENT_LIMIT: Duration = Duration::from_secs(150);
 /// JSON of its last line. The transcript is printed (`--nocapture`); on failure, with SITL's
 /// output.
 pub fn scripted_session(binary: &Path, script: &str, env: &[(&str, String)]) -> serde_json::Value {
+    scripted_session_at(binary, script, env, SPEEDUP)
+}
+
+/// As [`scripted_session`], SITL at `speedup`: for a client that keeps up only with a slower
+/// vehicle, such as MAVProxy.
+pub fn scripted_session_at(
+    binary: &Path,
+    script: &str,
+    env: &[(&str, String)],
+    speedup: u32,
+) -> serde_json::Value {
     let (mut client, lines) = python_client(script, |c| c.envs(env.iter().map(|(k, v)| (k, v))));
     let first = lines.recv_timeout(Duration::from_secs(15)).unwrap_or_default();
     let port: u16 = first.strip_prefix("PORT ").and_then(|p| p.trim().parse().ok()).expect("client port");
     let started = Instant::now();
-    let mut sitl = ArduCopter::start(binary, port);
-    println!("── {script} against ArduCopter SITL (instance {}, speed-up {SPEEDUP}) ──", sitl.instance);
+    let mut sitl = ArduCopter::start_at(binary, port, "+", None, &[], speedup);
+    println!("── {script} against ArduCopter SITL (instance {}, speed-up {speedup}) ──", sitl.instance);
     let (exit, transcript) =
         transcript_until_exit(&mut client, &lines, || started.elapsed() > CLIENT_LIMIT || !sitl.running());
     assert!(
