@@ -189,7 +189,8 @@ def fence(gcs):
     # ACCEPTED and the mission flown from it (ArduCopter calls the mode AUTO RTL, 27; Kestrel AUTO).
     no_sequence = gcs.command(mav.MAV_CMD_DO_LAND_START, [], "land start without a sequence",
                               expect=mav.MAV_RESULT_FAILED)
-    items = [waypoint(0.0, 0.0, 0.0), waypoint(60.0, 0.0, 10.0),
+    # The first leg (60 m south) stays clear of the exclusion circle, which Kestrel checks at AUTO start.
+    items = [waypoint(0.0, 0.0, 0.0), waypoint(-60.0, 0.0, 10.0),
              dict(frame=mav.MAV_FRAME_MISSION, command=mav.MAV_CMD_DO_LAND_START, autocontinue=1,
                   params=[0.0, 0.0, 0.0, 0.0], x=0, y=0, alt=0.0),
              waypoint(0.0, 20.0, 10.0), waypoint(0.0, 20.0, 0.0, mav.MAV_CMD_NAV_LAND)]
