@@ -49,6 +49,10 @@ fail on a vehicle doing its job). Kept to well-formed values the vehicle is enti
   param1 is sent: NaN, ±inf, 0.5, 1.0000001, 2, 1e30 must all be refused (PX4 and ArduPilot
   accept exactly 0 and 1); so is param1 == 1.0 claiming the vehicle's own system id (such a frame
   must be dropped), and param1 == 1.0 addressed to another system.
+* MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN with param1 == 1.0 exactly, addressed to the vehicle from
+  another system: a disarmed vehicle obeys it and its process exits to be restarted (ArduCopter
+  reboots too), so the checks would see the vehicle gone. Its param1 is drawn again; every other
+  param1 must be refused.
 * PARAM_SET of a listed name with a value in its range: the sweep does not know the ranges (MAVLink
   does not carry them), so a listed name is only ever set to a value no range can hold (NaN,
   ±inf) or none a real parameter holds (±3.4e38, ±1e30); setting one of those is a hole.
@@ -118,6 +122,7 @@ from pymavlink.dialects.v20 import ardupilotmega as dialect  # noqa: E402
 VEHICLE_COMPONENT = 1
 CHECKER_SYSTEM, CHECKER_COMPONENT = 255, 190
 ARM_DISARM = dialect.MAV_CMD_COMPONENT_ARM_DISARM
+REBOOT = dialect.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 ARMED_FLAG = dialect.MAV_MODE_FLAG_SAFETY_ARMED
 LOOP_PERIOD_US = 2500.0
 MAX_HEARTBEAT_GAP_S = 5.0
@@ -314,11 +319,16 @@ class Generator:
             else:
                 values[name] = self.field(name, code, n, enum, bitmask)
         target = (values["target_system"][0], values["target_component"][0])
-        # The one exclusion (see the module doc): a well-formed arm, for us, from someone else.
+        # The exclusions (see the module doc): a well-formed arm or reboot, for us, from someone else.
         while (command == ARM_DISARM and struct.unpack("<f", values["param1"])[0] == 1.0
                and target[0] in (0, self.vehicle) and target[1] in (0, VEHICLE_COMPONENT)
                and sender != self.vehicle):
             self.neutralised["arm_param1_exactly_1"] += 1
+            values["param1"] = struct.pack("<f", self.real("f", PARAM_EXTREMES))
+        while (command == REBOOT and struct.unpack("<f", values["param1"])[0] == 1.0
+               and target[0] in (0, self.vehicle) and target[1] in (0, VEHICLE_COMPONENT)
+               and sender != self.vehicle):
+            self.neutralised["reboot_param1_exactly_1"] += 1
             values["param1"] = struct.pack("<f", self.real("f", PARAM_EXTREMES))
         return b"".join(values[name] for name, *_ in layout.fields)
 
