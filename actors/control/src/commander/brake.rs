@@ -23,6 +23,29 @@ pub enum BrakeTarget {
     Hold { position_ned_m: [f64; 3] },
 }
 
+impl BrakeTarget {
+    /// The trajectory setpoint that flies this target with the nose at `yaw_rad`: the velocity
+    /// with its feed-forward at the held height while slowing, then the point.
+    pub fn setpoint(self, yaw_rad: f64) -> TrajectorySetpoint {
+        match self {
+            BrakeTarget::Slowing { velocity_ne_m_s: [vn, ve], accel_ne_m_s2: [an, ae], down_m } => {
+                TrajectorySetpoint {
+                    position_ned_m: [None, None, Some(down_m)],
+                    velocity_ned_m_s: [Some(vn), Some(ve), None],
+                    acceleration_ned_m_s2: [an, ae, 0.0],
+                    yaw_rad: Some(yaw_rad),
+                    ..TrajectorySetpoint::default()
+                }
+            }
+            BrakeTarget::Hold { position_ned_m } => TrajectorySetpoint {
+                position_ned_m: position_ned_m.map(Some),
+                yaw_rad: Some(yaw_rad),
+                ..TrajectorySetpoint::default()
+            },
+        }
+    }
+}
+
 /// A braking vehicle: the velocity target still to shed, then the point held.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Brake {
@@ -73,23 +96,7 @@ impl Commander {
         // The tilt limit bounds the deceleration the vehicle can reach: asking for more only
         // winds up the velocity error.
         let decel = BRAKE_DECEL_M_S2.min(GRAVITY_M_S2 * self.params.max_tilt_deg.to_radians().tan());
-        let sp = match brake.step(dt_s, decel, p) {
-            BrakeTarget::Slowing { velocity_ne_m_s: [vn, ve], accel_ne_m_s2: [an, ae], down_m } => {
-                TrajectorySetpoint {
-                    position_ned_m: [None, None, Some(down_m)],
-                    velocity_ned_m_s: [Some(vn), Some(ve), None],
-                    acceleration_ned_m_s2: [an, ae, 0.0],
-                    yaw_rad: Some(yaw),
-                    ..TrajectorySetpoint::default()
-                }
-            }
-            BrakeTarget::Hold { position_ned_m } => TrajectorySetpoint {
-                position_ned_m: position_ned_m.map(Some),
-                yaw_rad: Some(yaw),
-                ..TrajectorySetpoint::default()
-            },
-        };
-        SetpointTarget::Trajectory(sp)
+        SetpointTarget::Trajectory(brake.step(dt_s, decel, p).setpoint(yaw))
     }
 }
 

@@ -36,7 +36,7 @@ use kestrel_proto::param_def::{self, ParamChange, ParamDef, ParamRefused, WhileA
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
-use super::brake::{Brake, BrakeTarget};
+use super::brake::Brake;
 use super::params::CommanderParams;
 use super::{Commander, heading};
 use crate::error::{InvalidParam, within};
@@ -584,23 +584,7 @@ impl Commander {
         let p = nav.position_ned_m;
         let decel = self.params.circle.accel_m_s2;
         let stop = self.latched.follow.stop.get_or_insert_with(|| Brake::new([v[0], v[1]], p[2]));
-        let sp = match stop.step(dt_s, decel, p) {
-            BrakeTarget::Slowing { velocity_ne_m_s: [vn, ve], accel_ne_m_s2: [an, ae], down_m } => {
-                TrajectorySetpoint {
-                    position_ned_m: [None, None, Some(down_m)],
-                    velocity_ned_m_s: [Some(vn), Some(ve), None],
-                    acceleration_ned_m_s2: [an, ae, 0.0],
-                    yaw_rad: Some(yaw),
-                    ..TrajectorySetpoint::default()
-                }
-            }
-            BrakeTarget::Hold { position_ned_m } => TrajectorySetpoint {
-                position_ned_m: position_ned_m.map(Some),
-                yaw_rad: Some(yaw),
-                ..TrajectorySetpoint::default()
-            },
-        };
-        SetpointTarget::Trajectory(sp)
+        SetpointTarget::Trajectory(stop.step(dt_s, decel, p).setpoint(yaw))
     }
 }
 
